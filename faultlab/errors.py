@@ -1,0 +1,54 @@
+"""Exception hierarchy of faultlab.
+
+Every error faultlab raises on purpose derives from :class:`FaultlabError`, so a
+caller can catch one class.  Messages name *what* is wrong and *where* (file,
+key, step, landmark id) in one sentence.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "FaultlabError",
+    "ConfigError",
+    "ScenarioError",
+    "SlamInputError",
+    "SlamOutputError",
+    "FaultError",
+    "PluginError",
+    "ResultsError",
+]
+
+
+class FaultlabError(Exception):
+    """Root of every error raised by faultlab."""
+
+
+class ConfigError(FaultlabError, ValueError):
+    """A parameter-space or experiment file (or dict) is malformed.
+
+    Raised before any work starts; the message names the file and the key.
+    """
+
+
+class ScenarioError(FaultlabError, ValueError):
+    """A test case cannot be generated, saved or loaded."""
+
+
+class SlamInputError(FaultlabError, ValueError):
+    """Input a SLAM cannot accept: wrong shape, NaN, negative range, ..."""
+
+
+class SlamOutputError(FaultlabError, ValueError):
+    """A SLAM returned an estimate that is malformed or not finite."""
+
+
+class FaultError(FaultlabError, LookupError):
+    """Unknown fault name, or a fault that cannot be applied."""
+
+
+class PluginError(FaultlabError):
+    """A third-party fault plugin failed to load (its name and error are in the message)."""
+
+
+class ResultsError(FaultlabError):
+    """A results store is missing, corrupt, or belongs to another experiment."""

@@ -1,0 +1,146 @@
+"""The test case: a landmark map, the true path and the sensor trace fed to the SLAM."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from faultlab.errors import ScenarioError
+from faultlab.space.case import CaseSpec
+
+__all__ = ["Scenario", "save_scenario", "load_scenario"]
+
+_ARRAYS = ("landmarks", "landmark_ids", "true_poses", "controls", "obs_offsets", "obs_range",
+           "obs_bearing", "obs_ids")
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True, eq=False)
+class Scenario:
+    """One test case (Sec. IV, Fig. 2).
+
+    Step ``t`` (0-based, ``t < n_steps``) is: apply control ``controls[t]``
+    (drive ``v`` along the heading, then turn by ``omega``: FastSLAM's motion
+    model with dt = 1), then observe from the new pose ``true_poses[t + 1]``.
+    Observations of step ``t`` are the slice ``obs_offsets[t]:obs_offsets[t+1]``
+    of the flat ``obs_*`` arrays (CSR layout).
+
+    Attributes
+    ----------
+    case : CaseSpec
+        Parameter values and classes the scenario was generated from.
+    seed : int or None
+        Entropy of the SeedSequence that generated it (None if unknown).
+    landmarks : ndarray, shape (L, 2)
+        Ground-truth landmark positions, m.
+    landmark_ids : ndarray, shape (L,), int64
+        Unique landmark ids.
+    true_poses : ndarray, shape (T + 1, 3)
+        True vehicle poses (x, y, theta) before step 0 and after every step.
+    controls : ndarray, shape (T, 2)
+        Measured controls (v, omega) with noise, bias and rotation error, as fed to the SLAM.
+    obs_offsets : ndarray, shape (T + 1,), int64
+        CSR offsets into the observation arrays; ``obs_offsets[0] == 0``.
+    obs_range, obs_bearing : ndarray, shape (M,)
+        Measured range (m) and bearing (rad, relative to the heading).
+    obs_ids : ndarray, shape (M,), int64
+        Landmark id of each observation (known correspondences).
+    meta : dict
+        JSON-serialisable extras (generator settings, SI config, ...).
+    """
+
+    case: CaseSpec
+    seed: int | None
+    landmarks: np.ndarray
+    landmark_ids: np.ndarray
+    true_poses: np.ndarray
+    controls: np.ndarray
+    obs_offsets: np.ndarray
+    obs_range: np.ndarray
+    obs_bearing: np.ndarray
+    obs_ids: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def n_steps(self) -> int:
+        """Number of steps T (active plus inactive)."""
+        return int(self.controls.shape[0])
+
+    @property
+    def start_pose(self) -> np.ndarray:
+        """The known initial pose, shape (3,)."""
+        return self.true_poses[0].copy()
+
+    def observations(self, t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(range, bearing, ids) observed in step ``t``, each shape (k,)."""
+        a, b = int(self.obs_offsets[t]), int(self.obs_offsets[t + 1])
+        return self.obs_range[a:b], self.obs_bearing[a:b], self.obs_ids[a:b]
+
+    def validate(self) -> None:
+        """Raise :class:`ScenarioError` if arrays are inconsistent."""
+        L = self.landmarks.shape[0]
+        T = self.controls.shape[0]
+        checks = [
+            (self.landmarks.ndim == 2 and self.landmarks.shape[1] == 2, "landmarks must have shape (L, 2)"),
+            (self.landmark_ids.shape == (L,), "landmark_ids must have shape (L,)"),
+            (len(np.unique(self.landmark_ids)) == L, "landmark ids must be unique"),
+            (self.true_poses.shape == (T + 1, 3), "true_poses must have shape (T + 1, 3)"),
+            (self.controls.ndim == 2 and self.controls.shape[1] == 2, "controls must have shape (T, 2)"),
+            (self.obs_offsets.shape == (T + 1,), "obs_offsets must have shape (T + 1,)"),
+            (self.obs_offsets[0] == 0 and bool(np.all(np.diff(self.obs_offsets) >= 0)),
+             "obs_offsets must start at 0 and be non-decreasing"),
+        ]
+        M = int(self.obs_offsets[-1]) if T + 1 == self.obs_offsets.shape[0] else -1
+        checks += [
+            (self.obs_range.shape == (M,) and self.obs_bearing.shape == (M,) and self.obs_ids.shape == (M,),
+             "obs_range, obs_bearing and obs_ids must have shape (obs_offsets[-1],)"),
+        ]
+        for ok, msg in checks:
+            if not ok:
+                raise ScenarioError(msg)
+
+
+def save_scenario(scenario: Scenario, path: str | Path) -> Path:
+    """Save losslessly as ``<path>.npz`` (arrays) plus ``<path>.json`` (case, seed, meta).
+
+    Returns the ``.npz`` path.  Both files are written to a temporary name and
+    renamed, so an interrupted save never leaves a half-written case.
+    """
+    base = Path(path)
+    if base.suffix in (".npz", ".json"):
+        base = base.with_suffix("")
+    base.parent.mkdir(parents=True, exist_ok=True)
+    npz, js = base.with_name(base.name + ".npz"), base.with_name(base.name + ".json")
+    tmp_npz, tmp_js = npz.with_name(npz.name + ".tmp.npz"), js.with_name(js.name + ".tmp")
+    np.savez(tmp_npz, **{k: getattr(scenario, k) for k in _ARRAYS})
+    meta = {"format": FORMAT_VERSION, "case": scenario.case.to_dict(), "seed": scenario.seed,
+            "meta": scenario.meta}
+    tmp_js.write_text(json.dumps(meta, indent=1, sort_keys=True))
+    tmp_npz.replace(npz)
+    tmp_js.replace(js)
+    return npz
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Load a case written by :func:`save_scenario` (``path`` with or without suffix)."""
+    base = Path(path)
+    if base.suffix in (".npz", ".json"):
+        base = base.with_suffix("")
+    npz, js = base.with_name(base.name + ".npz"), base.with_name(base.name + ".json")
+    try:
+        meta = json.loads(js.read_text())
+        with np.load(npz, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in _ARRAYS}
+    except FileNotFoundError as exc:
+        raise ScenarioError(f"test case {base}: missing file {exc.filename}") from exc
+    except (KeyError, ValueError, OSError) as exc:
+        raise ScenarioError(f"test case {base}: unreadable ({exc})") from exc
+    if meta.get("format") != FORMAT_VERSION:
+        raise ScenarioError(f"test case {js}: unsupported format {meta.get('format')!r}")
+    sc = Scenario(case=CaseSpec.from_dict(meta["case"]), seed=meta.get("seed"), meta=meta.get("meta", {}),
+                  **arrays)
+    sc.validate()
+    return sc

@@ -1,0 +1,190 @@
+"""The adapter protocol every SLAM under test implements.
+
+A SLAM adapter is driven step by step with the generator's controls and
+observations (see :class:`faultlab.scenario.model.Scenario`):
+
+>>> slam.reset(scenario.start_pose, rng=rng)            # doctest: +SKIP
+>>> for t in range(scenario.n_steps):                   # doctest: +SKIP
+...     slam.step(scenario.controls[t], Observations(*scenario.observations(t)))
+>>> est = slam.estimate()                               # doctest: +SKIP
+
+Subclasses implement :meth:`SlamAdapter.reset`, :meth:`SlamAdapter.update`
+and :meth:`SlamAdapter.estimate`; :meth:`SlamAdapter.step` validates the input
+first so that bad input raises :class:`SlamInputError` instead of corrupting
+the estimate.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass
+
+import numpy as np
+
+from faultlab.errors import SlamInputError, SlamOutputError
+
+__all__ = ["Observations", "Estimate", "SlamAdapter", "run_slam", "as_control"]
+
+
+@dataclass(frozen=True, eq=False)
+class Observations:
+    """The range-bearing observations of one step (known correspondences).
+
+    Parameters
+    ----------
+    ranges : array_like, shape (k,)
+        Measured ranges, m, finite and >= 0.
+    bearings : array_like, shape (k,)
+        Measured bearings relative to the heading, rad, finite (any multiple of 2 pi allowed).
+    ids : array_like of int, shape (k,)
+        Landmark ids.  ``k`` may be 0.
+    """
+
+    ranges: np.ndarray
+    bearings: np.ndarray
+    ids: np.ndarray
+
+    def __post_init__(self) -> None:
+        r = np.asarray(self.ranges, dtype=float)
+        b = np.asarray(self.bearings, dtype=float)
+        ids = np.asarray(self.ids)
+        if r.ndim != 1 or b.shape != r.shape or ids.shape != r.shape:
+            raise SlamInputError(
+                f"observations: ranges, bearings and ids must be 1-d of equal length, got shapes "
+                f"{r.shape}, {b.shape}, {ids.shape}")
+        if ids.size and not np.issubdtype(ids.dtype, np.integer):
+            if not np.all(np.isfinite(ids.astype(float))) or np.any(ids != np.round(ids)):
+                raise SlamInputError("observations: landmark ids must be integers")
+        ids = ids.astype(np.int64)
+        if not np.all(np.isfinite(r)) or not np.all(np.isfinite(b)):
+            raise SlamInputError("observations: NaN or infinite range or bearing")
+        if np.any(r < 0):
+            raise SlamInputError(f"observations: negative range {r[r < 0][0]!r} for landmark "
+                                 f"{ids[r < 0][0]}")
+        if len(np.unique(ids)) != ids.size:
+            raise SlamInputError("observations: a landmark id appears twice in one step")
+        object.__setattr__(self, "ranges", r)
+        object.__setattr__(self, "bearings", b)
+        object.__setattr__(self, "ids", ids)
+
+    def __len__(self) -> int:
+        return int(self.ranges.shape[0])
+
+    @classmethod
+    def empty(cls) -> "Observations":
+        return cls(np.empty(0), np.empty(0), np.empty(0, dtype=np.int64))
+
+
+@dataclass(frozen=True, eq=False)
+class Estimate:
+    """A SLAM's current belief.
+
+    Attributes
+    ----------
+    pose : ndarray, shape (3,)
+        Vehicle pose (x, y, theta), m and rad.
+    landmark_ids : ndarray of int64, shape (M,)
+        Ids of the mapped landmarks (unmapped ones are absent).
+    landmarks : ndarray, shape (M, 2)
+        Estimated positions, m, row i for ``landmark_ids[i]``.
+    """
+
+    pose: np.ndarray
+    landmark_ids: np.ndarray
+    landmarks: np.ndarray
+
+    def validate(self, *, where: str = "estimate") -> "Estimate":
+        """Raise :class:`SlamOutputError` unless shapes are right and values finite."""
+        pose = np.asarray(self.pose, dtype=float)
+        ids = np.asarray(self.landmark_ids)
+        lm = np.asarray(self.landmarks, dtype=float)
+        if pose.shape != (3,):
+            raise SlamOutputError(f"{where}: pose must have shape (3,), got {pose.shape}")
+        if ids.ndim != 1 or lm.shape != (ids.shape[0], 2):
+            raise SlamOutputError(f"{where}: landmarks must have shape (M, 2) matching landmark_ids (M,), "
+                                  f"got {lm.shape} and {ids.shape}")
+        if ids.size and not np.issubdtype(ids.dtype, np.integer):
+            raise SlamOutputError(f"{where}: landmark ids must be integers, got dtype {ids.dtype}")
+        if len(np.unique(ids)) != ids.size:
+            raise SlamOutputError(f"{where}: duplicate landmark ids")
+        if not np.all(np.isfinite(pose)):
+            raise SlamOutputError(f"{where}: pose is not finite: {pose}")
+        bad = ~np.all(np.isfinite(lm), axis=1)
+        if np.any(bad):
+            raise SlamOutputError(f"{where}: landmark {ids[bad][0]} has a non-finite position "
+                                  f"({int(bad.sum())} of {ids.size} landmarks)")
+        return self
+
+    def as_dict(self) -> dict[int, tuple[float, float]]:
+        """The map as ``{id: (x, y)}``."""
+        return {int(i): (float(p[0]), float(p[1])) for i, p in zip(self.landmark_ids, self.landmarks)}
+
+
+def as_control(control) -> np.ndarray:
+    """Validate one control ``(v, omega)``; return it as a float array of shape (2,)."""
+    u = np.asarray(control, dtype=float)
+    if u.shape != (2,):
+        raise SlamInputError(f"control must have shape (2,) = (v, omega), got {u.shape}")
+    if not np.all(np.isfinite(u)):
+        raise SlamInputError(f"control is not finite: {u}")
+    return u
+
+
+class SlamAdapter(abc.ABC):
+    """Base class of every SLAM under test.
+
+    Implement :meth:`reset`, :meth:`update` and :meth:`estimate`.  The driver
+    calls :meth:`step`, which validates the input and forwards it.
+    """
+
+    #: Short name used in results tables.
+    name: str = "slam"
+
+    @abc.abstractmethod
+    def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
+        """Start from the known pose (x, y, theta), forgetting any map.
+
+        All randomness must come from ``rng``.
+        """
+
+    @abc.abstractmethod
+    def update(self, control: np.ndarray, observations: Observations) -> None:
+        """Process one validated step: control (2,) then the observations from the new pose."""
+
+    @abc.abstractmethod
+    def estimate(self) -> Estimate:
+        """The current pose and landmark map."""
+
+    def step(self, control, observations: Observations | None = None) -> None:
+        """Validate ``control`` and ``observations`` and call :meth:`update`."""
+        u = as_control(control)
+        if observations is None:
+            observations = Observations.empty()
+        elif not isinstance(observations, Observations):
+            observations = Observations(*observations)
+        self.update(u, observations)
+
+
+def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estimate:
+    """Drive ``slam`` through every step of ``scenario`` and return its validated final estimate.
+
+    Parameters
+    ----------
+    slam : SlamAdapter
+    scenario : faultlab.scenario.model.Scenario
+    rng : numpy.random.Generator
+        The SLAM's own randomness (repetition seed).
+
+    Raises
+    ------
+    SlamOutputError
+        If the final estimate is malformed or not finite.
+    """
+    slam.reset(scenario.start_pose, rng=rng)
+    offsets = scenario.obs_offsets
+    controls = scenario.controls
+    for t in range(scenario.n_steps):
+        a, b = offsets[t], offsets[t + 1]
+        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
+                                            scenario.obs_ids[a:b]))
+    return slam.estimate().validate(where=f"{getattr(slam, 'name', type(slam).__name__)} estimate")

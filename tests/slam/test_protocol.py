@@ -1,0 +1,67 @@
+import numpy as np
+import pytest
+
+from faultlab.errors import SlamInputError, SlamOutputError
+from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_control
+
+
+def test_observations_accept_empty_and_coerce_types():
+    obs = Observations([1.0, 2.0], [0.1, -0.2], [3, 4])
+    assert obs.ids.dtype == np.int64 and len(obs) == 2
+    assert len(Observations.empty()) == 0
+
+
+@pytest.mark.parametrize(
+    "ranges, bearings, ids, message",
+    [
+        ([1.0, np.nan], [0.0, 0.0], [1, 2], "NaN"),
+        ([1.0, -0.5], [0.0, 0.0], [1, 2], "negative range"),
+        ([1.0], [0.0, 0.1], [1], "equal length"),
+        ([[1.0]], [[0.0]], [[1]], "1-d"),
+        ([1.0, 1.0], [0.0, 0.0], [1, 1], "twice"),
+        ([1.0], [0.0], [1.5], "integers"),
+    ],
+)
+def test_observations_reject_bad_input(ranges, bearings, ids, message):
+    with pytest.raises(SlamInputError, match=message):
+        Observations(ranges, bearings, ids)
+
+
+def test_control_validation():
+    np.testing.assert_array_equal(as_control((1, 2)), [1.0, 2.0])
+    with pytest.raises(SlamInputError, match="shape"):
+        as_control([1.0, 2.0, 3.0])
+    with pytest.raises(SlamInputError, match="finite"):
+        as_control([np.inf, 0.0])
+
+
+def test_estimate_validation_names_the_bad_landmark():
+    est = Estimate(np.zeros(3), np.array([7, 9]), np.array([[0.0, 1.0], [np.nan, 2.0]]))
+    with pytest.raises(SlamOutputError, match="landmark 9"):
+        est.validate()
+    with pytest.raises(SlamOutputError, match="shape"):
+        Estimate(np.zeros(2), np.array([1]), np.zeros((1, 2))).validate()
+    ok = Estimate(np.zeros(3), np.array([1]), np.array([[1.0, 2.0]])).validate()
+    assert ok.as_dict() == {1: (1.0, 2.0)}
+
+
+class _Recorder(SlamAdapter):
+    def reset(self, pose, *, rng):
+        self.calls = []
+
+    def update(self, control, observations):
+        self.calls.append((control, observations))
+
+    def estimate(self):
+        return Estimate(np.zeros(3), np.empty(0, dtype=np.int64), np.empty((0, 2)))
+
+
+def test_step_validates_before_update():
+    slam = _Recorder()
+    slam.reset(np.zeros(3), rng=np.random.default_rng(0))
+    slam.step([0.5, 0.1], ([1.0], [0.0], [2]))
+    slam.step([0.0, 0.0])
+    with pytest.raises(SlamInputError):
+        slam.step([0.0, 0.0], ([-1.0], [0.0], [2]))
+    assert len(slam.calls) == 2
+    assert len(slam.calls[1][1]) == 0
