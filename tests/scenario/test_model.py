@@ -1,0 +1,57 @@
+import json
+
+import numpy as np
+import pytest
+
+from faultlab.errors import ScenarioError
+from faultlab.scenario import generate_scenario, load_scenario, save_scenario
+from faultlab.scenario.model import _ARRAYS
+from faultlab.space import FIXED_VALUES, CaseSpec
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    case = CaseSpec(dict(FIXED_VALUES, inactivity=20, bias_angle=0.0123456789012345, directionality="loop"),
+                    {"map_size": 1, "bias": 3})
+    return generate_scenario(case, rng=np.random.default_rng(12), n_steps=80, seed=12)
+
+
+@pytest.mark.parametrize("name", ["case1", "case1.npz", "case1.json"])
+def test_save_load_round_trip_is_lossless(tmp_path, scenario, name):
+    npz = save_scenario(scenario, tmp_path / "sub" / name)
+    assert npz == tmp_path / "sub" / "case1.npz" and npz.with_suffix(".json").exists()
+    back = load_scenario(tmp_path / "sub" / name)
+    for k in _ARRAYS:
+        x, y = getattr(scenario, k), getattr(back, k)
+        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), k
+    assert back.case.values == scenario.case.values and back.case.classes == scenario.case.classes
+    assert back.seed == 12 and back.meta == scenario.meta
+    assert not list((tmp_path / "sub").glob("*.tmp*"))
+
+
+def test_load_errors(tmp_path, scenario):
+    with pytest.raises(ScenarioError, match="missing file"):
+        load_scenario(tmp_path / "nope")
+    save_scenario(scenario, tmp_path / "c")
+    meta = json.loads((tmp_path / "c.json").read_text())
+    meta["format"] = 99
+    (tmp_path / "c.json").write_text(json.dumps(meta))
+    with pytest.raises(ScenarioError, match="unsupported format 99"):
+        load_scenario(tmp_path / "c")
+
+
+def test_validate_catches_inconsistent_arrays(scenario):
+    from dataclasses import replace
+
+    with pytest.raises(ScenarioError, match="obs_offsets"):
+        replace(scenario, obs_offsets=scenario.obs_offsets[:-1]).validate()
+    with pytest.raises(ScenarioError, match="unique"):
+        replace(scenario, landmark_ids=np.zeros_like(scenario.landmark_ids)).validate()
+
+
+def test_observations_slice(scenario):
+    t = int(np.argmax(np.diff(scenario.obs_offsets)))
+    r, b, ids = scenario.observations(t)
+    a, e = scenario.obs_offsets[t], scenario.obs_offsets[t + 1]
+    np.testing.assert_array_equal(ids, scenario.obs_ids[a:e])
+    assert len(r) == len(b) == e - a > 0
