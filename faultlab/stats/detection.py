@@ -1,0 +1,197 @@
+"""The paper's detection rule and the outcome of each faulty job (Sec. VII-A).
+
+Sec. VII-A: a test case detects a fault when the faulty implementation's map
+error exceeds the baseline's "by a value exceeding the expected noise ... 250mm"
+and, "since the noise in map error increases with larger map error", by "an
+increase of at least 25 %".  Read literally, the absolute condition is strict
+(*exceeding*) and the relative one is not (*at least*)::
+
+    increase = faulty - baseline
+    detected = (increase > abs_mm) and (increase >= rel * baseline)
+
+Both thresholds are configurable through :class:`DetectionRule`.
+
+Outcome classes (:class:`Outcome`) of one faulty job paired with its baseline
+(same run, suite, case and SLAM repetition):
+
+``baseline_failed``
+    The baseline job has no usable RMS (it crashed, timed out, mapped nothing,
+    or is missing from the results), so the case cannot judge the fault.  This
+    takes precedence over everything else.
+``crash``
+    The faulty job raised, returned a malformed estimate, or finished ``ok``
+    without mapping a single landmark (RMS NaN): it produced no usable map.
+``timeout``
+    The faulty job exceeded its wall-clock limit.
+``detected`` / ``not_detected``
+    Both jobs produced an RMS; the rule decides.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+import pandas as pd
+
+from faultlab.errors import ConfigError, ResultsError
+
+__all__ = ["DetectionRule", "Outcome", "detects", "pair_with_baseline", "classify", "outcomes",
+           "BASELINE", "KEY_COLUMNS"]
+
+#: Variant name of the unmodified SLAM.
+BASELINE = "baseline"
+#: Columns identifying one SLAM execution apart from the variant.
+KEY_COLUMNS = ("run", "suite", "case", "rep")
+_REQUIRED = KEY_COLUMNS + ("variant", "rms_mm", "status")
+
+
+@dataclass(frozen=True)
+class DetectionRule:
+    """Thresholds of the paper's detection rule (Sec. VII-A).
+
+    Parameters
+    ----------
+    abs_mm : float
+        The RMS increase must *exceed* this, mm (default 250).
+    rel : float
+        The RMS increase must be *at least* this fraction of the baseline RMS
+        (default 0.25, i.e. 25 %).
+    """
+
+    abs_mm: float = 250.0
+    rel: float = 0.25
+
+    def __post_init__(self) -> None:
+        for name in ("abs_mm", "rel"):
+            value = getattr(self, name)
+            if (isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value)
+                    or value < 0):
+                raise ConfigError(f"DetectionRule.{name} must be a finite number >= 0, got {value!r}")
+        object.__setattr__(self, "abs_mm", float(self.abs_mm))
+        object.__setattr__(self, "rel", float(self.rel))
+
+    def describe(self) -> str:
+        """One line for reports."""
+        return (f"detected when faulty RMS - baseline RMS > {self.abs_mm:g} mm "
+                f"and >= {100 * self.rel:g} % of the baseline RMS")
+
+
+class Outcome(StrEnum):
+    """Outcome class of one faulty job (see the module docstring)."""
+
+    DETECTED = "detected"
+    NOT_DETECTED = "not_detected"
+    CRASH = "crash"
+    TIMEOUT = "timeout"
+    BASELINE_FAILED = "baseline_failed"
+
+
+def detects(faulty_mm, baseline_mm, *, rule: DetectionRule = DetectionRule()):
+    """Apply the detection rule elementwise.
+
+    Parameters
+    ----------
+    faulty_mm, baseline_mm : float or array_like, broadcastable
+        RMS errors of the faulty and the baseline variant, mm.
+    rule : DetectionRule
+
+    Returns
+    -------
+    bool or ndarray of bool
+        ``faulty - baseline > rule.abs_mm and faulty - baseline >= rule.rel * baseline``.
+        NaN inputs give False (use :func:`classify` to tell failures apart).
+    """
+    f = np.asarray(faulty_mm, dtype=float)
+    b = np.asarray(baseline_mm, dtype=float)
+    increase = f - b
+    with np.errstate(invalid="ignore"):
+        out = (increase > rule.abs_mm) & (increase >= rule.rel * b)
+    return bool(out) if out.ndim == 0 else out
+
+
+def _check_columns(results: pd.DataFrame, required, *, where: str) -> None:
+    if not isinstance(results, pd.DataFrame):
+        raise ResultsError(f"{where}: results must be a pandas DataFrame, got {type(results).__name__}")
+    missing = [c for c in required if c not in results.columns]
+    if missing:
+        raise ResultsError(f"{where}: results lack column(s) {', '.join(missing)}")
+
+
+def pair_with_baseline(results: pd.DataFrame) -> pd.DataFrame:
+    """Join every faulty row with the baseline row of the same (run, suite, case, rep).
+
+    Parameters
+    ----------
+    results : DataFrame
+        The runner's results (one row per job, see the brief's schema); needs
+        at least ``run, suite, case, rep, variant, rms_mm, status``.
+
+    Returns
+    -------
+    DataFrame
+        One row per faulty job: ``run, suite, case, rep, fault, rms_mm,
+        status, baseline_rms_mm, baseline_status``, followed by every other
+        column of the faulty row (scenario parameters, classes, ...).  A
+        missing baseline row gives ``baseline_rms_mm`` NaN and
+        ``baseline_status`` ``"missing"``.
+
+    Raises
+    ------
+    ResultsError
+        Missing columns, or a job that appears twice (names its key).
+    """
+    _check_columns(results, _REQUIRED, where="pair_with_baseline")
+    key = list(KEY_COLUMNS)
+    dup = results.duplicated(key + ["variant"], keep=False)
+    if dup.any():
+        row = results.loc[dup, key + ["variant"]].iloc[0]
+        raise ResultsError("pair_with_baseline: job " + ", ".join(f"{k}={row[k]}" for k in row.index)
+                           + " appears more than once")
+    is_base = results["variant"] == BASELINE
+    base = results.loc[is_base, key + ["rms_mm", "status"]].rename(
+        columns={"rms_mm": "baseline_rms_mm", "status": "baseline_status"})
+    faulty = results.loc[~is_base].rename(columns={"variant": "fault"})
+    pairs = faulty.merge(base, on=key, how="left", validate="many_to_one")
+    pairs["baseline_status"] = pairs["baseline_status"].fillna("missing")
+    first = key + ["fault", "rms_mm", "status", "baseline_rms_mm", "baseline_status"]
+    rest = [c for c in pairs.columns if c not in first]
+    return pairs[first + rest].reset_index(drop=True)
+
+
+def classify(pairs: pd.DataFrame, *, rule: DetectionRule = DetectionRule()) -> pd.Series:
+    """Outcome of every paired faulty job (see the module docstring).
+
+    Parameters
+    ----------
+    pairs : DataFrame
+        Output of :func:`pair_with_baseline`.
+    rule : DetectionRule
+
+    Returns
+    -------
+    Series of str (:class:`Outcome` values), index of ``pairs``.
+    """
+    _check_columns(pairs, ("rms_mm", "status", "baseline_rms_mm", "baseline_status"), where="classify")
+    f = pairs["rms_mm"].to_numpy(dtype=float)
+    b = pairs["baseline_rms_mm"].to_numpy(dtype=float)
+    status = pairs["status"].astype(str).to_numpy()
+    base_ok = (pairs["baseline_status"].astype(str).to_numpy() == "ok") & np.isfinite(b)
+    unknown = sorted(set(status) - {"ok", "crash", "timeout"})
+    if unknown:
+        raise ResultsError(f"classify: unknown status {unknown[0]!r} (expected ok, crash or timeout)")
+    out = np.where(detects(f, b, rule=rule), Outcome.DETECTED.value, Outcome.NOT_DETECTED.value).astype(object)
+    out[(status == "crash") | ((status == "ok") & ~np.isfinite(f))] = Outcome.CRASH.value
+    out[status == "timeout"] = Outcome.TIMEOUT.value
+    out[~base_ok] = Outcome.BASELINE_FAILED.value
+    return pd.Series(out, index=pairs.index, name="outcome", dtype=object)
+
+
+def outcomes(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule()) -> pd.DataFrame:
+    """:func:`pair_with_baseline` plus an ``outcome`` column (:func:`classify`)."""
+    pairs = pair_with_baseline(results)
+    pairs.insert(pairs.columns.get_loc("baseline_status") + 1, "outcome", classify(pairs, rule=rule))
+    return pairs

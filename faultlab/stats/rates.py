@@ -1,0 +1,235 @@
+"""Detection rates with confidence intervals, the paper's "by Suite" figure, false alarms.
+
+Counting unit.  Every faulty *job* -- one (run, suite, case, SLAM repetition)
+paired with its baseline -- is one Bernoulli trial.  With K = 1 (the paper's
+protocol) that is one trial per test case, as in Table II's "Detected Faults"
+column; with K > 1 a case contributes K trials (common random numbers: rep k
+uses the same SLAM seed for every variant).  Trials of one case share the
+scenario, so with K > 1 the binomial intervals treat clustered trials as
+independent and are optimistic; :func:`faultlab.stats.oracle_detections` is the
+per-case test that uses the K repetitions properly.
+
+Crashes and timeouts are their own outcome classes.  Rates are given two ways:
+
+* ``k, n, rate, ...`` -- failures **excluded**: ``k = detected``,
+  ``n = detected + not_detected``;
+* ``k_incl, n_incl, rate_incl, ...`` -- failures **counted as detections**
+  (a crash or hang of the faulty SLAM where the baseline ran is an observable
+  failure): ``k_incl = detected + crash + timeout``, ``n_incl = n_jobs -
+  baseline_failed``.
+
+Jobs whose baseline failed (``baseline_failed``) are in neither denominator.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from statsmodels.stats.proportion import proportion_confint
+
+from faultlab.errors import ConfigError
+from faultlab.stats.detection import (BASELINE, DetectionRule, Outcome, _check_columns, detects,
+                                      outcomes)
+
+__all__ = ["proportion_ci", "detection_rates", "by_suite", "false_alarm_rate", "SUITE_ORDER",
+           "FAULT_ORDER", "ordered"]
+
+#: Suite order of the paper's Table II.
+SUITE_ORDER = ("systematic", "fixed", "random")
+#: Fault order of Table II (then any others alphabetically).
+FAULT_ORDER = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")
+_CI_METHODS = {"wilson": "wilson", "cp": "beta"}
+
+
+def ordered(values, preferred) -> list:
+    """Distinct ``values``: those in ``preferred`` first (in that order), then the rest sorted."""
+    present = list(dict.fromkeys(values))
+    return [v for v in preferred if v in present] + sorted(v for v in present if v not in preferred)
+
+
+def proportion_ci(k, n, *, alpha: float = 0.05, method: str = "wilson") -> tuple[np.ndarray, np.ndarray]:
+    """Two-sided ``1 - alpha`` confidence interval of a binomial proportion.
+
+    Parameters
+    ----------
+    k, n : int or array_like of int, broadcastable
+        Successes and trials.
+    alpha : float
+        Significance level (0.05 gives 95 % intervals).
+    method : {"wilson", "cp"}
+        Wilson score interval or Clopper-Pearson exact interval
+        (statsmodels' ``proportion_confint`` methods ``"wilson"`` / ``"beta"``).
+
+    Returns
+    -------
+    (low, high) : ndarrays (0-d for scalar input)
+        NaN where ``n == 0``.
+    """
+    if method not in _CI_METHODS:
+        raise ConfigError(f"proportion_ci: method must be one of {sorted(_CI_METHODS)}, got {method!r}")
+    if not 0 < alpha < 1:
+        raise ConfigError(f"proportion_ci: alpha must lie in (0, 1), got {alpha!r}")
+    k, n = np.broadcast_arrays(np.asarray(k, dtype=float), np.asarray(n, dtype=float))
+    low = np.full(k.shape, np.nan)
+    high = np.full(k.shape, np.nan)
+    ok = n > 0
+    if np.any(ok):
+        lo, hi = proportion_confint(k[ok], n[ok], alpha=alpha, method=_CI_METHODS[method])
+        low[ok], high[ok] = lo, hi
+    return low, high
+
+
+def _rate_columns(k, n, *, alpha: float, suffix: str = "") -> dict:
+    k = np.asarray(k, dtype=np.int64)
+    n = np.asarray(n, dtype=np.int64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = np.where(n > 0, k / np.maximum(n, 1), np.nan)
+    w_lo, w_hi = proportion_ci(k, n, alpha=alpha, method="wilson")
+    c_lo, c_hi = proportion_ci(k, n, alpha=alpha, method="cp")
+    return {f"k{suffix}": k, f"n{suffix}": n, f"rate{suffix}": rate,
+            f"wilson_low{suffix}": w_lo, f"wilson_high{suffix}": w_hi,
+            f"cp_low{suffix}": c_lo, f"cp_high{suffix}": c_hi}
+
+
+def _sort(df: pd.DataFrame, cols: dict) -> pd.DataFrame:
+    """Sort by categorical orders given as {column: preferred order}."""
+    keys = []
+    for col, pref in cols.items():
+        order = ordered(df[col], pref)
+        keys.append(df[col].map({v: i for i, v in enumerate(order)}).rename(f"_{col}"))
+    idx = pd.concat(keys, axis=1).sort_values([k.name for k in keys], kind="stable").index
+    return df.loc[idx].reset_index(drop=True)
+
+
+def detection_rates(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
+                    alpha: float = 0.05) -> pd.DataFrame:
+    """Detection rate per (suite, fault) with Wilson and Clopper-Pearson intervals.
+
+    Parameters
+    ----------
+    results : DataFrame
+        The runner's results (schema in the brief).
+    rule : DetectionRule
+    alpha : float
+        1 - confidence level of the intervals.
+
+    Returns
+    -------
+    DataFrame
+        One row per (suite, fault), Table II order: ``suite, fault, n_cases``
+        (distinct run x case), ``n_reps`` (distinct repetitions), ``n_jobs``,
+        the outcome counts ``detected, not_detected, crash, timeout,
+        baseline_failed``, then ``k, n, rate, wilson_low, wilson_high, cp_low,
+        cp_high`` with failures excluded and the same with suffix ``_incl``
+        with crash/timeout counted as detections (module docstring).
+    """
+    oc = outcomes(results, rule=rule)
+    cols = ["suite", "fault", "n_cases", "n_reps", "n_jobs"] + [o.value for o in Outcome]
+    if oc.empty:
+        return pd.DataFrame(columns=cols + list(_rate_columns([], [], alpha=alpha))
+                            + list(_rate_columns([], [], alpha=alpha, suffix="_incl")))
+    counts = (pd.crosstab([oc["suite"], oc["fault"]], oc["outcome"])
+              .reindex(columns=[o.value for o in Outcome], fill_value=0))
+    g = oc.groupby(["suite", "fault"])
+    extra = pd.DataFrame({"n_cases": g[["run", "case"]].apply(lambda d: len(d.drop_duplicates())),
+                          "n_reps": g["rep"].nunique(), "n_jobs": g.size()})
+    table = extra.join(counts).reset_index()
+    d, nd = table[Outcome.DETECTED.value], table[Outcome.NOT_DETECTED.value]
+    fails = table[Outcome.CRASH.value] + table[Outcome.TIMEOUT.value]
+    excl = _rate_columns(d, d + nd, alpha=alpha)
+    incl = _rate_columns(d + fails, table["n_jobs"] - table[Outcome.BASELINE_FAILED.value], alpha=alpha,
+                         suffix="_incl")
+    table = pd.concat([table[cols], pd.DataFrame(excl), pd.DataFrame(incl)], axis=1)
+    return _sort(table, {"suite": SUITE_ORDER, "fault": FAULT_ORDER})
+
+
+def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), alpha: float = 0.05,
+             failures_detect: bool = False) -> pd.DataFrame:
+    """The paper's "by Suite" figure: share of fault x run pairs the suite detected.
+
+    A (fault, run) pair counts as detected when at least one case (any
+    repetition) of the suite in that run detected the fault (Table II, Sec.
+    VII-D: "the percentage of faults that the test suite detected in total
+    over the three runs").
+
+    Parameters
+    ----------
+    results : DataFrame
+    rule : DetectionRule
+    alpha : float
+    failures_detect : bool
+        Count a crash/timeout of the faulty SLAM as a detection (default: no).
+
+    Returns
+    -------
+    DataFrame
+        One row per suite: ``suite, n_pairs, detected_pairs, rate``, Wilson
+        and Clopper-Pearson bounds (``wilson_low`` ...), and ``missed``: the
+        undetected pairs as text, e.g. ``"naive_resampling (run 2)"``.
+    """
+    oc = outcomes(results, rule=rule)
+    hits = {Outcome.DETECTED.value}
+    if failures_detect:
+        hits |= {Outcome.CRASH.value, Outcome.TIMEOUT.value}
+    oc["hit"] = oc["outcome"].isin(hits)
+    pairs = oc.groupby(["suite", "fault", "run"], as_index=False)["hit"].any()
+    rows = []
+    for suite in ordered(pairs["suite"], SUITE_ORDER):
+        p = pairs[pairs["suite"] == suite]
+        p = _sort(p, {"fault": FAULT_ORDER, "run": ()})
+        missed = "; ".join(f"{r.fault} (run {r.run})" for r in p.itertuples() if not r.hit)
+        rows.append({"suite": suite, "n_pairs": len(p), "detected_pairs": int(p["hit"].sum()),
+                     "missed": missed})
+    table = pd.DataFrame(rows, columns=["suite", "n_pairs", "detected_pairs", "missed"])
+    rc = _rate_columns(table["detected_pairs"], table["n_pairs"], alpha=alpha)
+    for name in ("rate", "wilson_low", "wilson_high", "cp_low", "cp_high"):
+        table.insert(len(table.columns) - 1, name, rc[name])
+    return table
+
+
+def false_alarm_rate(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
+                     alpha: float = 0.05) -> pd.DataFrame:
+    """How often the rule flags the *unmodified* SLAM against itself with another seed.
+
+    For every case with at least two usable baseline repetitions, every
+    ordered pair of repetitions (k, k'), k != k', is one trial: rep k plays
+    "faulty", rep k' the baseline.  The share flagged by ``rule`` estimates the
+    rule's false-alarm rate (seed noise alone).  Ordered pairs of one case are
+    not independent; the intervals are therefore optimistic.
+
+    Parameters
+    ----------
+    results : DataFrame
+        Needs ``run, suite, case, rep, variant, rms_mm, status``.
+    rule : DetectionRule
+    alpha : float
+
+    Returns
+    -------
+    DataFrame
+        One row per suite plus a final ``"all"`` row: ``suite, n_cases``
+        (cases with >= 2 usable reps), ``n_pairs, flagged, rate`` and Wilson /
+        Clopper-Pearson bounds.  Rates are NaN where no case has two reps.
+    """
+    _check_columns(results, ("run", "suite", "case", "rep", "variant", "rms_mm", "status"),
+                   where="false_alarm_rate")
+    base = results.loc[(results["variant"] == BASELINE) & (results["status"] == "ok")
+                       & np.isfinite(results["rms_mm"].astype(float)), ["run", "suite", "case", "rep", "rms_mm"]]
+    key = ["run", "suite", "case"]
+    cross = base.merge(base, on=key, suffixes=("_a", "_b"))
+    cross = cross[cross["rep_a"] != cross["rep_b"]]
+    cross = cross.assign(flag=detects(cross["rms_mm_a"].to_numpy(float), cross["rms_mm_b"].to_numpy(float),
+                                      rule=rule) if len(cross) else np.zeros(0, bool))
+    suites = ordered(results["suite"], SUITE_ORDER)
+    rows = []
+    for suite in suites + ["all"]:
+        c = cross if suite == "all" else cross[cross["suite"] == suite]
+        rows.append({"suite": suite, "n_cases": len(c[key].drop_duplicates()), "n_pairs_": len(c),
+                     "flagged": int(c["flag"].sum())})
+    table = pd.DataFrame(rows)
+    rc = _rate_columns(table["flagged"], table["n_pairs_"], alpha=alpha)
+    table = table.rename(columns={"n_pairs_": "n_pairs"})
+    for name in ("rate", "wilson_low", "wilson_high", "cp_low", "cp_high"):
+        table[name] = rc[name]
+    return table
+

@@ -1,0 +1,131 @@
+import itertools
+
+import numpy as np
+import pytest
+from statsmodels.stats.proportion import proportion_confint
+
+from faultlab.errors import ConfigError
+from faultlab.stats import by_suite, detection_rates, false_alarm_rate, proportion_ci
+from tests.stats.synthetic import frame, job
+
+Z = 1.959963984540054  # standard normal 97.5 % quantile
+
+
+def wilson_by_hand(k, n):
+    centre = (k + Z**2 / 2) / (n + Z**2)
+    half = Z / (n + Z**2) * np.sqrt(k * (n - k) / n + Z**2 / 4)
+    return centre - half, centre + half
+
+
+def test_wilson_hand_checked_values():
+    lo, hi = proportion_ci(5, 10, method="wilson")
+    np.testing.assert_allclose([lo, hi], [0.236593, 0.763407], atol=1e-6)  # textbook value for 5/10
+    for k, n in [(0, 15), (4, 15), (12, 15), (15, 15), (1, 3)]:
+        np.testing.assert_allclose(proportion_ci(k, n, method="wilson"), wilson_by_hand(k, n), rtol=1e-9,
+                                   atol=1e-12)
+
+
+def test_clopper_pearson_closed_forms_and_statsmodels():
+    # k = 0: upper = 1 - (alpha/2)^(1/n); k = n: lower = (alpha/2)^(1/n)
+    np.testing.assert_allclose(proportion_ci(0, 10, method="cp"), [0.0, 1 - 0.025 ** 0.1], atol=1e-12)
+    np.testing.assert_allclose(proportion_ci(10, 10, method="cp"), [0.025 ** 0.1, 1.0], atol=1e-12)
+    for k, n, alpha in [(4, 15, 0.05), (7, 9, 0.1), (30, 100, 0.01)]:
+        np.testing.assert_allclose(proportion_ci(k, n, alpha=alpha, method="cp"),
+                                   proportion_confint(k, n, alpha=alpha, method="beta"))
+        np.testing.assert_allclose(proportion_ci(k, n, alpha=alpha, method="wilson"),
+                                   proportion_confint(k, n, alpha=alpha, method="wilson"))
+
+
+def test_ci_vectorised_and_empty():
+    lo, hi = proportion_ci([0, 3, 2], [0, 4, 9])
+    assert np.isnan(lo[0]) and np.isnan(hi[0])
+    np.testing.assert_allclose([lo[1], hi[1]], wilson_by_hand(3, 4))
+    with pytest.raises(ConfigError, match="method"):
+        proportion_ci(1, 2, method="agresti")
+
+
+def results_with_failures():
+    """2 suites x 1 fault, 2 runs x 2 cases x K = 2 reps, with every outcome class."""
+    rows = []
+    faulty = {  # (suite, run, case, rep) -> (rms or status)
+        ("systematic", 1, 1, 0): 900.0, ("systematic", 1, 1, 1): 150.0,
+        ("systematic", 1, 2, 0): "crash", ("systematic", 1, 2, 1): 980.0,
+        ("systematic", 2, 1, 0): 120.0, ("systematic", 2, 1, 1): "timeout",
+        ("systematic", 2, 2, 0): 5000.0, ("systematic", 2, 2, 1): 110.0,
+        ("random", 1, 1, 0): 100.0, ("random", 1, 1, 1): 100.0,
+        ("random", 1, 2, 0): 100.0, ("random", 1, 2, 1): 100.0,
+        ("random", 2, 1, 0): 700.0, ("random", 2, 1, 1): 100.0,
+        ("random", 2, 2, 0): 800.0, ("random", 2, 2, 1): 100.0,
+    }
+    base_crash = {("systematic", 2, 2, 0)}
+    for (suite, run, case, rep), v in faulty.items():
+        b_status = "crash" if (suite, run, case, rep) in base_crash else "ok"
+        rows.append(job(run, suite, case, "baseline", rep, 100.0, b_status))
+        rows.append(job(run, suite, case, "naive_resampling", rep, 0.0 if isinstance(v, str) else v,
+                        v if isinstance(v, str) else "ok"))
+    return frame(rows), faulty, base_crash
+
+
+def test_detection_rates_counts_and_both_conventions():
+    res, faulty, base_crash = results_with_failures()
+    table = detection_rates(res).set_index("suite")
+    for suite in ("systematic", "random"):
+        cells = {k: v for k, v in faulty.items() if k[0] == suite}
+        det = sum(1 for k, v in cells.items() if k not in base_crash and not isinstance(v, str)
+                  and v - 100 > 250 and v - 100 >= 25)
+        nd = sum(1 for k, v in cells.items() if k not in base_crash and not isinstance(v, str)) - det
+        fails = sum(1 for k, v in cells.items() if k not in base_crash and isinstance(v, str))
+        row = table.loc[suite]
+        assert (row["detected"], row["not_detected"], row["crash"] + row["timeout"]) == (det, nd, fails)
+        assert row["baseline_failed"] == sum(1 for k in cells if k in base_crash)
+        assert (row["k"], row["n"]) == (det, det + nd)
+        assert (row["k_incl"], row["n_incl"]) == (det + fails, det + nd + fails)
+        np.testing.assert_allclose([row["wilson_low"], row["wilson_high"]], wilson_by_hand(det, det + nd))
+        np.testing.assert_allclose([row["cp_low_incl"], row["cp_high_incl"]],
+                                   proportion_confint(det + fails, det + nd + fails, method="beta"))
+        assert (row["n_cases"], row["n_reps"], row["n_jobs"]) == (4, 2, 8)
+    sysrow = table.loc["systematic"]
+    assert (sysrow["detected"], sysrow["crash"], sysrow["timeout"], sysrow["baseline_failed"]) == (2, 1, 1, 1)
+    assert list(detection_rates(res)["suite"]) == ["systematic", "random"]  # Table II order
+
+
+def test_by_suite_counts_fault_run_pairs_with_any_detection():
+    rows = []
+    # systematic: fault A detected in run 1 (case 2 only), not in run 2; fault B in both runs
+    spec = {("A", 1): [100, 900], ("A", 2): [110, 120], ("B", 1): [900, 100], ("B", 2): [100, 5000]}
+    for (fault, run), values in spec.items():
+        for case, v in enumerate(values, start=1):
+            rows.append(job(run, "systematic", case, fault, 0, v))
+    for run in (1, 2):
+        for case in (1, 2):
+            rows.append(job(run, "systematic", case, "baseline", 0, 100.0))
+    table = by_suite(frame(rows)).set_index("suite")
+    row = table.loc["systematic"]
+    assert (row["detected_pairs"], row["n_pairs"]) == (3, 4)
+    np.testing.assert_allclose(row["rate"], 0.75)
+    assert row["missed"] == "A (run 2)"
+
+
+def test_by_suite_failures_detect_option():
+    rows = [job(1, "fixed", 1, "baseline", 0, 100.0), job(1, "fixed", 1, "F", 0, 0.0, "crash")]
+    assert by_suite(frame(rows)).loc[0, "detected_pairs"] == 0
+    assert by_suite(frame(rows), failures_detect=True).loc[0, "detected_pairs"] == 1
+
+
+def test_false_alarm_rate_uses_ordered_rep_pairs():
+    reps = {("random", 1): [100.0, 100.0, 1000.0], ("random", 2): [2000.0, 2600.0], ("fixed", 1): [50.0]}
+    rows = [job(1, s, c, "baseline", k, v) for (s, c), vals in reps.items() for k, v in enumerate(vals)]
+    rows.append(job(1, "random", 1, "naive_resampling", 0, 99999.0))  # faulty rows are ignored
+    table = false_alarm_rate(frame(rows)).set_index("suite")
+    expected_flags, expected_pairs = 0, 0
+    for vals in (reps[("random", 1)], reps[("random", 2)]):
+        for a, b in itertools.permutations(vals, 2):
+            expected_pairs += 1
+            expected_flags += (a - b > 250) and (a - b >= 0.25 * b)
+    assert (table.loc["random", "n_pairs"], table.loc["random", "flagged"]) == (expected_pairs, expected_flags)
+    assert (expected_pairs, expected_flags) == (8, 3)
+    assert table.loc["random", "n_cases"] == 2
+    assert table.loc["fixed", "n_pairs"] == 0 and np.isnan(table.loc["fixed", "rate"])
+    assert table.loc["all", "flagged"] == 3
+    np.testing.assert_allclose([table.loc["all", "wilson_low"], table.loc["all", "wilson_high"]],
+                               wilson_by_hand(3, 8))
