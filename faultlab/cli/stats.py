@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.stats import (RAW_CSV, REPORTED_CSV, DetectionRule, format_effects, paper_table,
-                            parameter_effects, resolve_data_path)
+from faultlab import stats
 
 __all__ = ["register"]
 
 
 def _rule_options(p: argparse.ArgumentParser) -> None:
-    d = DetectionRule()
+    d = stats.DetectionRule()
     p.add_argument("--abs-mm", type=float, default=d.abs_mm, metavar="MM",
                    help=f"absolute RMS increase a detection must exceed (default {d.abs_mm:g} mm)")
     p.add_argument("--rel", type=float, default=d.rel,
@@ -25,10 +24,10 @@ def register(subparsers) -> None:
                     "its raw RMS data with faultlab's detection rule and mark every cell where the "
                     "printed figure differs.")
     p.add_argument("--raw", default=None, metavar="PATH",
-                   help=f"raw RMS CSV (default {RAW_CSV}, looked up in the current directory, then the "
+                   help="raw RMS CSV (default: the paper's raw data in paper_repro/, looked up in the current directory, then the "
                         "repository)")
     p.add_argument("--reported", default=None, metavar="PATH",
-                   help=f"printed percentages CSV (default {REPORTED_CSV})")
+                   help="printed percentages CSV (default: the paper's Table II percentages in paper_repro/)")
     _rule_options(p)
     p.set_defaults(func=_paper_table)
 
@@ -44,9 +43,10 @@ def register(subparsers) -> None:
 
 
 def _paper_table(args) -> int:
-    rule = DetectionRule(abs_mm=args.abs_mm, rel=args.rel)
-    table = paper_table(resolve_data_path(args.raw, RAW_CSV), resolve_data_path(args.reported, REPORTED_CSV),
-                        rule=rule)
+    rule = stats.DetectionRule(abs_mm=args.abs_mm, rel=args.rel)
+    table = stats.paper_table(stats.resolve_data_path(args.raw, stats.RAW_CSV),
+                              stats.resolve_data_path(args.reported, stats.REPORTED_CSV),
+                              rule=rule)
     print(table.to_text(), end="")
     return 0
 
@@ -54,9 +54,9 @@ def _paper_table(args) -> int:
 def _effects(args) -> int:
     from faultlab.runner import load_results  # helper E's runner; imported only when needed
 
-    rule = DetectionRule(abs_mm=args.abs_mm, rel=args.rel)
+    rule = stats.DetectionRule(abs_mm=args.abs_mm, rel=args.rel)
     params = None if args.parameters is None else [p.strip() for p in args.parameters.split(",") if p.strip()]
-    table = parameter_effects(load_results(args.results), rule=rule, parameters=params)
+    table = stats.parameter_effects(load_results(args.results), rule=rule, parameters=params)
     print(f"Detection: {rule.describe()}")
-    print(format_effects(table), end="")
+    print(stats.format_effects(table), end="")
     return 0

@@ -8,20 +8,34 @@ paper: :func:`false_alarm_rate`, :func:`oracle_detections`,
 :func:`compare_suites` and :func:`parameter_effects`.
 """
 
-from faultlab.stats.comparison import compare_suites, odds_ratio
-from faultlab.stats.detection import (BASELINE, DetectionRule, Outcome, classify, detects, outcomes,
-                                      pair_with_baseline)
-from faultlab.stats.effects import NUMERIC_PARAMETERS, format_effects, parameter_effects
-from faultlab.stats.oracle import oracle_detections
-from faultlab.stats.paper import (PRINTED_BY_SUITE, RAW_CSV, REPORTED_CSV, PaperTable, load_paper_raw,
-                                  load_paper_reported, paper_table, percent, resolve_data_path)
-from faultlab.stats.rates import (FAULT_ORDER, SUITE_ORDER, by_suite, detection_rates, false_alarm_rate,
-                                  proportion_ci)
+import importlib
 
-__all__ = [
-    "BASELINE", "DetectionRule", "Outcome", "detects", "pair_with_baseline", "classify", "outcomes",
-    "proportion_ci", "detection_rates", "by_suite", "false_alarm_rate", "SUITE_ORDER", "FAULT_ORDER",
-    "oracle_detections", "compare_suites", "odds_ratio", "parameter_effects", "format_effects",
-    "NUMERIC_PARAMETERS", "PaperTable", "paper_table", "load_paper_raw", "load_paper_reported",
-    "resolve_data_path", "percent", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV",
-]
+#: Public name -> submodule that defines it.  Submodules load on first use
+#: (PEP 562), so importing faultlab.stats (e.g. by the CLI) stays cheap.
+_EXPORTS = {
+    "comparison": ["compare_suites", "odds_ratio"],
+    "detection": ["BASELINE", "DetectionRule", "Outcome", "classify", "detects", "outcomes",
+                  "pair_with_baseline"],
+    "effects": ["NUMERIC_PARAMETERS", "format_effects", "parameter_effects"],
+    "oracle": ["oracle_detections"],
+    "paper": ["PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV", "PaperTable", "load_paper_raw",
+              "load_paper_reported", "paper_table", "percent", "resolve_data_path"],
+    "rates": ["FAULT_ORDER", "SUITE_ORDER", "by_suite", "detection_rates", "false_alarm_rate",
+              "proportion_ci"],
+}
+_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = [name for names in _EXPORTS.values() for name in names]
+
+
+def __getattr__(name: str):
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module 'faultlab.stats' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"faultlab.stats.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
