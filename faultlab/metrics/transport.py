@@ -20,7 +20,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import ot
 
 from faultlab.errors import ScenarioError, SlamOutputError
 
@@ -84,6 +83,8 @@ def earth_movers_distance(truth_xy, est_xy) -> float:
     b = np.full(m, 1.0 / m)
     # backend="scipy": exact pairwise differences (cdist); the default expansion
     # |x|^2 + |y|^2 - 2 x.y loses ~1e-8 m to cancellation near zero distance.
+    import ot  # POT takes ~2 s to import; only jobs that compute an EMD pay for it
+
     cost = ot.dist(p, q, metric="euclidean", backend="scipy")
     value, log = ot.emd2(a, b, cost, numItermax=_MAX_ITER, log=True)
     if log.get("warning"):
