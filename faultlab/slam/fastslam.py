@@ -1,0 +1,489 @@
+"""A fast, vectorised reference FastSLAM 1.0, structured for fault injection.
+
+The algorithm is FastSLAM 1.0 with known correspondences (Thrun, Burgard & Fox,
+*Probabilistic Robotics*, Table 13.1), set up as in the paper (Sec. VII-A,
+the PythonRobotics implementation): per-particle control noise in the
+prediction, range-bearing landmarks with one EKF per landmark and particle,
+low-variance resampling when ``N_eff < N / resample_ratio``.  As in the paper's
+modified version an *empty update* (control exactly (0, 0) and no observation,
+as during inactivity) adds no control noise and never resamples.
+
+Units
+-----
+Each step of the algorithm is a field of :class:`FastSlamSteps`, a plain
+function over arrays for all particles ``N`` and all ``k`` observations of a
+step (the reference implementations, with the exact signatures and shapes,
+are documented in :mod:`faultlab.slam._units`).  A fault replaces exactly one
+field: ``dataclasses.replace(REFERENCE_STEPS, resample=naive)``.  Units get what
+they need as explicit arguments (the wrap functions are passed in as
+``wrap=steps.wrap_bearing`` / ``wrap=steps.wrap_heading``), so replacing a unit
+changes that unit only.
+
+====================== ======================================================================
+unit                   signature (shapes)
+====================== ======================================================================
+sample_controls        ``(u (2,), n, rng, config) -> (N, 2)`` noisy controls per particle
+motion_model           ``(poses (N,3), u (N,2), *, wrap) -> (N,3)``
+wrap_heading           ``(a) -> a`` wrapped to [-pi, pi), used by the motion model
+wrap_bearing           ``(a) -> a`` used only by innovation and init_landmarks
+init_landmarks         ``(poses (N,3), z (k,2), Q (2,2), *, wrap) -> mu (N,k,2), P (N,k,2,2)``
+classify_new           ``(seen (k,) bool, mu (N,k,2)) -> new (N,k) bool``
+predict_measurement    ``(poses (N,3), mu (N,k,2)) -> z_hat (N,k,2), H (N,k,2,2)``
+innovation             ``(z (k,2), z_hat (N,k,2), *, wrap) -> nu (N,k,2)``
+innovation_covariance  ``(H, P (N,k,2,2), Q (2,2)) -> S (N,k,2,2)``
+log_likelihood         ``(nu (N,k,2), S (N,k,2,2)) -> (N,k)``
+combine_weights        ``(logw (N,), loglik (N,k), known (N,k) bool) -> logw (N,)``
+ekf_update             ``(mu (N,k,2), P, H, S (N,k,2,2), nu (N,k,2)) -> mu, P``
+effective_sample_size  ``(w (N,)) -> float``
+resample               ``(w (N,), n_eff, empty, rng, config) -> indices (N,) or None``
+apply_resample         ``(state, indices (N,)) -> state``
+extract_map            ``(state) -> ids (M,), xy (M,2)``
+====================== ======================================================================
+
+One update (:meth:`FastSlam.update`) runs::
+
+    u_i   = sample_controls(u, N, rng, config)          # skipped for an empty update (u_i = u)
+    x_i   = motion_model(x_i, u_i, wrap=wrap_heading)
+    # if the step has observations z (k, 2) of ids with storage columns cols; all pairs at once:
+    mu, P = the particles' stored means/covariances of cols   # zeros for never-seen ids
+    new   = classify_new(seen, mu)
+    mu0, P0 = init_landmarks(x_i, z[c], Q, wrap=wrap_bearing)  # c: observations with a new pair
+    mu, P = mu0, P0 where new                            # so the next units see valid values
+    z_hat, H = predict_measurement(x_i, mu)
+    nu    = innovation(z, z_hat, wrap=wrap_bearing)
+    S     = innovation_covariance(H, P, Q)
+    logw  = combine_weights(logw, log_likelihood(nu, S), ~new)   # then normalised (logsumexp)
+    mu', P' = ekf_update(mu, P, H, S, nu), but mu0, P0 where new -> written back to storage
+    # always:
+    n_eff = effective_sample_size(exp(logw))
+    idx   = resample(exp(logw), n_eff, empty, rng, config)
+    state = apply_resample(state, idx) if idx is not None
+
+The units after ``classify_new`` are called once per step with all ``k``
+observations; ``combine_weights`` is not called in steps without observations.
+
+Weights are kept as normalised **log** weights: with 100+ observations per
+step the product of likelihoods underflows in linear form.
+
+Storage and resampling
+----------------------
+The particles live in arrays: poses (N, 3), log weights (N,), landmark means
+(N, cap, 2) and covariances (N, cap, 2, 2), one column per landmark id in
+order of first observation (an id -> column lookup via ``searchsorted``;
+capacity doubles when full).  Copying the landmark arrays at every resampling
+would cost O(N L) memory traffic per step (58 MB for the largest Table I map),
+so the storage is copy-on-write with a per-column ancestry index
+``anc`` (N, cap): particle ``i`` reads column ``j`` from storage row
+``anc[lineage[i], j]`` (see :class:`ParticleState`).  Resampling only composes
+``lineage = lineage[idx]`` (O(N)); before the filter gathers the observed
+columns it materialises the pending lineage once (``anc = anc[lineage]``, a
+row gather of O(N C) int32, only after a resampling), and after the update it
+writes every particle's new estimates of the observed columns into its own row
+and points those columns of ``anc`` at it (all particles update the same
+observed columns, so this is exact).  Inactivity (no observation) therefore
+costs O(N) per step even with a resample-every-step variant, and an observed
+step touches only the observed columns.
+
+Memory layout (an implementation detail, invisible through the documented
+shapes): the storage is component-major and particle-fastest, i.e. the mean
+buffer is (2, cap, N) and the covariance buffer (2, 2, cap, N), so that the
+N values of one landmark component are contiguous; the reference units'
+(N, k, ...) outputs are views of (2, [2,] k, N) buffers in the same order.
+Gathering the observed columns, the elementwise 2 x 2 algebra and the
+write-back then all run over contiguous memory.
+
+The estimate is the highest-weight particle: its pose and its map
+(``extract_map``); ties (all weights are equal right after a resampling) go to
+the lowest particle index.  This follows the "best particle" convention; since
+resampling soon gives all particles a common ancestor, their maps are nearly
+identical in practice (their map errors typically agree to a fraction of a mm).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Callable
+
+import numpy as np
+
+from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
+from faultlab.slam import _units
+from faultlab.slam._units import ParticleState, landmark_rows
+from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+
+__all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
+           "landmark_rows"]
+
+
+@dataclass(frozen=True)
+class FastSlamConfig:
+    """Settings of the reference FastSLAM 1.0 (defaults: the paper's setup, Sec. VII-A).
+
+    Attributes
+    ----------
+    n_particles : int
+        Number of particles N (>= 1).
+    std_v : float
+        Control noise std on the forward motion v per step, m (>= 0).
+    std_omega : float
+        Control noise std on the turn omega per step, rad (>= 0).
+    std_range : float
+        Measurement noise std on range, m (> 0).
+    std_bearing : float
+        Measurement noise std on bearing, rad (> 0).
+    resample_ratio : float
+        Resample when ``N_eff < N / resample_ratio`` (>= 1).
+    """
+
+    n_particles: int = 200
+    std_v: float = 0.1
+    std_omega: float = math.radians(20.0)
+    std_range: float = 0.3
+    std_bearing: float = math.radians(10.0)
+    resample_ratio: float = 1.5
+
+    def __post_init__(self) -> None:
+        n = self.n_particles
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            raise ConfigError(f"FastSlamConfig.n_particles must be an integer >= 1, got {n!r}")
+        object.__setattr__(self, "n_particles", int(n))
+        for name, positive in (("std_v", False), ("std_omega", False), ("std_range", True),
+                               ("std_bearing", True), ("resample_ratio", None)):
+            value = getattr(self, name)
+            try:
+                x = float(value)
+            except (TypeError, ValueError):
+                raise ConfigError(f"FastSlamConfig.{name} must be a number, got {value!r}") from None
+            if isinstance(value, bool) or not math.isfinite(x):
+                raise ConfigError(f"FastSlamConfig.{name} must be a finite number, got {value!r}")
+            if positive is None and x < 1.0:
+                raise ConfigError(f"FastSlamConfig.{name} must be >= 1, got {value!r}")
+            if positive is True and x <= 0.0:
+                raise ConfigError(f"FastSlamConfig.{name} must be > 0, got {value!r}")
+            if positive is False and x < 0.0:
+                raise ConfigError(f"FastSlamConfig.{name} must be >= 0, got {value!r}")
+            object.__setattr__(self, name, x)
+
+    @property
+    def Q(self) -> np.ndarray:
+        """Measurement noise covariance diag(std_range^2, std_bearing^2), shape (2, 2)."""
+        return np.diag([self.std_range ** 2, self.std_bearing ** 2])
+
+
+@dataclass(frozen=True)
+class FastSlamSteps:
+    """The replaceable units of FastSLAM 1.0 (see the table in the module docstring).
+
+    Every field is a plain function; :data:`REFERENCE_STEPS` holds the reference
+    implementations from :mod:`faultlab.slam._units`.  Replace one unit with
+    ``dataclasses.replace(steps, unit=new_function)``.
+    """
+
+    sample_controls: Callable = _units.sample_controls
+    motion_model: Callable = _units.motion_model
+    wrap_heading: Callable = _units.wrap_heading
+    wrap_bearing: Callable = _units.wrap_bearing
+    init_landmarks: Callable = _units.init_landmarks
+    classify_new: Callable = _units.classify_new
+    predict_measurement: Callable = _units.predict_measurement
+    innovation: Callable = _units.innovation
+    innovation_covariance: Callable = _units.innovation_covariance
+    log_likelihood: Callable = _units.log_likelihood
+    combine_weights: Callable = _units.combine_weights
+    ekf_update: Callable = _units.ekf_update
+    effective_sample_size: Callable = _units.effective_sample_size
+    resample: Callable = _units.resample
+    apply_resample: Callable = _units.apply_resample
+    extract_map: Callable = _units.extract_map
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            if not callable(getattr(self, f.name)):
+                raise ConfigError(f"FastSlamSteps.{f.name} must be callable, got {getattr(self, f.name)!r}")
+
+    @classmethod
+    def unit_names(cls) -> tuple[str, ...]:
+        """Names of the replaceable units, in algorithm order."""
+        return tuple(f.name for f in fields(cls))
+
+    def replaced(self) -> tuple[str, ...]:
+        """Names of the units that differ from :data:`REFERENCE_STEPS`."""
+        return tuple(n for n in self.unit_names() if getattr(self, n) is not getattr(REFERENCE_STEPS, n))
+
+
+#: The reference FastSLAM 1.0 units.
+REFERENCE_STEPS = FastSlamSteps()
+
+
+@dataclass(frozen=True, eq=False)
+class Particles:
+    """A materialised copy of the particle set (for tests and diagnostics).
+
+    Attributes
+    ----------
+    poses : ndarray, shape (N, 3)
+    weights : ndarray, shape (N,)
+        Normalised weights.
+    landmark_ids : ndarray of int64, shape (C,)
+        Ids in column order (order of first observation).
+    means : ndarray, shape (N, C, 2)
+    covariances : ndarray, shape (N, C, 2, 2)
+    """
+
+    poses: np.ndarray
+    weights: np.ndarray
+    landmark_ids: np.ndarray
+    means: np.ndarray
+    covariances: np.ndarray
+
+
+class FastSlam(SlamAdapter):
+    """Reference FastSLAM 1.0 (known correspondences) as a :class:`SlamAdapter`.
+
+    Parameters
+    ----------
+    config : FastSlamConfig
+    steps : FastSlamSteps
+        The units; :data:`REFERENCE_STEPS` or a copy with one unit replaced (a fault).
+    """
+
+    name = "fastslam1"
+
+    def __init__(self, config: FastSlamConfig = FastSlamConfig(), *, steps: FastSlamSteps = REFERENCE_STEPS):
+        if not isinstance(config, FastSlamConfig):
+            raise ConfigError(f"FastSlam: config must be a FastSlamConfig, got {type(config).__name__}")
+        if not isinstance(steps, FastSlamSteps):
+            raise ConfigError(f"FastSlam: steps must be a FastSlamSteps, got {type(steps).__name__}")
+        self._config = config
+        self._steps = steps
+        self._Q = config.Q
+        self._state: ParticleState | None = None
+        self._rng: np.random.Generator | None = None
+
+    # -- configuration -------------------------------------------------------------------------
+
+    @property
+    def config(self) -> FastSlamConfig:
+        return self._config
+
+    @property
+    def steps(self) -> FastSlamSteps:
+        return self._steps
+
+    def with_steps(self, steps: FastSlamSteps) -> "FastSlam":
+        """A new, un-reset FastSlam with the same config and other units."""
+        return type(self)(self._config, steps=steps)
+
+    def __repr__(self) -> str:
+        changed = self._steps.replaced()
+        return f"FastSlam({self._config!r}, replaced={list(changed)})"
+
+    # -- SlamAdapter -----------------------------------------------------------------------------
+
+    def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
+        p = np.asarray(pose, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+        if not isinstance(rng, np.random.Generator):
+            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        p = p.copy()
+        p[2] = float(_units.wrap_heading(p[2]))
+        self._rng = rng
+        self._state = ParticleState.initial(p, self._config.n_particles)
+        self._sorted_ids = np.empty(0, dtype=np.int64)  # lookup: sorted ids ...
+        self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
+        self._t = 0
+        self._n_resamples = 0
+        self._ident = self._state.owner  # the identity map arange(N); lineage starts as the same object
+
+    def update(self, control: np.ndarray, observations: Observations) -> None:
+        if self._state is None:
+            raise SlamInputError(f"{self.name}: update() called before reset()")
+        steps, cfg, rng = self._steps, self._config, self._rng
+        st = self._state
+        n = st.n_particles
+        k = len(observations)
+        u = np.asarray(control, dtype=float)
+        empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
+        # prediction (Table 13.1, line 4); an empty update adds no control noise
+        u_i = np.broadcast_to(u, (n, 2)) if empty else steps.sample_controls(u, n, rng, cfg)
+        poses = steps.motion_model(st.poses, u_i, wrap=steps.wrap_heading)
+        logw = st.logw
+        if k:
+            st, cols, seen = self._columns(st, observations.ids)
+            st, logw = self._correct(st, poses, cols, seen, observations)
+        st = st.replace(poses=poses, logw=logw)
+        # resampling (Table 13.1, lines 24-28)
+        w = np.exp(logw)
+        n_eff = steps.effective_sample_size(w)
+        idx = steps.resample(w, n_eff, empty, rng, cfg)
+        if idx is not None:
+            st = steps.apply_resample(st, np.asarray(idx))
+            self._n_resamples += 1
+        self._state = st
+        self._t += 1
+
+    def estimate(self) -> Estimate:
+        st = self._require_state()
+        ids, xy = self._steps.extract_map(st)
+        i = int(np.argmax(st.logw))
+        return Estimate(st.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+
+    # -- diagnostics -----------------------------------------------------------------------------
+
+    @property
+    def n_resamples(self) -> int:
+        """How many updates since :meth:`reset` resampled."""
+        self._require_state()
+        return self._n_resamples
+
+    @property
+    def state(self) -> ParticleState:
+        """The current particle state (read-only use: its arrays are the filter's own)."""
+        return self._require_state()
+
+    def particles(self) -> Particles:
+        """A materialised copy of all particles (means and covariances in column order)."""
+        st = self._require_state()
+        C = st.n_landmarks
+        rows = landmark_rows(st, np.arange(C))
+        cols = np.arange(C)[None, :]
+        return Particles(st.poses.copy(), np.exp(st.logw), st.ids.copy(), st.mu[rows, cols].copy(),
+                         st.P[rows, cols].copy())
+
+    # -- internals -------------------------------------------------------------------------------
+
+    def _require_state(self) -> ParticleState:
+        if self._state is None:
+            raise SlamInputError(f"{self.name}: reset() must be called first")
+        return self._state
+
+    def _columns(self, st: ParticleState, ids: np.ndarray) -> tuple[ParticleState, np.ndarray, np.ndarray]:
+        """Columns of ``ids`` (k,), adding columns for unseen ids; returns (state, cols, seen)."""
+        sid, scol = self._sorted_ids, self._sorted_cols
+        pos = np.searchsorted(sid, ids)
+        seen = pos < sid.size
+        seen[seen] = sid[pos[seen]] == ids[seen]
+        cols = np.empty(ids.size, dtype=np.intp)
+        cols[seen] = scol[pos[seen]]
+        if not seen.all():
+            new_ids = ids[~seen]
+            C = st.n_landmarks
+            new_cols = np.arange(C, C + new_ids.size, dtype=np.intp)
+            cols[~seen] = new_cols
+            st = self._grow(st, C + new_ids.size)
+            st = st.replace(ids=np.concatenate([st.ids, new_ids]))
+            allid = np.concatenate([sid, new_ids])
+            allcol = np.concatenate([scol, new_cols])
+            order = np.argsort(allid, kind="stable")
+            self._sorted_ids, self._sorted_cols = allid[order], allcol[order]
+        return st, cols, seen
+
+    @staticmethod
+    def _grow(st: ParticleState, needed: int) -> ParticleState:
+        cap = st.mu.shape[1]
+        if needed <= cap:
+            return st
+        new_cap = max(2 * cap, needed)
+        n = st.n_particles
+        C = st.n_landmarks
+        mu = _units.empty_means(n, new_cap)
+        P = _units.empty_covariances(n, new_cap)
+        anc = _units.initial_ancestry(n, new_cap)
+        mu[:, :C] = st.mu[:, :C]
+        P[:, :C] = st.P[:, :C]
+        anc[:, :C] = st.anc[:, :C]
+        return st.replace(mu=mu, P=P, anc=anc)
+
+    @staticmethod
+    def _storage(st: ParticleState) -> tuple[ParticleState, np.ndarray, np.ndarray, np.ndarray]:
+        """Views of the storage: (state, mu (2, cap, N), P (2, 2, cap, N), anc (N, cap)).
+
+        The reference keeps this layout (see :func:`faultlab.slam._units.empty_means`);
+        storage that a replaced unit re-allocated in another layout is copied into it once.
+        """
+        n, cap = st.mu.shape[:2]
+        mb = st.mu.transpose(2, 1, 0)
+        pb = st.P.transpose(2, 3, 1, 0)
+        ab = st.anc
+        if not (mb.flags.c_contiguous and pb.flags.c_contiguous and ab.flags.c_contiguous
+                and st.mu.dtype == np.float64 and st.P.dtype == np.float64 and st.anc.dtype == np.int32):
+            mu = _units.empty_means(n, cap)
+            P = _units.empty_covariances(n, cap)
+            anc = _units.initial_ancestry(n, cap)
+            mu[...] = st.mu
+            P[...] = st.P
+            anc[...] = st.anc
+            st = st.replace(mu=mu, P=P, anc=anc)
+            mb = st.mu.transpose(2, 1, 0)
+            pb = st.P.transpose(2, 3, 1, 0)
+            ab = st.anc
+        return st, mb, pb, ab
+
+    def _correct(self, st: ParticleState, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                 obs: Observations) -> tuple[ParticleState, np.ndarray]:
+        """Correction for the step's observations; updates the storage in place.
+
+        Returns the state (storage possibly re-laid out) and the normalised log weights.
+        Internally the (particle, observation) arrays are handled as (k, N) blocks
+        (the transpose of the units' (N, k) views), matching the storage layout.
+        """
+        steps, Q = self._steps, self._Q
+        st, mu_store, P_store, anc = self._storage(st)
+        n, cap = st.mu.shape[:2]
+        k = cols.size
+        # materialise pending resamplings (lineage -> identity), O(N C) ints, only after a resampling
+        if st.lineage is not self._ident:
+            C = st.n_landmarks
+            anc[:, :C] = anc[st.lineage, :C]
+            st = st.replace(lineage=self._ident)
+        z = np.stack([obs.ranges, obs.bearings], axis=1)
+        base = (cols * n)[:, None]
+        flat = anc[:, cols].T + base  # (k, N) positions in the flattened storage
+        mb = np.take(mu_store.reshape(2, cap * n), flat, axis=1)  # (2, k, N), a fresh copy
+        pb = np.take(P_store.reshape(4, cap * n), flat, axis=1).reshape(2, 2, k, n)
+        mu = mb.transpose(2, 1, 0)  # (N, k, 2) view
+        P = pb.transpose(3, 2, 0, 1)  # (N, k, 2, 2) view
+        new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
+        new_cols = np.flatnonzero(new.any(axis=0))
+        if new_cols.size:
+            # initialise where new (only the observations with at least one new pair)
+            mu_i, P_i = steps.init_landmarks(poses, z[new_cols], Q, wrap=steps.wrap_bearing)
+            mi = np.asarray(mu_i, dtype=float).transpose(2, 1, 0)
+            pi = np.asarray(P_i, dtype=float).transpose(2, 3, 1, 0)
+            m = new[:, new_cols].T
+            mb[:, new_cols] = np.where(m, mi, mb[:, new_cols])
+            pb[:, :, new_cols] = np.where(m, pi, pb[:, :, new_cols])
+        zhat, H = steps.predict_measurement(poses, mu)
+        nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+        S = steps.innovation_covariance(H, P, Q)
+        loglik = steps.log_likelihood(nu, S)
+        logw = np.asarray(steps.combine_weights(st.logw, loglik, ~new), dtype=float)
+        # normalise (log-sum-exp)
+        top = np.max(logw)
+        if not np.isfinite(top):
+            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
+        logw = logw - top
+        logw -= math.log(np.sum(np.exp(logw)))
+        mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
+        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, N)
+        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, N)
+        if new_cols.size:
+            # new pairs keep their initial values
+            mu_new = mu_new.copy()
+            P_new = P_new.copy()
+            m = new[:, new_cols].T
+            mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
+            P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
+        # write every particle's estimate of the observed columns into its own storage row
+        owner = st.owner
+        if owner is self._ident or np.array_equal(owner, self._ident):
+            mu_store[:, cols] = mu_new
+            P_store[:, :, cols] = P_new
+        else:
+            wflat = owner[None, :] + base
+            mu_store.reshape(2, cap * n)[:, wflat] = mu_new
+            P_store.reshape(4, cap * n)[:, wflat] = P_new.reshape(4, k, n)
+        anc[:, cols] = owner[:, None]
+        return st, logw
