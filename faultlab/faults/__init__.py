@@ -1,1 +1,67 @@
-"""faultlab.faults"""
+"""Fault registry: mutation-style faults that patch one unit of the reference FastSLAM.
+
+Built-in faults (the paper's three, Sec. VII-A, plus realistic particle-filter
+SLAM mistakes) live in :mod:`faultlab.faults.builtin`; third-party faults are
+discovered through the entry-point group ``faultlab.faults``
+(:func:`load_plugins`).  A fault is applied per SLAM instance
+(:meth:`Fault.apply` returns a new instance) and never leaks into the
+reference.  :func:`check_faults` flags equivalent mutants.
+
+>>> from faultlab.faults import get_fault                   # doctest: +SKIP
+>>> from faultlab.slam import FastSlam                      # doctest: +SKIP
+>>> faulty = get_fault("naive_resampling").apply(FastSlam())  # doctest: +SKIP
+"""
+
+from faultlab.faults.check import (
+    CheckStatus,
+    FaultCheck,
+    FaultCheckReport,
+    check_faults,
+    check_scenario,
+    unit_outputs,
+)
+from faultlab.faults.registry import (
+    BASELINE,
+    ENTRY_POINT_GROUP,
+    Fault,
+    FaultListing,
+    PluginFailure,
+    PluginReport,
+    PluginWarning,
+    UnitExample,
+    all_faults,
+    apply_faults,
+    builtin_faults,
+    get_fault,
+    list_faults,
+    load_plugins,
+    resolve_fault,
+    resolve_variant,
+    step_names,
+)
+
+__all__ = [
+    "BASELINE",
+    "ENTRY_POINT_GROUP",
+    "Fault",
+    "UnitExample",
+    "FaultListing",
+    "PluginFailure",
+    "PluginReport",
+    "PluginWarning",
+    "all_faults",
+    "apply_faults",
+    "builtin_faults",
+    "get_fault",
+    "list_faults",
+    "load_plugins",
+    "resolve_fault",
+    "resolve_variant",
+    "step_names",
+    "CheckStatus",
+    "FaultCheck",
+    "FaultCheckReport",
+    "check_faults",
+    "check_scenario",
+    "unit_outputs",
+]

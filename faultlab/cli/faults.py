@@ -1,0 +1,49 @@
+"""``python -m faultlab faults``: list every fault; ``--check`` runs the equivalent-mutant check."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["register"]
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "faults",
+        help="list the injectable faults (built-in and plugins); --check flags equivalent mutants",
+        description="List every fault (name, step, origin, description). With --check, run each fault "
+                    "against the reference FastSLAM on a small fixed scenario with fixed seeds and flag "
+                    "faults whose output is identical to the reference (equivalent mutants, which must "
+                    "not count in detection rates); the exit status is 1 if any fault is equivalent or a "
+                    "plugin failed to load.")
+    p.add_argument("names", nargs="*", metavar="FAULT",
+                   help="faults to check (names or module:attr import paths; default: all)")
+    p.add_argument("--check", action="store_true", help="run the equivalent-mutant check")
+    p.add_argument("--seed", type=int, default=0, help="seed of the check scenario and SLAM runs (default 0)")
+    p.add_argument("--seeds", type=int, default=2, metavar="N",
+                   help="SLAM repetitions per fault in the check (default 2)")
+    p.add_argument("--steps", type=int, default=None, metavar="N",
+                   help="active steps of the check scenario (default 300; inactivity comes on top)")
+    p.add_argument("--particles", type=int, default=None, metavar="N",
+                   help="particles of the FastSLAM in the check (default: FastSlamConfig default, 200)")
+    p.add_argument("--no-plugins", action="store_true", help="ignore third-party fault plugins")
+    p.add_argument("-v", "--verbose", action="store_true", help="show each fault's rationale and source")
+    p.set_defaults(func=_handler)
+
+
+def _handler(args: argparse.Namespace) -> int:
+    plugins = not args.no_plugins
+    if args.check:
+        from faultlab.faults.check import check_faults
+
+        report = check_faults(args.names or None, seed=args.seed, n_seeds=args.seeds, n_steps=args.steps,
+                              n_particles=args.particles, plugins=plugins)
+        print(report)
+        return 0 if report.ok else 1
+    from faultlab.faults.registry import list_faults
+
+    listing = list_faults(plugins=plugins)
+    if args.names:
+        listing = listing.select(args.names)
+    print(listing.format(verbose=args.verbose))
+    return 0

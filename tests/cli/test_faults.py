@@ -1,0 +1,63 @@
+"""``python -m faultlab faults`` lists every fault; ``--check`` exits non-zero on equivalent mutants."""
+
+import subprocess
+import sys
+
+from faultlab.cli import main
+from faultlab.faults import all_faults
+
+
+def test_faults_lists_every_fault_with_step_origin_and_description(capsys):
+    assert main(["faults"]) == 0
+    out = capsys.readouterr().out
+    faults = all_faults()
+    assert len(faults) >= 12
+    lines = out.splitlines()
+    for f in faults:
+        row = next((line for line in lines if line.split()[:1] == [f.name]), None)
+        assert row is not None, f"{f.name} not listed"
+        assert f.step in row and f.description in row
+        assert f"origin: {f.origin}" in out
+    assert "example/double_range_offset" in out  # the installed example plugin
+    assert f"{len(faults)} faults" in out
+
+
+def test_faults_verbose_shows_rationales(capsys):
+    assert main(["faults", "-v", "--no-plugins"]) == 0
+    out = capsys.readouterr().out
+    for f in all_faults(plugins=False):
+        assert f.rationale in out
+    assert "example/" not in out
+
+
+def test_faults_check_exit_status(capsys):
+    ok = main(["faults", "--check", "--steps", "30", "--particles", "20", "--seeds", "1",
+               "motion_sign_error", "missing_angle_wrap"])
+    out = capsys.readouterr().out
+    assert ok == 0 and "all 2 faults change the output" in out
+    bad = main(["faults", "--check", "--steps", "30", "--particles", "20", "--seeds", "1",
+                "motion_sign_error", "tests.faults.test_check:IDENTITY"])
+    out = capsys.readouterr().out
+    assert bad == 1
+    assert "EQUIVALENT" in out and "test/identity" in out
+
+
+def test_unknown_fault_is_a_clear_error(capsys):
+    assert main(["faults", "--check", "motion_sign_eror"]) == 1
+    err = capsys.readouterr().err
+    assert "unknown fault 'motion_sign_eror'" in err and "did you mean 'motion_sign_error'" in err
+
+
+def test_module_entry_point_runs():
+    proc = subprocess.run([sys.executable, "-m", "faultlab", "faults", "--no-plugins"], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "naive_resampling" in proc.stdout and "motion_sign_error" in proc.stdout
+
+
+def test_faults_lists_only_the_selected_faults(capsys):
+    assert main(["faults", "missing_angle_wrap", "tests.faults.test_check:IDENTITY", "-v"]) == 0
+    out = capsys.readouterr().out
+    assert "missing_angle_wrap  (step: wrap_bearing; built-in)" in out
+    assert "test/identity  (step: resample; import path)" in out
+    assert "naive_resampling" not in out and "2 faults" in out
