@@ -1,1 +1,69 @@
-"""faultlab.runner"""
+"""faultlab.runner: declarative experiments, a deterministic joblib runner and a crash-safe results store.
+
+>>> from faultlab.runner import load_experiment, run_experiment, load_results   # doctest: +SKIP
+>>> summary = run_experiment(load_experiment("experiments/paper.toml"), "results/paper")  # doctest: +SKIP
+>>> df = load_results("results/paper")                                         # doctest: +SKIP
+"""
+
+from faultlab.runner.execute import (
+    BACKENDS,
+    CaseInfo,
+    JobResult,
+    JobStatus,
+    RunSummary,
+    execute_job,
+    prepare_cases,
+    run_experiment,
+)
+from faultlab.runner.experiment import (
+    BASELINE,
+    METRICS,
+    SUITE_KINDS,
+    DetectionSpec,
+    Experiment,
+    SlamSpec,
+    SuiteSpec,
+    load_experiment,
+    parse_experiment,
+)
+from faultlab.runner.jobs import JobKey, JobSpec, case_seed, expand_jobs, slam_seed, suite_seed_sequence
+from faultlab.runner.store import (
+    RESULT_COLUMNS,
+    ResultStore,
+    case_path,
+    load_metadata,
+    load_results,
+    results_path,
+)
+
+__all__ = [
+    "Experiment",
+    "SuiteSpec",
+    "SlamSpec",
+    "DetectionSpec",
+    "SUITE_KINDS",
+    "METRICS",
+    "BASELINE",
+    "BACKENDS",
+    "load_experiment",
+    "parse_experiment",
+    "JobKey",
+    "JobSpec",
+    "JobStatus",
+    "JobResult",
+    "CaseInfo",
+    "RunSummary",
+    "expand_jobs",
+    "case_seed",
+    "slam_seed",
+    "suite_seed_sequence",
+    "execute_job",
+    "prepare_cases",
+    "run_experiment",
+    "RESULT_COLUMNS",
+    "ResultStore",
+    "load_results",
+    "load_metadata",
+    "case_path",
+    "results_path",
+]

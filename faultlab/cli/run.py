@@ -1,0 +1,38 @@
+"""``python -m faultlab run EXPERIMENT --out DIR``: run or resume a campaign."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["register", "handler"]
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "run", help="run (or resume) an experiment file",
+        description="Run the jobs of an experiment file and store one row per job in OUT/results.sqlite. "
+                    "Rerunning the same command resumes: only missing jobs run.")
+    p.add_argument("experiment", help="experiment TOML file, e.g. experiments/paper.toml")
+    p.add_argument("--out", default=None,
+                   help="output directory (default: results/<experiment file name without .toml>)")
+    p.add_argument("--jobs", type=int, default=2, help="worker processes (default: 2)")
+    p.add_argument("--backend", default="loky", choices=("loky", "threading", "dask", "ray"),
+                   help="joblib backend (default: loky; dask and ray are optional extras)")
+    p.add_argument("--force-new", action="store_true",
+                   help="start afresh: move existing results in OUT to OUT/previous-<time>/ (needed when "
+                        "the experiment file changed)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=handler)
+
+
+def handler(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from faultlab.runner import run_experiment
+
+    out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
+    summary = run_experiment(args.experiment, out, jobs=args.jobs, backend=args.backend,
+                             force_new=args.force_new, progress=not args.no_progress)
+    print(f"results: {summary.results}")
+    print(summary)
+    return 0

@@ -1,0 +1,518 @@
+"""Running a campaign: test cases, jobs on joblib workers, streaming into the store.
+
+The parent process generates every test case once per (run, suite) and saves
+it under ``out/cases`` *before* dispatching (as in the paper, all variants see
+the same cases).  Each job then receives a small :class:`~faultlab.runner.jobs.JobSpec`
+and loads its case itself.  Results stream back with joblib's
+``return_as="generator_unordered"`` and are committed to SQLite one row at a
+time, so a killed run loses only the jobs in flight and a rerun resumes.
+
+Faults in the SLAM under test never stop the campaign: an exception or a
+non-finite estimate is recorded as ``crash`` (with ``"Type: message"``), a SLAM
+past ``timeout_s`` is stopped and recorded as ``timeout``.  The limit is
+enforced with ``SIGALRM`` (``signal.setitimer``) when the job runs in a
+process's main thread (loky workers, ``jobs=1``), which also stops a SLAM stuck
+in a Python loop or a sleep; elsewhere (threads, dask workers) a cooperative
+deadline check between SLAM steps is the fallback.  A loky worker that dies
+(segfault, ``os._exit``, out of memory) is detected, its in-flight jobs are
+rerun one by one in a fresh worker, and the job that kills its worker again is
+recorded as ``crash``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import signal
+import sys
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+from typing import Iterator, Mapping
+
+import numpy as np
+
+from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
+from faultlab.runner.experiment import Experiment, load_experiment, resolve_variant
+from faultlab.runner.jobs import JobKey, JobSpec, case_seed, expand_jobs, suite_seed_sequence
+from faultlab.runner.store import ID_COLUMNS, ResultStore, case_path, store_lock
+from faultlab.slam.protocol import Estimate, SlamAdapter, run_slam
+from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS, CaseSpec
+
+__all__ = [
+    "JobStatus",
+    "JobResult",
+    "CaseInfo",
+    "RunSummary",
+    "BACKENDS",
+    "execute_job",
+    "prepare_cases",
+    "run_experiment",
+]
+
+#: Accepted ``backend`` names (joblib backends; dask and ray are optional extras).
+BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")
+
+
+class JobStatus(StrEnum):
+    """Outcome of one job's SLAM execution."""
+
+    OK = "ok"
+    CRASH = "crash"
+    TIMEOUT = "timeout"
+
+
+@dataclass(frozen=True)
+class JobResult:
+    """What a worker sends back for one job (the parent adds the case's parameters).
+
+    ``rms_mm``/``emd_mm`` are NaN and the counts 0 unless ``status`` is ok;
+    ``error`` is "" when ok.
+    """
+
+    key: JobKey
+    status: JobStatus
+    rms_mm: float = math.nan
+    emd_mm: float = math.nan
+    n_mapped: int = 0
+    n_unmapped: int = 0
+    runtime_s: float = 0.0
+    error: str = ""
+
+
+@dataclass(frozen=True)
+class CaseInfo:
+    """A prepared test case: identity, saved path, parameters and a cost estimate."""
+
+    run: int
+    suite: str
+    case: int
+    path: Path
+    values: Mapping[str, float | str]
+    classes: Mapping[str, int]
+    n_landmarks: int
+    cost: float
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """Result of :func:`run_experiment`.
+
+    Attributes
+    ----------
+    out : Path
+        Output directory.
+    results : Path
+        The SQLite store (read it with :func:`faultlab.runner.load_results`).
+    n_jobs : int
+        Jobs of the experiment.
+    counts : mapping
+        Rows per status (ok, crash, timeout) in the whole store.
+    n_new : int
+        Jobs executed by this call.
+    n_skipped : int
+        Jobs already in the store (resumed runs).
+    wall_time_s : float
+        Wall time of this call, s.
+    """
+
+    out: Path
+    results: Path
+    n_jobs: int
+    counts: Mapping[str, int]
+    n_new: int
+    n_skipped: int
+    wall_time_s: float
+    experiment_hash: str = ""
+
+    @property
+    def complete(self) -> bool:
+        return sum(self.counts.values()) == self.n_jobs
+
+    def __str__(self) -> str:
+        counts = ", ".join(f"{self.counts.get(s.value, 0)} {s.value}" for s in JobStatus)
+        return (f"{self.n_jobs} jobs: {counts} ({self.n_new} run now, {self.n_skipped} already done); "
+                f"wall time {_fmt_seconds(self.wall_time_s)}")
+
+
+def _fmt_seconds(s: float) -> str:
+    if s < 60:
+        return f"{s:.1f} s"
+    m, s = divmod(int(round(s)), 60)
+    return f"{m} min {s} s" if m < 60 else f"{m // 60} h {m % 60} min {s} s"
+
+
+# ------------------------------------------------------------------ worker side
+class _JobTimeout(BaseException):
+    """Raised inside a job past its wall-clock limit (BaseException: a SUT's ``except Exception`` can't eat it)."""
+
+
+class _Guarded(SlamAdapter):
+    """Wraps the SUT: checks the job's deadline before every step (cooperative timeout)."""
+
+    def __init__(self, inner: SlamAdapter, deadline: float):
+        self.inner = inner
+        self.deadline = deadline
+        self.name = getattr(inner, "name", type(inner).__name__)
+
+    def _check(self) -> None:
+        if time.monotonic() > self.deadline:
+            raise _JobTimeout()
+
+    def reset(self, pose, *, rng):
+        self._check()
+        self.inner.reset(pose, rng=rng)
+
+    def update(self, control, observations):
+        self._check()
+        self.inner.step(control, observations)
+
+    def estimate(self) -> Estimate:
+        self._check()
+        return self.inner.estimate()
+
+
+@contextlib.contextmanager
+def _alarm(seconds: float) -> Iterator[bool]:
+    """Raise :class:`_JobTimeout` after ``seconds`` via SIGALRM, if this is a main thread on POSIX.
+
+    Yields whether the alarm is armed.
+    """
+    usable = hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+    if not usable:
+        yield False
+        return
+    armed = [True]
+
+    def handler(signum, frame):
+        if armed[0]:
+            raise _JobTimeout()
+
+    previous = signal.signal(signal.SIGALRM, handler)
+    signal.setitimer(signal.ITIMER_REAL, max(float(seconds), 1e-3))
+    try:
+        yield True
+    finally:
+        try:
+            armed[0] = False
+        finally:  # restored even if the alarm fires right here
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+
+
+def _describe(exc: BaseException) -> str:
+    """``"Type: message (at file.py:line in func)"`` with the innermost frame."""
+    text = f"{type(exc).__name__}: {exc}"
+    tb = traceback.extract_tb(exc.__traceback__)
+    if tb:
+        fr = tb[-1]
+        text += f" (at {os.path.basename(fr.filename)}:{fr.lineno} in {fr.name})"
+    return text
+
+
+def execute_job(spec: JobSpec) -> JobResult:
+    """Run one job: load its case, build the SLAM (+ fault), drive it, score the map.
+
+    SUT failures become ``crash``/``timeout`` results; only infrastructure
+    errors (e.g. a missing case file) raise.
+    """
+    from faultlab.faults import resolve_variant as _resolve
+    from faultlab.metrics import map_errors
+    from faultlab.scenario.model import load_scenario
+
+    scenario = load_scenario(spec.case_path)
+    t0 = time.perf_counter()
+    try:
+        try:
+            with _alarm(spec.timeout_s):
+                deadline = time.monotonic() + spec.timeout_s
+                slam = spec.slam.build()
+                fault = _resolve(spec.key.variant)
+                if fault is not None:
+                    slam = fault.apply(slam)
+                with np.errstate(all="ignore"):  # a NaN estimate is reported as a crash row, not as warnings
+                    estimate = run_slam(_Guarded(slam, deadline), scenario,
+                                        rng=np.random.default_rng(spec.seed))
+        finally:
+            runtime = time.perf_counter() - t0
+    except _JobTimeout:
+        return JobResult(spec.key, JobStatus.TIMEOUT, runtime_s=runtime,
+                         error=f"timeout: wall-clock limit of {spec.timeout_s:g} s exceeded")
+    except (Exception, SystemExit) as exc:  # the SUT's fault, never the campaign's
+        return JobResult(spec.key, JobStatus.CRASH, runtime_s=runtime, error=_describe(exc))
+    try:
+        with np.errstate(all="ignore"):
+            err = map_errors(scenario, estimate)
+    except Exception as exc:  # e.g. an estimate the metrics cannot score
+        return JobResult(spec.key, JobStatus.CRASH, runtime_s=runtime, error=f"metrics: {_describe(exc)}")
+    return JobResult(spec.key, JobStatus.OK, rms_mm=float(err.rms_mm), emd_mm=float(err.emd_mm),
+                     n_mapped=int(err.n_mapped), n_unmapped=int(err.n_unmapped), runtime_s=runtime)
+
+
+def _worker_died(spec: JobSpec, exc: BaseException) -> JobResult:
+    return JobResult(spec.key, JobStatus.CRASH,
+                     error=f"WorkerDied: the worker process running this job died "
+                           f"(segfault, os._exit or out of memory): {type(exc).__name__}")
+
+
+def _find_killer(suspects: list[JobSpec]) -> tuple[list[JobResult], list[JobSpec]]:
+    """Run suspects one at a time in a private single-worker pool until one kills its worker.
+
+    Returns the results obtained (the killer recorded as ``crash``) and the
+    suspects not run yet, which go back to the parallel pool.
+    """
+    from joblib.externals.loky.process_executor import BrokenProcessPool, ProcessPoolExecutor
+
+    results: list[JobResult] = []
+    executor = ProcessPoolExecutor(max_workers=1)  # private: joblib's reusable executor stays untouched
+    try:
+        for i, spec in enumerate(suspects):
+            try:
+                results.append(executor.submit(execute_job, spec).result())
+            except BrokenProcessPool as exc:
+                results.append(_worker_died(spec, exc))
+                return results, suspects[i + 1:]
+    finally:
+        executor.shutdown(wait=True)
+    return results, []
+
+
+# ------------------------------------------------------------------ parent side
+def prepare_cases(experiment: Experiment, out: str | Path) -> list[CaseInfo]:
+    """Generate and save every test case of ``experiment`` (idempotent).
+
+    Suites are built from :func:`~faultlab.runner.jobs.suite_seed_sequence`, each
+    case generated from its own :func:`~faultlab.runner.jobs.case_seed`.  A case
+    already on disk is loaded and checked against the experiment (seed and
+    parameter values) instead of being regenerated.
+
+    Raises
+    ------
+    ResultsError
+        If a saved case belongs to another experiment.
+    """
+    from faultlab.scenario import generate_scenario
+    from faultlab.scenario.model import load_scenario, save_scenario
+    from faultlab.space import build_suite
+
+    space = experiment.parameter_space()
+    infos: list[CaseInfo] = []
+    for run in range(1, experiment.runs + 1):
+        for suite in experiment.suites:
+            rng = np.random.default_rng(suite_seed_sequence(experiment.seed, run, suite.kind))
+            specs: list[CaseSpec] = build_suite(suite.kind, space, rng=rng, n_cases=suite.n_cases)
+            for c, spec in enumerate(specs, start=1):
+                seed = case_seed(experiment.seed, run, suite.kind, c)
+                path = case_path(out, run, suite.kind, c)
+                scenario = None
+                if path.exists():
+                    try:
+                        scenario = load_scenario(path)
+                    except ScenarioError:
+                        scenario = None  # half-written by a killed run: regenerate
+                    if scenario is not None and (scenario.seed != seed or dict(scenario.case.values) != dict(spec.values)):
+                        raise ResultsError(f"saved test case {path} does not match {experiment.source} "
+                                           f"(seed or parameter values differ); use --force-new")
+                if scenario is None:
+                    scenario = generate_scenario(spec, rng=np.random.default_rng(seed), n_steps=experiment.n_steps,
+                                                 sensor_range=experiment.sensor_range,
+                                                 min_distance=experiment.min_distance, seed=seed)
+                    save_scenario(scenario, path)
+                n_lm = int(scenario.landmarks.shape[0])
+                n_obs = int(scenario.obs_offsets[-1])
+                cost = scenario.n_steps * (1.0 + n_lm / 64.0) + n_obs
+                infos.append(CaseInfo(run=run, suite=suite.kind, case=c, path=path, values=dict(spec.values),
+                                      classes={p: int(spec.classes.get(p, -1)) for p in PARAMETER_NAMES},
+                                      n_landmarks=n_lm, cost=cost))
+    return infos
+
+
+def _preflight(experiment: Experiment) -> None:
+    """Build the SUT and apply every fault once in the parent: configuration errors fail fast."""
+    try:
+        slam = experiment.slam.build()
+    except FaultlabError:
+        raise
+    except Exception as exc:
+        raise ConfigError(f"{experiment.source}: [slam] {experiment.slam.name!r} cannot be built "
+                          f"({type(exc).__name__}: {exc})") from exc
+    if not isinstance(slam, SlamAdapter):
+        raise ConfigError(f"{experiment.source}: [slam] {experiment.slam.name!r} built a "
+                          f"{type(slam).__name__}, not a SlamAdapter")
+    for i, variant in enumerate(experiment.variants):
+        fault = resolve_variant(variant, where=f"{experiment.source}: variants[{i}]")
+        if fault is None:
+            continue
+        try:
+            fault.apply(slam)
+        except FaultlabError as exc:
+            raise ConfigError(f"{experiment.source}: variants[{i}] = {variant!r} cannot be applied to "
+                              f"slam {experiment.slam.name!r}: {exc}") from exc
+
+
+@contextlib.contextmanager
+def _backend(name: str, jobs: int) -> Iterator[tuple[str, int]]:
+    """Set up a joblib backend; yields (joblib backend name, n_jobs)."""
+    if name in ("loky", "threading"):
+        yield name, jobs
+    elif name == "dask":
+        try:
+            import dask
+            from distributed import Client, LocalCluster, get_client
+        except ImportError as exc:
+            raise ConfigError("backend 'dask' needs dask.distributed: pip install 'faultlab[dask]'") from exc
+        try:
+            get_client()
+            owned = None
+        except ValueError:  # no client yet: connect to a configured scheduler, or start a local one
+            address = dask.config.get("scheduler-address", None)
+            if address:
+                owned = (Client(address), None)
+            else:
+                cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
+                                       dashboard_address=None)
+                owned = (Client(cluster), cluster)
+        try:
+            yield "dask", -1
+        finally:
+            if owned is not None:
+                owned[0].close()
+                if owned[1] is not None:
+                    owned[1].close()
+    elif name == "ray":
+        try:
+            from ray.util.joblib import register_ray
+        except ImportError as exc:
+            raise ConfigError("backend 'ray' needs ray: pip install 'faultlab[ray]'") from exc
+        register_ray()
+        yield "ray", jobs
+    else:
+        raise ConfigError(f"unknown backend {name!r}; use one of {', '.join(BACKENDS)}")
+
+
+def _stream(todo: list[JobSpec], *, jobs: int, backend: str) -> Iterator[JobResult]:
+    """Execute ``todo`` and yield results as they finish (any order)."""
+    from joblib import Parallel, delayed, parallel_config
+    from joblib.externals.loky.process_executor import BrokenProcessPool
+
+    pending = list(todo)
+    while pending:
+        dispatched: set[JobKey] = set()
+        returned: set[JobKey] = set()
+
+        def tasks(specs: list[JobSpec]):
+            for s in specs:
+                dispatched.add(s.key)
+                yield delayed(execute_job)(s)
+
+        try:
+            with _backend(backend, jobs) as (name, n_jobs), parallel_config(backend=name, n_jobs=n_jobs):
+                parallel = Parallel(return_as="generator_unordered", batch_size=1)
+                for result in parallel(tasks(pending)):
+                    returned.add(result.key)
+                    yield result
+            return
+        except BrokenProcessPool:
+            if backend != "loky":
+                raise
+            # A worker died. Jobs in flight are suspects: rerun each alone; a repeat kill is a crash.
+            suspects = [s for s in pending if s.key in dispatched and s.key not in returned]
+            results, innocent = _find_killer(suspects)
+            yield from results
+            pending = innocent + [s for s in pending if s.key not in dispatched]
+
+
+def _row(case: CaseInfo, res: JobResult) -> dict:
+    row: dict = dict(zip(ID_COLUMNS, res.key.astuple()))
+    for k in VALUE_KEYS:
+        v = case.values[k]
+        row[k] = str(v) if k == "directionality" else float(v)
+    for p in PARAMETER_NAMES:
+        row[f"class_{p}"] = int(case.classes.get(p, -1))
+    row["n_landmarks"] = case.n_landmarks
+    ok = res.status == JobStatus.OK
+    row.update(rms_mm=res.rms_mm if ok else math.nan, emd_mm=res.emd_mm if ok else math.nan,
+               n_mapped=res.n_mapped if ok else 0, n_unmapped=res.n_unmapped if ok else 0,
+               runtime_s=float(res.runtime_s), status=str(res.status.value), error="" if ok else res.error)
+    return row
+
+
+def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
+                   backend: str = "loky", force_new: bool = False, progress: bool = True) -> RunSummary:
+    """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
+
+    Parameters
+    ----------
+    experiment : Experiment or path
+        The experiment (a path is loaded with :func:`load_experiment`).
+    out : path
+        Output directory (created).  Rerunning the same call resumes: only jobs
+        missing from the store are executed.
+    jobs : int
+        Worker processes (joblib ``n_jobs``); ignored by ``dask`` (the cluster decides).
+    backend : {"loky", "threading", "dask", "ray"}
+        joblib backend.  ``dask`` uses the current dask.distributed client, else
+        the scheduler in dask's ``scheduler-address`` config, else a local
+        cluster of ``jobs`` processes; workers need the output directory on a
+        shared file system.  ``ray`` uses ``ray.util.joblib``.
+    force_new : bool
+        Start afresh: move existing results and cases to ``out/previous-<time>/``
+        (never deleted).  Without it, ``out`` holding another experiment's
+        results is an error.
+    progress : bool
+        Show a tqdm progress bar (on a terminal).
+
+    Returns
+    -------
+    RunSummary
+
+    Raises
+    ------
+    ConfigError
+        Bad experiment, backend or ``jobs``.
+    ResultsError
+        ``out`` belongs to another experiment (without ``force_new``) or is in use.
+    """
+    if not isinstance(experiment, Experiment):
+        experiment = load_experiment(experiment)
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ConfigError(f"jobs must be an integer >= 1, got {jobs!r}")
+    if backend not in BACKENDS:
+        raise ConfigError(f"unknown backend {backend!r}; use one of {', '.join(BACKENDS)}")
+    t0 = time.perf_counter()
+    out = Path(out)
+    _preflight(experiment)
+    with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
+        cases = prepare_cases(experiment, out)
+        info = {(c.run, c.suite, c.case): c for c in cases}
+        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases))
+        done = store.done_keys()
+        todo = [s for s in specs if s.key.astuple() not in done]
+        todo.sort(key=lambda s: (-s.cost, s.key))  # longest first: shorter tail on few workers
+        counts = {s.value: 0 for s in JobStatus} | store.status_counts()
+        session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
+        n_new, state = 0, "interrupted"
+        try:
+            from tqdm.auto import tqdm
+
+            with tqdm(total=len(specs), initial=len(specs) - len(todo), unit="job", desc="faultlab run",
+                      disable=None if progress else True, file=sys.stderr, dynamic_ncols=True) as bar:
+                bar.set_postfix(crash=counts["crash"], timeout=counts["timeout"], refresh=False)
+                for res in _stream(todo, jobs=jobs, backend=backend):
+                    k = res.key
+                    store.write(_row(info[(k.run, k.suite, k.case)], res), session=session)
+                    n_new += 1
+                    counts[res.status.value] = counts.get(res.status.value, 0) + 1
+                    bar.set_postfix(crash=counts["crash"], timeout=counts["timeout"], refresh=False)
+                    bar.update(1)
+            state = "complete"
+        finally:
+            store.end_session(session, state=state, n_new=n_new, wall_time_s=time.perf_counter() - t0)
+        counts = {s.value: 0 for s in JobStatus} | store.status_counts()
+        return RunSummary(out=out, results=store.path, n_jobs=len(specs), counts=counts, n_new=n_new,
+                          n_skipped=len(specs) - len(todo), wall_time_s=time.perf_counter() - t0,
+                          experiment_hash=experiment.hash)

@@ -1,0 +1,110 @@
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from faultlab.cli import main
+from faultlab.runner import load_metadata, load_results, run_experiment
+from tests.runner.suts import write_experiment
+
+ROOT = Path(__file__).resolve().parents[2]
+SUTS = "tests.runner.suts"
+
+
+def _count_rows(db: Path) -> int:
+    if not db.exists():
+        return 0
+    conn = sqlite3.connect(db, timeout=5.0)
+    try:
+        return conn.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+    except sqlite3.OperationalError:  # table not created yet
+        return 0
+    finally:
+        conn.close()
+
+
+def test_run_prints_location_and_summary(tmp_path, capsys):
+    exp = write_experiment(tmp_path / "e.toml", runs=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert f"results: {out / 'results.sqlite'}" in text
+    assert "12 jobs: 12 ok, 0 crash, 0 timeout (12 run now, 0 already done); wall time" in text
+    assert len(load_results(out)) == 12
+    # rerun: nothing left to do
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    assert "(0 run now, 12 already done)" in capsys.readouterr().out
+
+
+def test_run_refuses_malformed_and_changed_files(tmp_path, capsys):
+    bad = write_experiment(tmp_path / "bad.toml", variants=["baseline", "no_such_fault"])
+    assert main(["run", str(bad), "--out", str(tmp_path / "bad_out"), "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert "faultlab: error:" in err and "variants[1] = 'no_such_fault'" in err
+    assert not (tmp_path / "bad_out").exists()
+
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"fixed": 1})
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    write_experiment(exp, runs=1, suites={"fixed": 1}, seed=12)
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert "different experiment" in err and "changed: seed" in err and "--force-new" in err
+    assert load_metadata(out)["root_seed"] == 11
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress", "--force-new"]) == 0
+    assert load_metadata(out)["root_seed"] == 12
+    assert len(list(out.glob("previous-*"))) == 1
+
+
+@pytest.mark.slow
+def test_kill_and_resume(tmp_path):
+    """SIGKILL a running campaign, resume it: every job exactly once, finished rows unchanged."""
+    exp = write_experiment(tmp_path / "e.toml", runs=1, repetitions=3, n_steps=40,
+                           slam={"name": f"{SUTS}:make_tiny", "options": {"noise": 0.02, "delay": 0.005}})
+    out = tmp_path / "out"
+    db = out / "results.sqlite"
+    total = 3 * 2 * 3
+    proc = subprocess.Popen([sys.executable, "-m", "faultlab", "run", str(exp), "--out", str(out), "--jobs", "2",
+                             "--no-progress"], cwd=ROOT, start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while _count_rows(db) < 2 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)  # the run and its worker processes
+        proc.wait(timeout=60)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()
+    before = load_results(out)
+    assert 2 <= len(before) < total  # killed mid-run
+    assert load_metadata(out)["sessions"][0]["state"] == "killed"
+
+    summary = run_experiment(exp, out, jobs=2, progress=False)
+    after = load_results(out)
+    assert summary.n_skipped == len(before) and summary.n_new == total - len(before)
+    assert len(after) == total
+    assert not after.duplicated(["run", "suite", "case", "variant", "rep"]).any()
+    assert (after.status == "ok").all()
+    # rows finished before the kill are byte-for-byte the same (runtime included)
+    merged = before.merge(after, on=["run", "suite", "case", "variant", "rep"], suffixes=("", "_after"),
+                          validate="one_to_one")
+    assert len(merged) == len(before)
+    for col in before.columns.drop(["run", "suite", "case", "variant", "rep"]):
+        pd.testing.assert_series_equal(merged[col], merged[f"{col}_after"], check_names=False)
+
+
+def test_bad_options(tmp_path, capsys):
+    exp = write_experiment(tmp_path / "e.toml")
+    assert main(["run", str(exp), "--out", str(tmp_path / "out"), "--no-progress", "--jobs", "0"]) == 1
+    assert "jobs must be an integer >= 1" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # argparse rejects an unknown backend
+        main(["run", str(exp), "--out", str(tmp_path / "out"), "--backend", "spark"])
+    assert not (tmp_path / "out").exists()

@@ -1,0 +1,257 @@
+import json
+import math
+import signal
+import sqlite3
+import threading
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from faultlab.errors import ConfigError, ResultsError
+from faultlab.runner import (
+    JobStatus,
+    case_path,
+    load_experiment,
+    load_metadata,
+    load_results,
+    prepare_cases,
+    run_experiment,
+)
+from faultlab.runner.execute import _alarm, execute_job
+from faultlab.runner.jobs import JobKey, JobSpec, case_seed, expand_jobs, slam_seed, suite_seed_sequence
+from faultlab.scenario import generate_scenario, load_scenario
+from faultlab.space import build_suite
+from tests.runner.suts import write_experiment
+
+SUTS = "tests.runner.suts"
+
+
+def _without_runtime(df: pd.DataFrame) -> pd.DataFrame:
+    return df.drop(columns=["runtime_s"])
+
+
+def _one_case(**kw):
+    base = dict(runs=1, suites={"random": 1}, repetitions=1)
+    base.update(kw)
+    return base
+
+
+def test_crash_nan_and_hang_are_recorded_while_others_finish(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", **_one_case(
+        variants=["baseline", f"{SUTS}:CRASH", f"{SUTS}:NAN", f"{SUTS}:HANG", f"{SUTS}:STUBBORN", f"{SUTS}:BIAS"],
+        timeout_s=2.0))
+    summary = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
+    df = load_results(tmp_path / "out").set_index("variant")
+    status = df.status.to_dict()
+    assert status == {"baseline": "ok", f"{SUTS}:CRASH": "crash", f"{SUTS}:NAN": "crash",
+                      f"{SUTS}:HANG": "timeout", f"{SUTS}:STUBBORN": "timeout", f"{SUTS}:BIAS": "ok"}
+    assert df.loc[f"{SUTS}:CRASH", "error"].startswith("ZeroDivisionError: injected crash")
+    assert df.loc[f"{SUTS}:NAN", "error"].startswith("SlamOutputError:")
+    assert "not finite" in df.loc[f"{SUTS}:NAN", "error"]
+    assert df.loc[f"{SUTS}:HANG", "error"] == "timeout: wall-clock limit of 2 s exceeded"
+    # a hung job is stopped near its limit, not after the SUT's one-minute loop
+    assert df.loc[f"{SUTS}:HANG", "runtime_s"] < 30
+    for v in (f"{SUTS}:CRASH", f"{SUTS}:NAN", f"{SUTS}:HANG"):
+        assert math.isnan(df.loc[v, "rms_mm"]) and math.isnan(df.loc[v, "emd_mm"])
+    for v in ("baseline", f"{SUTS}:BIAS"):
+        assert np.isfinite(df.loc[v, "rms_mm"]) and df.loc[v, "error"] == ""
+        assert df.loc[v, "n_mapped"] + df.loc[v, "n_unmapped"] == df.loc[v, "n_landmarks"]
+    assert summary.counts == {"ok": 2, "crash": 2, "timeout": 2}
+    assert summary.n_jobs == 6 and summary.n_new == 6 and summary.complete
+    assert "6 jobs: 2 ok, 2 crash, 2 timeout" in str(summary)
+
+
+def test_cooperative_deadline_stops_a_slow_sut_in_a_thread(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", **_one_case(variants=["baseline", f"{SUTS}:SLOW"],
+                                                            timeout_s=0.5, n_steps=40))
+    run_experiment(exp, tmp_path / "out", jobs=2, backend="threading", progress=False)
+    df = load_results(tmp_path / "out").set_index("variant")
+    assert df.loc[f"{SUTS}:SLOW", "status"] == "timeout"  # 40 steps x 50 ms > 0.5 s, no SIGALRM in threads
+    assert df.loc["baseline", "status"] == "ok"
+
+
+def test_alarm_only_in_main_thread():
+    seen = []
+    t = threading.Thread(target=lambda: seen.append(_alarm(1.0).__enter__()))
+    t.start()
+    t.join()
+    assert seen == [False]
+    before = signal.getsignal(signal.SIGALRM)
+    with _alarm(5.0) as armed:
+        assert armed and signal.getitimer(signal.ITIMER_REAL)[0] > 0
+    assert signal.getsignal(signal.SIGALRM) is before and signal.getitimer(signal.ITIMER_REAL)[0] == 0
+
+
+def test_execute_job_in_process_times_out_a_busy_loop(tmp_path):
+    """SIGALRM stops a SUT stuck in a pure-Python loop inside one step (main thread)."""
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", **_one_case(timeout_s=0.5)))
+    (info,) = prepare_cases(exp, tmp_path)
+    key = JobKey(1, "random", 1, f"{SUTS}:HANG", 0)
+    spec = JobSpec(key, str(info.path), exp.slam, seed=1, timeout_s=0.5)
+    res = execute_job(spec)
+    assert res.status == JobStatus.TIMEOUT and 0.4 < res.runtime_s < 30
+    ok = execute_job(JobSpec(JobKey(1, "random", 1, "baseline", 0), str(info.path), exp.slam, seed=1,
+                             timeout_s=30.0))
+    assert ok.status == JobStatus.OK and ok.error == "" and np.isfinite(ok.rms_mm)
+
+
+def test_worker_death_is_recorded_as_crash(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", **_one_case(variants=["baseline", f"{SUTS}:EXIT"]))
+    summary = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
+    df = load_results(tmp_path / "out").set_index("variant")
+    assert df.loc[f"{SUTS}:EXIT", "status"] == "crash"
+    assert df.loc[f"{SUTS}:EXIT", "error"].startswith("WorkerDied:")
+    assert df.loc["baseline", "status"] == "ok"
+    assert summary.n_jobs == 2 and summary.complete
+
+
+def test_common_random_numbers_across_variants(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", variants=["baseline", f"{SUTS}:IDENTITY", f"{SUTS}:BIAS"],
+                           repetitions=3, runs=1, suites={"random": 2})
+    run_experiment(exp, tmp_path / "out", jobs=1, progress=False)
+    df = load_results(tmp_path / "out")
+    ids = ["run", "suite", "case", "rep"]
+    base = df[df.variant == "baseline"].set_index(ids)
+    same = df[df.variant == f"{SUTS}:IDENTITY"].set_index(ids)
+    bias = df[df.variant == f"{SUTS}:BIAS"].set_index(ids)
+    # a fault that changes nothing gives bit-identical errors: the SLAM seed depends on (case, rep) only
+    np.testing.assert_array_equal(same.rms_mm.to_numpy(), base.rms_mm.to_numpy())
+    assert not np.array_equal(bias.rms_mm.to_numpy(), base.rms_mm.to_numpy())
+    # ... and the repetitions do use different seeds
+    assert base.groupby(level=["suite", "case"]).rms_mm.nunique().min() == 3
+
+
+def _small_fastslam(tmp_path):
+    return write_experiment(
+        tmp_path / "fs.toml", runs=1, n_steps=50, repetitions=2, timeout_s=300.0,
+        variants=["baseline", "missing_angle_wrap"], suites={"random": 2, "fixed": 1},
+        slam={"name": "fastslam", "particles": 10})
+
+
+@pytest.mark.slow
+def test_results_identical_across_jobs_and_resume(tmp_path):
+    exp = _small_fastslam(tmp_path)
+    s2 = run_experiment(exp, tmp_path / "two", jobs=2, progress=False)
+    s1 = run_experiment(exp, tmp_path / "one", jobs=1, progress=False)
+    assert s1.n_jobs == s2.n_jobs == 3 * 2 * 2
+    a, b = load_results(tmp_path / "two"), load_results(tmp_path / "one")
+    assert (a.status == "ok").all()
+    pd.testing.assert_frame_equal(_without_runtime(a), _without_runtime(b), check_exact=True)
+    for run, suite, case in a[["run", "suite", "case"]].drop_duplicates().itertuples(index=False):
+        x = load_scenario(case_path(tmp_path / "two", run, suite, case))
+        y = load_scenario(case_path(tmp_path / "one", run, suite, case))
+        np.testing.assert_array_equal(x.landmarks, y.landmarks)
+        np.testing.assert_array_equal(x.controls, y.controls)
+
+    # lose some rows (as if killed), resume: only those run again, and the table is unchanged
+    conn = sqlite3.connect(tmp_path / "two" / "results.sqlite")
+    with conn:
+        conn.execute("DELETE FROM results WHERE rep = 1 OR \"case\" = 2")
+    conn.close()
+    kept = load_results(tmp_path / "two")
+    again = run_experiment(exp, tmp_path / "two", jobs=2, progress=False)
+    assert again.n_new == len(a) - len(kept) and again.n_skipped == len(kept)
+    c = load_results(tmp_path / "two")
+    pd.testing.assert_frame_equal(_without_runtime(c), _without_runtime(a), check_exact=True)
+    # rows that were kept are untouched (runtime included)
+    merged = kept.merge(c, on=["run", "suite", "case", "variant", "rep"], suffixes=("", "_after"))
+    np.testing.assert_array_equal(merged.runtime_s.to_numpy(), merged.runtime_s_after.to_numpy())
+    # a third run has nothing to do
+    assert run_experiment(exp, tmp_path / "two", jobs=2, progress=False).n_new == 0
+    assert [s["n_new"] for s in load_metadata(tmp_path / "two")["sessions"]] == [12, again.n_new, 0]
+
+
+def test_prepare_cases_reproducible_idempotent_and_verified(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", runs=2))
+    infos = prepare_cases(exp, tmp_path / "out")
+    assert [(i.run, i.suite, i.case) for i in infos] == [
+        (r, s, c) for r in (1, 2) for s, n in (("random", 2), ("fixed", 1)) for c in range(1, n + 1)]
+    # independent reconstruction of one case from the documented seeds
+    specs = build_suite("random", exp.parameter_space(), rng=np.random.default_rng(
+        suite_seed_sequence(exp.seed, 2, "random")), n_cases=2)
+    seed = case_seed(exp.seed, 2, "random", 2)
+    ref = generate_scenario(specs[1], rng=np.random.default_rng(seed), n_steps=exp.n_steps,
+                            sensor_range=exp.sensor_range, seed=seed)
+    saved = load_scenario(case_path(tmp_path / "out", 2, "random", 2))
+    np.testing.assert_array_equal(saved.landmarks, ref.landmarks)
+    np.testing.assert_array_equal(saved.obs_range, ref.obs_range)
+    assert saved.seed == seed
+    # different runs draw different cases
+    other = load_scenario(case_path(tmp_path / "out", 1, "random", 2))
+    assert other.landmarks.shape != saved.landmarks.shape or not np.array_equal(other.landmarks, saved.landmarks)
+
+    # idempotent: a half-written case is regenerated identically, others are left alone
+    path = case_path(tmp_path / "out", 1, "fixed", 1)
+    before = load_scenario(path)
+    mtime = case_path(tmp_path / "out", 1, "random", 1).stat().st_mtime_ns
+    path.with_suffix(".json").unlink()
+    assert prepare_cases(exp, tmp_path / "out") == infos
+    np.testing.assert_array_equal(load_scenario(path).true_poses, before.true_poses)
+    assert case_path(tmp_path / "out", 1, "random", 1).stat().st_mtime_ns == mtime
+
+    # a saved case of another experiment is refused
+    js = path.with_suffix(".json")
+    meta = json.loads(js.read_text())
+    meta["seed"] = 1
+    js.write_text(json.dumps(meta))
+    with pytest.raises(ResultsError, match="does not match"):
+        prepare_cases(exp, tmp_path / "out")
+
+
+def test_malformed_experiment_refused_before_any_work(tmp_path):
+    bad = write_experiment(tmp_path / "bad.toml", runs=0)
+    with pytest.raises(ConfigError, match="runs must be >= 1"):
+        run_experiment(bad, tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+    # a fault that cannot be applied to the SUT is caught before the store is created
+    dr = write_experiment(tmp_path / "dr.toml", slam={"name": "dead_reckoning"},
+                          variants=["baseline", "naive_resampling"])
+    with pytest.raises(ConfigError, match=r"variants\[1\] = 'naive_resampling' cannot be applied"):
+        run_experiment(dr, tmp_path / "out2")
+    assert not (tmp_path / "out2").exists()
+    good = write_experiment(tmp_path / "good.toml")
+    with pytest.raises(ConfigError, match="jobs"):
+        run_experiment(good, tmp_path / "out3", jobs=0)
+    with pytest.raises(ConfigError, match="backend"):
+        run_experiment(good, tmp_path / "out3", backend="spark")
+    assert not (tmp_path / "out3").exists()
+
+
+def test_changed_experiment_refused_unless_force_new(tmp_path):
+    path = write_experiment(tmp_path / "e.toml", **_one_case())
+    run_experiment(path, tmp_path / "out", jobs=1, progress=False)
+    first = load_results(tmp_path / "out")
+    write_experiment(path, **_one_case(repetitions=2))
+    with pytest.raises(ResultsError, match="different experiment.*changed: repetitions.*--force-new"):
+        run_experiment(path, tmp_path / "out", jobs=1, progress=False)
+    pd.testing.assert_frame_equal(load_results(tmp_path / "out"), first)
+    summary = run_experiment(path, tmp_path / "out", jobs=1, progress=False, force_new=True)
+    assert summary.n_new == summary.n_jobs == 4
+    (old,) = (tmp_path / "out").glob("previous-*")
+    pd.testing.assert_frame_equal(load_results(old), first)
+
+
+@pytest.mark.slow
+def test_dask_local_cluster_gives_the_loky_table(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    exp = write_experiment(tmp_path / "e.toml", runs=1, variants=["baseline", f"{SUTS}:BIAS"])
+    run_experiment(exp, tmp_path / "loky", jobs=2, progress=False)
+    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1",
+                                  dashboard_address=None) as cluster, distributed.Client(cluster):
+        summary = run_experiment(exp, tmp_path / "dask", backend="dask", progress=False)
+    assert summary.complete and summary.counts["ok"] == summary.n_jobs == 12
+    pd.testing.assert_frame_equal(_without_runtime(load_results(tmp_path / "dask")),
+                                  _without_runtime(load_results(tmp_path / "loky")), check_exact=True)
+    assert load_metadata(tmp_path / "dask")["sessions"][0]["backend"] == "dask"
+
+
+def test_expand_matches_store_identities(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml"))
+    run_experiment(exp, tmp_path / "out", jobs=1, progress=False)
+    infos = prepare_cases(exp, tmp_path / "out")
+    jobs = expand_jobs(exp, ((i.run, i.suite, i.case, i.path, i.cost) for i in infos))
+    df = load_results(tmp_path / "out")
+    assert sorted(j.key.astuple() for j in jobs) == sorted(
+        df[["run", "suite", "case", "variant", "rep"]].itertuples(index=False, name=None))
+    assert all(j.seed == slam_seed(exp.seed, j.key.run, j.key.suite, j.key.case, j.key.rep) for j in jobs)

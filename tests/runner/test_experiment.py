@@ -1,0 +1,156 @@
+import math
+import pickle
+from pathlib import Path
+
+import pytest
+
+from faultlab.errors import ConfigError
+from faultlab.runner.experiment import (
+    DetectionSpec,
+    Experiment,
+    SlamSpec,
+    SuiteSpec,
+    load_experiment,
+    parse_experiment,
+)
+from tests.runner.suts import TinySlam, to_toml, write_experiment
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_paper_experiment_is_the_papers_protocol():
+    exp = load_experiment(ROOT / "experiments" / "paper.toml")
+    assert exp.runs == 3
+    assert exp.suites == (SuiteSpec("systematic", 5), SuiteSpec("random", 5), SuiteSpec("fixed", 5))
+    assert exp.variants == ("baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error")
+    assert exp.repetitions == 1 and exp.n_steps == 1000 and exp.metric == "rms"
+    assert exp.slam.name == "fastslam" and exp.slam.particles == 200
+    # 3 runs x 3 suites x 5 cases x 4 variants = the paper's 180 SLAM executions
+    n_cases = sum(s.n_cases for s in exp.suites) * exp.runs
+    assert n_cases * len(exp.variants) * exp.repetitions == 180
+    cfg = exp.slam.fastslam_config()
+    assert cfg.n_particles == 200
+    assert cfg.std_omega == pytest.approx(math.radians(20.0)) and cfg.std_bearing == pytest.approx(math.radians(10.0))
+    assert exp.detection == DetectionSpec(abs_mm=250.0, rel=0.25)
+
+
+def test_smoke_experiment_loads():
+    exp = load_experiment(ROOT / "experiments" / "smoke.toml")
+    assert exp.runs >= 1 and exp.n_steps <= 200 and exp.slam.particles <= 50
+
+
+def test_defaults_and_roundtrip(tmp_path):
+    exp = parse_experiment({"seed": 5})
+    assert exp.runs == 1 and exp.repetitions == 1 and exp.variants == ("baseline",)
+    assert exp.slam == SlamSpec() and exp.timeout_s > 0
+    # to_dict is a complete, valid experiment mapping: parsing it gives the same experiment
+    again = parse_experiment(exp.to_dict())
+    assert again.hash == exp.hash and again.canonical_json() == exp.canonical_json()
+    # the TOML text of the mapping loads to the same experiment
+    p = tmp_path / "e.toml"
+    p.write_text(to_toml(exp.to_dict()))
+    assert load_experiment(p).hash == exp.hash
+
+
+def test_experiment_is_picklable_and_builds_custom_slam(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml"))
+    clone = pickle.loads(pickle.dumps(exp))
+    assert clone == exp and clone.hash == exp.hash
+    slam = exp.slam.build()
+    assert isinstance(slam, TinySlam) and slam.noise == 0.02
+
+
+def test_hash_ignores_comments_and_formatting_but_not_values(tmp_path):
+    a = write_experiment(tmp_path / "a.toml")
+    b = tmp_path / "b.toml"
+    b.write_text("# a comment\n\n" + a.read_text().replace(" = ", "   =   "))
+    assert load_experiment(a).hash == load_experiment(b).hash
+    c = write_experiment(tmp_path / "c.toml", repetitions=3)
+    assert load_experiment(c).hash != load_experiment(a).hash
+    # the suites' order is part of the experiment
+    d = write_experiment(tmp_path / "d.toml", suites={"fixed": 1, "random": 2})
+    assert load_experiment(d).hash != load_experiment(a).hash
+
+
+def test_replace_overrides_and_merges_tables(tmp_path):
+    exp = load_experiment(ROOT / "experiments" / "paper.toml")
+    quick = exp.replace(runs=1, n_steps=100, slam={"particles": 10}, suites={"random": 2})
+    assert quick.runs == 1 and quick.n_steps == 100
+    assert quick.slam.particles == 10 and quick.slam.std_v == exp.slam.std_v  # merged
+    assert dict((s.kind, s.n_cases) for s in quick.suites) == {"systematic": 5, "random": 2, "fixed": 5}
+    assert quick.hash != exp.hash
+    assert exp.runs == 3  # frozen original unchanged
+    with pytest.raises(ConfigError, match="runs"):
+        exp.replace(runs=0)
+    with pytest.raises(ConfigError, match="bogus"):
+        exp.replace(bogus=1)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"seed": None}, r"seed is required"),
+        ({"seed": -1}, r"seed must be >= 0"),
+        ({"seed": 1.5}, r"seed must be an integer"),
+        ({"runs": 0}, r"runs must be >= 1"),
+        ({"runs": "3"}, r"runs must be an integer"),
+        ({"runs": True}, r"runs must be an integer"),
+        ({"repetitions": 0}, r"repetitions must be >= 1"),
+        ({"n_steps": 0}, r"n_steps must be >= 1"),
+        ({"timeout_s": 0}, r"timeout_s must be > 0"),
+        ({"sensor_range": -2.0}, r"sensor_range must be > 0"),
+        ({"metric": "mae"}, r"metric must be one of 'rms', 'emd'"),
+        ({"bogus": 1}, r"bogus is not a known key"),
+        ({"suites": {"random": 2, "exhaustive": 3}}, r"suites.exhaustive is not a known key"),
+        ({"suites": {"random": 0}}, r"suites.random must be >= 1"),
+        ({"suites": {"random": "many"}}, r"suites.random must be an integer"),
+        ({"suites": {}}, r"suites must name at least one suite"),
+        ({"suites": {"systematic": 2}}, r"suites.systematic = 2: .*systematic"),
+        ({"suites": 5}, r"suites must be a table"),
+        ({"variants": []}, r"variants must be a non-empty list"),
+        ({"variants": "baseline"}, r"variants must be a non-empty list"),
+        ({"variants": ["baseline", "baseline"]}, r"variants\[1\] = 'baseline' appears twice"),
+        ({"variants": ["baseline", "no_such_fault"]}, r"variants\[1\] = 'no_such_fault'.*unknown fault"),
+        ({"variants": ["baseline", "tests.runner.suts:nothing"]}, r"variants\[1\].*no attribute"),
+        ({"variants": ["baseline", 3]}, r"variants\[1\] must be a variant name"),
+        ({"slam": {"name": "orbslam"}}, r"slam.name must be one of"),
+        ({"slam": {"name": "no_such_module_xyz:Slam"}}, r"slam.name = .*cannot import module"),
+        ({"slam": {"name": "fastslam", "particles": 0}}, r"slam.particles must be >= 1"),
+        ({"slam": {"name": "fastslam", "particles": 10.5}}, r"slam.particles must be an integer"),
+        ({"slam": {"name": "fastslam", "std_range": 0.0}}, r"slam.std_range must be > 0"),
+        ({"slam": {"name": "fastslam", "resample_ratio": 0.5}}, r"slam.resample_ratio must be >= 1"),
+        ({"slam": {"name": "fastslam", "colour": "red"}}, r"slam.colour is not a known key"),
+        ({"slam": {"name": "tests.runner.suts:make_tiny", "particles": 3}}, r"slam.particles is not a known key"),
+        ({"detection": {"abs_mm": -1.0}}, r"detection.abs_mm must be >= 0"),
+        ({"detection": {"rel": 0.2, "alpha": 1}}, r"detection.alpha is not a known key"),
+        ({"space": 3}, r"space must be a table"),
+        ({"space": {"no_such_parameter": {}}}, r"\[space\]"),
+    ],
+)
+def test_malformed_experiment_is_refused_naming_key(tmp_path, change, message):
+    path = write_experiment(tmp_path / "bad.toml", **change)
+    with pytest.raises(ConfigError, match=message) as info:
+        load_experiment(path)
+    assert str(path) in str(info.value)  # names the file
+
+
+def test_not_toml_and_missing_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("seed = = 3\n")
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        load_experiment(bad)
+    with pytest.raises(ConfigError, match="cannot be read"):
+        load_experiment(tmp_path / "missing.toml")
+
+
+def test_auto_suite_size_and_space_overrides(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", suites={"systematic": "auto"}))
+    assert exp.suites == (SuiteSpec("systematic", None),)
+    assert exp.to_dict()["suites"] == {"systematic": "auto"}
+
+
+def test_dataclass_is_frozen():
+    exp = parse_experiment({"seed": 1})
+    with pytest.raises(AttributeError):
+        exp.runs = 2  # type: ignore[misc]
+    assert isinstance(exp, Experiment)
