@@ -1,0 +1,156 @@
+"""Figures of the report (seaborn / matplotlib, no display needed).
+
+Every function returns a :class:`matplotlib.figure.Figure` built without pyplot, so nothing
+is kept in pyplot's figure registry and no GUI backend is touched; the caller saves it
+(``fig.savefig`` or :mod:`faultlab.report.pdf`).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import seaborn as sns
+from matplotlib import MatplotlibDeprecationWarning
+from matplotlib.figure import Figure
+
+from faultlab.report.tables import (
+    order_suites,
+    order_variants,
+    round_mm,
+    suite_label,
+    variant_label,
+)
+
+__all__ = ["detection_rate_figure", "rms_distribution_figure", "suite_palette", "PAGE_SIZE"]
+
+#: A4 landscape, inches.
+PAGE_SIZE = (11.69, 8.27)
+
+
+def suite_palette(suites) -> dict[str, tuple]:
+    """One colour per suite (seaborn's colour-blind palette), stable across figures."""
+    base = sns.color_palette("colorblind", 8)
+    fixed = {"systematic": base[0], "random": base[1], "fixed": base[2]}
+    extra = iter(base[3:])
+    return {s: fixed.get(s) or next(extra) for s in suites}
+
+
+def detection_rate_figure(detection: pd.DataFrame, *, alpha: float = 0.05,
+                          interval: str = "wilson", figsize=PAGE_SIZE) -> Figure:
+    """Detection rate per suite x fault, bars with confidence-interval error bars.
+
+    Parameters
+    ----------
+    detection : DataFrame
+        :func:`faultlab.report.tables.detection_frame`: suite, variant, k, n, rate and the
+        interval columns ``<interval>_low`` / ``<interval>_high``; ``paper_rate`` (optional)
+        is drawn as a black diamond: the paper's rate from its raw data.
+    interval : {"wilson", "cp"}
+        Which interval to draw (Wilson or Clopper-Pearson).
+    """
+    fig = Figure(figsize=figsize)
+    with sns.axes_style("whitegrid"):  # rc styles apply to axes created inside the context
+        ax = fig.add_subplot(1, 1, 1)
+    conf = round_mm(100 * (1 - alpha))
+    name = {"wilson": "Wilson", "cp": "Clopper-Pearson"}[interval]
+    if detection.empty:
+        ax.text(0.5, 0.5, "no faulty variant in this run", ha="center", va="center",
+                transform=ax.transAxes)
+        ax.set_axis_off()
+        return fig
+    suites = order_suites(detection["suite"])
+    faults = order_variants(detection["variant"])
+    palette = suite_palette(suites)
+    width = 0.8 / len(suites)
+    ax.grid(axis="x", visible=False)
+    ax.set_axisbelow(True)
+    paper_label_done = False
+    for i, suite in enumerate(suites):
+        rows = detection[detection["suite"] == suite].set_index("variant")
+        x = np.arange(len(faults)) + (i - (len(suites) - 1) / 2) * width
+        present = [f in rows.index for f in faults]
+        rate = np.array([rows.loc[f, "rate"] if p else np.nan for f, p in zip(faults, present)])
+        low = np.array([rows.loc[f, f"{interval}_low"] if p else np.nan
+                        for f, p in zip(faults, present)])
+        high = np.array([rows.loc[f, f"{interval}_high"] if p else np.nan
+                         for f, p in zip(faults, present)])
+        ax.bar(x, 100 * rate, width=width * 0.92, color=palette[suite], label=suite_label(suite),
+               edgecolor="white")
+        err = np.vstack([100 * (rate - low), 100 * (high - rate)])
+        ax.errorbar(x, 100 * rate, yerr=np.clip(err, 0, None), fmt="none", ecolor="0.15",
+                    elinewidth=1.2, capsize=4)
+        for xi, f, p in zip(x, faults, present):
+            if p:
+                k, n = int(rows.loc[f, "k"]), int(rows.loc[f, "n"])
+                ax.text(xi, 101.5, f"{k}/{n}", ha="center", va="bottom", fontsize=8, color="0.25")
+        if "paper_rate" in rows.columns:
+            pr = np.array([rows.loc[f, "paper_rate"] if p else np.nan
+                           for f, p in zip(faults, present)], dtype=float)
+            ok = np.isfinite(pr)
+            if ok.any():
+                ax.scatter(x[ok], 100 * pr[ok], marker="D", s=36, color="black", zorder=5,
+                           label=None if paper_label_done else "paper (rule on its raw data)")
+                paper_label_done = True
+    ax.set_xticks(np.arange(len(faults)), [variant_label(f) for f in faults])
+    ax.set_ylim(0, 112)
+    ax.set_ylabel("cases detecting the fault (%)")
+    ax.set_title(f"Detection rate per suite and fault with {conf} % {name} intervals "
+                 "(numbers: detecting cases / cases)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    fig.tight_layout(rect=(0.0, 0.035, 1.0, 1.0))  # room for the page footer
+    return fig
+
+
+def rms_distribution_figure(results: pd.DataFrame, *, paper_results: pd.DataFrame | None = None,
+                            figsize=PAGE_SIZE) -> Figure:
+    """RMS map error per suite x variant on a log scale (box plot plus every job as a dot).
+
+    One column per suite; a second row shows the paper's raw data when ``paper_results``
+    (suite, variant, rms_mm) is given.  Crashed and timed-out jobs have no error and are
+    counted under the axis instead.
+    """
+    sources = [("this run", results)]
+    if paper_results is not None:
+        sources.append(("paper", paper_results))
+    suites = order_suites(pd.concat([s[1]["suite"] for s in sources]))
+    variants = order_variants(pd.concat([s[1]["variant"] for s in sources]))
+    fig = Figure(figsize=figsize)
+    with sns.axes_style("whitegrid"):
+        axes = fig.subplots(len(sources), len(suites), sharey=True, squeeze=False)
+    palette = dict(zip(variants, sns.color_palette("deep", len(variants))))
+    finite = pd.concat([s[1]["rms_mm"] for s in sources]).to_numpy(dtype=float)
+    finite = finite[np.isfinite(finite) & (finite > 0)]
+    for r, (source, frame) in enumerate(sources):
+        status = frame["status"] if "status" in frame else pd.Series("ok", index=frame.index)
+        for c, suite in enumerate(suites):
+            ax = axes[r][c]
+            sub = frame[(frame["suite"] == suite) & (status == "ok")]
+            sub = sub[np.isfinite(sub["rms_mm"].to_numpy(dtype=float)) & (sub["rms_mm"] > 0)]
+            ax.set_yscale("log")
+            if not sub.empty:
+                with warnings.catch_warnings():  # seaborn 0.13 passes matplotlib 3.11's deprecated vert=
+                    warnings.simplefilter("ignore", MatplotlibDeprecationWarning)
+                    sns.boxplot(data=sub, x="variant", y="rms_mm", order=variants, hue="variant",
+                                hue_order=variants, palette=palette, ax=ax, fliersize=0, width=0.6,
+                                legend=False, boxprops={"alpha": 0.55})
+                sns.stripplot(data=sub, x="variant", y="rms_mm", order=variants, color="0.15",
+                              size=3, jitter=0.18, ax=ax)
+            failed = frame[(frame["suite"] == suite) & (status != "ok")]
+            if not failed.empty:
+                counts = failed.groupby("variant").size()
+                note = ", ".join(f"{variant_label(v)}: {n}" for v, n in counts.items())
+                ax.text(0.5, -0.32, f"crash/timeout - {note}", ha="center", va="top",
+                        transform=ax.transAxes, fontsize=7, color="firebrick")
+            ax.set_xticks(range(len(variants)), [variant_label(v).replace(" ", "\n")
+                                                 for v in variants], fontsize=8)
+            ax.set_xlabel("")
+            ax.set_ylabel("RMS map error (mm, log)" if c == 0 else "")
+            ax.set_title(f"{suite_label(suite)} - {source}", fontsize=10)
+            ax.grid(axis="y", which="major", color="0.85")
+            if finite.size:
+                ax.set_ylim(finite.min() / 1.6, finite.max() * 1.6)
+    fig.suptitle("RMS map error per suite and variant (every job a dot)")
+    fig.tight_layout(rect=(0.0, 0.035, 1.0, 1.0))  # room for the page footer
+    return fig

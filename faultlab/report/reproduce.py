@@ -1,0 +1,151 @@
+"""The main job: run the paper's protocol through the runner, then build the report.
+
+``python -m faultlab reproduce`` = :func:`reproduce`: load ``experiments/paper.toml``
+(3 runs x 3 suites x 5 cases x 4 variants, Sec. VII), optionally shrink it (``quick``) or
+repeat it (``runs``), run (or resume) it with :func:`faultlab.runner.run_experiment`, and write
+the tables and the PDF with :func:`faultlab.report.build.build_report` from the saved results.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from faultlab.errors import ConfigError
+from faultlab.report.build import ReportFiles, build_report
+from faultlab.report.tables import PAPER_FAULTS
+
+__all__ = ["ReproduceResult", "reproduce", "quick_overrides", "default_out", "DEFAULT_EXPERIMENT",
+           "QUICK_PARTICLES", "QUICK_STEPS"]
+
+#: The paper's protocol (issue 5).
+DEFAULT_EXPERIMENT = "experiments/paper.toml"
+#: ``--quick``: SLAM particles and active steps per case.
+QUICK_PARTICLES = 60
+QUICK_STEPS = 200
+#: ``--quick``: cases of the random and fixed suites (the systematic suite keeps the fewest cases
+#: that cover every class of Table I, i.e. 5).
+QUICK_CASES = 2
+
+
+@dataclass(frozen=True)
+class ReproduceResult:
+    """What :func:`reproduce` did.
+
+    Attributes
+    ----------
+    experiment : faultlab.runner.Experiment
+        The experiment as run (with the ``quick`` / ``runs`` overrides applied).
+    summary : faultlab.runner.RunSummary
+        The runner's summary (jobs run now, resumed, per status, wall time).
+    report : ReportFiles
+        The tables and the PDF.
+    out : Path
+        The results directory.
+    wall_time_s : float
+        Wall time of the whole call (run + report), s.
+    """
+
+    experiment: object
+    summary: object
+    report: ReportFiles
+    out: Path
+    wall_time_s: float
+
+    def __str__(self) -> str:
+        return "\n".join([
+            f"results: {self.out} ({self.summary})",
+            str(self.report),
+            f"reproduce took {self.wall_time_s:.1f} s",
+        ])
+
+
+def quick_overrides(experiment) -> dict:
+    """Overrides that turn an experiment into a smoke version (1 run, few cases, short traces).
+
+    One evaluation run; the systematic suite with the fewest cases that cover every class
+    ("auto"), the other suites with :data:`QUICK_CASES` cases; the baseline and the paper's three
+    faults; one SLAM repetition; :data:`QUICK_STEPS` steps; :data:`QUICK_PARTICLES` particles.
+    """
+    suites = {kind: ("auto" if kind == "systematic" else QUICK_CASES)
+              for kind in experiment.suite_kinds}
+    overrides = {
+        "runs": 1,
+        "suites": suites,
+        "variants": ["baseline", *PAPER_FAULTS],
+        "repetitions": 1,
+        "n_steps": QUICK_STEPS,
+    }
+    if experiment.slam.name == "fastslam":
+        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.particles)}
+    return overrides
+
+
+def default_out(experiment_path: str | Path, *, quick: bool = False, runs: int | None = None) -> Path:
+    """``results/<experiment stem>`` with ``-quick`` / ``-runs<N>`` appended, so a shrunk or
+    repeated protocol never collides with the full one's results store."""
+    name = Path(experiment_path).stem + ("-quick" if quick else "") + (f"-runs{runs}" if runs else "")
+    return Path("results") / name
+
+
+def _resolve_experiment(path: str | Path) -> Path:
+    p = Path(path)
+    if p.is_file() or p.is_absolute():
+        return p
+    # the default path, run from outside the repository: look next to the package
+    root = Path(__file__).resolve().parents[2]
+    return root / p if (root / p).is_file() else p
+
+
+def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Path | None = None,
+              reports: str | Path = "reports", runs: int | None = None, quick: bool = False,
+              jobs: int = 2, backend: str = "loky", force_new: bool = False,
+              progress: bool = True) -> ReproduceResult:
+    """Run an experiment (resuming if its results exist) and write the report.
+
+    Parameters
+    ----------
+    experiment_path : path
+        Experiment TOML (default ``experiments/paper.toml``, the paper's protocol).
+    out : path, optional
+        Results directory; default :func:`default_out`.
+    reports : path
+        Report directory (table2.csv/.md/.tex, detection_rates.csv/.md, comparison.md, report.pdf).
+    runs : int, optional
+        Evaluation runs (overrides the file's ``runs``; e.g. 30 for power).
+    quick : bool
+        Run the smoke version (:func:`quick_overrides`).
+    jobs, backend, force_new, progress
+        Passed to :func:`faultlab.runner.run_experiment`.
+
+    Returns
+    -------
+    ReproduceResult
+
+    Raises
+    ------
+    ConfigError
+        Malformed experiment or options (before anything runs).
+    ResultsError
+        ``out`` holds another experiment's results and ``force_new`` is False.
+    """
+    from faultlab.runner import load_experiment, run_experiment
+
+    start = time.perf_counter()
+    if runs is not None and (isinstance(runs, bool) or not isinstance(runs, int) or runs < 1):
+        raise ConfigError(f"runs must be a positive integer, got {runs!r}")
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ConfigError(f"jobs must be a positive integer, got {jobs!r}")
+    path = _resolve_experiment(experiment_path)
+    experiment = load_experiment(path)
+    if quick:
+        experiment = experiment.replace(**quick_overrides(experiment))
+    if runs is not None:
+        experiment = experiment.replace(runs=runs)
+    out = Path(out) if out is not None else default_out(path, quick=quick, runs=runs)
+    summary = run_experiment(experiment, out, jobs=jobs, backend=backend, force_new=force_new,
+                             progress=progress)
+    report = build_report(out, reports)
+    return ReproduceResult(experiment=experiment, summary=summary, report=report, out=out,
+                           wall_time_s=time.perf_counter() - start)

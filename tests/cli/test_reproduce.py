@@ -1,0 +1,141 @@
+"""``python -m faultlab reproduce --quick`` end to end, and ``report RESULTS`` rebuilding it."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from pathlib import Path
+
+import pandas as pd
+import pypdf  # test dependency (pyproject [test] extra): reads the PDF back
+import pytest
+
+from faultlab.cli import main
+from faultlab.runner import load_metadata, load_results
+
+REPO = Path(__file__).resolve().parents[2]
+PAPER_TOML = REPO / "experiments" / "paper.toml"
+OUTPUTS = ("table2.csv", "table2.md", "table2.tex", "detection_rates.csv", "detection_rates.md",
+           "comparison.md", "report.pdf")
+
+
+def _run(argv: list[str]) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    """One real ``reproduce --quick`` of the paper's protocol (the smoke version)."""
+    base = tmp_path_factory.mktemp("quick")
+    code, out, err = _run(["reproduce", "--quick", "--experiment", str(PAPER_TOML),
+                           "--out", str(base / "results"), "--reports", str(base / "reports"),
+                           "--no-progress"])
+    return base, code, out, err
+
+
+def _pages(pdf: Path) -> list[str]:
+    return [page.extract_text() for page in pypdf.PdfReader(str(pdf)).pages]
+
+
+@pytest.mark.slow
+def test_reproduce_quick_succeeds_and_says_where(quick):
+    base, code, out, err = quick
+    assert code == 0, err
+    assert f"results: {base / 'results'}" in out
+    assert str(base / "reports" / "report.pdf") in out
+    assert "36 jobs:" in out and "36 run now" in out  # (systematic 5 + random 2 + fixed 2 cases) x 4
+    assert "comparable statements agree with the paper" in out
+
+
+@pytest.mark.slow
+def test_reproduce_quick_writes_a_readable_pdf_with_the_table2_page(quick):
+    base, code, _, err = quick
+    assert code == 0, err
+    pdf = base / "reports" / "report.pdf"
+    reader = pypdf.PdfReader(str(pdf))
+    pages = [p.extract_text() for p in reader.pages]
+    assert len(pages) >= 12
+    assert all(f"page {i} of {len(pages)}" in text for i, text in enumerate(pages, start=1))
+    table2 = [t for t in pages if "Table II: this run beside the paper" in t]
+    assert len(table2) == 1
+    for word in ("Systematic", "Fixed", "Random", "Nonfaulty Baseline", "Naive Resampling",
+                 "Faulty Rotation", "Sign Error", "this run", "paper", "Detected %", "5616"):
+        assert word in table2[0], word
+    assert "Table II: this run beside the paper" in reader.metadata["/Keywords"]
+    titles = reader.metadata["/Keywords"]
+    for title in ("Detection rates per suite and fault", "RMS map error distributions",
+                  "Test cases of evaluation run 1", "Coverage of Table I", "Run metadata",
+                  "Comparison with the paper"):
+        assert title in titles, title
+
+
+@pytest.mark.slow
+def test_reproduce_quick_writes_the_tables(quick):
+    base, code, _, err = quick
+    assert code == 0, err
+    reports = base / "reports"
+    for name in OUTPUTS:
+        assert (reports / name).is_file(), name
+    t2 = pd.read_csv(reports / "table2.csv", dtype=str, keep_default_na=False)
+    assert len(t2) == 3 * 4 * 2  # suites x variants x (this run, paper)
+    mine = t2[t2["Source"] == "this run"].set_index(["Suite", "Algorithm"])
+    filled = {s: [c for c in mine.columns if c.startswith("R") and mine.loc[(s, "Nonfaulty Baseline"), c]]
+              for s in ("Systematic", "Fixed", "Random")}
+    assert filled == {"Systematic": [f"R1C{c}" for c in range(1, 6)],
+                      "Fixed": ["R1C1", "R1C2"], "Random": ["R1C1", "R1C2"]}
+    det = pd.read_csv(reports / "detection_rates.csv")
+    assert len(det) == 9 and int(det["n_jobs"].sum()) == 9 * 3
+    assert (reports / "table2.tex").read_text().count("\\begin{tabular}") == 1
+    assert (reports / "comparison.md").read_text().count("\n- **") == 19
+    rows = load_results(base / "results")
+    assert len(rows) == 36 and set(rows["variant"]) == {"baseline", "naive_resampling",
+                                                         "missing_angle_wrap", "motion_sign_error"}
+
+
+@pytest.mark.slow
+def test_report_rebuilds_from_saved_results_without_rerunning(quick, tmp_path, monkeypatch):
+    base, code, _, err = quick
+    assert code == 0, err
+    import faultlab.runner
+    import faultlab.runner.execute
+
+    def boom(*args, **kwargs):
+        raise AssertionError("report must not run anything")
+
+    for module in (faultlab.runner, faultlab.runner.execute):
+        monkeypatch.setattr(module, "run_experiment", boom)
+        monkeypatch.setattr(module, "execute_job", boom)
+    sessions = load_metadata(base / "results")["sessions"]
+    code, out, err = _run(["report", str(base / "results"), "--reports", str(tmp_path / "again")])
+    assert code == 0, err
+    assert "report written to" in out
+    for name in ("table2.csv", "table2.md", "table2.tex", "detection_rates.csv", "comparison.md"):
+        assert (tmp_path / "again" / name).read_text() == (base / "reports" / name).read_text(), name
+    assert len(_pages(tmp_path / "again" / "report.pdf")) == len(_pages(base / "reports" / "report.pdf"))
+    assert load_metadata(base / "results")["sessions"] == sessions
+
+
+def test_report_without_results_is_a_clear_error(tmp_path):
+    code, out, err = _run(["report", str(tmp_path / "none"), "--reports", str(tmp_path / "r")])
+    assert code == 1
+    assert "no results store" in err and str(tmp_path / "none") in err
+
+
+@pytest.mark.parametrize("argv", [["reproduce", "--runs", "0"], ["reproduce", "--jobs", "x"],
+                                  ["reproduce", "--backend", "mpi"], ["report"]])
+def test_bad_arguments_exit_2(argv):
+    with pytest.raises(SystemExit) as exc, contextlib.redirect_stderr(io.StringIO()):
+        main(argv)
+    assert exc.value.code == 2
+
+
+def test_reproduce_with_a_malformed_experiment_fails_before_running(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("seed = 1\nrunz = 3\n")
+    code, _, err = _run(["reproduce", "--experiment", str(bad), "--out", str(tmp_path / "o"),
+                         "--reports", str(tmp_path / "r"), "--no-progress"])
+    assert code == 1 and "runz" in err
+    assert not (tmp_path / "o").exists() and not (tmp_path / "r").exists()

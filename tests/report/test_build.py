@@ -1,0 +1,185 @@
+"""build_report: every file from a real (tiny) results store, never rerunning anything."""
+
+from __future__ import annotations
+
+import shutil
+import sqlite3
+
+import numpy as np
+import pandas as pd
+import pypdf
+import pytest
+
+from faultlab.errors import ResultsError
+from faultlab.report.build import ReportFiles, build_report
+from faultlab.report.comparison import Verdict
+from faultlab.report.tables import round_mm
+from faultlab.runner import case_path, load_metadata, load_results
+
+
+def _forbid_running(monkeypatch):
+    """Make every way of running or generating something fail loudly."""
+    import faultlab.runner
+    import faultlab.runner.execute
+    import faultlab.scenario
+
+    def boom(*args, **kwargs):
+        raise AssertionError("the report must be built from saved results only")
+
+    for module, name in ((faultlab.runner, "run_experiment"), (faultlab.runner.execute, "run_experiment"),
+                         (faultlab.runner, "execute_job"), (faultlab.runner.execute, "execute_job"),
+                         (faultlab.scenario, "generate_scenario")):
+        monkeypatch.setattr(module, name, boom)
+
+
+@pytest.fixture(scope="module")
+def built(tiny_store, tmp_path_factory):
+    before = (load_results(tiny_store), load_metadata(tiny_store))
+    mp = pytest.MonkeyPatch()
+    try:
+        _forbid_running(mp)
+        files = build_report(tiny_store, tmp_path_factory.mktemp("reports"))
+    finally:
+        mp.undo()
+    return files, before
+
+
+def _pdf_text(path) -> list[str]:
+    return [p.extract_text() for p in pypdf.PdfReader(str(path)).pages]
+
+
+def test_every_file_is_written(built):
+    files, _ = built
+    assert isinstance(files, ReportFiles)
+    for p in files.files:
+        assert p.is_file() and p.stat().st_size > 0, p
+    assert {p.name for p in files.files} == {"table2.csv", "table2.md", "table2.tex",
+                                             "detection_rates.csv", "detection_rates.md",
+                                             "comparison.md", "report.pdf"}
+    assert files.n_rows == 18
+    assert "report.pdf" in str(files)
+
+
+def test_pdf_pages_and_their_contents(built, tiny_store):
+    files, _ = built
+    text = _pdf_text(files.pdf)
+    assert len(text) == files.n_pages == len(files.page_titles)
+    for title in ("Table II: this run beside the paper",
+                  "Detection rates per suite and fault with confidence intervals",
+                  "RMS map error distributions per suite and variant (log scale)",
+                  "Test cases of evaluation run 1 (Fig. 5 style: landmarks orange, true path blue)",
+                  "Coverage of Table I's equivalence classes per suite (evaluation run 1)",
+                  "Beyond the paper: false alarms of the detection rule",
+                  "Beyond the paper: a statistical oracle over the SLAM repetitions",
+                  "Comparison with the paper, row by row",
+                  "Run metadata"):
+        assert title in files.page_titles, title
+    table_page = text[files.page_titles.index("Table II: this run beside the paper")]
+    res = load_results(tiny_store)
+    first = res[(res["suite"] == "fixed") & (res["variant"] == "baseline") & (res["rep"] == 0)
+                & (res["case"] == 1)]["rms_mm"].iloc[0]
+    assert str(round_mm(first)) in table_page
+    assert "5616" in table_page  # the paper's systematic baseline, run 1 case 1
+    meta = load_metadata(tiny_store)
+    meta_page = "\n".join(t for t, title in zip(text, files.page_titles) if title.startswith("Run metadata"))
+    assert meta["experiment_hash"] in meta_page.replace("\n", "")
+    assert "Root seed: 11" in meta_page
+    assert "tiny campaign for the report tests" in text[0]
+
+
+def test_table2_cells_match_the_store_and_the_rule(built, tiny_store):
+    files, _ = built
+    res = load_results(tiny_store)
+    t2 = pd.read_csv(files.table2_csv, dtype=str, keep_default_na=False)
+    mine = t2[t2["Source"] == "this run"].set_index(["Suite", "Algorithm"])
+    labels = {"baseline": "Nonfaulty Baseline", "naive_resampling": "Naive Resampling",
+              "missing_angle_wrap": "Faulty Rotation"}
+    rep0 = res[res["rep"] == 0]
+    base = rep0[rep0["variant"] == "baseline"].set_index(["suite", "case"])["rms_mm"]
+    checked = 0
+    for row in rep0.itertuples():
+        cell = mine.loc[(row.suite.capitalize(), labels[row.variant]), f"R{row.run}C{row.case}"]
+        if row.status != "ok":
+            assert cell == row.status
+            continue
+        expected = str(round_mm(row.rms_mm))
+        if row.variant != "baseline":
+            b = base.loc[(row.suite, row.case)]
+            # the paper's rule by hand: more than 250 mm and at least 25 % above the baseline
+            if row.rms_mm - b > 250.0 and row.rms_mm - b >= 0.25 * b:
+                expected += "*"
+        assert cell == expected
+        checked += 1
+    assert checked == len(rep0)
+    # the paper's rows are there too, as printed (systematic baseline, run 1, case 1)
+    paper = t2[t2["Source"] == "paper"].set_index(["Suite", "Algorithm"])
+    assert paper.loc[("Systematic", "Nonfaulty Baseline"), "R1C1"] == "5616"
+
+
+def test_detection_rates_count_both_repetitions(built, tiny_store):
+    files, _ = built
+    det = pd.read_csv(files.detection_csv)
+    assert set(zip(det["suite"], det["variant"])) == {
+        (s, f) for s in ("fixed", "random") for f in ("naive_resampling", "missing_angle_wrap")}
+    fixed = det[(det["suite"] == "fixed") & (det["variant"] == "missing_angle_wrap")].iloc[0]
+    assert int(fixed["n_jobs"]) == 2 * 2  # 2 cases x 2 repetitions
+    np.testing.assert_allclose(fixed["rate"], fixed["k"] / fixed["n"])
+
+
+def test_comparison_marks_unrun_paper_rows(built):
+    files, _ = built
+    cmp = files.comparison
+    # the tiny store has no systematic suite and no sign-error variant
+    assert cmp.find("systematic", "baseline").verdict == Verdict.NOT_COMPARABLE
+    assert cmp.find("fixed", "motion_sign_error").verdict == Verdict.NOT_COMPARABLE
+    assert cmp.find("fixed", "baseline").verdict in (Verdict.AGREES, Verdict.DISAGREES)
+    assert files.comparison_md.read_text().startswith("# Comparison with the paper")
+
+
+def test_the_store_is_left_unchanged(built, tiny_store):
+    _, (results_before, meta_before) = built
+    pd.testing.assert_frame_equal(load_results(tiny_store), results_before)
+    meta_after = load_metadata(tiny_store)
+    assert meta_after["sessions"] == meta_before["sessions"]  # no runner invocation
+    assert meta_after["n_rows"] == meta_before["n_rows"]
+
+
+def test_damaged_store_still_reports_with_notes(tiny_store, tmp_path, monkeypatch):
+    _forbid_running(monkeypatch)
+    copy = tmp_path / "copy"
+    shutil.copytree(tiny_store, copy)
+    case_path(copy, 1, "random", 1).unlink()
+    with sqlite3.connect(copy / "results.sqlite") as conn:  # as if killed before the last job
+        conn.execute("DELETE FROM results WHERE suite = 'fixed' AND \"case\" = 2 AND rep = 1 "
+                     "AND variant = 'missing_angle_wrap'")
+    conn.close()
+    files = build_report(copy, tmp_path / "rep")
+    notes = " ".join(files.notes)
+    assert "1 saved test case file(s)" in notes
+    assert "incomplete: 17 of 18 jobs" in notes
+    assert files.n_rows == 17 and files.pdf.is_file()
+    assert "incomplete" in _pdf_text(files.pdf)[0]
+
+
+def test_without_the_paper_data(tiny_store, tmp_path):
+    files = build_report(tiny_store, tmp_path / "rep", paper_raw=tmp_path / "missing.csv")
+    assert any("paper's data was not found" in n for n in files.notes)
+    assert [s.verdict for s in files.comparison.statements] == [Verdict.NOT_COMPARABLE]
+    t2 = pd.read_csv(files.table2_csv, dtype=str, keep_default_na=False)
+    assert set(t2["Source"]) == {"this run"}
+
+
+def test_no_store_is_a_clear_error(tmp_path):
+    with pytest.raises(ResultsError, match="no results store"):
+        build_report(tmp_path / "nothing", tmp_path / "rep")
+    assert not (tmp_path / "rep").exists()
+
+
+def test_package_exports_resolve():
+    import faultlab.report as report
+
+    for name in report.__all__:
+        assert getattr(report, name) is not None, name
+    assert report.build_report is build_report
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        report.nope  # noqa: B018

@@ -1,0 +1,104 @@
+"""reproduce(): options reach the runner, the report is built from what was stored."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import faultlab.report.reproduce as rp
+from faultlab.errors import ConfigError
+from faultlab.report.reproduce import default_out, quick_overrides, reproduce
+from faultlab.runner import load_experiment, load_results
+
+from .conftest import REPO, write_tiny_experiment
+
+PAPER_TOML = REPO / "experiments" / "paper.toml"
+
+
+@pytest.fixture
+def captured(monkeypatch):
+    """Replace the runner and the report builder by recorders (nothing runs)."""
+    import faultlab.runner
+
+    calls = {}
+
+    def fake_run(experiment, out, **kwargs):
+        calls["run"] = (experiment, Path(out), kwargs)
+        return "summary"
+
+    def fake_build(results_dir, reports_dir):
+        calls["build"] = (Path(results_dir), Path(reports_dir))
+        return "report"
+
+    monkeypatch.setattr(faultlab.runner, "run_experiment", fake_run)
+    monkeypatch.setattr(rp, "build_report", fake_build)
+    return calls
+
+
+def test_quick_overrides_shrink_the_paper_protocol():
+    paper = load_experiment(PAPER_TOML)
+    quick = paper.replace(**quick_overrides(paper))
+    assert quick.runs == 1
+    assert {s.kind: s.n_cases for s in quick.suites} == {"systematic": None, "random": 2, "fixed": 2}
+    assert quick.variants == ("baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error")
+    assert quick.slam.particles == 60 and quick.n_steps == 200 and quick.repetitions == 1
+    assert quick.seed == paper.seed and quick.detection == paper.detection
+    assert quick.hash != paper.hash
+
+
+def test_default_out_never_mixes_protocols():
+    assert default_out("experiments/paper.toml") == Path("results/paper")
+    assert default_out("experiments/paper.toml", quick=True) == Path("results/paper-quick")
+    assert default_out("experiments/paper.toml", runs=30) == Path("results/paper-runs30")
+    assert default_out("x/y.toml", quick=True, runs=2) == Path("results/y-quick-runs2")
+
+
+def test_options_reach_the_runner_and_the_report(captured, tmp_path):
+    result = reproduce(PAPER_TOML, out=tmp_path / "o", reports=tmp_path / "r", runs=30, jobs=1,
+                       backend="threading", force_new=True, progress=False)
+    experiment, out, kwargs = captured["run"]
+    assert experiment.runs == 30 and experiment.suites == load_experiment(PAPER_TOML).suites
+    assert out == tmp_path / "o"
+    assert kwargs == {"jobs": 1, "backend": "threading", "force_new": True, "progress": False}
+    assert captured["build"] == (tmp_path / "o", tmp_path / "r")
+    assert result.report == "report" and result.summary == "summary" and result.experiment is experiment
+
+
+def test_quick_and_runs_together(captured, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    reproduce(PAPER_TOML, quick=True, runs=2, progress=False)
+    experiment, out, _ = captured["run"]
+    assert experiment.runs == 2 and experiment.slam.particles == 60
+    assert out == Path("results/paper-quick-runs2")
+    assert captured["build"] == (Path("results/paper-quick-runs2"), Path("reports"))
+
+
+@pytest.mark.parametrize("kwargs, match", [({"runs": 0}, "runs"), ({"jobs": 0}, "jobs"),
+                                           ({"runs": True}, "runs")])
+def test_bad_options_fail_before_anything_runs(captured, tmp_path, kwargs, match):
+    with pytest.raises(ConfigError, match=match):
+        reproduce(PAPER_TOML, out=tmp_path / "o", reports=tmp_path / "r", **kwargs)
+    assert captured == {}
+    assert not (tmp_path / "o").exists()
+
+
+def test_missing_experiment_file(captured, tmp_path):
+    with pytest.raises(ConfigError, match="cannot be read"):
+        reproduce(tmp_path / "nope.toml", out=tmp_path / "o", reports=tmp_path / "r")
+    assert captured == {}
+
+
+def test_reproduce_runs_then_resumes_without_rerunning(tmp_path):
+    exp = write_tiny_experiment(tmp_path)
+    first = reproduce(exp, out=tmp_path / "out", reports=tmp_path / "rep", jobs=1, progress=False)
+    assert first.summary.n_new == 18 and first.summary.complete
+    assert first.report.pdf.is_file() and first.report.n_rows == 18
+    assert first.out == tmp_path / "out"
+    rows = load_results(tmp_path / "out")
+    text = str(first)
+    assert "results:" in text and "report.pdf" in text
+    second = reproduce(exp, out=tmp_path / "out", reports=tmp_path / "rep2", jobs=1, progress=False)
+    assert second.summary.n_new == 0 and second.summary.n_skipped == 18
+    assert (tmp_path / "rep2" / "report.pdf").is_file()
+    assert load_results(tmp_path / "out").equals(rows)
