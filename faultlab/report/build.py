@@ -618,6 +618,12 @@ def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: flo
     if meta.get("metric", "rms") != "rms":
         notes.append(f"the experiment's primary metric is {meta.get('metric')!r}; Table II and every "
                      "detection figure use the Kabsch-aligned RMS error, as the paper does.")
+    equivalent = stats.suspected_equivalent_faults(results)
+    if equivalent:
+        notes.append(f"{', '.join(equivalent)}: every result is identical to the baseline's, so in this "
+                     "campaign the fault never changed the SLAM's output (an equivalent mutant here); its "
+                     "0 % detection rate says nothing about the suites. Check it with "
+                     "`python -m faultlab faults --check`.")
     try:
         paper = load_paper(paper_raw, paper_reported, rule=rule)
     except ResultsError as exc:

@@ -21,7 +21,7 @@ _EXPORTS = {
     "paper": ["PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV", "PaperTable", "load_paper_raw",
               "load_paper_reported", "paper_table", "percent", "resolve_data_path"],
     "rates": ["FAULT_ORDER", "SUITE_ORDER", "by_suite", "detection_rates", "false_alarm_rate",
-              "proportion_ci"],
+              "proportion_ci", "suspected_equivalent_faults"],
 }
 _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
 

@@ -29,7 +29,7 @@ from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError
 from faultlab.stats.detection import (BASELINE, DetectionRule, Outcome, _check_columns, detects,
-                                      outcomes)
+                                      outcomes, pair_with_baseline)
 
 __all__ = ["proportion_ci", "detection_rates", "by_suite", "false_alarm_rate", "SUITE_ORDER",
            "FAULT_ORDER", "ordered"]
@@ -141,6 +141,36 @@ def detection_rates(results: pd.DataFrame, *, rule: DetectionRule = DetectionRul
                          suffix="_incl")
     table = pd.concat([table[cols], pd.DataFrame(excl), pd.DataFrame(incl)], axis=1)
     return _sort(table, {"suite": SUITE_ORDER, "fault": FAULT_ORDER})
+
+
+def suspected_equivalent_faults(results: pd.DataFrame) -> list[str]:
+    """Faults whose every result equals the baseline's bit for bit.
+
+    A fault whose RMS error is identical to the paired baseline's on every job
+    where both finished (``status == "ok"``) never changed the SLAM's output in
+    this campaign: it behaves as an *equivalent mutant* here, and its zero
+    detection rate says nothing about the suites.  Reports flag such faults
+    instead of counting them silently (``python -m faultlab faults --check``
+    checks the faults themselves on a scenario built to exercise them).
+
+    Parameters
+    ----------
+    results : DataFrame
+        The runner's results.
+
+    Returns
+    -------
+    list of str
+        Fault names, in Table II order; empty when every fault changed at least one result.
+    """
+    pairs = pair_with_baseline(results)
+    both_ok = (pairs["status"] == "ok") & (pairs["baseline_status"] == "ok")
+    pairs = pairs[both_ok]
+    if pairs.empty:
+        return []
+    same = pairs["rms_mm"].to_numpy(dtype=float) == pairs["baseline_rms_mm"].to_numpy(dtype=float)
+    identical = pd.Series(same, index=pairs.index).groupby(pairs["fault"]).all()
+    return ordered(identical.index[identical.to_numpy()], FAULT_ORDER)
 
 
 def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), alpha: float = 0.05,

@@ -183,3 +183,19 @@ def test_package_exports_resolve():
     assert report.build_report is build_report
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         report.nope  # noqa: B018
+
+
+def test_a_fault_identical_to_the_baseline_everywhere_is_flagged(tiny_store, tmp_path):
+    copy = tmp_path / "copy"
+    shutil.copytree(tiny_store, copy)
+    with sqlite3.connect(copy / "results.sqlite") as conn:  # as if the fault never changed anything
+        conn.execute("UPDATE results SET rms_mm = (SELECT b.rms_mm FROM results b WHERE b.variant = 'baseline' "
+                     "AND b.run = results.run AND b.suite = results.suite AND b.\"case\" = results.\"case\" "
+                     "AND b.rep = results.rep) WHERE variant = 'missing_angle_wrap'")
+    conn.close()
+    original = build_report(tiny_store, tmp_path / "original")
+    assert not any("equivalent mutant" in n for n in original.notes)
+    files = build_report(copy, tmp_path / "rep")
+    (note,) = [n for n in files.notes if "equivalent mutant" in n]
+    assert note.startswith("missing_angle_wrap:")
+    assert "equivalent mutant" in " ".join(_pdf_text(files.pdf)[0].split())

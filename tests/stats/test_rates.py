@@ -129,3 +129,22 @@ def test_false_alarm_rate_uses_ordered_rep_pairs():
     assert table.loc["all", "flagged"] == 3
     np.testing.assert_allclose([table.loc["all", "wilson_low"], table.loc["all", "wilson_high"]],
                                wilson_by_hand(3, 8))
+
+
+def test_suspected_equivalent_faults_flags_only_bit_identical_faults():
+    from faultlab.stats import suspected_equivalent_faults
+
+    from tests.stats.synthetic import frame, job
+
+    rows = []
+    for case, base in enumerate([100.0, 250.5, 3000.0], start=1):
+        rows += [job(1, "systematic", case, "baseline", 0, base),
+                 job(1, "systematic", case, "missing_angle_wrap", 0, base),  # identical everywhere
+                 job(1, "systematic", case, "naive_resampling", 0, base + (case == 3) * 1e-9)]
+    # a crashed pair does not count against (or for) equivalence
+    rows += [job(1, "systematic", 4, "baseline", 0, 50.0),
+             job(1, "systematic", 4, "missing_angle_wrap", 0, 0.0, status="crash"),
+             job(1, "systematic", 4, "naive_resampling", 0, 50.0)]
+    assert suspected_equivalent_faults(frame(rows)) == ["missing_angle_wrap"]
+    # with no pair where both finished there is nothing to judge
+    assert suspected_equivalent_faults(frame(rows[-3:-2] + rows[-2:-1])) == []
