@@ -24,8 +24,8 @@ def register(subparsers) -> None:
                     "its raw RMS data with faultlab's detection rule and mark every cell where the "
                     "printed figure differs.")
     p.add_argument("--raw", default=None, metavar="PATH",
-                   help="raw RMS CSV (default: the paper's raw data in paper_repro/, looked up in the current directory, then the "
-                        "repository)")
+                   help="raw RMS CSV (default: the paper's raw data in paper_repro/, looked up in the "
+                        "current directory, then the repository)")
     p.add_argument("--reported", default=None, metavar="PATH",
                    help="printed percentages CSV (default: the paper's Table II percentages in paper_repro/)")
     _rule_options(p)

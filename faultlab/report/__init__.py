@@ -16,8 +16,8 @@ import importlib
 _EXPORTS = {
     "Table2": "tables", "TableFiles": "tables", "table2": "tables", "table2_csv_frame": "tables",
     "table2_markdown": "tables", "table2_latex": "tables", "detection_frame": "tables",
-    "detection_markdown": "tables", "write_tables": "tables", "load_paper": "tables",
-    "round_mm": "tables",
+    "detection_markdown": "tables", "detection_records": "tables", "write_tables": "tables",
+    "load_paper": "tables", "round_mm": "tables",
     "Verdict": "comparison", "Statement": "comparison", "Comparison": "comparison",
     "compare_with_paper": "comparison",
     "detection_rate_figure": "figures", "rms_distribution_figure": "figures",
@@ -51,6 +51,7 @@ __all__ = [
     "table2_latex",
     "detection_frame",
     "detection_markdown",
+    "detection_records",
     "write_tables",
     "load_paper",
     "round_mm",

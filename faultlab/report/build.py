@@ -27,6 +27,7 @@ from faultlab.report.tables import (
     TableFiles,
     Table2,
     detection_frame,
+    detection_records,
     format_pct,
     load_paper,
     order_suites,
@@ -252,28 +253,7 @@ def _table2_pages(table: Table2) -> list[Figure]:
 
 def _rates_pages(detection: pd.DataFrame, table: Table2) -> list[Figure]:
     conf = round_mm(100 * (1 - table.alpha))
-    rows = []
-    for r in detection.itertuples(index=False):
-        r = r._asdict()
-        rec = {
-            "Suite": suite_label(r["suite"]),
-            "Fault": variant_label(r["variant"]),
-            "k/n": f"{int(r['k'])}/{int(r['n'])}",
-            "Rate %": format_pct(r["rate"], 1),
-            f"Wilson {conf} %": f"{format_pct(r['wilson_low'], 1)}-{format_pct(r['wilson_high'], 1)}",
-            f"C-P {conf} %": f"{format_pct(r['cp_low'], 1)}-{format_pct(r['cp_high'], 1)}",
-            "crash": str(int(r.get("crash", 0))),
-            "timeout": str(int(r.get("timeout", 0))),
-            "base failed": str(int(r.get("baseline_failed", 0))),
-            "Rate % incl. failures": format_pct(r.get("rate_incl", np.nan), 1),
-        }
-        if "paper_rate" in r:
-            rec["Paper % (rule)"] = format_pct(r["paper_rate"], 1)
-        if "paper_printed_pct" in r:
-            p = r["paper_printed_pct"]
-            rec["Paper % (printed)"] = "" if pd.isna(p) else str(round_mm(float(p)))
-        rows.append(rec)
-    frame = pd.DataFrame(rows)
+    frame = detection_records(detection, alpha=table.alpha, compact=True)
     bs = table.by_suite
     brows = []
     for s in order_suites(bs["suite"]):

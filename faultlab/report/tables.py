@@ -54,6 +54,7 @@ __all__ = [
     "table2_latex",
     "detection_frame",
     "detection_markdown",
+    "detection_records",
     "write_tables",
     "TableFiles",
 ]
@@ -589,9 +590,18 @@ def detection_frame(results: pd.DataFrame, *, rule=None, paper=None,
     return frame.sort_values(["_s", "_v"]).drop(columns=["_s", "_v"]).reset_index(drop=True)
 
 
-def detection_markdown(frame: pd.DataFrame, *, alpha: float = 0.05) -> str:
-    """Markdown of :func:`detection_frame`: k/n, rate, Wilson and Clopper-Pearson intervals."""
+def detection_records(frame: pd.DataFrame, *, alpha: float = 0.05, compact: bool = False) -> pd.DataFrame:
+    """Display rows of :func:`detection_frame`: one per (suite, fault), formatted strings.
+
+    Columns: suite, fault, k/n, rate, Wilson and Clopper-Pearson intervals, the
+    crash / timeout / baseline-failed counts, the rate with failures counted as
+    detections and the paper's figures where present.  ``compact`` gives the
+    short headers of the PDF page.
+    """
     conf = round_mm(100 * (1 - alpha))
+    cp = "C-P" if compact else "Clopper-Pearson"
+    incl = "Rate % incl. failures" if compact else "Rate % (crash, timeout = detected)"
+    paper_rule = "Paper % (rule)" if compact else "Paper % (rule on raw data)"
     records = []
     for row in frame.itertuples(index=False):
         r = row._asdict()
@@ -601,21 +611,28 @@ def detection_markdown(frame: pd.DataFrame, *, alpha: float = 0.05) -> str:
             "k/n": f"{int(r['k'])}/{int(r['n'])}",
             "Rate %": format_pct(r["rate"], 1),
             f"Wilson {conf} %": f"{format_pct(r['wilson_low'], 1)}-{format_pct(r['wilson_high'], 1)}",
-            f"Clopper-Pearson {conf} %": f"{format_pct(r['cp_low'], 1)}-{format_pct(r['cp_high'], 1)}",
+            f"{cp} {conf} %": f"{format_pct(r['cp_low'], 1)}-{format_pct(r['cp_high'], 1)}",
         }
         for extra in ("crash", "timeout", "baseline_failed"):
             if extra in r:
                 rec[extra.replace("_", " ")] = str(int(r[extra]))
         if "rate_incl" in r:
-            rec["Rate % (crash, timeout = detected)"] = (
-                f"{format_pct(r['rate_incl'], 1)} ({int(r['k_incl'])}/{int(r['n_incl'])})")
+            rec[incl] = (format_pct(r["rate_incl"], 1) if compact else
+                         f"{format_pct(r['rate_incl'], 1)} ({int(r['k_incl'])}/{int(r['n_incl'])})")
         if "paper_rate" in r:
-            rec["Paper % (rule on raw data)"] = format_pct(r["paper_rate"], 1)
+            rec[paper_rule] = format_pct(r["paper_rate"], 1)
         if "paper_printed_pct" in r:
             p = r["paper_printed_pct"]
             rec["Paper % (printed)"] = "" if pd.isna(p) else str(round_mm(float(p)))
         records.append(rec)
-    body = _md_table(pd.DataFrame.from_records(records)) if records else "(no faulty variants)"
+    return pd.DataFrame.from_records(records)
+
+
+def detection_markdown(frame: pd.DataFrame, *, alpha: float = 0.05) -> str:
+    """Markdown of :func:`detection_frame`: k/n, rate, Wilson and Clopper-Pearson intervals."""
+    conf = round_mm(100 * (1 - alpha))
+    records = detection_records(frame, alpha=alpha)
+    body = _md_table(records) if len(records) else "(no faulty variants)"
     return "\n".join(["# Detection rates per suite and fault", "",
                       f"Confidence level {conf} %. k/n counts the faulty jobs detected among those "
                       "where both the faulty and the baseline SLAM produced a map; crashes and "
