@@ -36,12 +36,12 @@ import hashlib
 import importlib
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
 from faultlab.errors import ConfigError, FaultlabError
+from faultlab.tomlfile import read_toml
 
 __all__ = [
     "Experiment",
@@ -265,16 +265,8 @@ def load_experiment(path: str | Path) -> Experiment:
         If the file is missing, not TOML, or any key is unknown, of the wrong
         type or out of range (the message names the file, key and reason).
     """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"experiment file {p}: cannot be read ({exc.strerror or exc})") from exc
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"experiment file {p}: not valid TOML ({exc})") from exc
-    return parse_experiment(data, source=str(p), text=text)
+    data, text = read_toml(path, what="experiment file")
+    return parse_experiment(data, source=str(path), text=text)
 
 
 def import_object(spec: str, *, what: str = "import path"):

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, replace
 from enum import StrEnum
 from pathlib import Path
@@ -36,6 +35,7 @@ import numpy as np
 
 from faultlab.errors import ConfigError
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
+from faultlab.tomlfile import read_toml
 
 __all__ = [
     "Kind",
@@ -562,13 +562,5 @@ def load_space(path: str | Path) -> ParameterSpace:
     ConfigError
         If the file is missing, not valid TOML, or malformed (see :func:`space_from_mapping`).
     """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read parameter-space file ({exc.strerror or exc})") from exc
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML ({exc})") from exc
-    return space_from_mapping(data, source=str(p))
+    data, _ = read_toml(path, what="parameter-space file")
+    return space_from_mapping(data, source=str(path))

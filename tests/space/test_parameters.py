@@ -188,7 +188,7 @@ def test_malformed_override_names_file_and_key(tmp_path, text, message):
 
 
 def test_missing_file_is_a_config_error(tmp_path):
-    with pytest.raises(ConfigError, match="cannot read"):
+    with pytest.raises(ConfigError, match="parameter-space file cannot be read"):
         load_space(tmp_path / "nope.toml")
 
 

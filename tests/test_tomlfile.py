@@ -1,0 +1,21 @@
+import pytest
+
+from faultlab.errors import ConfigError
+from faultlab.tomlfile import read_toml
+
+
+def test_reads_table_and_text(tmp_path):
+    f = tmp_path / "a.toml"
+    f.write_text('x = 1\n[t]\ny = "z"\n', encoding="utf-8")
+    data, text = read_toml(f, what="test file")
+    assert data == {"x": 1, "t": {"y": "z"}}
+    assert text == f.read_text(encoding="utf-8")
+
+
+def test_errors_name_the_file_and_what_it_is(tmp_path):
+    with pytest.raises(ConfigError, match=r"^.*missing\.toml: test file cannot be read"):
+        read_toml(tmp_path / "missing.toml", what="test file")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[unclosed\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"bad\.toml: test file is not valid TOML \(.*line 1"):
+        read_toml(bad, what="test file")
