@@ -72,6 +72,25 @@ def _mat22(shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     return buf, buf.transpose(tuple(range(nd + 1, 1, -1)) + (0, 1))
 
 
+def _scratch(shape: tuple[int, ...], m: int) -> list[np.ndarray]:
+    """``m`` uninitialised work arrays of ``shape``, in the same (reversed) order as :func:`_vec2`.
+
+    One allocation for all of them; the formulas below write every intermediate
+    into these with ``out=`` instead of allocating a temporary per operation.
+    """
+    nd = len(shape)
+    return list(np.empty((m,) + tuple(shape)[::-1]).transpose((0,) + tuple(range(nd, 0, -1))))
+
+
+def _common_shape(*xs) -> tuple[int, ...]:
+    """The broadcast shape of ``xs`` (fast path: all shapes equal)."""
+    shapes = [np.shape(x) for x in xs]
+    first = shapes[0]
+    if all(sh == first for sh in shapes):
+        return first
+    return np.broadcast_shapes(*shapes)
+
+
 # ---------------------------------------------------------------------------------------------
 # particle state
 # ---------------------------------------------------------------------------------------------
@@ -240,9 +259,20 @@ def motion_model(poses: np.ndarray, u: np.ndarray, *, wrap) -> np.ndarray:
     return out
 
 
+def _wrap(a):
+    """``a - 2 pi floor((a + pi) / 2 pi)``, evaluated in one work array."""
+    t = np.add(a, math.pi)
+    if type(t) is not np.ndarray:  # scalar input
+        return a - _TWO_PI * np.floor(t * _INV_TWO_PI)
+    t *= _INV_TWO_PI
+    np.floor(t, out=t)
+    t *= _TWO_PI
+    return np.subtract(a, t, out=t)
+
+
 def wrap_heading(a: np.ndarray) -> np.ndarray:
     """Wrap headings to [-pi, pi): ``a - 2 pi floor((a + pi) / 2 pi)``.  Any shape, same shape out."""
-    return a - _TWO_PI * np.floor((a + math.pi) * _INV_TWO_PI)
+    return _wrap(a)
 
 
 def wrap_bearing(a: np.ndarray) -> np.ndarray:
@@ -252,7 +282,7 @@ def wrap_bearing(a: np.ndarray) -> np.ndarray:
     at landmark initialisation (:func:`init_landmarks`); the paper's
     *missing angle wrap* fault replaces exactly this unit.
     """
-    return a - _TWO_PI * np.floor((a + math.pi) * _INV_TWO_PI)
+    return _wrap(a)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -304,15 +334,26 @@ def _sandwich_sym(a, b, c, e, p00, p01, p11) -> tuple[np.ndarray, np.ndarray]:
 
     Returns ``(buf (2, 2, ...), view (..., 2, 2))``; the result is exactly symmetric.
     """
-    h00 = a * p00 + b * p01  # (A P)
-    h01 = a * p01 + b * p11
-    h10 = c * p00 + e * p01
-    h11 = c * p01 + e * p11
-    buf, out = _mat22(np.broadcast_shapes(np.shape(h00), np.shape(h11)))
-    np.add(h00 * a, h01 * b, out=out[..., 0, 0])
-    np.add(h00 * c, h01 * e, out=out[..., 0, 1])
-    out[..., 1, 0] = out[..., 0, 1]
-    np.add(h10 * c, h11 * e, out=out[..., 1, 1])
+    shape = _common_shape(a, b, c, e, p00, p01, p11)
+    h00, h01, h10, h11, t = _scratch(shape, 5)
+    mul = np.multiply
+    mul(a, p00, out=h00)  # (A P)
+    h00 += mul(b, p01, out=t)
+    mul(a, p01, out=h01)
+    h01 += mul(b, p11, out=t)
+    mul(c, p00, out=h10)
+    h10 += mul(e, p01, out=t)
+    mul(c, p01, out=h11)
+    h11 += mul(e, p11, out=t)
+    buf, out = _mat22(shape)
+    o00, o01, o11 = out[..., 0, 0], out[..., 0, 1], out[..., 1, 1]
+    mul(h00, a, out=o00)
+    o00 += mul(h01, b, out=t)
+    mul(h00, c, out=o01)
+    o01 += mul(h01, e, out=t)
+    out[..., 1, 0] = o01
+    mul(h10, c, out=o11)
+    o11 += mul(h11, e, out=t)
     return buf, out
 
 

@@ -362,11 +362,14 @@ class FastSlam(SlamAdapter):
     def _columns(self, st: ParticleState, ids: np.ndarray) -> tuple[ParticleState, np.ndarray, np.ndarray]:
         """Columns of ``ids`` (k,), adding columns for unseen ids; returns (state, cols, seen)."""
         sid, scol = self._sorted_ids, self._sorted_cols
-        pos = np.searchsorted(sid, ids)
-        seen = pos < sid.size
-        seen[seen] = sid[pos[seen]] == ids[seen]
-        cols = np.empty(ids.size, dtype=np.intp)
-        cols[seen] = scol[pos[seen]]
+        if sid.size:
+            pos = np.searchsorted(sid, ids)
+            np.minimum(pos, sid.size - 1, out=pos)
+            seen = sid[pos] == ids
+            cols = scol[pos]  # valid where seen
+        else:
+            seen = np.zeros(ids.size, dtype=bool)
+            cols = np.empty(ids.size, dtype=np.intp)
         if not seen.all():
             new_ids = ids[~seen]
             C = st.n_landmarks
@@ -438,7 +441,9 @@ class FastSlam(SlamAdapter):
             C = st.n_landmarks
             anc[:, :C] = anc[st.lineage, :C]
             st = st.replace(lineage=self._ident)
-        z = np.stack([obs.ranges, obs.bearings], axis=1)
+        z = np.empty((k, 2))
+        z[:, 0] = obs.ranges
+        z[:, 1] = obs.bearings
         base = (cols * n)[:, None]
         flat = anc[:, cols].T + base  # (k, N) positions in the flattened storage
         mb = np.take(mu_store.reshape(2, cap * n), flat, axis=1)  # (2, k, N), a fresh copy
@@ -446,8 +451,8 @@ class FastSlam(SlamAdapter):
         mu = mb.transpose(2, 1, 0)  # (N, k, 2) view
         P = pb.transpose(3, 2, 0, 1)  # (N, k, 2, 2) view
         new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
-        new_cols = np.flatnonzero(new.any(axis=0))
-        if new_cols.size:
+        new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
+        if new_cols is not None:
             # initialise where new (only the observations with at least one new pair)
             mu_i, P_i = steps.init_landmarks(poses, z[new_cols], Q, wrap=steps.wrap_bearing)
             mi = np.asarray(mu_i, dtype=float).transpose(2, 1, 0)
@@ -461,15 +466,15 @@ class FastSlam(SlamAdapter):
         loglik = steps.log_likelihood(nu, S)
         logw = np.asarray(steps.combine_weights(st.logw, loglik, ~new), dtype=float)
         # normalise (log-sum-exp)
-        top = np.max(logw)
-        if not np.isfinite(top):
+        top = logw.max()
+        if not math.isfinite(top):
             raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
         logw = logw - top
-        logw -= math.log(np.sum(np.exp(logw)))
+        logw -= math.log(np.exp(logw).sum())
         mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
         mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, N)
         P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, N)
-        if new_cols.size:
+        if new_cols is not None:
             # new pairs keep their initial values
             mu_new = mu_new.copy()
             P_new = P_new.copy()
@@ -479,8 +484,10 @@ class FastSlam(SlamAdapter):
         # write every particle's estimate of the observed columns into its own storage row
         owner = st.owner
         if owner is self._ident or np.array_equal(owner, self._ident):
-            mu_store[:, cols] = mu_new
-            P_store[:, :, cols] = P_new
+            # rows of the (component, column) x particle views of the storage: contiguous row copies
+            rows = cols + (cap * np.arange(4))[:, None]
+            mu_store.reshape(2 * cap, n)[rows[:2].ravel()] = mu_new.reshape(2 * k, n)
+            P_store.reshape(4 * cap, n)[rows.ravel()] = P_new.reshape(4 * k, n)
         else:
             wflat = owner[None, :] + base
             mu_store.reshape(2, cap * n)[:, wflat] = mu_new

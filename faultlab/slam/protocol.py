@@ -52,17 +52,21 @@ class Observations:
             raise SlamInputError(
                 f"observations: ranges, bearings and ids must be 1-d of equal length, got shapes "
                 f"{r.shape}, {b.shape}, {ids.shape}")
-        if ids.size and not np.issubdtype(ids.dtype, np.integer):
-            if not np.all(np.isfinite(ids.astype(float))) or np.any(ids != np.round(ids)):
-                raise SlamInputError("observations: landmark ids must be integers")
-        ids = ids.astype(np.int64)
-        if not np.all(np.isfinite(r)) or not np.all(np.isfinite(b)):
-            raise SlamInputError("observations: NaN or infinite range or bearing")
-        if np.any(r < 0):
-            raise SlamInputError(f"observations: negative range {r[r < 0][0]!r} for landmark "
-                                 f"{ids[r < 0][0]}")
-        if len(np.unique(ids)) != ids.size:
-            raise SlamInputError("observations: a landmark id appears twice in one step")
+        if ids.dtype != np.int64:
+            if ids.size and not np.issubdtype(ids.dtype, np.integer):
+                if not np.all(np.isfinite(ids.astype(float))) or np.any(ids != np.round(ids)):
+                    raise SlamInputError("observations: landmark ids must be integers")
+            ids = ids.astype(np.int64)
+        if r.size:
+            if not (np.isfinite(r).all() and np.isfinite(b).all()):
+                raise SlamInputError("observations: NaN or infinite range or bearing")
+            if r.min() < 0:
+                raise SlamInputError(f"observations: negative range {r[r < 0][0]!r} for landmark "
+                                     f"{ids[r < 0][0]}")
+            if ids.size > 1:
+                s = np.sort(ids)
+                if (s[1:] == s[:-1]).any():
+                    raise SlamInputError("observations: a landmark id appears twice in one step")
         object.__setattr__(self, "ranges", r)
         object.__setattr__(self, "bearings", b)
         object.__setattr__(self, "ids", ids)
