@@ -5,17 +5,9 @@ from __future__ import annotations
 
 import argparse
 
+from faultlab.cli.options import add_execution_options, positive_int
+
 __all__ = ["register", "reproduce_handler", "report_handler"]
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
 
 
 def register(subparsers) -> None:
@@ -31,18 +23,13 @@ def register(subparsers) -> None:
                    help="results directory (default: results/<experiment name>, with -quick / -runsN "
                         "appended for --quick / --runs)")
     p.add_argument("--reports", default="reports", help="report directory (default: reports)")
-    p.add_argument("--runs", type=_positive_int, default=None,
+    p.add_argument("--runs", type=positive_int, default=None,
                    help="evaluation runs, overriding the file's (e.g. 30 for power)")
     p.add_argument("--quick", action="store_true",
                    help="smoke version: 1 run, systematic 5 + random 2 + fixed 2 cases, baseline + the "
                         "3 paper faults, 200 steps, 60 particles")
-    p.add_argument("--jobs", type=_positive_int, default=2, help="worker processes (default: 2)")
-    p.add_argument("--backend", default="loky", choices=("loky", "threading", "dask", "ray"),
-                   help="joblib backend (default: loky)")
-    p.add_argument("--force-new", action="store_true",
-                   help="if the results directory holds another experiment's results, move them aside "
-                        "and start afresh")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default: 2)")
+    add_execution_options(p)
     p.set_defaults(func=reproduce_handler)
 
     r = subparsers.add_parser(

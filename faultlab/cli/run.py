@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from faultlab.cli.options import add_execution_options
+
 __all__ = ["register", "handler"]
 
 
@@ -16,12 +18,7 @@ def register(subparsers) -> None:
     p.add_argument("--out", default=None,
                    help="output directory (default: results/<experiment file name without .toml>)")
     p.add_argument("--jobs", type=int, default=2, help="worker processes (default: 2)")
-    p.add_argument("--backend", default="loky", choices=("loky", "threading", "dask", "ray"),
-                   help="joblib backend (default: loky; dask and ray are optional extras)")
-    p.add_argument("--force-new", action="store_true",
-                   help="start afresh: move existing results in OUT to OUT/previous-<time>/ (needed when "
-                        "the experiment file changed)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_execution_options(p)
     p.set_defaults(func=handler)
 
 

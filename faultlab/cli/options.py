@@ -1,0 +1,33 @@
+"""Argument types and options shared by several commands."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["BACKENDS", "positive_int", "add_execution_options"]
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+#: joblib backends the runner accepts (:data:`faultlab.runner.execute.BACKENDS`; kept here so that
+#: building the parser does not import the runner; a test checks the two agree).
+BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")
+
+
+def add_execution_options(parser: argparse.ArgumentParser) -> None:
+    """``--backend``, ``--force-new`` and ``--no-progress`` of the commands that run jobs."""
+    parser.add_argument("--backend", default="loky", choices=BACKENDS,
+                        help="joblib backend (default: loky; dask and ray are optional extras)")
+    parser.add_argument("--force-new", action="store_true",
+                        help="start afresh: move results of another (or a changed) experiment in the "
+                             "results directory to <dir>/previous-<time>/")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
