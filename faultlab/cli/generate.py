@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.space.suites import SUITE_KINDS
+from faultlab.vocabulary import SUITE_KINDS
 
 __all__ = ["register", "handler"]
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from faultlab.vocabulary import BACKENDS
+
 __all__ = ["BACKENDS", "positive_int", "add_execution_options"]
 
 
@@ -18,9 +20,6 @@ def positive_int(text: str) -> int:
     return value
 
 
-#: joblib backends the runner accepts (:data:`faultlab.runner.execute.BACKENDS`; kept here so that
-#: building the parser does not import the runner; a test checks the two agree).
-BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")
 
 
 def add_execution_options(parser: argparse.ArgumentParser) -> None:

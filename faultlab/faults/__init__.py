@@ -21,7 +21,6 @@ from faultlab.faults.check import (
     unit_outputs,
 )
 from faultlab.faults.registry import (
-    BASELINE,
     ENTRY_POINT_GROUP,
     Fault,
     FaultListing,
@@ -41,7 +40,6 @@ from faultlab.faults.registry import (
 )
 
 __all__ = [
-    "BASELINE",
     "ENTRY_POINT_GROUP",
     "Fault",
     "UnitExample",

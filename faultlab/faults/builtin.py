@@ -1,7 +1,7 @@
 """The built-in faults: the paper's three (Sec. V-3, VII-A) and realistic particle-filter SLAM mistakes.
 
 Every fault replaces exactly one unit of :class:`faultlab.slam.FastSlamSteps`
-(signatures in :mod:`faultlab.slam.fastslam` and :mod:`faultlab.slam._units`).
+(signatures in :mod:`faultlab.slam.fastslam` and :mod:`faultlab.slam.units`).
 Replacements are module-level factories ``(original_unit) -> new_unit`` so that
 faults pickle to worker processes; most wrap the original unit and change only
 what the mistake changes.  Each fault carries :class:`UnitExample` inputs on

@@ -27,10 +27,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from faultlab.errors import FaultError, PluginError
+from faultlab.vocabulary import BASELINE
 
 __all__ = [
     "ENTRY_POINT_GROUP",
-    "BASELINE",
     "Fault",
     "UnitExample",
     "PluginFailure",
@@ -51,8 +51,6 @@ __all__ = [
 #: Entry-point group a plugin distribution declares its faults in.
 ENTRY_POINT_GROUP = "faultlab.faults"
 
-#: Reserved variant name: the unmodified reference (no fault).
-BASELINE = "baseline"
 
 _BUILTIN_NAME = re.compile(r"[a-z][a-z0-9_]*")
 _PLUGIN_NAME = re.compile(r"[a-z0-9][a-z0-9_.-]*/[a-z0-9][a-z0-9_.-]*")

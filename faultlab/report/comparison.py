@@ -29,6 +29,7 @@ from enum import StrEnum
 import numpy as np
 import pandas as pd
 
+from faultlab.vocabulary import SUITE_KINDS
 from faultlab.report.tables import (
     PAPER,
     THIS_RUN,
@@ -268,8 +269,8 @@ def _by_suite_statement(table: Table2, suite: str) -> Statement:
 def _claims(table: Table2) -> list[Statement]:
     out: list[Statement] = []
     b = table.by_suite
-    shares = {s: _row(b, source=THIS_RUN, suite=s) for s in ("systematic", "random", "fixed")}
-    paper_shares = {s: _row(b, source=PAPER, suite=s) for s in ("systematic", "random", "fixed")}
+    shares = {s: _row(b, source=THIS_RUN, suite=s) for s in SUITE_KINDS}
+    paper_shares = {s: _row(b, source=PAPER, suite=s) for s in SUITE_KINDS}
     sys_row = shares["systematic"]
     if sys_row is not None and int(sys_row["n"]) > 0 and paper_shares["systematic"] is not None:
         complete = int(sys_row["k"]) == int(sys_row["n"])

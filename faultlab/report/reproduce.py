@@ -14,7 +14,7 @@ from pathlib import Path
 
 from faultlab.errors import ConfigError
 from faultlab.report.build import ReportFiles, build_report
-from faultlab.report.tables import PAPER_FAULTS
+from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
 __all__ = ["ReproduceResult", "reproduce", "quick_overrides", "default_out", "DEFAULT_EXPERIMENT",
            "QUICK_PARTICLES", "QUICK_STEPS"]
@@ -73,7 +73,7 @@ def quick_overrides(experiment) -> dict:
     overrides = {
         "runs": 1,
         "suites": suites,
-        "variants": ["baseline", *PAPER_FAULTS],
+        "variants": [BASELINE, *PAPER_FAULTS],
         "repetitions": 1,
         "n_steps": QUICK_STEPS,
     }

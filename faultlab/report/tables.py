@@ -23,6 +23,7 @@ import pandas as pd
 
 from faultlab import stats
 from faultlab.errors import ResultsError
+from faultlab.vocabulary import BASELINE, PAPER_FAULTS, SUITE_ORDER
 
 __all__ = [
     "THIS_RUN",
@@ -63,10 +64,6 @@ __all__ = [
 THIS_RUN = "this run"
 PAPER = "paper"
 
-#: The paper's row order of Table II.
-SUITE_ORDER = ("systematic", "fixed", "random")
-#: The paper's three injected faults, in Table II order (Sec. VII-A).
-PAPER_FAULTS = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")
 
 _VARIANT_LABELS = {
     "baseline": "Nonfaulty Baseline",
@@ -95,7 +92,7 @@ def variant_label(variant: str) -> str:
 def order_variants(variants: Iterable[str]) -> list[str]:
     """Baseline first, then the paper's faults in Table II order, then others alphabetically."""
     variants = list(dict.fromkeys(str(v) for v in variants))
-    head = [v for v in ("baseline",) + PAPER_FAULTS if v in variants]
+    head = [v for v in (BASELINE,) + PAPER_FAULTS if v in variants]
     return head + sorted(v for v in variants if v not in head)
 
 

@@ -6,19 +6,14 @@
 """
 
 from faultlab.runner.execute import (
-    BACKENDS,
     CaseInfo,
     JobResult,
-    JobStatus,
     RunSummary,
     execute_job,
     prepare_cases,
     run_experiment,
 )
 from faultlab.runner.experiment import (
-    BASELINE,
-    METRICS,
-    SUITE_KINDS,
     DetectionSpec,
     Experiment,
     SlamSpec,
@@ -41,15 +36,10 @@ __all__ = [
     "SuiteSpec",
     "SlamSpec",
     "DetectionSpec",
-    "SUITE_KINDS",
-    "METRICS",
-    "BASELINE",
-    "BACKENDS",
     "load_experiment",
     "parse_experiment",
     "JobKey",
     "JobSpec",
-    "JobStatus",
     "JobResult",
     "CaseInfo",
     "RunSummary",

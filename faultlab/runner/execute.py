@@ -30,7 +30,6 @@ import threading
 import time
 import traceback
 from dataclasses import dataclass
-from enum import StrEnum
 from pathlib import Path
 from typing import Iterator, Mapping
 
@@ -42,29 +41,16 @@ from faultlab.runner.jobs import JobKey, JobSpec, case_seed, expand_jobs, suite_
 from faultlab.runner.store import ID_COLUMNS, ResultStore, case_path, store_lock
 from faultlab.slam.protocol import Estimate, SlamAdapter, run_slam
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS, CaseSpec
+from faultlab.vocabulary import BACKENDS, JobStatus
 
 __all__ = [
-    "JobStatus",
     "JobResult",
     "CaseInfo",
     "RunSummary",
-    "BACKENDS",
     "execute_job",
     "prepare_cases",
     "run_experiment",
 ]
-
-#: Accepted ``backend`` names (joblib backends; dask and ray are optional extras).
-BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")
-
-
-class JobStatus(StrEnum):
-    """Outcome of one job's SLAM execution."""
-
-    OK = "ok"
-    CRASH = "crash"
-    TIMEOUT = "timeout"
-
 
 @dataclass(frozen=True)
 class JobResult:

@@ -42,27 +42,19 @@ from typing import Any, Mapping
 
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.tomlfile import read_toml
+from faultlab.vocabulary import BASELINE, METRICS, SUITE_KINDS
 
 __all__ = [
     "Experiment",
     "SuiteSpec",
     "SlamSpec",
     "DetectionSpec",
-    "SUITE_KINDS",
-    "METRICS",
-    "BASELINE",
     "load_experiment",
     "parse_experiment",
     "import_object",
     "resolve_variant",
 ]
 
-#: Suite builders known to :func:`faultlab.space.build_suite`.
-SUITE_KINDS: tuple[str, ...] = ("systematic", "random", "fixed")
-#: Primary metrics (both are always recorded).
-METRICS: tuple[str, ...] = ("rms", "emd")
-#: The variant name meaning "no fault".
-BASELINE = "baseline"
 
 _TOP_KEYS = ("description", "seed", "runs", "suites", "n_steps", "sensor_range", "min_distance", "slam",
              "variants", "repetitions", "metric", "timeout_s", "detection", "space")

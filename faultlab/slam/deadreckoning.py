@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from faultlab.errors import SlamInputError
-from faultlab.slam import _units
+from faultlab.slam import units as _units
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
 
 __all__ = ["DeadReckoning"]

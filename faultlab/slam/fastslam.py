@@ -13,7 +13,7 @@ Units
 Each step of the algorithm is a field of :class:`FastSlamSteps`, a plain
 function over arrays for all particles ``N`` and all ``k`` observations of a
 step (the reference implementations, with the exact signatures and shapes,
-are documented in :mod:`faultlab.slam._units`).  A fault replaces exactly one
+are documented in :mod:`faultlab.slam.units`).  A fault replaces exactly one
 field: ``dataclasses.replace(REFERENCE_STEPS, resample=naive)``.  Units get what
 they need as explicit arguments (the wrap functions are passed in as
 ``wrap=steps.wrap_bearing`` / ``wrap=steps.wrap_heading``), so replacing a unit
@@ -108,8 +108,8 @@ from typing import Callable
 import numpy as np
 
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
-from faultlab.slam import _units
-from faultlab.slam._units import ParticleState, landmark_rows
+from faultlab.slam import units as _units
+from faultlab.slam.units import ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
@@ -176,7 +176,7 @@ class FastSlamSteps:
     """The replaceable units of FastSLAM 1.0 (see the table in the module docstring).
 
     Every field is a plain function; :data:`REFERENCE_STEPS` holds the reference
-    implementations from :mod:`faultlab.slam._units`.  Replace one unit with
+    implementations from :mod:`faultlab.slam.units`.  Replace one unit with
     ``dataclasses.replace(steps, unit=new_function)``.
     """
 
@@ -403,7 +403,7 @@ class FastSlam(SlamAdapter):
     def _storage(st: ParticleState) -> tuple[ParticleState, np.ndarray, np.ndarray, np.ndarray]:
         """Views of the storage: (state, mu (2, cap, N), P (2, 2, cap, N), anc (N, cap)).
 
-        The reference keeps this layout (see :func:`faultlab.slam._units.empty_means`);
+        The reference keeps this layout (see :func:`faultlab.slam.units.empty_means`);
         storage that a replaced unit re-allocated in another layout is copied into it once.
         """
         n, cap = st.mu.shape[:2]

@@ -12,7 +12,7 @@ from faultlab.space.parameters import (
     space_from_mapping,
     table1_space,
 )
-from faultlab.space.suites import SUITE_KINDS, build_suite, fixed_suite, random_suite, systematic_suite
+from faultlab.space.suites import build_suite, fixed_suite, random_suite, systematic_suite
 
 __all__ = [
     "CaseSpec",
@@ -30,7 +30,6 @@ __all__ = [
     "Coverage",
     "ParameterCoverage",
     "coverage",
-    "SUITE_KINDS",
     "build_suite",
     "systematic_suite",
     "random_suite",

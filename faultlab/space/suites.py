@@ -7,10 +7,10 @@ import numpy as np
 from faultlab.errors import ConfigError
 from faultlab.space.case import FIXED_VALUES, CaseSpec
 from faultlab.space.parameters import ParameterSpace, table1_space
+from faultlab.vocabulary import SUITE_KINDS
 
 __all__ = ["SUITE_KINDS", "build_suite", "systematic_suite", "random_suite", "fixed_suite"]
 
-SUITE_KINDS: tuple[str, ...] = ("systematic", "random", "fixed")
 
 
 def _check_rng(rng) -> np.random.Generator:

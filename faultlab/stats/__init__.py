@@ -14,13 +14,13 @@ import importlib
 #: (PEP 562), so importing faultlab.stats (e.g. by the CLI) stays cheap.
 _EXPORTS = {
     "comparison": ["compare_suites", "odds_ratio"],
-    "detection": ["BASELINE", "DetectionRule", "Outcome", "classify", "detects", "outcomes",
+    "detection": ["DetectionRule", "classify", "detects", "outcomes",
                   "pair_with_baseline"],
     "effects": ["NUMERIC_PARAMETERS", "format_effects", "parameter_effects"],
     "oracle": ["oracle_detections"],
     "paper": ["PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV", "PaperTable", "load_paper_raw",
               "load_paper_reported", "paper_table", "percent", "resolve_data_path"],
-    "rates": ["FAULT_ORDER", "SUITE_ORDER", "by_suite", "detection_rates", "false_alarm_rate",
+    "rates": ["by_suite", "detection_rates", "false_alarm_rate",
               "proportion_ci", "suspected_equivalent_faults"],
 }
 _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}

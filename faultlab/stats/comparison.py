@@ -26,7 +26,8 @@ from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.proportion import confint_proportions_2indep
 
 from faultlab.stats.detection import DetectionRule
-from faultlab.stats.rates import FAULT_ORDER, SUITE_ORDER, detection_rates, ordered
+from faultlab.stats.rates import detection_rates
+from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER, ordered
 
 __all__ = ["compare_suites", "odds_ratio"]
 
@@ -79,7 +80,7 @@ def compare_suites(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule
     rates = detection_rates(results, rule=rule, alpha=alpha)
     sfx = "_incl" if failures_detect else ""
     rows = []
-    for fault in ordered(rates["fault"], FAULT_ORDER):
+    for fault in ordered(rates["fault"], PAPER_FAULTS):
         r = rates[rates["fault"] == fault].set_index("suite")
         for sa, sb in combinations(ordered(r.index, SUITE_ORDER), 2):
             k_a, n_a = int(r.at[sa, "k" + sfx]), int(r.at[sa, "n" + sfx])

@@ -32,18 +32,15 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass
-from enum import StrEnum
 
 import numpy as np
 import pandas as pd
 
 from faultlab.errors import ConfigError, ResultsError
+from faultlab.vocabulary import BASELINE, Outcome
 
-__all__ = ["DetectionRule", "Outcome", "detects", "pair_with_baseline", "classify", "outcomes",
-           "BASELINE", "KEY_COLUMNS"]
+__all__ = ["DetectionRule", "detects", "pair_with_baseline", "classify", "outcomes", "KEY_COLUMNS"]
 
-#: Variant name of the unmodified SLAM.
-BASELINE = "baseline"
 #: Columns identifying one SLAM execution apart from the variant.
 KEY_COLUMNS = ("run", "suite", "case", "rep")
 _REQUIRED = KEY_COLUMNS + ("variant", "rms_mm", "status")
@@ -78,16 +75,6 @@ class DetectionRule:
         """One line for reports."""
         return (f"detected when faulty RMS - baseline RMS > {self.abs_mm:g} mm "
                 f"and >= {100 * self.rel:g} % of the baseline RMS")
-
-
-class Outcome(StrEnum):
-    """Outcome class of one faulty job (see the module docstring)."""
-
-    DETECTED = "detected"
-    NOT_DETECTED = "not_detected"
-    CRASH = "crash"
-    TIMEOUT = "timeout"
-    BASELINE_FAILED = "baseline_failed"
 
 
 def detects(faulty_mm, baseline_mm, *, rule: DetectionRule = DetectionRule()):

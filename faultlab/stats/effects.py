@@ -34,7 +34,7 @@ from statsmodels.tools.sm_exceptions import ConvergenceWarning, PerfectSeparatio
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.space.case import VALUE_KEYS
 from faultlab.stats.detection import DetectionRule, Outcome, outcomes
-from faultlab.stats.rates import FAULT_ORDER, ordered
+from faultlab.vocabulary import PAPER_FAULTS, ordered
 
 __all__ = ["parameter_effects", "format_effects", "NUMERIC_PARAMETERS"]
 
@@ -173,7 +173,7 @@ def parameter_effects(results: pd.DataFrame, *, rule: DetectionRule = DetectionR
     oc = outcomes(results, rule=rule)
     judged = oc[oc["outcome"].isin([Outcome.DETECTED.value, Outcome.NOT_DETECTED.value])]
     rows = []
-    for fault in ordered(oc["fault"], FAULT_ORDER):
+    for fault in ordered(oc["fault"], PAPER_FAULTS):
         jobs = judged[judged["fault"] == fault]
         if jobs.empty:
             rows.append(_note(fault, "(model)", 0, 0, "not fitted: no judged job (all failed)"))

@@ -26,8 +26,10 @@ from scipy.stats import mannwhitneyu
 from statsmodels.stats.multitest import multipletests
 
 from faultlab.errors import ConfigError
-from faultlab.stats.detection import BASELINE, _check_columns
-from faultlab.stats.rates import FAULT_ORDER, SUITE_ORDER, _sort
+from faultlab.stats.detection import _check_columns
+from faultlab.vocabulary import BASELINE
+from faultlab.stats.rates import _sort
+from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER
 
 __all__ = ["oracle_detections"]
 
@@ -94,4 +96,4 @@ def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str
     table["detected"] = table["detected"].astype(bool)
     if table.empty:
         return table
-    return _sort(table, {"suite": SUITE_ORDER, "run": (), "case": (), "fault": FAULT_ORDER})
+    return _sort(table, {"suite": SUITE_ORDER, "run": (), "case": (), "fault": PAPER_FAULTS})

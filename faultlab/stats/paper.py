@@ -22,8 +22,10 @@ import numpy as np
 import pandas as pd
 
 from faultlab.errors import ResultsError
-from faultlab.stats.detection import BASELINE, DetectionRule, outcomes
-from faultlab.stats.rates import FAULT_ORDER, SUITE_ORDER, by_suite, detection_rates, ordered
+from faultlab.stats.detection import DetectionRule, outcomes
+from faultlab.vocabulary import BASELINE
+from faultlab.stats.rates import by_suite, detection_rates
+from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER, ordered
 
 __all__ = ["PaperTable", "paper_table", "load_paper_raw", "load_paper_reported", "resolve_data_path",
            "percent", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV"]
@@ -233,7 +235,7 @@ def paper_table(raw_csv: str | Path, reported_csv: str | Path, *,
     printed, printed_bs = load_paper_reported(reported_path)
 
     suites = ordered(results["suite"], SUITE_ORDER)
-    variants = [BASELINE] + ordered(results.loc[results["variant"] != BASELINE, "variant"], FAULT_ORDER)
+    variants = [BASELINE] + ordered(results.loc[results["variant"] != BASELINE, "variant"], PAPER_FAULTS)
     wide = results.pivot_table(index=["suite", "variant"], columns=["run", "case"], values="rms_mm",
                                aggfunc="first")
     index = pd.MultiIndex.from_product([suites, variants], names=["suite", "variant"])

@@ -28,23 +28,12 @@ import pandas as pd
 from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError
-from faultlab.stats.detection import (BASELINE, DetectionRule, Outcome, _check_columns, detects,
-                                      outcomes, pair_with_baseline)
+from faultlab.stats.detection import DetectionRule, _check_columns, detects, outcomes, pair_with_baseline
+from faultlab.vocabulary import BASELINE, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
-__all__ = ["proportion_ci", "detection_rates", "by_suite", "false_alarm_rate", "SUITE_ORDER",
-           "FAULT_ORDER", "ordered"]
+__all__ = ["proportion_ci", "detection_rates", "by_suite", "false_alarm_rate"]
 
-#: Suite order of the paper's Table II.
-SUITE_ORDER = ("systematic", "fixed", "random")
-#: Fault order of Table II (then any others alphabetically).
-FAULT_ORDER = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")
 _CI_METHODS = {"wilson": "wilson", "cp": "beta"}
-
-
-def ordered(values, preferred) -> list:
-    """Distinct ``values``: those in ``preferred`` first (in that order), then the rest sorted."""
-    present = list(dict.fromkeys(values))
-    return [v for v in preferred if v in present] + sorted(v for v in present if v not in preferred)
 
 
 def proportion_ci(k, n, *, alpha: float = 0.05, method: str = "wilson") -> tuple[np.ndarray, np.ndarray]:
@@ -140,7 +129,7 @@ def detection_rates(results: pd.DataFrame, *, rule: DetectionRule = DetectionRul
     incl = _rate_columns(d + fails, table["n_jobs"] - table[Outcome.BASELINE_FAILED.value], alpha=alpha,
                          suffix="_incl")
     table = pd.concat([table[cols], pd.DataFrame(excl), pd.DataFrame(incl)], axis=1)
-    return _sort(table, {"suite": SUITE_ORDER, "fault": FAULT_ORDER})
+    return _sort(table, {"suite": SUITE_ORDER, "fault": PAPER_FAULTS})
 
 
 def suspected_equivalent_faults(results: pd.DataFrame) -> list[str]:
@@ -170,7 +159,7 @@ def suspected_equivalent_faults(results: pd.DataFrame) -> list[str]:
         return []
     same = pairs["rms_mm"].to_numpy(dtype=float) == pairs["baseline_rms_mm"].to_numpy(dtype=float)
     identical = pd.Series(same, index=pairs.index).groupby(pairs["fault"]).all()
-    return ordered(identical.index[identical.to_numpy()], FAULT_ORDER)
+    return ordered(identical.index[identical.to_numpy()], PAPER_FAULTS)
 
 
 def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), alpha: float = 0.05,
@@ -206,7 +195,7 @@ def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), al
     rows = []
     for suite in ordered(pairs["suite"], SUITE_ORDER):
         p = pairs[pairs["suite"] == suite]
-        p = _sort(p, {"fault": FAULT_ORDER, "run": ()})
+        p = _sort(p, {"fault": PAPER_FAULTS, "run": ()})
         missed = "; ".join(f"{r.fault} (run {r.run})" for r in p.itertuples() if not r.hit)
         rows.append({"suite": suite, "n_pairs": len(p), "detected_pairs": int(p["hit"].sum()),
                      "missed": missed})

@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 
 from faultlab.errors import ConfigError, ResultsError
+from faultlab.vocabulary import JobStatus
 from faultlab.runner import (
-    JobStatus,
     case_path,
     load_experiment,
     load_metadata,

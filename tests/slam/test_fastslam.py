@@ -18,7 +18,7 @@ from faultlab.slam import (
     Observations,
     run_slam,
 )
-from faultlab.slam import _units
+from faultlab.slam import units as _units
 from faultlab.space.case import FIXED_VALUES, CaseSpec
 
 from tests.slam.oracle import OracleFastSlam, run_oracle

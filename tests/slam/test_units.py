@@ -1,4 +1,4 @@
-"""The reference units of FastSLAM 1.0 against independent computations (faultlab.slam._units)."""
+"""The reference units of FastSLAM 1.0 against independent computations (faultlab.slam.units)."""
 
 import math
 
@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scipy.stats import multivariate_normal
 
 from faultlab.slam import FastSlamConfig
-from faultlab.slam import _units as U
+from faultlab.slam import units as U
 
 Q = FastSlamConfig().Q
 

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.stats import DetectionRule, Outcome, classify, detects, outcomes, pair_with_baseline
+from faultlab.vocabulary import Outcome
+from faultlab.stats import DetectionRule, classify, detects, outcomes, pair_with_baseline
 from tests.stats.synthetic import frame, job
 
 PAPER = DetectionRule()

@@ -1,0 +1,63 @@
+"""Names shared by every layer: variants, suites, faults, metrics, backends and outcome classes.
+
+Each name is defined here once; the computation, campaign, analysis, report and command-line
+layers import it from here.  Orders are those of the paper's Table II (Sec. VII).
+"""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+__all__ = [
+    "BASELINE",
+    "SUITE_KINDS",
+    "SUITE_ORDER",
+    "PAPER_FAULTS",
+    "METRICS",
+    "BACKENDS",
+    "JobStatus",
+    "Outcome",
+    "ordered",
+]
+
+#: The variant name of the unmodified SLAM (no fault).
+BASELINE = "baseline"
+
+#: Suite builders, in the order the paper introduces them (Sec. VI).
+SUITE_KINDS: tuple[str, ...] = ("systematic", "random", "fixed")
+
+#: Suite order of the paper's Table II.
+SUITE_ORDER: tuple[str, ...] = ("systematic", "fixed", "random")
+
+#: The paper's three injected faults (Sec. VII-A), in Table II order.
+PAPER_FAULTS: tuple[str, ...] = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")
+
+#: Map-error metrics, the primary one of a campaign first by default (both are always recorded).
+METRICS: tuple[str, ...] = ("rms", "emd")
+
+#: Execution backends of the runner (joblib backends; dask and ray are optional extras).
+BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")
+
+
+class JobStatus(StrEnum):
+    """Outcome of one job's SLAM execution."""
+
+    OK = "ok"
+    CRASH = "crash"
+    TIMEOUT = "timeout"
+
+
+class Outcome(StrEnum):
+    """Outcome class of one faulty job paired with its baseline (see :mod:`faultlab.stats.detection`)."""
+
+    DETECTED = "detected"
+    NOT_DETECTED = "not_detected"
+    CRASH = "crash"
+    TIMEOUT = "timeout"
+    BASELINE_FAILED = "baseline_failed"
+
+
+def ordered(values, preferred) -> list:
+    """Distinct ``values``: those in ``preferred`` first (in that order), then the rest sorted."""
+    present = list(dict.fromkeys(values))
+    return [v for v in preferred if v in present] + sorted(v for v in present if v not in preferred)
