@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from faultlab.cli.options import add_execution_options
+from faultlab.runner import run_experiment
 
 __all__ = ["register", "handler"]
 
@@ -23,10 +25,6 @@ def register(subparsers) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from faultlab.runner import run_experiment
-
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
     summary = run_experiment(args.experiment, out, jobs=args.jobs, backend=args.backend,
                              force_new=args.force_new, progress=not args.no_progress)

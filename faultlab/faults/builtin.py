@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from faultlab.faults.registry import Fault, UnitExample
+from faultlab.faults.fault import Fault, UnitExample
 
 __all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors"]
 

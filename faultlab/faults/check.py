@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from faultlab.errors import FaultError
-from faultlab.faults.registry import Fault, UnitExample, all_faults, load_plugins, resolve_fault
+from faultlab.faults.fault import Fault, UnitExample
+from faultlab.faults.registry import all_faults, load_plugins, resolve_fault
 
 __all__ = [
     "CheckStatus",

@@ -78,7 +78,7 @@ def quick_overrides(experiment) -> dict:
         "n_steps": QUICK_STEPS,
     }
     if experiment.slam.name == "fastslam":
-        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.particles)}
+        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.config.n_particles)}
     return overrides
 
 

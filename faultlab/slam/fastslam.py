@@ -103,10 +103,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Callable
+from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
+from faultlab.config import check_int, check_number
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam.units import ParticleState, landmark_rows
@@ -143,27 +144,45 @@ class FastSlamConfig:
     std_bearing: float = math.radians(10.0)
     resample_ratio: float = 1.5
 
+    #: field -> (key in an experiment's ``[slam]`` table, factor from the file's unit to SI,
+    #: validation bounds for :func:`faultlab.config.check_number`); angles are degrees in files.
+    OPTIONS: ClassVar[dict[str, tuple[str, float, dict]]] = {
+        "n_particles": ("particles", 1.0, {"minimum": 1}),
+        "std_v": ("std_v", 1.0, {"minimum": 0.0}),
+        "std_omega": ("std_omega_deg", math.pi / 180.0, {"minimum": 0.0}),
+        "std_range": ("std_range", 1.0, {"positive": True}),
+        "std_bearing": ("std_bearing_deg", math.pi / 180.0, {"positive": True}),
+        "resample_ratio": ("resample_ratio", 1.0, {"minimum": 1.0}),
+    }
+
     def __post_init__(self) -> None:
-        n = self.n_particles
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ConfigError(f"FastSlamConfig.n_particles must be an integer >= 1, got {n!r}")
-        object.__setattr__(self, "n_particles", int(n))
-        for name, positive in (("std_v", False), ("std_omega", False), ("std_range", True),
-                               ("std_bearing", True), ("resample_ratio", None)):
-            value = getattr(self, name)
-            try:
-                x = float(value)
-            except (TypeError, ValueError):
-                raise ConfigError(f"FastSlamConfig.{name} must be a number, got {value!r}") from None
-            if isinstance(value, bool) or not math.isfinite(x):
-                raise ConfigError(f"FastSlamConfig.{name} must be a finite number, got {value!r}")
-            if positive is None and x < 1.0:
-                raise ConfigError(f"FastSlamConfig.{name} must be >= 1, got {value!r}")
-            if positive is True and x <= 0.0:
-                raise ConfigError(f"FastSlamConfig.{name} must be > 0, got {value!r}")
-            if positive is False and x < 0.0:
-                raise ConfigError(f"FastSlamConfig.{name} must be >= 0, got {value!r}")
-            object.__setattr__(self, name, x)
+        for name, (_, _, bounds) in self.OPTIONS.items():
+            check = check_int if name == "n_particles" else check_number
+            object.__setattr__(self, name, check(getattr(self, name), name=f"FastSlamConfig.{name}", **bounds))
+
+    @classmethod
+    def from_options(cls, options: Mapping[str, Any], *, where: str = "FastSlamConfig") -> "FastSlamConfig":
+        """The config of an experiment's ``[slam]`` options (file keys and units, see :attr:`OPTIONS`).
+
+        Missing keys take the defaults; ``where`` prefixes every message (e.g. ``"exp.toml: slam"``).
+        """
+        known = {key: (name, factor, bounds) for name, (key, factor, bounds) in cls.OPTIONS.items()}
+        kwargs = {}
+        for key, value in options.items():
+            if key not in known:
+                raise ConfigError(f"{where}.{key} is not a known key (known: {', '.join(known)})")
+            name, factor, bounds = known[key]
+            if name == "n_particles":
+                kwargs[name] = check_int(value, name=f"{where}.{key}", **bounds)
+            else:
+                x = check_number(value, name=f"{where}.{key}", **bounds)
+                kwargs[name] = math.radians(x) if factor != 1.0 else x
+        return cls(**kwargs)
+
+    def to_options(self) -> dict[str, float | int]:
+        """The ``[slam]`` options of this config (file keys and units; inverse of :meth:`from_options`)."""
+        return {key: (math.degrees(getattr(self, name)) if factor != 1.0 else getattr(self, name))
+                for name, (key, factor, _) in self.OPTIONS.items()}
 
     @property
     def Q(self) -> np.ndarray:

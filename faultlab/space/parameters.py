@@ -35,7 +35,7 @@ import numpy as np
 
 from faultlab.errors import ConfigError
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
-from faultlab.tomlfile import read_toml
+from faultlab.config import read_toml
 
 __all__ = [
     "Kind",

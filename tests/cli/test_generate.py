@@ -1,6 +1,7 @@
 import numpy as np
 
 from faultlab.cli import main
+from faultlab.runner import parse_experiment, prepare_cases
 from faultlab.scenario import load_scenario
 
 
@@ -53,3 +54,23 @@ def test_space_file_is_used(tmp_path, capsys):
 def test_too_few_systematic_cases(tmp_path, capsys):
     assert main(["generate", "--out", str(tmp_path / "x"), "--cases", "3"]) == 1
     assert "at least 5 cases" in capsys.readouterr().err
+
+
+def test_generate_writes_exactly_the_cases_a_campaign_with_the_same_seed_runs(tmp_path):
+    # one case pipeline, one seed scheme: run 2's random suite of a campaign with seed 41
+    exp = parse_experiment({"seed": 41, "runs": 2, "n_steps": 25, "suites": {"random": 2, "systematic": 5},
+                            "slam": {"name": "dead_reckoning"}})
+    infos = prepare_cases(exp, tmp_path / "campaign")
+    out = tmp_path / "generated"
+    assert main(["generate", "--suite", "random", "--seed", "41", "--run", "2", "--cases", "2",
+                 "--steps", "25", "--out", str(out)]) == 0
+    campaign = {i.case: i.path for i in infos if i.run == 2 and i.suite == "random"}
+    assert sorted(campaign) == [1, 2]
+    for case, path in campaign.items():
+        assert (out / f"case{case}.npz").read_bytes() == path.read_bytes()
+        assert (out / f"case{case}.json").read_bytes() == path.with_suffix(".json").read_bytes()
+    # another run draws other cases
+    other = tmp_path / "run1"
+    assert main(["generate", "--suite", "random", "--seed", "41", "--run", "1", "--cases", "2",
+                 "--steps", "25", "--out", str(other)]) == 0
+    assert (other / "case1.npz").read_bytes() != (out / "case1.npz").read_bytes()

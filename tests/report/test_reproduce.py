@@ -42,7 +42,7 @@ def test_quick_overrides_shrink_the_paper_protocol():
     assert quick.runs == 1
     assert {s.kind: s.n_cases for s in quick.suites} == {"systematic": None, "random": 2, "fixed": 2}
     assert quick.variants == ("baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error")
-    assert quick.slam.particles == 60 and quick.n_steps == 200 and quick.repetitions == 1
+    assert quick.slam.config.n_particles == 60 and quick.n_steps == 200 and quick.repetitions == 1
     assert quick.seed == paper.seed and quick.detection == paper.detection
     assert quick.hash != paper.hash
 
@@ -69,7 +69,7 @@ def test_quick_and_runs_together(captured, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     reproduce(PAPER_TOML, quick=True, runs=2, progress=False)
     experiment, out, _ = captured["run"]
-    assert experiment.runs == 2 and experiment.slam.particles == 60
+    assert experiment.runs == 2 and experiment.slam.config.n_particles == 60
     assert out == Path("results/paper-quick-runs2")
     assert captured["build"] == (Path("results/paper-quick-runs2"), Path("reports"))
 
