@@ -22,6 +22,8 @@ import math
 import numpy as np
 
 from faultlab.faults.fault import Fault, UnitExample
+from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlamConfig
+from faultlab.slam.units import ParticleState
 
 __all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors"]
 
@@ -31,14 +33,10 @@ _LOG_TWO_PI = math.log(2.0 * math.pi)
 # --------------------------------------------------------------------------- example inputs
 
 def _config():
-    from faultlab.slam import FastSlamConfig
-
     return FastSlamConfig()
 
 
 def _reference(unit: str):
-    from faultlab.slam import REFERENCE_STEPS
-
     return getattr(REFERENCE_STEPS, unit)
 
 
@@ -113,8 +111,6 @@ def _ex_combine():
 
 
 def _state_example():
-    from faultlab.slam import ParticleState
-
     st = ParticleState.initial(np.zeros(3), 4)
     return dataclasses.replace(st, poses=np.arange(12.0).reshape(4, 3),
                                logw=np.log(np.array([0.1, 0.2, 0.3, 0.4])))

@@ -436,6 +436,7 @@ def _check_domain(key: str, x: float, where: str, unit: str) -> None:
 
 
 def _parse_parameter(base: Parameter, table: Any, where: str) -> Parameter:
+    """``base`` with the classes of one ``[parameter]`` table of a space file."""
     if not isinstance(table, Mapping):
         raise ConfigError(f"{where}: expected a table with a 'classes' entry, got {type(table).__name__}")
     unknown = [k for k in table if k != "classes"]
@@ -443,70 +444,71 @@ def _parse_parameter(base: Parameter, table: Any, where: str) -> Parameter:
         raise ConfigError(f"{where}.{unknown[0]}: unknown key (a parameter table has only 'classes')")
     if "classes" not in table:
         raise ConfigError(f"{where}: missing 'classes'")
-    raw = table["classes"]
-    where = f"{where}.classes"
-
+    raw, where = table["classes"], f"{where}.classes"
     if base.kind is Kind.CATEGORICAL:
-        if not isinstance(raw, list) or not all(isinstance(x, str) for x in raw):
-            raise ConfigError(f"{where}: expected a list of labels such as [\"random\", \"loop\"]")
-        if not raw:
-            raise ConfigError(f"{where}: no classes (empty list)")
-        for x in raw:
-            if x not in DIRECTIONALITY_LABELS:
-                raise ConfigError(f"{where}: unknown label {x!r} (the generator knows "
-                                  f"{', '.join(DIRECTIONALITY_LABELS)})")
-        if len(set(raw)) != len(raw):
-            raise ConfigError(f"{where}: a label appears twice (overlapping classes)")
-        return replace(base, classes=tuple(EquivalenceClass(x, values=(x,)) for x in raw))
-
+        return replace(base, classes=_categorical_classes(raw, where))
     if not isinstance(raw, Mapping):
         raise ConfigError(f"{where}: expected a table of named classes, got {type(raw).__name__}")
     if not raw:
         raise ConfigError(f"{where}: no classes (empty table)")
-
-    classes: list[EquivalenceClass] = []
     if base.kind is Kind.DISCRETE:
-        key = base.keys[0]
-        for name, spec in raw.items():
-            w = f"{where}.{name}"
-            items = spec if isinstance(spec, list) else [spec]
-            if not items:
-                raise ConfigError(f"{w}: empty class (no values)")
-            vals = []
-            for x in items:
-                if base.integer and (isinstance(x, bool) or not isinstance(x, int)):
-                    raise ConfigError(f"{w}: expected whole numbers of steps, got {x!r}")
-                v = _number(x, w)
-                _check_domain(key, v, w, VALUE_KEYS[key])
-                if key == "rotation_error" and not math.isclose(v / _TWO_PI, round(v / _TWO_PI), abs_tol=1e-9):
-                    raise ConfigError(f"{w}: a rotation error must be a multiple of 2 pi, got {x!r}")
-                vals.append(int(x) if base.integer else v)
-            classes.append(EquivalenceClass(str(name), values=tuple(vals)))
-        for i, a in enumerate(classes):
-            for b in classes[i + 1:]:
-                if any(math.isclose(x, y, rel_tol=1e-12, abs_tol=1e-12) for x in a.values for y in b.values):
-                    raise ConfigError(f"{where}: classes {a.name!r} and {b.name!r} overlap "
-                                      f"(they share a value)")
-        return replace(base, classes=tuple(classes))
+        return replace(base, classes=_discrete_classes(base, raw, where))
+    return replace(base, classes=_interval_classes(base, raw, where))
 
+
+def _categorical_classes(raw: Any, where: str) -> tuple[EquivalenceClass, ...]:
+    """One class per label: ``["random", "loop"]``."""
+    if not isinstance(raw, list) or not all(isinstance(x, str) for x in raw):
+        raise ConfigError(f"{where}: expected a list of labels such as [\"random\", \"loop\"]")
+    if not raw:
+        raise ConfigError(f"{where}: no classes (empty list)")
+    for x in raw:
+        if x not in DIRECTIONALITY_LABELS:
+            raise ConfigError(f"{where}: unknown label {x!r} (the generator knows "
+                              f"{', '.join(DIRECTIONALITY_LABELS)})")
+    if len(set(raw)) != len(raw):
+        raise ConfigError(f"{where}: a label appears twice (overlapping classes)")
+    return tuple(EquivalenceClass(x, values=(x,)) for x in raw)
+
+
+def _discrete_classes(base: Parameter, raw: Mapping, where: str) -> tuple[EquivalenceClass, ...]:
+    """Value sets: ``{ none = [0], positive = ["2pi", "4pi"] }``; no value in two classes."""
+    key = base.keys[0]
+    classes = []
+    for name, spec in raw.items():
+        w = f"{where}.{name}"
+        items = spec if isinstance(spec, list) else [spec]
+        if not items:
+            raise ConfigError(f"{w}: empty class (no values)")
+        classes.append(EquivalenceClass(str(name), values=tuple(_discrete_value(base, key, x, w) for x in items)))
+    for i, a in enumerate(classes):
+        for b in classes[i + 1:]:
+            if any(math.isclose(x, y, rel_tol=1e-12, abs_tol=1e-12) for x in a.values for y in b.values):
+                raise ConfigError(f"{where}: classes {a.name!r} and {b.name!r} overlap "
+                                  f"(they share a value)")
+    return tuple(classes)
+
+
+def _discrete_value(base: Parameter, key: str, x: Any, where: str) -> float | int:
+    if base.integer and (isinstance(x, bool) or not isinstance(x, int)):
+        raise ConfigError(f"{where}: expected whole numbers of steps, got {x!r}")
+    v = _number(x, where)
+    _check_domain(key, v, where, VALUE_KEYS[key])
+    if key == "rotation_error" and not math.isclose(v / _TWO_PI, round(v / _TWO_PI), abs_tol=1e-9):
+        raise ConfigError(f"{where}: a rotation error must be a multiple of 2 pi, got {x!r}")
+    return int(x) if base.integer else v
+
+
+def _interval_classes(base: Parameter, raw: Mapping, where: str) -> tuple[EquivalenceClass, ...]:
+    """Intervals (or point classes), one per component for two-component parameters."""
     comps = base.components
+    classes = []
     for name, spec in raw.items():
         w = f"{where}.{name}"
         if comps:
-            if not isinstance(spec, Mapping):
-                raise ConfigError(f"{w}: expected a table {{ {' = [lo, hi], '.join(comps)} = [lo, hi] }}, "
-                                  f"got {type(spec).__name__}")
-            extra = [k for k in spec if k not in comps]
-            if extra:
-                raise ConfigError(f"{w}.{extra[0]}: unknown component (expected {', '.join(comps)})")
-            missing = [k for k in comps if k not in spec]
-            if missing:
-                raise ConfigError(f"{w}: missing component {missing[0]!r}")
-            bounds = tuple(_interval(spec[c], f"{w}.{c}") for c in comps)
-            ws = [f"{w}.{c}" for c in comps]
+            bounds, ws = _component_bounds(comps, spec, w)
         else:
-            bounds = (_interval(spec, w),)
-            ws = [w]
+            bounds, ws = (_interval(spec, w),), [w]
         for key, (lo, hi), wc in zip(base.keys, bounds, ws):
             _check_domain(key, lo, wc, VALUE_KEYS[key])
             _check_domain(key, hi, wc, VALUE_KEYS[key])
@@ -520,7 +522,21 @@ def _parse_parameter(base: Parameter, table: Any, where: str) -> Parameter:
             if all(max(la, lb) < min(ha, hb) for (la, ha), (lb, hb) in zip(a.bounds, b.bounds)):
                 raise ConfigError(f"{where}: classes {a.name!r} and {b.name!r} overlap "
                                   f"(intervals may share an endpoint only)")
-    return replace(base, classes=tuple(classes))
+    return tuple(classes)
+
+
+def _component_bounds(comps: tuple[str, ...], spec: Any, where: str) -> tuple[tuple, list[str]]:
+    """The intervals of a two-component class: ``{ distance = [0, 20], angle = [0, 0.04] }``."""
+    if not isinstance(spec, Mapping):
+        raise ConfigError(f"{where}: expected a table {{ {' = [lo, hi], '.join(comps)} = [lo, hi] }}, "
+                          f"got {type(spec).__name__}")
+    extra = [k for k in spec if k not in comps]
+    if extra:
+        raise ConfigError(f"{where}.{extra[0]}: unknown component (expected {', '.join(comps)})")
+    missing = [k for k in comps if k not in spec]
+    if missing:
+        raise ConfigError(f"{where}: missing component {missing[0]!r}")
+    return tuple(_interval(spec[c], f"{where}.{c}") for c in comps), [f"{where}.{c}" for c in comps]
 
 
 def space_from_mapping(mapping: Mapping[str, Any], *, source: str,
