@@ -9,7 +9,9 @@ a campaign (``faultlab run``) or on its own (``faultlab generate``):
 - case c of that suite is generated from ``spawn_key=(CASE, run, code(suite), c)``;
 - repetition k of a case runs the SLAM with ``spawn_key=(SLAM, run, code(suite), c, k)``, the
   same for every variant (common random numbers: a difference between a faulty variant and the
-  baseline comes from the fault, not from the SLAM's own noise).
+  baseline comes from the fault, not from the SLAM's own noise) -- except the A/A control
+  ``baseline_replica``, whose key ends in an extra ``REPLICA`` tag so that its seeds are
+  independent of the baseline's.
 
 ``code(name)`` is :func:`stable_code`, a 32-bit hash of the name, so adding, removing or
 reordering suites changes no other suite's draws.
@@ -24,7 +26,7 @@ import numpy as np
 __all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed"]
 
 # Spawn-key tags: what a seed is for.
-_SUITE, _CASE, _SLAM = 1, 2, 3
+_SUITE, _CASE, _SLAM, _REPLICA = 1, 2, 3, 4
 
 
 def stable_code(name: str) -> int:
@@ -47,9 +49,11 @@ def case_seed(root: int, run: int, suite: str, case: int) -> int:
     return _seed(root, _CASE, run, stable_code(suite), case)
 
 
-def slam_seed(root: int, run: int, suite: str, case: int, rep: int) -> int:
+def slam_seed(root: int, run: int, suite: str, case: int, rep: int, *, replica: bool = False) -> int:
     """Seed (63-bit int) of the SLAM's own randomness in repetition ``rep`` of a case.
 
-    Independent of the variant: common random numbers across variants.
+    The same for every variant (common random numbers across variants), except for the A/A
+    control (``replica=True``), which gets seeds independent of the baseline's.
     """
-    return _seed(root, _SLAM, run, stable_code(suite), case, rep)
+    key = (_SLAM, run, stable_code(suite), case, rep) + ((_REPLICA,) if replica else ())
+    return _seed(root, *key)

@@ -10,6 +10,8 @@ from enum import StrEnum
 
 __all__ = [
     "BASELINE",
+    "REPLICA",
+    "UNMODIFIED",
     "SUITE_KINDS",
     "SUITE_ORDER",
     "PAPER_FAULTS",
@@ -22,6 +24,13 @@ __all__ = [
 
 #: The variant name of the unmodified SLAM (no fault).
 BASELINE = "baseline"
+
+#: The unmodified SLAM again, with SLAM seeds independent of the baseline's: an A/A control whose
+#: "detections" against the baseline are false alarms (``faultlab calibrate``).
+REPLICA = "baseline_replica"
+
+#: Variant names that mean "no fault" (reserved: no fault may use them).
+UNMODIFIED: tuple[str, ...] = (BASELINE, REPLICA)
 
 #: Suite builders, in the order the paper introduces them (Sec. VI).
 SUITE_KINDS: tuple[str, ...] = ("systematic", "random", "fixed")

@@ -49,3 +49,11 @@ def test_seeds_do_not_depend_on_the_interpreter_hash_seed():
         outs.add(subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True,
                                 text=True, check=True).stdout)
     assert outs == {f"{slam_seed(3, 1, 'random', 2, 0)} {case_seed(3, 2, 'fixed', 1)}\n"}
+
+
+def test_the_replica_seed_is_independent_of_the_baseline_seed_and_keyed_like_it():
+    a = slam_seed(7, 1, "random", 2, 3)
+    b = slam_seed(7, 1, "random", 2, 3, replica=True)
+    assert a != b
+    ss = np.random.SeedSequence(entropy=7, spawn_key=(3, 1, stable_code("random"), 2, 3, 4))
+    assert b == int(ss.generate_state(1, np.uint64)[0]) >> 1

@@ -21,7 +21,8 @@ The contract a replacement must honour:
   pickled to worker processes.
 
 Names: built-in faults have lower-case ``snake_case`` names; third-party faults ``provider/name``
-(see :mod:`faultlab.faults.registry`); ``"baseline"`` is reserved for the unmodified SLAM.
+(see :mod:`faultlab.faults.registry`); ``"baseline"`` and ``"baseline_replica"`` are reserved
+for the unmodified SLAM.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from typing import Any
 
 from faultlab.errors import FaultError
 from faultlab.slam.fastslam import FastSlamSteps
-from faultlab.vocabulary import BASELINE
+from faultlab.vocabulary import UNMODIFIED
 
 __all__ = ["Fault", "UnitExample", "apply_faults", "step_names"]
 
@@ -112,8 +113,8 @@ class Fault:
         name = self.name
         if not isinstance(name, str) or not name:
             raise FaultError(f"fault name must be a non-empty string, got {name!r}")
-        if name == BASELINE:
-            raise FaultError(f"fault name {BASELINE!r} is reserved for the unmodified reference")
+        if name in UNMODIFIED:
+            raise FaultError(f"fault name {name!r} is reserved for the unmodified reference")
         if not (_BUILTIN_NAME.fullmatch(name) or _PLUGIN_NAME.fullmatch(name)):
             raise FaultError(
                 f"fault name {name!r} is invalid: use lower-case snake_case for built-ins or "

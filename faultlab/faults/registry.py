@@ -20,7 +20,7 @@ from faultlab.config import import_object
 from faultlab.errors import FaultError, PluginError
 from faultlab.faults.builtin import BUILTIN_FAULTS
 from faultlab.faults.fault import Fault, step_names
-from faultlab.vocabulary import BASELINE
+from faultlab.vocabulary import BASELINE, UNMODIFIED
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -224,8 +224,8 @@ def get_fault(name: str) -> Fault:
     """
     if not isinstance(name, str):
         raise FaultError(f"fault name must be a string, got {type(name).__name__}")
-    if name == BASELINE:
-        raise FaultError(f"{BASELINE!r} is the unmodified reference, not a fault")
+    if name in UNMODIFIED:
+        raise FaultError(f"{name!r} is the unmodified reference, not a fault")
     builtins = builtin_faults()
     if name in builtins:
         return builtins[name]
@@ -263,8 +263,9 @@ def resolve_fault(spec: str | Fault) -> Fault:
 
 
 def resolve_variant(spec: str | Fault) -> Fault | None:
-    """Like :func:`resolve_fault`, but ``"baseline"`` resolves to None (no fault)."""
-    if spec == BASELINE:
+    """Like :func:`resolve_fault`, but the unmodified variants (``"baseline"``, ``"baseline_replica"``)
+    resolve to None (no fault)."""
+    if isinstance(spec, str) and spec in UNMODIFIED:
         return None
     return resolve_fault(spec)
 

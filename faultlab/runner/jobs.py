@@ -1,7 +1,7 @@
 """Jobs of a campaign: one per (run, suite, case, variant, rep), each with its SLAM seed.
 
 Seeds follow the scheme of :mod:`faultlab.seeds`: repetition ``rep`` of a case uses the same SLAM
-seed for every variant (common random numbers).
+seed for every variant (common random numbers), except the A/A control ``baseline_replica``.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from typing import Iterable
 
 from faultlab.runner.experiment import Experiment, SlamSpec
 from faultlab.seeds import slam_seed
+from faultlab.vocabulary import REPLICA
 
 __all__ = ["JobKey", "JobSpec", "expand_jobs"]
 
@@ -73,6 +74,7 @@ def expand_jobs(experiment: Experiment, cases: Iterable[tuple[int, str, int, str
             for rep in range(experiment.repetitions):
                 jobs.append(JobSpec(key=JobKey(run, suite, case, variant, rep), case_path=str(path),
                                     slam=experiment.slam,
-                                    seed=slam_seed(experiment.seed, run, suite, case, rep),
+                                    seed=slam_seed(experiment.seed, run, suite, case, rep,
+                                                   replica=variant == REPLICA),
                                     timeout_s=experiment.timeout_s, cost=float(cost)))
     return jobs

@@ -25,3 +25,11 @@ def test_job_key_order_and_text():
     a, b = JobKey(1, "random", 1, "baseline", 0), JobKey(1, "random", 1, "baseline", 1)
     assert a < b and a.astuple() == (1, "random", 1, "baseline", 0)
     assert str(a) == "run 1 random case 1 baseline rep 0"
+
+
+def test_the_replica_variant_gets_its_own_seeds():
+    exp = parse_experiment(tiny_experiment(variants=["baseline", "baseline_replica"], repetitions=2))
+    jobs = expand_jobs(exp, [(1, "random", 1, "a.npz", 1.0)])
+    seeds = {(j.key.variant, j.key.rep): j.seed for j in jobs}
+    assert seeds[("baseline_replica", 0)] == slam_seed(exp.seed, 1, "random", 1, 0, replica=True)
+    assert len(set(seeds.values())) == 4
