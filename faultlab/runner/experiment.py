@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
+from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.tomlfile import read_toml
 from faultlab.vocabulary import BASELINE, METRICS, SUITE_KINDS
@@ -249,15 +250,24 @@ class Experiment:
 
 # ---------------------------------------------------------------------- loading
 def load_experiment(path: str | Path) -> Experiment:
-    """Read and validate an experiment TOML file.
+    """Read and validate an experiment TOML file, or a shipped experiment by name.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file, or the name of an experiment shipped with faultlab (``"paper"``,
+        ``"smoke"``; see :func:`faultlab.data.resolve_experiment`).  The experiment's
+        ``source`` is ``path`` as given.
 
     Raises
     ------
     ConfigError
-        If the file is missing, not TOML, or any key is unknown, of the wrong
-        type or out of range (the message names the file, key and reason).
+        If the file is missing (or the name unknown: the message lists the shipped
+        names), not TOML, or any key is unknown, of the wrong type or out of range
+        (the message names the file, key and reason).
     """
-    data, text = read_toml(path, what="experiment file")
+    file = resolve_experiment(path, what="experiment file")
+    data, text = read_toml(file, what="experiment file")
     return parse_experiment(data, source=str(path), text=text)
 
 
