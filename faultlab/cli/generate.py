@@ -32,7 +32,8 @@ def register(subparsers) -> None:
     p.add_argument("--cases", type=int, default=None, metavar="N",
                    help="number of cases (default: the smallest systematic suite, 5 with Table I)")
     p.add_argument("--space", default=None, metavar="FILE",
-                   help="TOML file overriding Table I classes (see experiments/space_table1.toml)")
+                   help="TOML file overriding Table I classes (see experiments/space_table1.toml, "
+                        "shipped as the name space_table1)")
     p.add_argument("--steps", type=int, default=1000, metavar="N", help="active steps per case (default: 1000)")
     p.set_defaults(func=handler)
 

@@ -16,9 +16,10 @@ def register(subparsers) -> None:
         "run", help="run (or resume) an experiment file",
         description="Run the jobs of an experiment file and store one row per job in OUT/results.sqlite. "
                     "Rerunning the same command resumes: only missing jobs run.")
-    p.add_argument("experiment", help="experiment TOML file, e.g. experiments/paper.toml")
+    p.add_argument("experiment", help="experiment TOML file, e.g. experiments/paper.toml, or the name "
+                                      "of a shipped experiment (paper, smoke)")
     p.add_argument("--out", default=None,
-                   help="output directory (default: results/<experiment file name without .toml>)")
+                   help="output directory (default: results/<experiment name, without .toml>)")
     p.add_argument("--jobs", type=int, default=2, help="worker processes (default: 2)")
     add_execution_options(p)
     p.set_defaults(func=handler)

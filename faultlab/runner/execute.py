@@ -25,7 +25,6 @@ import contextlib
 import math
 import os
 import signal
-import sys
 import threading
 import time
 import traceback
@@ -43,6 +42,8 @@ from faultlab.faults import resolve_variant
 from faultlab.metrics import map_errors
 from faultlab.runner.experiment import Experiment, load_experiment
 from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
+from faultlab.runner.progress import format_duration
+from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import ID_COLUMNS, ResultStore, case_path, store_lock
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
@@ -129,14 +130,7 @@ class RunSummary:
     def __str__(self) -> str:
         counts = ", ".join(f"{self.counts.get(s.value, 0)} {s.value}" for s in JobStatus)
         return (f"{self.n_jobs} jobs: {counts} ({self.n_new} run now, {self.n_skipped} already done); "
-                f"wall time {_fmt_seconds(self.wall_time_s)}")
-
-
-def _fmt_seconds(s: float) -> str:
-    if s < 60:
-        return f"{s:.1f} s"
-    m, s = divmod(int(round(s)), 60)
-    return f"{m} min {s} s" if m < 60 else f"{m // 60} h {m % 60} min {s} s"
+                f"wall time {format_duration(self.wall_time_s)}")
 
 
 # ------------------------------------------------------------------ worker side
@@ -451,7 +445,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         (never deleted).  Without it, ``out`` holding another experiment's
         results is an error.
     progress : bool
-        Show a tqdm progress bar (on a terminal).
+        Show progress on stderr (:func:`faultlab.runner.progress.progress`): a tqdm bar on a
+        terminal, otherwise a log line every 10 % of the jobs (done/total, crashes and
+        timeouts so far, elapsed time, ETA).
 
     Returns
     -------
@@ -484,18 +480,15 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
         n_new, state = 0, "interrupted"
         try:
-            from tqdm.auto import tqdm
-
-            with tqdm(total=len(specs), initial=len(specs) - len(todo), unit="job", desc="faultlab run",
-                      disable=None if progress else True, file=sys.stderr, dynamic_ncols=True) as bar:
-                bar.set_postfix(crash=counts["crash"], timeout=counts["timeout"], refresh=False)
+            with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
+                               enabled=progress,
+                               counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
                 for res in _stream(todo, jobs=jobs, backend=backend):
                     k = res.key
                     store.write(_row(info[(k.run, k.suite, k.case)], res), session=session)
                     n_new += 1
                     counts[res.status.value] = counts.get(res.status.value, 0) + 1
-                    bar.set_postfix(crash=counts["crash"], timeout=counts["timeout"], refresh=False)
-                    bar.update(1)
+                    bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
             state = "complete"
         finally:
             store.end_session(session, state=state, n_new=n_new, wall_time_s=time.perf_counter() - t0)

@@ -41,6 +41,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from faultlab.config import Table, read_toml
+from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.faults import resolve_variant
 from faultlab.metrics.detection import DetectionRule
@@ -218,15 +219,24 @@ class Experiment:
 
 # ---------------------------------------------------------------------- loading
 def load_experiment(path: str | Path) -> Experiment:
-    """Read and validate an experiment TOML file.
+    """Read and validate an experiment TOML file, or a shipped experiment by name.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file, or the name of an experiment shipped with faultlab (``"paper"``,
+        ``"smoke"``; see :func:`faultlab.data.resolve_experiment`).  The experiment's
+        ``source`` is ``path`` as given.
 
     Raises
     ------
     ConfigError
-        If the file is missing, not TOML, or any key is unknown, of the wrong
-        type or out of range (the message names the file, key and reason).
+        If the file is missing (or the name unknown: the message lists the shipped
+        names), not TOML, or any key is unknown, of the wrong type or out of range
+        (the message names the file, key and reason).
     """
-    data, text = read_toml(path, what="experiment file")
+    file = resolve_experiment(path, what="experiment file")
+    data, text = read_toml(file, what="experiment file")
     return parse_experiment(data, source=str(path), text=text)
 
 

@@ -33,6 +33,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.config import read_toml
@@ -573,10 +574,18 @@ def space_from_mapping(mapping: Mapping[str, Any], *, source: str,
 def load_space(path: str | Path) -> ParameterSpace:
     """Read a TOML override file (see ``experiments/space_table1.toml``) on top of Table I.
 
+    Parameters
+    ----------
+    path : str or Path
+        A file, or the name of a shipped file (``"space_table1"``, Table I written out;
+        see :func:`faultlab.data.resolve_experiment`).
+
     Raises
     ------
     ConfigError
-        If the file is missing, not valid TOML, or malformed (see :func:`space_from_mapping`).
+        If the file is missing (or the name unknown), not valid TOML, or malformed (see
+        :func:`space_from_mapping`).
     """
-    data, _ = read_toml(path, what="parameter-space file")
+    file = resolve_experiment(path, what="parameter-space file")
+    data, _ = read_toml(file, what="parameter-space file")
     return space_from_mapping(data, source=str(path))

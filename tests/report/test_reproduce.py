@@ -54,6 +54,16 @@ def test_default_out_never_mixes_protocols():
     assert default_out("x/y.toml", quick=True, runs=2) == Path("results/y-quick-runs2")
 
 
+def test_default_is_the_shipped_paper_protocol_from_any_directory(captured, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no experiments/ here: the packaged copy is used
+    reproduce(progress=False)
+    experiment, out, _ = captured["run"]
+    assert experiment.hash == load_experiment(PAPER_TOML).hash and experiment.source == "paper"
+    assert out == Path("results/paper")
+    reproduce("smoke", quick=True, progress=False)
+    assert captured["run"][1] == Path("results/smoke-quick")
+
+
 def test_options_reach_the_runner_and_the_report(captured, tmp_path):
     result = reproduce(PAPER_TOML, out=tmp_path / "o", reports=tmp_path / "r", runs=30, jobs=1,
                        backend="threading", force_new=True, progress=False)
