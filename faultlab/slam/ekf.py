@@ -47,6 +47,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
@@ -55,6 +56,21 @@ from faultlab.slam.bookkeeping import LandmarkIndex, UnitTable
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
 
 __all__ = ["EkfSlamConfig", "EkfSlamSteps", "REFERENCE_STEPS", "EkfSlam"]
+
+_blas: ThreadpoolController | None = None
+
+
+def _one_blas_thread():
+    """Context manager: BLAS limited to one thread (threadpoolctl; restored on exit).
+
+    The EKF's BLAS calls are of medium size (D up to ~1000, 2k up to ~100): a second thread
+    gains little on an idle machine, and on a busy one (other jobs, the runner's threading
+    backend) the BLAS threads wait for each other and one update was measured 10-40x slower.
+    """
+    global _blas
+    if _blas is None:  # created at first use, when scipy's BLAS is loaded too
+        _blas = ThreadpoolController()
+    return _blas.limit(limits=1, user_api="blas")
 
 
 def _checked(owner: str, name: str, value, *, positive: bool) -> float:
@@ -194,6 +210,10 @@ class EkfSlam(SlamAdapter):
     def update(self, control: np.ndarray, observations: Observations) -> None:
         if self._mu is None:
             raise SlamInputError(f"{self.name}: update() called before reset()")
+        with _one_blas_thread():
+            self._update(control, observations)
+
+    def _update(self, control: np.ndarray, observations: Observations) -> None:
         steps, Q = self._steps, self._Q
         k = len(observations)
         u = np.asarray(control, dtype=float)
