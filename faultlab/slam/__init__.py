@@ -1,4 +1,4 @@
-"""faultlab.slam: the SLAM adapter protocol, the reference FastSLAM 1.0, FastSLAM 2.0, EKF-SLAM and a dead-reckoning baseline."""
+"""faultlab.slam: the SLAM adapter protocol, the reference FastSLAM 1.0, FastSLAM 2.0, EKF-SLAM, dead reckoning."""
 
 from faultlab.slam.deadreckoning import DeadReckoning
 from faultlab.slam.ekf import REFERENCE_STEPS as EKF_REFERENCE_STEPS

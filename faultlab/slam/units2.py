@@ -13,34 +13,34 @@ Motion (dt = 1): drive ``v`` along the old heading, then turn by ``omega``::
 
     x' = x + v cos(theta),  y' = y + v sin(theta),  theta' = theta + omega
 
-The motion is *linear in the control* for a fixed old pose: ``pose' = pose'(u) + V du`` exactly,
-with ``V`` of :func:`motion_jacobians`.  Measurement of landmark ``m``: ``z = (|m - (x, y)|,
+The motion is *linear in the control* for a fixed old pose: ``g(x, u + du) = g(x, u) + V du``
+exactly (up to the heading wrap), with ``V`` of :func:`motion_jacobians`.  Measurement of landmark ``m``: ``z = (|m - (x, y)|,
 atan2(m_y - y, m_x - x) - theta)``.
 
 EKF-SLAM units (state ``(x, y, theta, m_1, ..., m_L)`` of dimension ``D = 3 + 2L``)
 ------------------------------------------------------------------------------------
-======================== ==================================================================================
-unit                     signature (shapes)
-======================== ==================================================================================
-motion_jacobians         ``(poses (N,3), u (N,2)) -> G (N,3,3), V (N,3,2)``
-predict_covariance       ``(Sxx (3,3), Sxm (3,D-3), G (3,3), V (3,2), M (2,2)) -> Sxx, Sxm``
-pose_jacobian            ``(H (...,2,2)) -> Hx (...,2,3)``
-cross_covariance         ``(Sigma (D,D), idx (k,), Hx (k,2,3), Hm (k,2,2)) -> PHt (D,2k)``
-joint_innovation_cov...  ``(PHt (D,2k), idx (k,), Hx (k,2,3), Hm (k,2,2), Q (2,2)) -> S (2k,2k)``
-kalman_update            ``(mu (D,), Sigma (D,D), PHt (D,2k), S (2k,2k), nu (2k,)) -> mu, Sigma``
-augment_state            ``(mu (D,), Sigma (D,D), lm (k,2), P (k,2,2)) -> mu (D+2k,), Sigma``
-======================== ==================================================================================
+=========================== ===================================================================================
+unit                        signature (shapes)
+=========================== ===================================================================================
+motion_jacobians            ``(poses (N,3), u (N,2)) -> G (N,3,3), V (N,3,2)`` (shared with FastSLAM 2.0)
+predict_covariance          ``(Sxx (3,3), Sxm (3,D-3), G (3,3), V (3,2), M (2,2)) -> Sxx, Sxm``
+pose_jacobian               ``(H (...,2,2)) -> Hx (...,2,3)`` (shared with FastSLAM 2.0)
+cross_covariance            ``(Sigma (D,D), idx (k,), Hx (k,2,3), Hm (k,2,2)) -> PHt (D,2k)``
+joint_innovation_covariance ``(PHt (D,2k), idx (k,), Hx (k,2,3), Hm (k,2,2), Q (2,2)) -> S (2k,2k)``
+kalman_update               ``(mu (D,), Sigma (D,D), PHt (D,2k), S (2k,2k), nu (2k,)) -> mu, Sigma``
+augment_state               ``(mu (D,), Sigma (D,D), lm (k,2), P (k,2,2)) -> mu (D+2k,), Sigma (D+2k,D+2k)``
+=========================== ===================================================================================
 
 FastSLAM 2.0 units (``N`` particles, ``k`` observations; the proposal lives in *control space*)
 ------------------------------------------------------------------------------------------------
-======================== ==================================================================================
-unit                     signature (shapes)
-======================== ==================================================================================
-proposal_information     ``(Hx (N,k,2,3), V (N,3,2), Z (N,k,2,2), nu (N,k,2), known (N,k)) -> Lam, eta``
-proposal                 ``(Lam (N,2,2), eta (N,2), M (2,2)) -> mean (N,2), cov (N,2,2)``
-sample_proposal          ``(mean (N,2), cov (N,2,2), rng) -> du (N,2)``
-proposal_correction      ``(Lam (N,2,2), eta (N,2), cov (N,2,2), M (2,2)) -> (N,)``
-======================== ==================================================================================
+=========================== ===================================================================================
+unit                        signature (shapes)
+=========================== ===================================================================================
+proposal_information        ``(Hx (N,k,2,3), V (N,3,2), Z (N,k,2,2), nu (N,k,2), known (N,k)) -> Lam, eta``
+proposal                    ``(Lam (N,2,2), eta (N,2), M (2,2)) -> mean (N,2), cov (N,2,2)``
+sample_proposal             ``(mean (N,2), cov (N,2,2), rng) -> du (N,2)``
+proposal_correction         ``(Lam (N,2,2), eta (N,2), cov (N,2,2), M (2,2)) -> (N,)``
+=========================== ===================================================================================
 
 Why control space: FastSLAM 2.0 samples the pose from ``N(mu_x, Sigma_x)`` with
 ``Sigma_x = [Hx^T Z^-1 Hx + R^-1]^-1`` (Probabilistic Robotics, Table 13.2), where

@@ -159,7 +159,8 @@ def test_augment_state_is_the_linearised_inverse_measurement_model():
     for j in range(6):
         dz = np.zeros(6)
         dz[j] = eps
-        Jz[:, j] = (inverse_model(mu[:3], z + dz.reshape(3, 2)) - inverse_model(mu[:3], z - dz.reshape(3, 2))) / (2 * eps)
+        dz = dz.reshape(3, 2)
+        Jz[:, j] = (inverse_model(mu[:3], z + dz) - inverse_model(mu[:3], z - dz)) / (2 * eps)
     T = np.zeros((D + 6, D))
     T[:D] = np.eye(D)
     T[D:, :3] = Jx
