@@ -59,6 +59,7 @@ def each_choice_cases(space: ParameterSpace, *, rng: np.random.Generator, n_case
     structure = space.structure
     constrained = bool(structure.forbidden)
     counts = [np.zeros(p.n_classes, dtype=np.int64) for p in space.parameters]
+    wts = None if weights is None else [np.asarray(weights[p.name], dtype=float) for p in space.parameters]
     cases = []
     for _ in range(n_cases):
         all_covered = all(bool(np.all(c > 0)) for c in counts)
@@ -77,11 +78,12 @@ def each_choice_cases(space: ParameterSpace, *, rng: np.random.Generator, n_case
                 ok = np.array([structure.feasible(row[:j] + [c] + row[j + 1:]) for c in range(p.n_classes)])
                 mask = mask & ok if np.any(mask & ok) else ok
             cand = np.flatnonzero(mask)
-            w = None if weights is None else np.asarray(weights[p.name], dtype=float)[cand]
+            w = None if weights is None else wts[j][cand]
             if w is None or not w.sum() > 0:
                 k = int(cand[rng.integers(cand.size)])
-            else:
-                k = int(cand[rng.choice(cand.size, p=w / w.sum())])
+            else:  # inverse CDF: a class of weight zero is never chosen
+                cum = np.cumsum(w)
+                k = int(cand[min(int(np.searchsorted(cum, rng.random() * cum[-1], side="right")), cand.size - 1)])
             values.update(p.draw(k, rng))
             classes[p.name] = k
             row[j] = k

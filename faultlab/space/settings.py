@@ -198,7 +198,7 @@ def weights_from_effects(effects: pd.DataFrame, *, floor: float = 0.05) -> pd.Da
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         rng = "[0, 1]" if col == "detection_rate" else "(0, inf)"
-        raise ConfigError(f"weights_from_effects: row {i}: {col} = {effects[col].iloc[i]!r} is not in {rng}")
+        raise ConfigError(f"weights_from_effects: row {i}: {col} = {effects[col].iloc[i]} is not in {rng}")
     if effects.duplicated(["parameter", "class"]).any():
         raise ConfigError("weights_from_effects: a (parameter, class) appears twice")
     if not 0.0 <= floor:
