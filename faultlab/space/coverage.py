@@ -20,6 +20,7 @@ from typing import Iterable
 import numpy as np
 import pandas as pd
 
+from faultlab.errors import ConfigError
 from faultlab.space.case import CaseSpec
 from faultlab.space.covering import uncovered_tuples
 from faultlab.space.parameters import ParameterSpace
@@ -227,7 +228,8 @@ def t_wise_coverage(cases: Iterable[CaseSpec], space: ParameterSpace, strength: 
     """
     structure = space.structure
     if not 1 <= int(strength) <= structure.n_parameters:
-        raise ValueError(f"strength must be between 1 and {structure.n_parameters}, got {strength}")
+        raise ConfigError(f"a t-wise coverage needs a strength between 1 and {structure.n_parameters}, "
+                          f"got {strength}")
     rows = class_matrix(cases, space)
     total = excluded = 0
     for params in structure.interactions(int(strength)):

@@ -193,8 +193,9 @@ def t_wise_suite(space: ParameterSpace, *, rng: np.random.Generator, strength: i
     strength : int
         t, from 2 to the number of parameters.
     n_cases : int, optional
-        Default and minimum: the number of covering rows (for Table I, pairwise 20 and 3-wise
-        82 cases).  Extra cases greedily cover (t+1)-tuples, then (t+2)-tuples, ...
+        Default and minimum: the number of covering rows (:func:`min_suite_size`; for Table I
+        with covertable 3.2: pairwise 20, 3-wise 82, 4-wise 292 cases).  Extra cases greedily
+        cover (t+1)-tuples, then (t+2)-tuples, ...
 
     Returns
     -------

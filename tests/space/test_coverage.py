@@ -3,6 +3,7 @@ from itertools import combinations, product
 import numpy as np
 import pytest
 
+from faultlab.errors import ConfigError
 from faultlab.space import (
     FIXED_VALUES,
     CaseSpec,
@@ -119,3 +120,8 @@ def test_suite_criteria_name_the_suites_own_measure():
     m = suite_criteria("3-wise", tw, SPACE)
     assert [x.strength for x in m] == [2, 3] and all(x.ratio == 1.0 for x in m)
     assert str(m[1]) == f"3-wise coverage: 100 % ({m[1].total} of {m[1].total} class 3-tuples)"
+
+
+def test_t_wise_strength_is_checked():
+    with pytest.raises(ConfigError, match="strength between 1 and 11, got 12"):
+        t_wise_coverage([_case()], SPACE, 12)

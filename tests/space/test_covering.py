@@ -1,4 +1,5 @@
 import os
+import random
 import subprocess
 import sys
 from itertools import combinations, product
@@ -84,6 +85,13 @@ def test_arrays_do_not_depend_on_the_hash_seed():
     env = dict(os.environ, PYTHONHASHSEED="12345")
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert done.stdout.strip() == str(covering_array(HASHED, 2).tolist())
+
+
+def test_arrays_leave_the_global_random_state_alone():
+    random.seed(5)
+    before = random.getstate()
+    covering_array.__wrapped__(HASHED, 2)
+    assert random.getstate() == before
 
 
 @pytest.mark.parametrize("t0", [1, 2])
