@@ -13,12 +13,13 @@ import math
 import numbers
 import tomllib
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from faultlab.errors import ConfigError
 
-__all__ = ["read_toml", "Table", "check_number", "check_int", "import_object"]
+__all__ = ["read_toml", "Table", "check_number", "check_int", "import_object", "Option", "Settings"]
 
 
 def read_toml(path: str | Path, *, what: str) -> tuple[dict, str]:
@@ -192,3 +193,68 @@ class Table:
         for key in self.data:
             if key not in allowed:
                 raise self.error(key, f"is not a known key (known: {', '.join(allowed)})")
+
+
+@dataclass(frozen=True)
+class Option:
+    """One setting of a configuration dataclass as it appears in an experiment file.
+
+    Attributes
+    ----------
+    key : str
+        The key in the file (e.g. ``"std_omega_deg"``).
+    degrees : bool
+        The file gives degrees; the field holds radians.
+    integer : bool
+        An integer setting.
+    bounds : dict
+        Keyword bounds for :func:`check_number` / :func:`check_int` (``minimum``, ``positive``, ...).
+    """
+
+    key: str
+    degrees: bool = False
+    integer: bool = False
+    bounds: Mapping[str, Any] = field(default_factory=dict)
+
+    def check(self, value: Any, *, name: str) -> float | int:
+        if self.integer:
+            return check_int(value, name=name, **self.bounds)
+        return check_number(value, name=name, **self.bounds)
+
+
+class Settings:
+    """Mixin of frozen configuration dataclasses whose fields are experiment-file settings.
+
+    A subclass declares ``OPTIONS: ClassVar[dict[str, Option]]`` (field name -> :class:`Option`),
+    the one place where each setting's file key, unit and bounds are defined; fields hold SI values.
+    The mixin validates every field on construction and converts from and to the file's keys and units.
+    """
+
+    OPTIONS: ClassVar[dict[str, Option]] = {}
+
+    def __post_init__(self) -> None:
+        for name, option in self.OPTIONS.items():
+            value = option.check(getattr(self, name), name=f"{type(self).__name__}.{name}")
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def from_options(cls, options: Mapping[str, Any], *, where: str | None = None):
+        """An instance from file-shaped ``options`` (missing keys take the defaults).
+
+        ``where`` prefixes every message (e.g. ``"exp.toml: slam"``); default: the class name.
+        """
+        where = where or cls.__name__
+        by_key = {option.key: (name, option) for name, option in cls.OPTIONS.items()}
+        kwargs = {}
+        for key, value in options.items():
+            if key not in by_key:
+                raise ConfigError(f"{where}.{key} is not a known key (known: {', '.join(by_key)})")
+            name, option = by_key[key]
+            x = option.check(value, name=f"{where}.{key}")
+            kwargs[name] = math.radians(x) if option.degrees else x
+        return cls(**kwargs)
+
+    def to_options(self) -> dict[str, Any]:
+        """The file-shaped options of this instance (inverse of :meth:`from_options`)."""
+        return {option.key: (math.degrees(getattr(self, name)) if option.degrees else getattr(self, name))
+                for name, option in self.OPTIONS.items()}

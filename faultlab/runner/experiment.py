@@ -289,7 +289,7 @@ def _parse_suites(top: Table, source: str) -> tuple[SuiteSpec, ...]:
     t = top.table("suites")
     t.check_unknown(SUITE_KINDS)
     if not t.data:
-        raise top.error("suites", "must name at least one suite (systematic, random, fixed)")
+        raise top.error("suites", f"must name at least one suite ({', '.join(SUITE_KINDS)})")
     out = []
     for kind, v in t.data.items():
         if v == "auto":

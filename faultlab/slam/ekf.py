@@ -44,15 +44,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, ClassVar
 
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
+from faultlab.config import Option, Settings
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam import units2 as _units2
 from faultlab.slam.bookkeeping import LandmarkIndex, UnitTable
+from faultlab.slam.fastslam import FastSlamConfig
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
 
 __all__ = ["EkfSlamConfig", "EkfSlamSteps", "REFERENCE_STEPS", "EkfSlam"]
@@ -73,23 +75,8 @@ def _one_blas_thread():
     return _blas.limit(limits=1, user_api="blas")
 
 
-def _checked(owner: str, name: str, value, *, positive: bool) -> float:
-    """``value`` as a finite float, > 0 if ``positive`` else >= 0; ConfigError otherwise."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{owner}.{name} must be a number, got {value!r}") from None
-    if isinstance(value, bool) or not math.isfinite(x):
-        raise ConfigError(f"{owner}.{name} must be a finite number, got {value!r}")
-    if positive and x <= 0.0:
-        raise ConfigError(f"{owner}.{name} must be > 0, got {value!r}")
-    if not positive and x < 0.0:
-        raise ConfigError(f"{owner}.{name} must be >= 0, got {value!r}")
-    return x
-
-
 @dataclass(frozen=True)
-class EkfSlamConfig:
+class EkfSlamConfig(Settings):
     """Noise settings of EKF-SLAM (defaults: those of the reference FastSLAM 1.0, Sec. VII-A).
 
     Attributes
@@ -109,11 +96,9 @@ class EkfSlamConfig:
     std_range: float = 0.3
     std_bearing: float = math.radians(10.0)
 
-    def __post_init__(self) -> None:
-        for name, positive in (("std_v", False), ("std_omega", False), ("std_range", True),
-                               ("std_bearing", True)):
-            object.__setattr__(self, name, _checked("EkfSlamConfig", name, getattr(self, name),
-                                                    positive=positive))
+    #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
+    OPTIONS: ClassVar[dict[str, Option]] = {
+        name: FastSlamConfig.OPTIONS[name] for name in ("std_v", "std_omega", "std_range", "std_bearing")}
 
     @property
     def Q(self) -> np.ndarray:

@@ -103,11 +103,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Any, Callable, ClassVar, Mapping
+from typing import Callable, ClassVar
 
 import numpy as np
 
-from faultlab.config import check_int, check_number
+from faultlab.config import Option, Settings
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam.units import ParticleState, landmark_rows
@@ -118,7 +118,7 @@ __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Pa
 
 
 @dataclass(frozen=True)
-class FastSlamConfig:
+class FastSlamConfig(Settings):
     """Settings of the reference FastSLAM 1.0 (defaults: the paper's setup, Sec. VII-A).
 
     Attributes
@@ -144,45 +144,15 @@ class FastSlamConfig:
     std_bearing: float = math.radians(10.0)
     resample_ratio: float = 1.5
 
-    #: field -> (key in an experiment's ``[slam]`` table, factor from the file's unit to SI,
-    #: validation bounds for :func:`faultlab.config.check_number`); angles are degrees in files.
-    OPTIONS: ClassVar[dict[str, tuple[str, float, dict]]] = {
-        "n_particles": ("particles", 1.0, {"minimum": 1}),
-        "std_v": ("std_v", 1.0, {"minimum": 0.0}),
-        "std_omega": ("std_omega_deg", math.pi / 180.0, {"minimum": 0.0}),
-        "std_range": ("std_range", 1.0, {"positive": True}),
-        "std_bearing": ("std_bearing_deg", math.pi / 180.0, {"positive": True}),
-        "resample_ratio": ("resample_ratio", 1.0, {"minimum": 1.0}),
+    #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
+    OPTIONS: ClassVar[dict[str, Option]] = {
+        "n_particles": Option("particles", integer=True, bounds={"minimum": 1}),
+        "std_v": Option("std_v", bounds={"minimum": 0.0}),
+        "std_omega": Option("std_omega_deg", degrees=True, bounds={"minimum": 0.0}),
+        "std_range": Option("std_range", bounds={"positive": True}),
+        "std_bearing": Option("std_bearing_deg", degrees=True, bounds={"positive": True}),
+        "resample_ratio": Option("resample_ratio", bounds={"minimum": 1.0}),
     }
-
-    def __post_init__(self) -> None:
-        for name, (_, _, bounds) in self.OPTIONS.items():
-            check = check_int if name == "n_particles" else check_number
-            object.__setattr__(self, name, check(getattr(self, name), name=f"FastSlamConfig.{name}", **bounds))
-
-    @classmethod
-    def from_options(cls, options: Mapping[str, Any], *, where: str = "FastSlamConfig") -> "FastSlamConfig":
-        """The config of an experiment's ``[slam]`` options (file keys and units, see :attr:`OPTIONS`).
-
-        Missing keys take the defaults; ``where`` prefixes every message (e.g. ``"exp.toml: slam"``).
-        """
-        known = {key: (name, factor, bounds) for name, (key, factor, bounds) in cls.OPTIONS.items()}
-        kwargs = {}
-        for key, value in options.items():
-            if key not in known:
-                raise ConfigError(f"{where}.{key} is not a known key (known: {', '.join(known)})")
-            name, factor, bounds = known[key]
-            if name == "n_particles":
-                kwargs[name] = check_int(value, name=f"{where}.{key}", **bounds)
-            else:
-                x = check_number(value, name=f"{where}.{key}", **bounds)
-                kwargs[name] = math.radians(x) if factor != 1.0 else x
-        return cls(**kwargs)
-
-    def to_options(self) -> dict[str, float | int]:
-        """The ``[slam]`` options of this config (file keys and units; inverse of :meth:`from_options`)."""
-        return {key: (math.degrees(getattr(self, name)) if factor != 1.0 else getattr(self, name))
-                for name, (key, factor, _) in self.OPTIONS.items()}
 
     @property
     def Q(self) -> np.ndarray:

@@ -16,7 +16,9 @@ from typing import Any
 from faultlab.config import import_object
 from faultlab.errors import ConfigError
 from faultlab.slam.deadreckoning import DeadReckoning
+from faultlab.slam.ekf import EkfSlam, EkfSlamConfig
 from faultlab.slam.fastslam import FastSlam, FastSlamConfig
+from faultlab.slam.fastslam2 import FastSlam2
 from faultlab.slam.protocol import SlamAdapter
 
 __all__ = ["SlamKind", "BUILTIN_SLAMS", "get_slam_kind", "build_slam", "normalise_options"]
@@ -63,6 +65,9 @@ class SlamKind:
 BUILTIN_SLAMS: dict[str, SlamKind] = {
     k.name: k for k in (
         SlamKind("fastslam", "the reference FastSLAM 1.0 (known correspondences)", FastSlam, FastSlamConfig),
+        SlamKind("fastslam2", "FastSLAM 2.0: poses sampled from the proposal that includes the observations",
+                 FastSlam2, FastSlamConfig),
+        SlamKind("ekf", "EKF-SLAM: one joint Gaussian over the pose and every landmark", EkfSlam, EkfSlamConfig),
         SlamKind("dead_reckoning", "odometry only: the baseline any SLAM should beat", DeadReckoning),
     )
 }
