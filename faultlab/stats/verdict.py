@@ -388,7 +388,8 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
                   median_diff_mm=("diff", "median")).reset_index()
     table["n_failed"] = table["n_reps"] - table["n_usable"]
     table = table.merge(base_stats.reset_index(), on=case_key, how="left")
-    base_ok = table["base_all_ok"].astype("boolean").fillna(False).to_numpy(bool) & table["all_base_paired"].to_numpy(bool)
+    base_ok = (table["base_all_ok"].astype("boolean").fillna(False).to_numpy(bool)
+               & table["all_base_paired"].to_numpy(bool))
     n_pairs = table["n_pairs"].to_numpy(np.int64)
     n_failed = table["n_failed"].to_numpy(np.int64)
 
