@@ -105,7 +105,9 @@ from functools import lru_cache
 
 import numpy as np
 import pandas as pd
-from scipy.stats import permutation_test
+from scipy.stats import norm, permutation_test, t
+from statsmodels.regression.linear_model import OLS
+from statsmodels.stats.power import TTestPower
 from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError, ResultsError
@@ -252,8 +254,6 @@ def _shift_factor(k: int, alpha: float, power: float) -> float:
     if m < 1:
         return math.inf
     if k > _MDE_SIMULATED_UP_TO:
-        from statsmodels.stats.power import TTestPower
-
         return float(TTestPower().solve_power(nobs=k, alpha=alpha, power=power, alternative="larger"))
     # subset-mean matrix: row F holds 1/|F| at the members of the non-empty subset F
     members = ((np.arange(1, 2 ** k)[:, None] >> np.arange(k)) & 1).astype(float)
@@ -530,9 +530,6 @@ def clustered_rate(flags, clusters, *, alpha: float = 0.05) -> ClusteredRate:
     ClusteredRate
         NaN rate and bounds without trials.
     """
-    import statsmodels.api as sm
-    from scipy.stats import norm, t
-
     alpha = _check_alpha(alpha, "clustered_rate")
     y = np.asarray(flags)
     c = np.asarray(clusters)
@@ -553,7 +550,7 @@ def clustered_rate(flags, clusters, *, alpha: float = 0.05) -> ClusteredRate:
     deff = math.nan
     n_eff = float(g)
     if 0 < k < n:
-        fit = sm.OLS(y.astype(float), np.ones((n, 1))).fit(cov_type="cluster", cov_kwds={"groups": codes})
+        fit = OLS(y.astype(float), np.ones((n, 1))).fit(cov_type="cluster", cov_kwds={"groups": codes})
         deff = float(fit.bse[0] ** 2 / (rate * (1.0 - rate) / n))
         n_eff = n / max(deff, 1.0)
     if g > 1:
