@@ -8,6 +8,13 @@ what the mistake changes.  Each fault carries :class:`UnitExample` inputs on
 which the faulty unit's output differs from the reference unit's (a
 unit-level "killed mutant" check, run by the tests).
 
+Randomness: a fault that replaces a random unit (``sample_controls``,
+``resample``: :data:`faultlab.slam.units.STREAM_UNITS`) draws only from the
+``rng`` it is given, which is that unit's own stream; its different use of
+randomness (``naive_resampling`` draws N uniforms per update,
+``shared_control_noise`` two normals per step) therefore leaves every other
+unit's draws identical to the baseline's with the same seed.
+
 References: Thrun, Burgard & Fox, *Probabilistic Robotics* (2005), Table 13.1
 (FastSLAM 1.0, known correspondences) and Sec. 4.3 / Table 4.4 (particle
 filter, low-variance sampler); PythonRobotics' ``SLAM/FastSLAM1/fast_slam1.py``
