@@ -28,6 +28,7 @@ with warnings.catch_warnings():  # libcst 1.0 imports mypy_extensions.TypedDict,
     import libcst  # noqa: F401  (first import, here: every submodule import runs this file first)
     import libcst.metadata  # noqa: F401
 
+from faultlab.mutation.mutant import Mutant, MutantSet, build_mutant_unit, generate_mutants, mutant_fault
 from faultlab.mutation.operator import MutationOperator, MutationPoint, NodeOperator, OperatorExample
 from faultlab.mutation.operators import BUILTIN_OPERATORS
 from faultlab.mutation.registry import (
@@ -36,15 +37,23 @@ from faultlab.mutation.registry import (
     get_operator,
     load_operator_plugins,
 )
+from faultlab.mutation.source import UnitSource, unit_sources
 
 __all__ = [
     "BUILTIN_OPERATORS",
+    "Mutant",
+    "MutantSet",
     "MutationOperator",
     "MutationPoint",
     "NodeOperator",
     "OPERATOR_ENTRY_POINT_GROUP",
     "OperatorExample",
+    "UnitSource",
     "all_operators",
+    "build_mutant_unit",
+    "generate_mutants",
     "get_operator",
     "load_operator_plugins",
+    "mutant_fault",
+    "unit_sources",
 ]

@@ -1,0 +1,65 @@
+"""Toy units with known equivalent, duplicate and stillborn mutants (for the mutation tests).
+
+Kept apart from the test modules so that line numbers and sources are stable: do not reformat.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from faultlab.faults import UnitExample
+
+_OFFSET = 1.0
+
+
+def _double(x):
+    return 2.0 * x
+
+
+def scale(a):
+    t = a * 3.0
+    t = a + _OFFSET
+    return t
+
+
+def fold(a):
+    return a * (2 + 2)
+
+
+def lin(a):
+    return 2.0 * a
+
+
+def take(a):
+    return a[:, 0]
+
+
+def twice(a):
+    return _double(a) + 1.0
+
+
+@dataclass(frozen=True)
+class ToySteps:
+    """A steps table of the toy units."""
+
+    scale: Callable = scale
+    fold: Callable = fold
+    lin: Callable = lin
+    take: Callable = take
+    twice: Callable = twice
+
+
+def _column():
+    return (np.array([[1.5], [-2.0], [0.25]]),), {}
+
+
+def _column_ints():
+    return (np.array([[3], [4], [-7]]),), {}
+
+
+#: Two examples per unit: one-column arrays (so that ``a[:, 1]`` raises on every one of them).
+EXAMPLES = {name: (UnitExample(_column, "floats"), UnitExample(_column_ints, "integers"))
+            for name in ("scale", "fold", "lin", "take", "twice")}
