@@ -17,8 +17,6 @@ as the baseline.
 * :mod:`~faultlab.mutation.examples` -- unit examples (recorded calls); :mod:`~faultlab.mutation.screening`
   -- stillborn, equivalent and duplicate mutants before any campaign;
   :mod:`~faultlab.mutation.outcome` -- :class:`MutantOutcome`.
-* :mod:`~faultlab.mutation.catalogue` -- the screened mutants of a SLAM by name, cached, and the
-  listings of ``faultlab mutate``.
 """
 
 import warnings
@@ -28,26 +26,33 @@ with warnings.catch_warnings():  # libcst 1.0 imports mypy_extensions.TypedDict,
     import libcst  # noqa: F401  (first import, here: every submodule import runs this file first)
     import libcst.metadata  # noqa: F401
 
+from faultlab.mutation.examples import record_unit_examples, unit_examples
 from faultlab.mutation.mutant import Mutant, MutantSet, build_mutant_unit, generate_mutants, mutant_fault
 from faultlab.mutation.operator import MutationOperator, MutationPoint, NodeOperator, OperatorExample
 from faultlab.mutation.operators import BUILTIN_OPERATORS
+from faultlab.mutation.outcome import SCREENED_OUT, MutantOutcome
 from faultlab.mutation.registry import (
     OPERATOR_ENTRY_POINT_GROUP,
     all_operators,
     get_operator,
     load_operator_plugins,
 )
+from faultlab.mutation.screening import Screening, ScreeningReport, screen_mutants
 from faultlab.mutation.source import UnitSource, unit_sources
 
 __all__ = [
     "BUILTIN_OPERATORS",
     "Mutant",
+    "MutantOutcome",
     "MutantSet",
     "MutationOperator",
     "MutationPoint",
     "NodeOperator",
     "OPERATOR_ENTRY_POINT_GROUP",
     "OperatorExample",
+    "SCREENED_OUT",
+    "Screening",
+    "ScreeningReport",
     "UnitSource",
     "all_operators",
     "build_mutant_unit",
@@ -55,5 +60,8 @@ __all__ = [
     "get_operator",
     "load_operator_plugins",
     "mutant_fault",
+    "record_unit_examples",
+    "screen_mutants",
+    "unit_examples",
     "unit_sources",
 ]

@@ -41,6 +41,13 @@ def twice(a):
     return _double(a) + 1.0
 
 
+def shift(a):
+    out = a + 1.0
+    b = -a
+    b *= 2.0
+    return out
+
+
 @dataclass(frozen=True)
 class ToySteps:
     """A steps table of the toy units."""
@@ -50,6 +57,7 @@ class ToySteps:
     lin: Callable = lin
     take: Callable = take
     twice: Callable = twice
+    shift: Callable = shift
 
 
 def _column():
@@ -60,6 +68,11 @@ def _column_ints():
     return (np.array([[3], [4], [-7]]),), {}
 
 
+def _column_wide():
+    return (np.array([[1e3], [-1e-3], [0.0], [7.5]]),), {}
+
+
 #: Two examples per unit: one-column arrays (so that ``a[:, 1]`` raises on every one of them).
 EXAMPLES = {name: (UnitExample(_column, "floats"), UnitExample(_column_ints, "integers"))
             for name in ("scale", "fold", "lin", "take", "twice")}
+EXAMPLES["shift"] = (UnitExample(_column, "floats"), UnitExample(_column_wide, "more floats"))
