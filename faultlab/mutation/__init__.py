@@ -17,6 +17,8 @@ as the baseline.
 * :mod:`~faultlab.mutation.examples` -- unit examples (recorded calls); :mod:`~faultlab.mutation.screening`
   -- stillborn, equivalent and duplicate mutants before any campaign;
   :mod:`~faultlab.mutation.outcome` -- :class:`MutantOutcome`.
+* :mod:`~faultlab.mutation.catalogue` -- the screened mutants of a SLAM by name, cached, and the
+  listings of ``faultlab mutate``.
 """
 
 import warnings
@@ -26,6 +28,7 @@ with warnings.catch_warnings():  # libcst 1.0 imports mypy_extensions.TypedDict,
     import libcst  # noqa: F401  (first import, here: every submodule import runs this file first)
     import libcst.metadata  # noqa: F401
 
+from faultlab.mutation.catalogue import Catalogue, cache_dir, list_mutants, mutant_catalogue, show_mutant
 from faultlab.mutation.examples import record_unit_examples, unit_examples
 from faultlab.mutation.mutant import Mutant, MutantSet, build_mutant_unit, generate_mutants, mutant_fault
 from faultlab.mutation.operator import MutationOperator, MutationPoint, NodeOperator, OperatorExample
@@ -42,6 +45,7 @@ from faultlab.mutation.source import UnitSource, unit_sources
 
 __all__ = [
     "BUILTIN_OPERATORS",
+    "Catalogue",
     "Mutant",
     "MutantOutcome",
     "MutantSet",
@@ -56,12 +60,16 @@ __all__ = [
     "UnitSource",
     "all_operators",
     "build_mutant_unit",
+    "cache_dir",
     "generate_mutants",
     "get_operator",
+    "list_mutants",
     "load_operator_plugins",
+    "mutant_catalogue",
     "mutant_fault",
     "record_unit_examples",
     "screen_mutants",
+    "show_mutant",
     "unit_examples",
     "unit_sources",
 ]

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from faultlab.faults import UnitExample
+from faultlab.slam.protocol import Estimate, SlamAdapter
 
 _OFFSET = 1.0
 
@@ -76,3 +77,33 @@ def _column_wide():
 EXAMPLES = {name: (UnitExample(_column, "floats"), UnitExample(_column_ints, "integers"))
             for name in ("scale", "fold", "lin", "take", "twice")}
 EXAMPLES["shift"] = (UnitExample(_column, "floats"), UnitExample(_column_wide, "more floats"))
+
+
+class ToySlam(SlamAdapter):
+    """A "SLAM" that feeds each step's ranges, as a (k, 1) column, through every toy unit."""
+
+    name = "toy"
+
+    def __init__(self, steps: ToySteps = ToySteps()) -> None:
+        self.steps = steps
+
+    def with_steps(self, steps: ToySteps) -> "ToySlam":
+        return ToySlam(steps)
+
+    def reset(self, pose, *, rng) -> None:
+        self.pose = np.asarray(pose, dtype=float).copy()
+        self.total = 0.0
+
+    def update(self, control, observations) -> None:
+        column = np.asarray(observations.ranges, dtype=float)[:, None]
+        if column.shape[0]:
+            for name in ("scale", "fold", "lin", "take", "twice", "shift"):
+                self.total += float(np.sum(getattr(self.steps, name)(column)))
+
+    def estimate(self) -> Estimate:
+        return Estimate(self.pose.copy(), np.empty(0, dtype=np.int64), np.empty((0, 2)))
+
+
+def make_toy_slam() -> ToySlam:
+    """Factory for ``--slam tests.mutation.toy:make_toy_slam``."""
+    return ToySlam()
