@@ -50,6 +50,16 @@ def test_identical_bytecode_is_equivalent(toy_report):
     assert toy_report[m.id].live
 
 
+def test_adding_a_zero_constant_is_equivalent(toy_report):
+    """``a + 0.0 * c`` adds zero whatever ``c`` becomes; constant folding even gives the same bytecode."""
+    reasons = {m.change.split("  ->  ")[1]: toy_report[m.id] for m in toy_report.mutants if m.unit == "pad"}
+    for new in ("return a + 0.0 * 10.0", "return a + 0.0 * 2.5", "return a + 0.0 * 0.0", "return a + 0.0 / 5.0"):
+        assert reasons[new].outcome is EQUIVALENT and reasons[new].reason == "identical bytecode", new
+    for new in ("return a + 0.0 * -5.0", "return a - 0.0 * 5.0"):  # -0.0 and a - 0.0: other code, same values
+        assert reasons[new].outcome is EQUIVALENT and reasons[new].reason.startswith("bit-identical"), new
+    assert reasons["return a * (0.0 * 5.0)"].live and reasons["return a + (0.0 + 5.0)"].live
+
+
 def test_mutants_of_a_dead_store_are_equivalent_by_their_outputs(toy_report):
     dead = [m for m in toy_report.mutants if m.unit == "scale" and m.line == m.first_line + 1]
     assert {m.operator for m in dead} >= {"arithmetic", "constant", "unary_minus", "statement_deletion"}

@@ -42,6 +42,10 @@ def twice(a):
     return _double(a) + 1.0
 
 
+def pad(a):
+    return a + 0.0 * 5.0
+
+
 def shift(a):
     out = a + 1.0
     b = -a
@@ -59,6 +63,7 @@ class ToySteps:
     take: Callable = take
     twice: Callable = twice
     shift: Callable = shift
+    pad: Callable = pad
 
 
 def _column():
@@ -75,7 +80,7 @@ def _column_wide():
 
 #: Two examples per unit: one-column arrays (so that ``a[:, 1]`` raises on every one of them).
 EXAMPLES = {name: (UnitExample(_column, "floats"), UnitExample(_column_ints, "integers"))
-            for name in ("scale", "fold", "lin", "take", "twice")}
+            for name in ("scale", "fold", "lin", "take", "twice", "pad")}
 EXAMPLES["shift"] = (UnitExample(_column, "floats"), UnitExample(_column_wide, "more floats"))
 
 
@@ -97,7 +102,7 @@ class ToySlam(SlamAdapter):
     def update(self, control, observations) -> None:
         column = np.asarray(observations.ranges, dtype=float)[:, None]
         if column.shape[0]:
-            for name in ("scale", "fold", "lin", "take", "twice", "shift"):
+            for name in ("scale", "fold", "lin", "take", "twice", "shift", "pad"):
                 self.total += float(np.sum(getattr(self.steps, name)(column)))
 
     def estimate(self) -> Estimate:
