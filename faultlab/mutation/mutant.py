@@ -299,12 +299,17 @@ def _parse_id(mutant_id: str) -> tuple[str, str | None, str, int]:
     return unit, helper or None, operator, index
 
 
+@functools.lru_cache(maxsize=256)
+def _operator_mutants(unit: str, function: FunctionSource, operator: str, is_unit: bool) -> tuple[Mutant, ...]:
+    return tuple(function_mutants(unit, function, [get_operator(operator)], is_unit=is_unit))
+
+
 @functools.lru_cache(maxsize=512)
 def _rebuild(steps_type: type, mutant_id: str, digest: str, original: Callable) -> tuple[Mutant, UnitSource]:
     unit, helper, operator, index = _parse_id(mutant_id)
     source = unit_source(unit, original, steps_type)
     function = source.function(helper or source.function_name)
-    candidates = function_mutants(unit, function, [get_operator(operator)], is_unit=helper is None)
+    candidates = _operator_mutants(unit, function, operator, helper is None)
     if not 1 <= index <= len(candidates):
         raise FaultError(f"mutant {mutant_id!r} does not exist in the current source of {function.display_path} "
                          f"({len(candidates)} {operator} points in {function.name}); was the file changed?")

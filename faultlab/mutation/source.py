@@ -273,10 +273,12 @@ def unit_sources(steps, *, helpers: bool = True) -> tuple[dict[str, UnitSource],
     return sources, skipped
 
 
+@functools.lru_cache(maxsize=256)
 def unit_source(unit: str, func: Callable, steps_type: type, *, helpers: bool = True) -> UnitSource:
     """The :class:`UnitSource` of one unit function ``func`` of a steps dataclass type.
 
-    The other units are the type's defaults (a helper is never one of them).
+    The other units are the type's defaults (a helper is never one of them).  Remembered per
+    process (reading source with :mod:`inspect` tokenises the file), like :mod:`linecache` does.
     """
     why = _why_not_source(func)
     if why is not None:
