@@ -10,13 +10,14 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from faultlab.faults import UnitExample
+from faultlab.faults.check import CheckStatus, check_faults
 from faultlab.mutation.examples import unit_examples
-from faultlab.mutation.mutant import generate_mutants
+from faultlab.mutation.mutant import generate_mutants, mutant_fault
 from faultlab.mutation.operator import NodeOperator
 from faultlab.mutation.operators import BUILTIN_OPERATORS
 from faultlab.mutation.outcome import MutantOutcome
-from faultlab.mutation.screening import screen_mutants, unit_fingerprint
-from faultlab.slam import REFERENCE_STEPS
+from faultlab.mutation.screening import _alarm_handler, _call, screen_mutants, unit_fingerprint
+from faultlab.slam import REFERENCE_STEPS, FastSlamSteps
 from tests.mutation import toy
 
 EQUIVALENT, STILLBORN, DUPLICATE = MutantOutcome.EQUIVALENT, MutantOutcome.STILLBORN, MutantOutcome.DUPLICATE
@@ -139,8 +140,6 @@ def test_a_unit_stuck_in_a_loop_is_stopped():
     mutants = generate_mutants(toy.ToySteps, units=["lin"], operators=["constant"])
     report = screen_mutants(mutants, {"lin": (UnitExample(lambda: ((np.ones(2),), {})),)}, time_limit=0.2)
     assert report.counts()["live"] >= 1  # the mutants themselves are fine
-    from faultlab.mutation.screening import _alarm_handler, _call
-
     start = time.perf_counter()
     with _alarm_handler(0.2) as limit:
         fp, error = _call(spin, UnitExample(lambda: ((np.ones(2),), {})), limit)
@@ -168,3 +167,13 @@ def test_the_reference_has_at_least_150_live_mutants_and_screening_is_determinis
     again = screen_mutants(generate_mutants(REFERENCE_STEPS, plugins=False), unit_examples())
     assert {k: (v.outcome, v.duplicate_of) for k, v in first.results.items()} == {
         k: (v.outcome, v.duplicate_of) for k, v in again.results.items()}
+
+
+def test_unit_level_classes_agree_with_whole_slam_runs():
+    """Screened-equivalent mutants leave a FastSLAM run bit-identical; a live one changes it."""
+    mutants = generate_mutants(REFERENCE_STEPS, units=["combine_weights", "innovation_covariance",
+                                                       "effective_sample_size"], plugins=False)
+    ids = ["combine_weights:axis:2", "innovation_covariance:comparison:1", "effective_sample_size:arithmetic:1"]
+    report = check_faults([mutant_fault(mutants.get(i), FastSlamSteps) for i in ids], n_steps=40, n_particles=20,
+                          n_seeds=1, plugins=False)
+    assert [c.status for c in report] == [CheckStatus.EQUIVALENT, CheckStatus.EQUIVALENT, CheckStatus.DIFFERS]
