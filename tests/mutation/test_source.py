@@ -3,6 +3,7 @@
 import __future__
 import inspect
 import traceback
+from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
@@ -34,8 +35,6 @@ def test_every_reference_unit_has_source_and_its_helpers():
 
 
 def test_units_without_python_source_are_skipped_with_a_reason():
-    from dataclasses import dataclass, field
-
     def closure_maker():
         k = 2.0
 
