@@ -37,7 +37,7 @@ from faultlab.mutation.registry import get_operator
 from faultlab.mutation.screening import Screening, ScreeningReport, screen_mutants
 from faultlab.slam.registry import build_slam
 
-__all__ = ["Catalogue", "mutant_catalogue", "cache_dir", "list_mutants", "show_mutant"]
+__all__ = ["Catalogue", "CLASS_NOTES", "mutant_catalogue", "cache_dir", "list_mutants", "show_mutant", "class_counts"]
 
 _CACHE_FORMAT = "faultlab-mutant-screening-1"
 

@@ -97,9 +97,9 @@ class OperatorExample:
 class MutationOperator(ABC):
     """A kind of small syntactic change, applied one occurrence at a time.
 
-    Subclasses set :attr:`name` (lower-case snake_case; plugin operators ``provider/name`` is not
-    required but names must be unique), :attr:`description` (one line) and :attr:`examples`, and
-    implement :meth:`points`.  :meth:`apply` replaces the point's node by its replacement; override
+    Subclasses set :attr:`name` (lower-case snake_case, unique among all operators: it is part
+    of mutant ids), :attr:`description` (one line) and :attr:`examples`, and implement
+    :meth:`points`.  :meth:`apply` replaces the point's node by its replacement; override
     it only for changes that are not a node replacement.
     """
 

@@ -30,7 +30,8 @@ import numpy as np
 
 from faultlab.errors import FaultError
 
-__all__ = ["FunctionSource", "UnitSource", "unit_sources", "unit_source", "unit_functions", "code_identical", "POISONED_NUMPY"]
+__all__ = ["FunctionSource", "UnitSource", "unit_sources", "unit_source", "unit_functions", "code_identical",
+           "POISONED_NUMPY"]
 
 
 @dataclass(frozen=True)
