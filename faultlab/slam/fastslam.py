@@ -117,8 +117,9 @@ identical in practice (their map errors typically agree to a fraction of a mm).
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from types import MappingProxyType
 from typing import Callable, ClassVar
@@ -133,7 +134,7 @@ from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
 from faultlab.slam.streams import unit_streams
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
-           "landmark_rows"]
+           "landmark_rows", "BatchUnsupported"]
 
 
 @dataclass(frozen=True)
@@ -251,8 +252,53 @@ class Particles:
     covariances: np.ndarray
 
 
+#: Positions of the per-particle arguments (leading axis = particles) of each particle unit; the
+#: batched filter slices these when a replacement is marked :func:`~faultlab.slam.units.filter_wise`.
+_PARTICLE_ARGS: dict[str, tuple[int, ...]] = {
+    "motion_model": (0, 1),
+    "init_landmarks": (0,),
+    "classify_new": (1,),
+    "predict_measurement": (0, 1),
+    "innovation": (1,),
+    "innovation_covariance": (0, 1),
+    "log_likelihood": (0, 1),
+    "ekf_update": (0, 1, 2, 3, 4),
+}
+
+_FAILED = object()  # a per-filter call that raised (the filter is dropped at the end of the step)
+
+
+def _looped(unit: Callable, positions: tuple[int, ...], n: int, n_filters: int) -> Callable:
+    """``unit`` called once per filter on its ``n`` particles, outputs stacked along the particle axis."""
+
+    def per_filter(*args, **kwargs):
+        outs = []
+        for j in range(n_filters):
+            part = list(args)
+            for p in positions:
+                part[p] = args[p][j * n:(j + 1) * n]
+            outs.append(unit(*part, **kwargs))
+        if isinstance(outs[0], tuple):
+            return tuple(np.concatenate([np.asarray(o[i]) for o in outs]) for i in range(len(outs[0])))
+        return np.concatenate([np.asarray(o) for o in outs])
+
+    return per_filter
+
+
+class BatchUnsupported(SlamOutputError):
+    """A replaced unit did something the batched filter cannot reproduce filter by filter.
+
+    Raised only with several filters in one batch; the repetitions must then be run one at a
+    time (what :func:`faultlab.slam.protocol.run_slam_batch`'s callers do with any exception
+    that escapes a batch).
+    """
+
+
 class FastSlam(SlamAdapter):
     """Reference FastSLAM 1.0 (known correspondences) as a :class:`SlamAdapter`.
+
+    Runs one filter (:meth:`reset`) or several independent repetitions in one vectorised filter
+    (:meth:`reset_batch`, :meth:`estimates`; see "Batched repetitions" in the module docstring).
 
     Parameters
     ----------
@@ -262,6 +308,7 @@ class FastSlam(SlamAdapter):
     """
 
     name = "fastslam1"
+    supports_batch: ClassVar[bool] = True
 
     def __init__(self, config: FastSlamConfig = FastSlamConfig(), *, steps: FastSlamSteps = REFERENCE_STEPS):
         if not isinstance(config, FastSlamConfig):
@@ -271,8 +318,8 @@ class FastSlam(SlamAdapter):
         self._config = config
         self._steps = steps
         self._Q = config.Q
-        self._state: ParticleState | None = None
-        self._streams: dict[str, np.random.Generator] = {}
+        self._started = False
+        self._batched_steps: dict[int, FastSlamSteps] = {}
 
     # -- configuration -------------------------------------------------------------------------
 
@@ -295,95 +342,303 @@ class FastSlam(SlamAdapter):
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
         if not isinstance(rng, np.random.Generator):
             raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        p = p.copy()
-        p[2] = float(_units.wrap_heading(p[2]))
-        # one stream per random unit, keyed by name (common random numbers that survive a fault)
-        self._streams = unit_streams(rng, self._steps.stream_units)
-        self._state = ParticleState.initial(p, self._config.n_particles)
-        self._sorted_ids = np.empty(0, dtype=np.int64)  # lookup: sorted ids ...
-        self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
-        self._t = 0
-        self._n_resamples = 0
-        self._ident = self._state.owner  # the identity map arange(N); lineage starts as the same object
+        self._start(pose, [rng], isolate=False)
+
+    def reset_batch(self, pose: np.ndarray, *, rngs: Sequence[np.random.Generator]) -> None:
+        """Start one independent filter per generator (repetition ``i`` uses ``rngs[i]``).
+
+        Each filter derives its unit streams from its own generator exactly as :meth:`reset`
+        does, so repetition ``i`` gives bit for bit what a separate filter reset with
+        ``rngs[i]`` gives.  A failure that belongs to one filter (non-finite weights, an
+        exception in a unit called for that filter alone) ends that repetition only; see
+        :meth:`estimates`.
+        """
+        try:
+            rngs = list(rngs)
+        except TypeError:
+            raise SlamInputError(f"{self.name}: rngs must be a sequence of numpy.random.Generator, "
+                                 f"got {type(rngs).__name__}") from None
+        if not rngs:
+            raise SlamInputError(f"{self.name}: rngs is empty: a batch needs at least one repetition")
+        for i, rng in enumerate(rngs):
+            if not isinstance(rng, np.random.Generator):
+                raise SlamInputError(f"{self.name}: rngs[{i}] must be a numpy.random.Generator, "
+                                     f"got {type(rng).__name__}")
+        self._start(pose, rngs, isolate=True)
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
-        if self._state is None:
+        if not self._started:
             raise SlamInputError(f"{self.name}: update() called before reset()")
-        steps, cfg, streams = self._steps, self._config, self._streams
-        st = self._state
-        n = st.n_particles
+        slots = len(self._reps)
+        if slots == 0:  # every repetition of the batch has failed
+            self._t += 1
+            return
+        steps, cfg, n = self._units(slots), self._config, self._n
         k = len(observations)
         u = np.asarray(control, dtype=float)
         empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
         # prediction (Table 13.1, line 4); an empty update adds no control noise
-        u_i = np.broadcast_to(u, (n, 2)) if empty else steps.sample_controls(u, n, streams["sample_controls"], cfg)
-        poses = steps.motion_model(st.poses, u_i, wrap=steps.wrap_heading)
-        logw = st.logw
+        if empty:
+            u_i = np.broadcast_to(u, (slots * n, 2))
+        elif slots == 1:
+            u_i = self._call(0, steps.sample_controls, u, n, self._streams[0]["sample_controls"], cfg)
+            if u_i is _FAILED:
+                u_i = np.broadcast_to(u, (n, 2))
+        else:
+            parts = []
+            for j in range(slots):
+                part = self._call(j, steps.sample_controls, u, n, self._streams[j]["sample_controls"], cfg)
+                part = np.broadcast_to(u, (n, 2)) if part is _FAILED else np.asarray(part)
+                if part.shape != (n, 2):
+                    raise BatchUnsupported(f"{self.name}: sample_controls returned shape {part.shape}, "
+                                           f"expected ({n}, 2); run the repetitions one at a time")
+                parts.append(part)
+            u_i = np.concatenate(parts)
+        poses = steps.motion_model(self._poses, u_i, wrap=steps.wrap_heading)
         if k:
-            st, cols, seen = self._columns(st, observations.ids)
-            st, logw = self._correct(st, poses, cols, seen, observations)
-        st = st.replace(poses=poses, logw=logw)
-        # resampling (Table 13.1, lines 24-28)
-        w = np.exp(logw)
-        n_eff = steps.effective_sample_size(w)
-        idx = steps.resample(w, n_eff, empty, streams["resample"], cfg)
-        if idx is not None:
-            st = steps.apply_resample(st, np.asarray(idx))
-            self._n_resamples += 1
-        self._state = st
+            cols, seen = self._columns(observations.ids)
+            logw = self._correct(steps, poses, cols, seen, observations)
+        else:
+            logw = self._logw
+        self._poses, self._logw = poses, logw
+        # resampling (Table 13.1, lines 24-28), filter by filter
+        for j in range(slots):
+            self._call(j, self._resample, j, empty)
+        if self._dead:
+            self._drop_failed()
         self._t += 1
 
     def estimate(self) -> Estimate:
-        st = self._require_state()
-        ids, xy = self._steps.extract_map(st)
-        i = int(np.argmax(st.logw))
-        return Estimate(st.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+        self._require_started()
+        if self._n_reps != 1:
+            raise SlamInputError(f"{self.name}: estimate() of a batch of {self._n_reps} repetitions; "
+                                 f"use estimates()")
+        if self._failures:
+            raise self._failures[0]
+        return self._estimate(0)
+
+    def estimates(self) -> list[Estimate | BaseException]:
+        """Per repetition (in the order of the generators), its estimate or the exception that ended it."""
+        self._require_started()
+        out: list[Estimate | BaseException | None] = [None] * self._n_reps
+        for rep, exc in self._failures.items():
+            out[rep] = exc
+        for j, rep in enumerate(self._reps):
+            try:
+                out[rep] = self._estimate(j)
+            except (Exception, SystemExit) as exc:
+                out[rep] = exc
+        return out  # type: ignore[return-value]
 
     # -- diagnostics -----------------------------------------------------------------------------
 
     @property
     def n_resamples(self) -> int:
-        """How many updates since :meth:`reset` resampled."""
-        self._require_state()
-        return self._n_resamples
+        """How many updates since :meth:`reset` resampled (the first repetition of a batch)."""
+        self._require_started()
+        return self._n_resampled[0]
 
     @property
     def streams(self) -> Mapping[str, np.random.Generator]:
         """The random stream of each unit in :attr:`FastSlamSteps.stream_units` (read-only mapping).
 
-        The generators are the filter's own: drawing from them changes the run.
+        The generators are the filter's own (the first repetition's in a batch): drawing from
+        them changes the run.
         """
-        self._require_state()
-        return MappingProxyType(self._streams)
+        self._require_started()
+        return MappingProxyType(self._all_streams[0])
 
     @property
     def state(self) -> ParticleState:
-        """The current particle state (read-only use: its arrays are the filter's own)."""
-        return self._require_state()
+        """The current particle state of the first repetition (its arrays are the filter's own)."""
+        return self.filter_state(0)
 
-    def particles(self) -> Particles:
-        """A materialised copy of all particles (means and covariances in column order)."""
-        st = self._require_state()
+    def filter_state(self, rep: int) -> ParticleState:
+        """The particle state of repetition ``rep`` (read-only use: its arrays are views of the batch's)."""
+        self._require_started()
+        if rep in self._failures:
+            raise SlamInputError(f"{self.name}: repetition {rep} failed: {self._failures[rep]!r}")
+        if rep not in self._reps:
+            raise SlamInputError(f"{self.name}: no repetition {rep} (batch of {self._n_reps})")
+        return self._filter_state(self._reps.index(rep))
+
+    def particles(self, rep: int = 0) -> Particles:
+        """A materialised copy of the particles of repetition ``rep`` (means and covariances in column order)."""
+        st = self.filter_state(rep)
         C = st.n_landmarks
         rows = landmark_rows(st, np.arange(C))
         cols = np.arange(C)[None, :]
         return Particles(st.poses.copy(), np.exp(st.logw), st.ids.copy(), st.mu[rows, cols].copy(),
                          st.P[rows, cols].copy())
 
-    # -- internals -------------------------------------------------------------------------------
+    # -- internals: set-up and bookkeeping ---------------------------------------------------------
 
-    def _require_state(self) -> ParticleState:
-        if self._state is None:
+    def _unit_streams(self, rng: np.random.Generator) -> dict[str, np.random.Generator]:
+        """One stream per random unit, keyed by name (common random numbers that survive a fault)."""
+        return unit_streams(rng, self._steps.stream_units)
+
+    def _start(self, pose, rngs: list[np.random.Generator], *, isolate: bool) -> None:
+        p = np.asarray(pose, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+        p = p.copy()
+        p[2] = float(_units.wrap_heading(p[2]))
+        n, b = self._config.n_particles, len(rngs)
+        cap = 16
+        self._n = n
+        self._n_reps = b
+        self._isolate = isolate
+        self._all_streams = [self._unit_streams(rng) for rng in rngs]
+        self._streams = list(self._all_streams)  # streams of the active filters, by slot
+        self._reps = list(range(b))  # repetition of each active filter (slot)
+        self._failures: dict[int, BaseException] = {}
+        self._dead: list[int] = []  # slots that failed during the current step
+        self._n_resampled = [0] * b
+        self._ident = np.arange(n, dtype=np.intp)  # identity lineage / owner of every filter
+        self._ident.flags.writeable = False
+        self._poses = np.tile(p, (b * n, 1))
+        self._logw = np.full(b * n, -math.log(n))
+        self._ids = np.empty(0, dtype=np.int64)
+        self._mu = np.zeros((2, cap, b * n))  # storage buffers (see "Storage and resampling")
+        self._P = np.zeros((2, 2, cap, b * n))
+        self._anc = self._local_ancestry(b, cap)
+        self._lineage = [self._ident] * b
+        self._owner = [self._ident] * b
+        self._sorted_ids = np.empty(0, dtype=np.intp)  # lookup: sorted ids ...
+        self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
+        self._offsets = None  # storage offset of each particle's filter, (B N,), when B > 1
+        self._t = 0
+        self._started = True
+
+    def _local_ancestry(self, b: int, cap: int) -> np.ndarray:
+        """Identity ancestry (B N, cap), int32, with each filter's rows numbered from 0 (its own storage)."""
+        rows = np.tile(np.arange(self._n, dtype=np.int32), b)
+        return np.ascontiguousarray(np.broadcast_to(rows[:, None], (b * self._n, cap)))
+
+    def _require_started(self) -> None:
+        if not self._started:
             raise SlamInputError(f"{self.name}: reset() must be called first")
-        return self._state
 
-    def _columns(self, st: ParticleState, ids: np.ndarray) -> tuple[ParticleState, np.ndarray, np.ndarray]:
-        """Columns of ``ids`` (k,), adding columns for unseen ids; returns (state, cols, seen)."""
+    def _units(self, slots: int) -> FastSlamSteps:
+        """The units for ``slots`` filters: particle units marked filter-wise are looped per filter."""
+        if slots == 1:
+            return self._steps
+        steps = self._batched_steps.get(slots)
+        if steps is None:
+            looped = {name: _looped(getattr(self._steps, name), pos, self._n, slots)
+                      for name, pos in _PARTICLE_ARGS.items()
+                      if getattr(getattr(self._steps, name), "filter_wise", False)}
+            steps = dataclasses.replace(self._steps, **looped) if looped else self._steps
+            self._batched_steps[slots] = steps
+        return steps
+
+    def _call(self, j: int, fn: Callable, *args, **kwargs):
+        """Call ``fn`` on behalf of the filter in slot ``j``; in a batch, its failure ends only that filter."""
+        if not self._isolate:
+            return fn(*args, **kwargs)
+        try:
+            return fn(*args, **kwargs)
+        except (Exception, SystemExit) as exc:
+            self._failures[self._reps[j]] = exc
+            self._dead.append(j)
+            return _FAILED
+
+    def _slice(self, j: int) -> slice:
+        return slice(j * self._n, (j + 1) * self._n)
+
+    def _filter_state(self, j: int) -> ParticleState:
+        """The :class:`ParticleState` of the filter in slot ``j``: views of the batch's arrays."""
+        sl = self._slice(j)
+        return ParticleState(poses=self._poses[sl], logw=self._logw[sl], ids=self._ids,
+                             mu=self._mu[:, :, sl].transpose(2, 1, 0), P=self._P[:, :, :, sl].transpose(3, 2, 0, 1),
+                             anc=self._anc[sl], lineage=self._lineage[j], owner=self._owner[j])
+
+    def _store(self, j: int, given: ParticleState, st: ParticleState) -> None:
+        """Write the state a per-filter unit returned for slot ``j`` back into the batch's arrays."""
+        n, slots = self._n, len(self._reps)
+        if not isinstance(st, ParticleState):
+            raise SlamOutputError(f"{self.name}: apply_resample returned {type(st).__name__}, not a ParticleState")
+        for name, shape in (("poses", (n, 3)), ("logw", (n,)), ("lineage", (n,)), ("owner", (n,))):
+            if np.shape(getattr(st, name)) != shape:
+                raise SlamOutputError(f"{self.name}: apply_resample returned {name} of shape "
+                                      f"{np.shape(getattr(st, name))}, expected {shape}")
+        if st.ids is not given.ids and not np.array_equal(st.ids, given.ids):
+            raise SlamOutputError(f"{self.name}: apply_resample changed the landmark ids of the storage columns")
+        if slots == 1:
+            self._poses, self._logw = st.poses, st.logw
+        else:
+            sl = self._slice(j)
+            if not self._poses.flags.writeable:
+                self._poses = self._poses.copy()
+            if st.poses is not given.poses:
+                self._poses[sl] = st.poses
+            if st.logw is not given.logw:
+                self._logw[sl] = st.logw
+        self._lineage[j] = st.lineage
+        self._owner[j] = st.owner
+        # landmark storage that the unit replaced (another layout, a deep copy) is copied back into the batch's
+        cap = self._mu.shape[1]
+        for name, shape in (("mu", (n, cap, 2)), ("P", (n, cap, 2, 2)), ("anc", (n, cap))):
+            new = getattr(st, name)
+            if new is getattr(given, name):
+                continue
+            if np.shape(new) != shape:
+                raise SlamOutputError(f"{self.name}: apply_resample returned landmark storage {name} of shape "
+                                      f"{np.shape(new)}, expected {shape}")
+            sl = self._slice(j)
+            if name == "mu":
+                self._mu[:, :, sl] = np.asarray(new, dtype=float).transpose(2, 1, 0)
+            elif name == "P":
+                self._P[:, :, :, sl] = np.asarray(new, dtype=float).transpose(2, 3, 1, 0)
+            else:
+                self._anc[sl] = new
+
+    def _drop_failed(self) -> None:
+        """Remove the filters that failed in this step from the batch (their rows of every array)."""
+        keep = [j for j in range(len(self._reps)) if j not in set(self._dead)]
+        n = self._n
+        rows = np.concatenate([np.arange(j * n, (j + 1) * n) for j in keep]) if keep else np.empty(0, np.intp)
+        self._poses = np.asarray(self._poses)[rows]
+        self._logw = np.asarray(self._logw)[rows]
+        self._mu = self._mu[:, :, rows]
+        self._P = self._P[:, :, :, rows]
+        self._anc = self._anc[rows]
+        for name in ("_reps", "_streams", "_lineage", "_owner"):
+            setattr(self, name, [getattr(self, name)[j] for j in keep])
+        self._dead = []
+        self._offsets = None
+        self._batched_steps = {}
+
+    def _estimate(self, j: int) -> Estimate:
+        st = self._filter_state(j)
+        ids, xy = self._steps.extract_map(st)
+        i = int(np.argmax(st.logw))
+        return Estimate(st.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+
+    def _resample(self, j: int, empty: bool) -> None:
+        """Effective sample size, resampling decision and resampling of the filter in slot ``j``."""
+        steps = self._steps
+        w = np.exp(self._logw[self._slice(j)])
+        n_eff = steps.effective_sample_size(w)
+        idx = steps.resample(w, n_eff, empty, self._streams[j]["resample"], self._config)
+        if idx is not None:
+            given = self._filter_state(j)
+            self._store(j, given, steps.apply_resample(given, np.asarray(idx)))
+            self._n_resampled[self._reps[j]] += 1
+
+    def _normalise(self, logw: np.ndarray) -> np.ndarray:
+        """Normalised log weights (log-sum-exp) of one filter."""
+        top = logw.max()
+        if not math.isfinite(top):
+            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
+        logw = logw - top
+        logw -= math.log(np.exp(logw).sum())
+        return logw
+
+    def _columns(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Columns of ``ids`` (k,), adding columns for unseen ids; returns (cols, seen)."""
         sid, scol = self._sorted_ids, self._sorted_cols
         if sid.size:
             pos = np.searchsorted(sid, ids)
@@ -395,84 +650,69 @@ class FastSlam(SlamAdapter):
             cols = np.empty(ids.size, dtype=np.intp)
         if not seen.all():
             new_ids = ids[~seen]
-            C = st.n_landmarks
+            C = self._ids.size
             new_cols = np.arange(C, C + new_ids.size, dtype=np.intp)
             cols[~seen] = new_cols
-            st = self._grow(st, C + new_ids.size)
-            st = st.replace(ids=np.concatenate([st.ids, new_ids]))
+            self._grow(C + new_ids.size)
+            self._ids = np.concatenate([self._ids, new_ids])
             allid = np.concatenate([sid, new_ids])
             allcol = np.concatenate([scol, new_cols])
             order = np.argsort(allid, kind="stable")
             self._sorted_ids, self._sorted_cols = allid[order], allcol[order]
-        return st, cols, seen
+        return cols, seen
 
-    @staticmethod
-    def _grow(st: ParticleState, needed: int) -> ParticleState:
-        cap = st.mu.shape[1]
+    def _grow(self, needed: int) -> None:
+        cap = self._mu.shape[1]
         if needed <= cap:
-            return st
+            return
         new_cap = max(2 * cap, needed)
-        n = st.n_particles
-        C = st.n_landmarks
-        mu = _units.empty_means(n, new_cap)
-        P = _units.empty_covariances(n, new_cap)
-        anc = _units.initial_ancestry(n, new_cap)
-        mu[:, :C] = st.mu[:, :C]
-        P[:, :C] = st.P[:, :C]
-        anc[:, :C] = st.anc[:, :C]
-        return st.replace(mu=mu, P=P, anc=anc)
+        C = self._ids.size
+        bn = self._mu.shape[2]
+        mu = np.zeros((2, new_cap, bn))
+        P = np.zeros((2, 2, new_cap, bn))
+        anc = self._local_ancestry(bn // self._n, new_cap)
+        mu[:, :C] = self._mu[:, :C]
+        P[:, :, :C] = self._P[:, :, :C]
+        anc[:, :C] = self._anc[:, :C]
+        self._mu, self._P, self._anc = mu, P, anc
 
-    @staticmethod
-    def _storage(st: ParticleState) -> tuple[ParticleState, np.ndarray, np.ndarray, np.ndarray]:
-        """Views of the storage: (state, mu (2, cap, N), P (2, 2, cap, N), anc (N, cap)).
+    # -- internals: the correction -------------------------------------------------------------
 
-        The reference keeps this layout (see :func:`faultlab.slam.units.empty_means`);
-        storage that a replaced unit re-allocated in another layout is copied into it once.
-        """
-        n, cap = st.mu.shape[:2]
-        mb = st.mu.transpose(2, 1, 0)
-        pb = st.P.transpose(2, 3, 1, 0)
-        ab = st.anc
-        if not (mb.flags.c_contiguous and pb.flags.c_contiguous and ab.flags.c_contiguous
-                and st.mu.dtype == np.float64 and st.P.dtype == np.float64 and st.anc.dtype == np.int32):
-            mu = _units.empty_means(n, cap)
-            P = _units.empty_covariances(n, cap)
-            anc = _units.initial_ancestry(n, cap)
-            mu[...] = st.mu
-            P[...] = st.P
-            anc[...] = st.anc
-            st = st.replace(mu=mu, P=P, anc=anc)
-            mb = st.mu.transpose(2, 1, 0)
-            pb = st.P.transpose(2, 3, 1, 0)
-            ab = st.anc
-        return st, mb, pb, ab
-
-    def _correct(self, st: ParticleState, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
-                 obs: Observations) -> tuple[ParticleState, np.ndarray]:
+    def _correct(self, steps: FastSlamSteps, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                 obs: Observations) -> np.ndarray:
         """Correction for the step's observations; updates the storage in place.
 
-        Returns the state (storage possibly re-laid out) and the normalised log weights.
-        Internally the (particle, observation) arrays are handled as (k, N) blocks
-        (the transpose of the units' (N, k) views), matching the storage layout.
+        Returns the normalised log weights of all filters (B N,).  Internally the (particle,
+        observation) arrays are handled as (k, B N) blocks (the transpose of the units' (B N, k)
+        views), matching the storage layout.
         """
-        steps, Q = self._steps, self._Q
-        st, mu_store, P_store, anc = self._storage(st)
-        n, cap = st.mu.shape[:2]
+        Q, n = self._Q, self._n
+        slots = len(self._reps)
+        bn = slots * n
+        mu_store, P_store, anc = self._mu, self._P, self._anc
+        cap = mu_store.shape[1]
         k = cols.size
+        C = self._ids.size
         # materialise pending resamplings (lineage -> identity), O(N C) ints, only after a resampling
-        if st.lineage is not self._ident:
-            C = st.n_landmarks
-            anc[:, :C] = anc[st.lineage, :C]
-            st = st.replace(lineage=self._ident)
+        for j in range(slots):
+            lineage = self._lineage[j]
+            if lineage is not self._ident:
+                a = anc[self._slice(j)]
+                a[:, :C] = a[lineage, :C]
+                self._lineage[j] = self._ident
         z = np.empty((k, 2))
         z[:, 0] = obs.ranges
         z[:, 1] = obs.bearings
-        base = (cols * n)[:, None]
-        flat = anc[:, cols].T + base  # (k, N) positions in the flattened storage
-        mb = np.take(mu_store.reshape(2, cap * n), flat, axis=1)  # (2, k, N), a fresh copy
-        pb = np.take(P_store.reshape(4, cap * n), flat, axis=1).reshape(2, 2, k, n)
-        mu = mb.transpose(2, 1, 0)  # (N, k, 2) view
-        P = pb.transpose(3, 2, 0, 1)  # (N, k, 2, 2) view
+        base = (cols * bn)[:, None]
+        if slots > 1:  # each filter's rows of the storage start at its slot's offset
+            if self._offsets is None:
+                self._offsets = np.repeat(np.arange(slots, dtype=np.intp) * n, n)
+            base = base + self._offsets
+        flat = anc[:, cols].T + base  # (k, B N) positions in the flattened storage
+        mb = np.take(mu_store.reshape(2, cap * bn), flat, axis=1)  # (2, k, B N), a fresh copy
+        pb = np.take(P_store.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, k, bn)
+        mu = mb.transpose(2, 1, 0)  # (B N, k, 2) view
+        P = pb.transpose(3, 2, 0, 1)  # (B N, k, 2, 2) view
         new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
         new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
         if new_cols is not None:
@@ -487,16 +727,26 @@ class FastSlam(SlamAdapter):
         nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
         S = steps.innovation_covariance(H, P, Q)
         loglik = steps.log_likelihood(nu, S)
-        logw = np.asarray(steps.combine_weights(st.logw, loglik, ~new), dtype=float)
-        # normalise (log-sum-exp)
-        top = logw.max()
-        if not math.isfinite(top):
-            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
-        logw = logw - top
-        logw -= math.log(np.exp(logw).sum())
+        known = ~new
+        # weights, filter by filter: combine_weights, then normalise (log-sum-exp)
+        if slots == 1:
+            logw = self._call(0, self._weights, self._logw, loglik, known)
+            if logw is _FAILED:
+                logw = self._logw
+        else:
+            logw = np.empty(bn)
+            for j in range(slots):
+                sl = self._slice(j)
+                lw = self._call(j, self._weights, self._logw[sl], loglik[sl], known[sl])
+                if lw is _FAILED:
+                    lw = self._logw[sl]
+                elif lw.shape != (n,):
+                    raise BatchUnsupported(f"{self.name}: combine_weights returned shape {lw.shape}, expected "
+                                           f"({n},); run the repetitions one at a time")
+                logw[sl] = lw
         mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
-        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, N)
-        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, N)
+        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, B N)
+        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, B N)
         if new_cols is not None:
             # new pairs keep their initial values
             mu_new = mu_new.copy()
@@ -505,15 +755,21 @@ class FastSlam(SlamAdapter):
             mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
             P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
         # write every particle's estimate of the observed columns into its own storage row
-        owner = st.owner
-        if owner is self._ident or np.array_equal(owner, self._ident):
+        owners = self._owner
+        if all(o is self._ident or np.array_equal(o, self._ident) for o in owners):
             # rows of the (component, column) x particle views of the storage: contiguous row copies
             rows = cols + (cap * np.arange(4))[:, None]
-            mu_store.reshape(2 * cap, n)[rows[:2].ravel()] = mu_new.reshape(2 * k, n)
-            P_store.reshape(4 * cap, n)[rows.ravel()] = P_new.reshape(4 * k, n)
+            mu_store.reshape(2 * cap, bn)[rows[:2].ravel()] = mu_new.reshape(2 * k, bn)
+            P_store.reshape(4 * cap, bn)[rows.ravel()] = P_new.reshape(4 * k, bn)
+            owner = owners[0] if slots == 1 else np.tile(self._ident, slots)
         else:
-            wflat = owner[None, :] + base
-            mu_store.reshape(2, cap * n)[:, wflat] = mu_new
-            P_store.reshape(4, cap * n)[:, wflat] = P_new.reshape(4, k, n)
+            owner = np.asarray(owners[0]) if slots == 1 else np.concatenate(owners)
+            wflat = owner[None, :] + base  # sharers of a row: the last particle's values win
+            mu_store.reshape(2, cap * bn)[:, wflat] = mu_new
+            P_store.reshape(4, cap * bn)[:, wflat] = P_new.reshape(4, k, bn)
         anc[:, cols] = owner[:, None]
-        return st, logw
+        return logw
+
+    def _weights(self, logw: np.ndarray, loglik: np.ndarray, known: np.ndarray) -> np.ndarray:
+        """One filter's new normalised log weights: ``combine_weights``, then log-sum-exp."""
+        return self._normalise(np.asarray(self._steps.combine_weights(logw, loglik, known), dtype=float))
