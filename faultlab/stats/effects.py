@@ -36,7 +36,8 @@ from faultlab.space.case import VALUE_KEYS
 from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.vocabulary import PAPER_FAULTS, Outcome, ordered
 
-__all__ = ["parameter_effects", "fit_effects", "format_effects", "NUMERIC_PARAMETERS", "EFFECT_COLUMNS"]
+__all__ = ["parameter_effects", "fit_effects", "format_effects", "validate_parameters", "NUMERIC_PARAMETERS",
+           "EFFECT_COLUMNS"]
 
 #: Numeric scenario value columns used as predictors.
 NUMERIC_PARAMETERS: tuple[str, ...] = tuple(k for k in VALUE_KEYS if k != "directionality")
@@ -156,12 +157,19 @@ def parameter_effects(results: pd.DataFrame, *, rule: DetectionRule = DetectionR
     ConfigError
         If ``parameters`` names an unknown parameter.
     """
-    parameters = _check_parameters(parameters)
+    parameters = validate_parameters(parameters)
     _check_parameter_columns(results)
     return fit_effects(outcomes(results, rule=rule), alpha=alpha, parameters=parameters)
 
 
-def _check_parameters(parameters: Sequence[str] | None) -> tuple[str, ...]:
+def validate_parameters(parameters: Sequence[str] | None) -> tuple[str, ...]:
+    """The predictors named by ``parameters`` (None: all of them), checked.
+
+    Raises
+    ------
+    ConfigError
+        An unknown parameter, or none.
+    """
     allowed = NUMERIC_PARAMETERS + ("directionality",)
     if parameters is None:
         return allowed
@@ -207,7 +215,7 @@ def fit_effects(pairs: pd.DataFrame, *, alpha: float = 0.05,
     ConfigError
         If ``parameters`` names an unknown parameter.
     """
-    parameters = _check_parameters(parameters)
+    parameters = validate_parameters(parameters)
     _check_parameter_columns(pairs)
     judged = pairs[pairs["outcome"].isin([Outcome.DETECTED.value, Outcome.NOT_DETECTED.value])]
     rows = []
