@@ -474,11 +474,15 @@ def _beyond_the_paper(results: pd.DataFrame, pairs: pd.DataFrame, rates: pd.Data
     if fa_note is None and int(fa["n_pairs"].sum()) == 0:
         fa_note = Note("false_alarms", f"False alarms of the paper's rule: need at least 2 SLAM repetitions per "
                                        f"case (this run has {n_reps}); run an experiment with repetitions >= 2.")
-    orc, orc_note = _guarded(ORACLE, lambda: oracle_detections(results, alpha=alpha), "Statistical oracle")
-    tested = orc[orc["p"].notna()]
-    if orc_note is None and (tested.empty or int(tested["n_baseline"].max()) < 2):
-        orc_note = Note("oracle", f"Statistical oracle (one-sided Mann-Whitney U over the K repetitions, Holm): "
-                                  f"needs repetitions >= 2 per case (this run has {n_reps}).")
+    needs_reps = Note("oracle", f"Statistical oracle (one-sided Mann-Whitney U over the K repetitions, Holm): "
+                                f"needs repetitions >= 2 per case (this run has {n_reps}).")
+    if n_reps < 2:  # one value per side: nothing to test
+        orc, orc_note = ORACLE.empty(), needs_reps
+    else:
+        orc, orc_note = _guarded(ORACLE, lambda: oracle_detections(results, alpha=alpha), "Statistical oracle")
+        tested = orc[orc["p"].notna()]
+        if orc_note is None and (tested.empty or int(tested["n_baseline"].max()) < 2):
+            orc_note = needs_reps
     cmp, cmp_note = _guarded(SUITE_COMPARISONS, lambda: compare_suite_rates(rates, alpha=alpha), "Suite comparisons")
     if cmp_note is None and cmp.empty:
         cmp_note = Note("suite_comparisons", "Suite comparisons (Fisher's exact test): no suite pair with usable "

@@ -19,7 +19,6 @@ gives back exactly the frame :meth:`TableSchema.to_csv` wrote.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -167,14 +166,12 @@ class TableSchema:
         return pd.DataFrame(out, columns=list(self.columns))
 
 
-def _is_missing(value) -> bool:
-    return value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value))
-
-
 def _cast(values: pd.Series, kind: str, where: str) -> pd.Series:
     if kind == "str":
-        text = values.map(lambda v: "" if _is_missing(v) else str(v)).astype(object)
-        if text.str.contains("\r", regex=False).any():  # CSV readers take a lone CR for a line break
+        text = values.astype(object).where(values.notna(), "")
+        if not all(type(v) is str for v in text):
+            text = text.map(str)
+        if any("\r" in v for v in text):  # CSV readers take a lone CR for a line break
             raise ResultsError(f"table column {where} holds a carriage return, which its CSV file cannot keep")
         return text
     if kind == "float":

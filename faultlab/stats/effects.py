@@ -119,11 +119,12 @@ def _fit_one(fault: str, jobs: pd.DataFrame, alpha: float, parameters: tuple[str
     z = norm.ppf(1 - alpha / 2)
     params, bse, pvals = np.asarray(res.params), np.asarray(res.bse), np.asarray(res.pvalues)
     cov = "cluster-robust by case" if clustered else ""
-    for i, name in enumerate(X.columns, start=1):
-        rows.append({"fault": fault, "term": name, "n": n, "n_detected": n_det, "coef": params[i],
-                     "std_err": bse[i], "p": pvals[i], "odds_ratio": np.exp(params[i]),
-                     "or_low": np.exp(params[i] - z * bse[i]), "or_high": np.exp(params[i] + z * bse[i]),
-                     "note": cov})
+    with np.errstate(over="ignore"):  # a huge log odds ratio (near separation) is an infinite ratio
+        for i, name in enumerate(X.columns, start=1):
+            rows.append({"fault": fault, "term": name, "n": n, "n_detected": n_det, "coef": params[i],
+                         "std_err": bse[i], "p": pvals[i], "odds_ratio": np.exp(params[i]),
+                         "or_low": np.exp(params[i] - z * bse[i]), "or_high": np.exp(params[i] + z * bse[i]),
+                         "note": cov})
     return rows
 
 
