@@ -187,57 +187,33 @@ class Analysis:
         ConfigError
             ``alpha`` outside (0, 1) or an unknown parameter.
         """
-        if not (isinstance(alpha, float | int) and 0 < alpha < 1):
-            raise ConfigError(f"analysis: alpha must lie in (0, 1), got {alpha!r}")
-        if results is None or len(results) == 0:
-            raise ResultsError("the results hold no rows: nothing to analyse")
+        _check_input(results, alpha)
         metadata = _json_shaped(dict(metadata or {}))
-        reps = sorted(set(results["rep"].astype(int)))
-        rep = reps[0] if rep is None else int(rep)
-        if rep not in reps:
-            raise ResultsError(f"no results for SLAM repetition {rep}; the store has {reps}")
+        rep = _shown_repetition(results, rep)
         parameters = None if parameters is None else validate_parameters(parameters)
         rule, stored = read_rule(metadata)
-        notes = _rule_notes(metadata, stored, rule)
-
         pairs = outcomes(results, rule=rule)  # every faulty job classified, once
         rates = tabulate_rates(pairs, alpha=alpha)
         equivalent = tuple(find_identical_faults(pairs))
-        if equivalent:
-            notes.append(Note("equivalent_faults", _EQUIVALENT_NOTE.format(", ".join(equivalent))))
         paper_tab, paper_note = _paper(paper, paper_raw, paper_reported, rule=rule, alpha=alpha)
-        notes += [paper_note] if paper_note else []
-        notes += _completeness_notes(metadata, len(results))
         cases = case_table(results)
         coverage, coverage_note = _coverage(cases, metadata)
-        notes += [coverage_note] if coverage_note else []
         beyond, beyond_notes = _beyond_the_paper(results, pairs, rates, rule=rule, alpha=alpha,
-                                                 parameters=parameters, n_reps=len(reps))
-
-        jobs = [job_table(results, source=THIS_RUN)]
-        oc = [outcome_table(pairs, source=THIS_RUN)]
-        cells = [table2_cell_table(results, pairs, source=THIS_RUN, rep=rep)]
-        if paper_tab is not None:
-            jobs.append(job_table(paper_tab.results, source=PAPER))
-            oc.append(outcome_table(paper_tab.outcomes, source=PAPER))
-            cells.append(table2_cell_table(paper_tab.results, paper_tab.outcomes, source=PAPER, rep=0))
+                                                 parameters=parameters, n_reps=results["rep"].nunique())
+        notes = (_rule_notes(metadata, stored, rule) + _equivalence_notes(equivalent) + [paper_note]
+                 + _completeness_notes(metadata, len(results)) + [coverage_note] + beyond_notes)
         return cls(
-            rule=rule, alpha=float(alpha), rep=rep, parameters=parameters,
-            metadata=metadata, equivalent_faults=equivalent,
+            rule=rule, alpha=float(alpha), rep=rep, parameters=parameters, metadata=metadata,
+            equivalent_faults=equivalent,
             paper_raw=None if paper_tab is None else paper_tab.raw_path,
             paper_reported=None if paper_tab is None else paper_tab.reported_path,
-            notes=tuple(notes) + tuple(beyond_notes),
-            jobs=_concat(JOBS, jobs),
+            notes=tuple(n for n in notes if n is not None),
             cases=cases,
-            outcomes=_concat(OUTCOMES, oc),
             detection_rates=detection_rate_table(rates, None if paper_tab is None else paper_tab.rates),
             by_suite=BY_SUITE.conform(tabulate_by_suite(pairs, alpha=alpha)),
-            table2_cells=_concat(TABLE2_CELLS, cells),
-            paper_rates=PAPER_RATES.empty() if paper_tab is None else PAPER_RATES.conform(paper_tab.rates),
-            paper_by_suite=(PAPER_BY_SUITE.empty() if paper_tab is None
-                            else PAPER_BY_SUITE.conform(paper_tab.by_suite)),
             coverage=coverage,
             runtimes=runtime_table(results),
+            **_per_source_tables(results, pairs, paper_tab, rep=rep),
             **beyond,
         )
 
@@ -414,8 +390,43 @@ def _json_shaped(value):
     return json.loads(json.dumps(value, default=default, allow_nan=True))
 
 
-def _concat(schema: TableSchema, frames: list[pd.DataFrame]) -> pd.DataFrame:
-    return schema.conform(pd.concat(frames, ignore_index=True))
+def _check_input(results: pd.DataFrame, alpha: float) -> None:
+    if not (isinstance(alpha, float | int) and 0 < alpha < 1):
+        raise ConfigError(f"analysis: alpha must lie in (0, 1), got {alpha!r}")
+    if results is None or len(results) == 0:
+        raise ResultsError("the results hold no rows: nothing to analyse")
+
+
+def _shown_repetition(results: pd.DataFrame, rep: int | None) -> int:
+    """The SLAM repetition Table II shows: ``rep``, by default the smallest stored."""
+    reps = sorted(set(results["rep"].astype(int)))
+    rep = reps[0] if rep is None else int(rep)
+    if rep not in reps:
+        raise ResultsError(f"no results for SLAM repetition {rep}; the store has {reps}")
+    return rep
+
+
+def _per_source_tables(results: pd.DataFrame, pairs: pd.DataFrame, paper: PaperTable | None, *,
+                       rep: int) -> dict[str, pd.DataFrame]:
+    """Tables with rows of this run and of the paper (``source``), and the paper's own figures."""
+    jobs = [job_table(results, source=THIS_RUN)]
+    oc = [outcome_table(pairs, source=THIS_RUN)]
+    cells = [table2_cell_table(results, pairs, source=THIS_RUN, rep=rep)]
+    if paper is not None:
+        jobs.append(job_table(paper.results, source=PAPER))
+        oc.append(outcome_table(paper.outcomes, source=PAPER))
+        cells.append(table2_cell_table(paper.results, paper.outcomes, source=PAPER, rep=0))
+    return {
+        "jobs": JOBS.conform(pd.concat(jobs, ignore_index=True)),
+        "outcomes": OUTCOMES.conform(pd.concat(oc, ignore_index=True)),
+        "table2_cells": TABLE2_CELLS.conform(pd.concat(cells, ignore_index=True)),
+        "paper_rates": PAPER_RATES.empty() if paper is None else PAPER_RATES.conform(paper.rates),
+        "paper_by_suite": PAPER_BY_SUITE.empty() if paper is None else PAPER_BY_SUITE.conform(paper.by_suite),
+    }
+
+
+def _equivalence_notes(equivalent: tuple[str, ...]) -> list[Note]:
+    return [Note("equivalent_faults", _EQUIVALENT_NOTE.format(", ".join(equivalent)))] if equivalent else []
 
 
 def _rule_notes(metadata: Mapping, rule_stored: bool, rule: DetectionRule) -> list[Note]:

@@ -62,33 +62,14 @@ def detection_rate_figure(analysis: Analysis, *, interval: str = "wilson", figsi
     width = 0.8 / len(suites)
     ax.grid(axis="x", visible=False)
     ax.set_axisbelow(True)
-    paper_label_done = False
+    paper_label = "paper (rule on its raw data)"
     for i, suite in enumerate(suites):
-        rows = detection[detection["suite"] == suite].set_index("variant")
         x = np.arange(len(faults)) + (i - (len(suites) - 1) / 2) * width
-        present = [f in rows.index for f in faults]
-        rate = np.array([rows.loc[f, "rate"] if p else np.nan for f, p in zip(faults, present)])
-        low = np.array([rows.loc[f, f"{interval}_low"] if p else np.nan
-                        for f, p in zip(faults, present)])
-        high = np.array([rows.loc[f, f"{interval}_high"] if p else np.nan
-                         for f, p in zip(faults, present)])
-        ax.bar(x, 100 * rate, width=width * 0.92, color=palette[suite], label=suite_label(suite),
-               edgecolor="white")
-        err = np.vstack([100 * (rate - low), 100 * (high - rate)])
-        ax.errorbar(x, 100 * rate, yerr=np.clip(err, 0, None), fmt="none", ecolor="0.15",
-                    elinewidth=1.2, capsize=4)
-        for xi, f, p in zip(x, faults, present):
-            if p:
-                k, n = int(rows.loc[f, "k"]), int(rows.loc[f, "n"])
-                ax.text(xi, 101.5, f"{k}/{n}", ha="center", va="bottom", fontsize=8, color="0.25")
-        if analysis.has_paper:
-            pr = np.array([rows.loc[f, "paper_rate"] if p else np.nan
-                           for f, p in zip(faults, present)], dtype=float)
-            ok = np.isfinite(pr)
-            if ok.any():
-                ax.scatter(x[ok], 100 * pr[ok], marker="D", s=36, color="black", zorder=5,
-                           label=None if paper_label_done else "paper (rule on its raw data)")
-                paper_label_done = True
+        rows = detection[detection["suite"] == suite].set_index("variant").reindex(faults)
+        _draw_suite_bars(ax, x, rows, interval=interval, width=width, colour=palette[suite],
+                         label=suite_label(suite))
+        if analysis.has_paper and _draw_paper_rates(ax, x, rows, label=paper_label):
+            paper_label = None  # one legend entry for every suite's diamonds
     ax.set_xticks(np.arange(len(faults)), [variant_label(f) for f in faults])
     ax.set_ylim(0, 112)
     ax.set_ylabel("cases detecting the fault (%)")
@@ -97,6 +78,29 @@ def detection_rate_figure(analysis: Analysis, *, interval: str = "wilson", figsi
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.tight_layout(rect=(0.0, 0.035, 1.0, 1.0))  # room for the page footer
     return fig
+
+
+def _draw_suite_bars(ax, x: np.ndarray, rows: pd.DataFrame, *, interval: str, width: float, colour,
+                     label: str) -> None:
+    """One suite's bars (rows: one per fault, NaN where absent), error bars and k/n labels."""
+    rate = rows["rate"].to_numpy(dtype=float)
+    low = rows[f"{interval}_low"].to_numpy(dtype=float)
+    high = rows[f"{interval}_high"].to_numpy(dtype=float)
+    ax.bar(x, 100 * rate, width=width * 0.92, color=colour, label=label, edgecolor="white")
+    err = np.vstack([100 * (rate - low), 100 * (high - rate)])
+    ax.errorbar(x, 100 * rate, yerr=np.clip(err, 0, None), fmt="none", ecolor="0.15", elinewidth=1.2, capsize=4)
+    for xi, k, n in zip(x, rows["k"], rows["n"]):
+        if not pd.isna(n):
+            ax.text(xi, 101.5, f"{int(k)}/{int(n)}", ha="center", va="bottom", fontsize=8, color="0.25")
+
+
+def _draw_paper_rates(ax, x: np.ndarray, rows: pd.DataFrame, *, label: str | None) -> bool:
+    """The paper's rates (rule on its raw data) as black diamonds; whether any was drawn."""
+    pr = rows["paper_rate"].to_numpy(dtype=float)
+    ok = np.isfinite(pr)
+    if ok.any():
+        ax.scatter(x[ok], 100 * pr[ok], marker="D", s=36, color="black", zorder=5, label=label)
+    return bool(ok.any())
 
 
 def rms_distribution_figure(analysis: Analysis, *, figsize=PAGE_SIZE) -> Figure:

@@ -4,6 +4,8 @@ import dataclasses
 import json
 import shutil
 import sqlite3
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -238,3 +240,11 @@ def test_analyse_reads_the_store_and_its_rule(tmp_path):
         parameter_effects(load_results(store), rule=b.rule, parameters=["map_size"]), "parameter_effects"))
     with pytest.raises(ResultsError, match="no results store"):
         analyse(tmp_path / "nothing")
+
+
+def test_the_analysis_layer_imports_no_report_cli_or_plotting():
+    code = ("import sys, faultlab.analysis.result, faultlab.analysis.tables, faultlab.analysis.schema; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib' "
+            "or m.startswith(('faultlab.report', 'faultlab.cli'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -1,6 +1,8 @@
 import json
 import shutil
 import sqlite3
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -87,3 +89,10 @@ def test_effects_use_the_rule_stored_with_the_campaign(tmp_path, capsys):
         in out
     assert main(["effects", str(store), "--parameters", "size"]) == 1
     assert "unknown parameter 'size'" in capsys.readouterr().err
+
+
+def test_the_command_line_starts_without_statsmodels():
+    code = ("import sys; from faultlab.cli import build_parser; build_parser(); "
+            "print('statsmodels' in sys.modules, 'faultlab.analysis.result' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "False"]
