@@ -18,6 +18,7 @@ rows with variant ``by_suite``, the printed values of Table II are taken from
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -172,7 +173,7 @@ class PaperTable:
     raw_path: Path
     reported_path: Path
 
-    @property
+    @cached_property
     def rms(self) -> pd.DataFrame:
         """RMS errors, mm; index (suite, variant) in Table II order, columns MultiIndex (run, case)."""
         suites = ordered(self.results["suite"], SUITE_ORDER)
@@ -183,7 +184,7 @@ class PaperTable:
         index = pd.MultiIndex.from_product([suites, variants], names=["suite", "variant"])
         return wide.reindex(index).sort_index(axis=1)
 
-    @property
+    @cached_property
     def detected(self) -> pd.DataFrame:
         """Same shape as :attr:`rms`: True where the faulty cell detects its fault (baseline rows False)."""
         rms = self.rms
