@@ -141,6 +141,11 @@ _BEARING_NOISE = ("noisy bearing (scenario)", "wrapped to [-pi, pi) after the no
                   "is not wrapped",
                   "a bearing near +-pi can leave [-pi, pi) by its noise in faultlab; in the paper it "
                   "flips to the other end instead: the same direction, a different unwrapped innovation")
+_FIRST_STEP = ("first step (scenario)", "an observation from the start pose with zero odometry before the first move",
+               "none: the first step moves, then observes", "the map starts from one more sighting")
+_ODOMETRY = ("odometry noise (scenario)", "the measured odometry is the commanded motion; the true motion is the "
+             "command plus noise", "the true motion is the command plus a small path perturbation; the measured "
+             "control is the true one plus noise", "the same error model up to which side carries the noise")
 _RANGE_NOISE = ("range noise (scenario)", "Gaussian redrawn while negative; a negative biased mean becomes "
                 "dist / 2", "max(0, dist + bias + noise)", "only matters for ranges near 0")
 _MOTION_INPUT = ("motion input", "odometry (turn1, drive, turn2) passed as [drive, pi_2_pi(turn2)]",
@@ -193,6 +198,8 @@ _PAPER_ROWS = _rows(
     _FOV,
     _BEARING_NOISE,
     _RANGE_NOISE,
+    _FIRST_STEP,
+    _ODOMETRY,
 )
 
 
@@ -240,6 +247,8 @@ _REFERENCE_ROWS = _rows(
     _FOV,
     _BEARING_NOISE,
     _RANGE_NOISE,
+    _FIRST_STEP,
+    _ODOMETRY,
 )
 
 #: The profiles by name.
