@@ -13,7 +13,11 @@ observations are independent.  So the loop runs over the *rank* of a particle wi
 (rank ``t`` = the ``t``-th sharer in particle order) and every iteration processes the ``t``-th
 sharers of all groups and all observations at once, calling the units on those particles.  The
 number of iterations is the size of the largest group (up to N once every particle shares one map,
-which the shallow copies lead to); the reference path (no sharing) never comes here.
+which the shallow copies lead to: on fixed-suite cases all 200 particles share one map after a few
+dozen steps, in the replication package's own code as here); the reference path (no sharing) never
+comes here.  The chains are inherently sequential, so the cost is N iterations of the units on tiny
+arrays per observed step: a 1000-step fixed-suite case takes about 40 times as long as on the
+reference path (47 s against 1.2 s, measured side by side).
 """
 
 from __future__ import annotations
