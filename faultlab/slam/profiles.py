@@ -145,7 +145,8 @@ _BEARING_NOISE = ("noisy bearing (scenario)", "wrapped to [-pi, pi) after the no
                   "is not wrapped",
                   "a bearing near +-pi can leave [-pi, pi) by its noise in faultlab; in the paper it "
                   "flips to the other end instead: the same direction, a different unwrapped innovation")
-_FIRST_STEP = ("first step (scenario)", "an observation from the start pose with zero odometry before the first move",
+_FIRST_STEP = ("first step (scenario)",
+               "an observation from the start pose with zero odometry before the first move",
                "none: the first step moves, then observes", "the map starts from one more sighting")
 _ODOMETRY = ("odometry noise (scenario)", "the measured odometry is the commanded motion; the true motion is the "
              "command plus noise", "the true motion is the command plus a small path perturbation; the measured "

@@ -931,7 +931,8 @@ def apply_resample_aliased(state: ParticleState, indices: np.ndarray) -> Particl
     return out.replace(owner=np.asarray(state.owner)[eff], sequential_sharers=True)
 
 
-def extract_map_closest_to_mean(state: ParticleState, *, resolution: float = 0.001) -> tuple[np.ndarray, np.ndarray]:
+def extract_map_closest_to_mean(state: ParticleState, *,
+                                resolution: float = 0.001) -> tuple[np.ndarray, np.ndarray]:
     """The map of the particle minimising ``distance to the mean position x weight``, rounded.
 
     The paper's adapter takes the weighted mean of the particle positions,

@@ -57,7 +57,8 @@ def test_paper_config_is_the_packages_filter_noise_in_si():
     unit = 0.1
     assert PAPER_CONFIG.n_particles == 200 and PAPER_CONFIG.resample_ratio == 1.5
     np.testing.assert_allclose(PAPER_CONFIG.Q, np.diag([(3.0 * unit) ** 2, math.radians(10.0) ** 2]), rtol=1e-15)
-    assert PAPER_CONFIG.std_v == pytest.approx(1.0 * unit) and PAPER_CONFIG.std_omega == pytest.approx(math.radians(20))
+    assert PAPER_CONFIG.std_v == pytest.approx(1.0 * unit)
+    assert PAPER_CONFIG.std_omega == pytest.approx(math.radians(20))
 
 
 def test_paper_units_use_the_packages_constants_converted_to_metres():

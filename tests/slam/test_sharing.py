@@ -17,7 +17,6 @@ import pytest
 from faultlab.faults import get_fault
 from faultlab.scenario import generate_scenario
 from faultlab.slam import REFERENCE_STEPS, FastSlam, run_slam
-from faultlab.slam import units as U
 from faultlab.slam.profiles import PAPER_CONFIG, PAPER_LENGTH_UNIT, PAPER_NO_ALIASING_STEPS, PAPER_STEPS
 from faultlab.slam.sharing import correct_in_sharer_order, sharer_ranks
 from faultlab.space import FIXED_VALUES, CaseSpec
@@ -153,7 +152,8 @@ def test_paper_aliasing_fault_is_the_paper_profiles_resampling(tiny_case):
     np.testing.assert_array_equal(a.weights, b.weights)
     # without aliasing, and with the parallel last-writer-wins shallow copy, the result differs
     deep = _run(PAPER_NO_ALIASING_STEPS, scenario, eps).particles()
-    last_wins = _run(get_fault("shallow_copy_resampling").patch(PAPER_NO_ALIASING_STEPS), scenario, eps).particles()
+    shallow = get_fault("shallow_copy_resampling").patch(PAPER_NO_ALIASING_STEPS)
+    last_wins = _run(shallow, scenario, eps).particles()
     assert not np.allclose(deep.means, b.means, atol=1e-6)
     assert not np.allclose(last_wins.means, b.means, atol=1e-6)
 
