@@ -10,6 +10,8 @@ from enum import StrEnum
 
 __all__ = [
     "BASELINE",
+    "REPLICA",
+    "UNMODIFIED",
     "SUITE_KINDS",
     "SUITE_ORDER",
     "PAPER_FAULTS",
@@ -23,11 +25,21 @@ __all__ = [
 #: The variant name of the unmodified SLAM (no fault).
 BASELINE = "baseline"
 
-#: Suite builders, in the order the paper introduces them (Sec. VI).
-SUITE_KINDS: tuple[str, ...] = ("systematic", "random", "fixed")
+#: The unmodified SLAM again, with SLAM seeds independent of the baseline's: an A/A control whose
+#: "detections" against the baseline are false alarms (``faultlab calibrate``).
+REPLICA = "baseline_replica"
 
-#: Suite order of the paper's Table II.
-SUITE_ORDER: tuple[str, ...] = ("systematic", "fixed", "random")
+#: Variant names that mean "no fault" (reserved: no fault may use them).
+UNMODIFIED: tuple[str, ...] = (BASELINE, REPLICA)
+
+#: Suite builders: the paper's three in the order it introduces them (Sec. VI), then the
+#: combinatorial strategies (base choice, t-wise with the strength in the name, effect-guided).
+SUITE_KINDS: tuple[str, ...] = ("systematic", "random", "fixed", "base-choice", "pairwise", "3-wise", "4-wise",
+                                "effect-guided")
+
+#: Suite order of reports: the paper's Table II, then the combinatorial strategies.
+SUITE_ORDER: tuple[str, ...] = ("systematic", "fixed", "random", "base-choice", "pairwise", "3-wise", "4-wise",
+                                "effect-guided")
 
 #: The paper's three injected faults (Sec. VII-A), in Table II order.
 PAPER_FAULTS: tuple[str, ...] = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from faultlab.faults import check_faults, list_faults
+
 __all__ = ["register"]
 
 
@@ -34,14 +36,10 @@ def register(subparsers) -> None:
 def _handler(args: argparse.Namespace) -> int:
     plugins = not args.no_plugins
     if args.check:
-        from faultlab.faults.check import check_faults
-
         report = check_faults(args.names or None, seed=args.seed, n_seeds=args.seeds, n_steps=args.steps,
                               n_particles=args.particles, plugins=plugins)
         print(report)
         return 0 if report.ok else 1
-    from faultlab.faults.registry import list_faults
-
     listing = list_faults(plugins=plugins)
     if args.names:
         listing = listing.select(args.names)

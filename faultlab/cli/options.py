@@ -29,4 +29,5 @@ def add_execution_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force-new", action="store_true",
                         help="start afresh: move results of another (or a changed) experiment in the "
                              "results directory to <dir>/previous-<time>/")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true",
+                        help="no progress output (neither the bar on a terminal nor the log lines elsewhere)")

@@ -13,12 +13,14 @@ __all__ = ["register", "reproduce_handler", "report_handler"]
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "reproduce", help="reproduce the paper's Table II and write tables and a PDF report",
-        description="Run an experiment (default: the paper's protocol, experiments/paper.toml) through "
-                    "the runner, resuming if its results exist, then write Table II beside the paper's "
+        description="Run an experiment (default: the paper's protocol, the shipped experiment 'paper' = "
+                    "experiments/paper.toml) through the runner, resuming if its results exist, then "
+                    "write Table II beside the paper's "
                     "(CSV, Markdown, LaTeX), detection rates with confidence intervals, the comparison "
                     "with the paper and report.pdf to the reports directory.")
-    p.add_argument("--experiment", default="experiments/paper.toml",
-                   help="experiment TOML file (default: experiments/paper.toml)")
+    p.add_argument("--experiment", default=None,
+                   help="experiment TOML file, or the name of a shipped experiment (paper, smoke) "
+                        "(default: paper, i.e. experiments/paper.toml)")
     p.add_argument("--out", default=None,
                    help="results directory (default: results/<experiment name>, with -quick / -runsN "
                         "appended for --quick / --runs)")
@@ -49,9 +51,10 @@ def _headless() -> None:
 
 def reproduce_handler(args: argparse.Namespace) -> int:
     _headless()
-    from faultlab.report.reproduce import reproduce
+    from faultlab.report.reproduce import DEFAULT_EXPERIMENT, reproduce
 
-    result = reproduce(args.experiment, out=args.out, reports=args.reports, runs=args.runs,
+    experiment = DEFAULT_EXPERIMENT if args.experiment is None else args.experiment
+    result = reproduce(experiment, out=args.out, reports=args.reports, runs=args.runs,
                        quick=args.quick, jobs=args.jobs, backend=args.backend,
                        force_new=args.force_new, progress=not args.no_progress)
     print(result)

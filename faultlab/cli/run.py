@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from faultlab.cli.options import add_execution_options
+from faultlab.runner import run_experiment
 
 __all__ = ["register", "handler"]
 
@@ -14,19 +16,16 @@ def register(subparsers) -> None:
         "run", help="run (or resume) an experiment file",
         description="Run the jobs of an experiment file and store one row per job in OUT/results.sqlite. "
                     "Rerunning the same command resumes: only missing jobs run.")
-    p.add_argument("experiment", help="experiment TOML file, e.g. experiments/paper.toml")
+    p.add_argument("experiment", help="experiment TOML file, e.g. experiments/paper.toml, or the name "
+                                      "of a shipped experiment (paper, smoke)")
     p.add_argument("--out", default=None,
-                   help="output directory (default: results/<experiment file name without .toml>)")
+                   help="output directory (default: results/<experiment name, without .toml>)")
     p.add_argument("--jobs", type=int, default=2, help="worker processes (default: 2)")
     add_execution_options(p)
     p.set_defaults(func=handler)
 
 
 def handler(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from faultlab.runner import run_experiment
-
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
     summary = run_experiment(args.experiment, out, jobs=args.jobs, backend=args.backend,
                              force_new=args.force_new, progress=not args.no_progress)

@@ -25,7 +25,7 @@ def register(subparsers) -> None:
                     "printed figure differs.")
     p.add_argument("--raw", default=None, metavar="PATH",
                    help="raw RMS CSV (default: the paper's raw data in paper_repro/, looked up in the "
-                        "current directory, then the repository)")
+                        "current directory, then in the copy shipped with faultlab)")
     p.add_argument("--reported", default=None, metavar="PATH",
                    help="printed percentages CSV (default: the paper's Table II percentages in paper_repro/)")
     _rule_options(p)

@@ -20,23 +20,20 @@ from faultlab.faults.check import (
     check_scenario,
     unit_outputs,
 )
+from faultlab.faults.fault import Fault, UnitExample, apply_faults, step_names
 from faultlab.faults.registry import (
     ENTRY_POINT_GROUP,
-    Fault,
     FaultListing,
     PluginFailure,
     PluginReport,
     PluginWarning,
-    UnitExample,
     all_faults,
-    apply_faults,
     builtin_faults,
     get_fault,
     list_faults,
     load_plugins,
     resolve_fault,
     resolve_variant,
-    step_names,
 )
 
 __all__ = [

@@ -8,6 +8,13 @@ what the mistake changes.  Each fault carries :class:`UnitExample` inputs on
 which the faulty unit's output differs from the reference unit's (a
 unit-level "killed mutant" check, run by the tests).
 
+Randomness: a fault that replaces a random unit (``sample_controls``,
+``resample``: :data:`faultlab.slam.units.STREAM_UNITS`) draws only from the
+``rng`` it is given, which is that unit's own stream; its different use of
+randomness (``naive_resampling`` draws N uniforms per update,
+``shared_control_noise`` two normals per step) therefore leaves every other
+unit's draws identical to the baseline's with the same seed.
+
 References: Thrun, Burgard & Fox, *Probabilistic Robotics* (2005), Table 13.1
 (FastSLAM 1.0, known correspondences) and Sec. 4.3 / Table 4.4 (particle
 filter, low-variance sampler); PythonRobotics' ``SLAM/FastSLAM1/fast_slam1.py``
@@ -21,7 +28,9 @@ import math
 
 import numpy as np
 
-from faultlab.faults.registry import Fault, UnitExample
+from faultlab.faults.fault import Fault, UnitExample
+from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlamConfig
+from faultlab.slam.units import ParticleState
 
 __all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors", "PAPER_ALIASING"]
 
@@ -31,14 +40,10 @@ _LOG_TWO_PI = math.log(2.0 * math.pi)
 # --------------------------------------------------------------------------- example inputs
 
 def _config():
-    from faultlab.slam import FastSlamConfig
-
     return FastSlamConfig()
 
 
 def _reference(unit: str):
-    from faultlab.slam import REFERENCE_STEPS
-
     return getattr(REFERENCE_STEPS, unit)
 
 
@@ -113,8 +118,6 @@ def _ex_combine():
 
 
 def _state_example():
-    from faultlab.slam import ParticleState
-
     st = ParticleState.initial(np.zeros(3), 4)
     return dataclasses.replace(st, poses=np.arange(12.0).reshape(4, 3),
                                logw=np.log(np.array([0.1, 0.2, 0.3, 0.4])))

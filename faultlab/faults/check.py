@@ -9,6 +9,13 @@ such faults.  The experiment runner and the statistics should exclude a fault
 flagged ``equivalent`` (or report it separately) instead of counting it as
 "never detected".
 
+Reference and faulty runs of one SLAM repetition start from the same seed, so
+they share every random stream of the units the fault does not replace
+(common random numbers by unit, :mod:`faultlab.slam.streams`): a difference in
+the output comes from the fault, never from the filter drawing other random
+numbers.  A fault that merely draws a different amount of randomness from its
+own unit's stream still differs (its unit's later draws move).
+
 :func:`unit_outputs` is the unit-level counterpart (cosmic-ray style): it runs
 the original and the faulty unit on a fault's :class:`UnitExample` inputs.
 """
@@ -24,7 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from faultlab.errors import FaultError
-from faultlab.faults.registry import Fault, UnitExample, all_faults, load_plugins, resolve_fault
+from faultlab.faults.fault import Fault, UnitExample
+from faultlab.faults.registry import all_faults, load_plugins, resolve_fault
 
 __all__ = [
     "CheckStatus",
@@ -117,7 +125,7 @@ class FaultCheckReport(Sequence):
         One-line description of the check scenario.
     seeds : tuple of int
         The SLAM repetitions k used; repetition k draws from ``SeedSequence([seed, 1, k])``,
-        the same for the reference and every fault.
+        the same for the reference and every fault (hence the same per-unit random streams).
     plugin_errors : tuple of str
         Plugins that failed to load (their faults were not checked).
     reference_spread_m : float

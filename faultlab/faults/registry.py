@@ -1,13 +1,7 @@
-"""Fault records, the registry of built-in faults and third-party plugin discovery.
+"""The registry of faults: built-ins, third-party plugin discovery and name resolution.
 
-A :class:`Fault` is a mutation of exactly one replaceable unit (one field of
-:class:`faultlab.slam.FastSlamSteps`).  Applying it builds a *new* SLAM
-instance whose step table has that one unit replaced; the reference
-:data:`faultlab.slam.REFERENCE_STEPS` and any SLAM the fault is applied to are
-never modified, and nothing is written to disk.  This replaces the paper's
-hand-edited copies of the SLAM code (Sec. VII-A) by named, documented plugins.
-
-Built-in faults live in :mod:`faultlab.faults.builtin` and have plain names.
+The fault contract (:class:`~faultlab.faults.fault.Fault`) is documented in
+:mod:`faultlab.faults.fault`.  Built-in faults live in :mod:`faultlab.faults.builtin` and have plain names.
 Third-party faults have ``provider/name`` names and are discovered through the
 entry-point group ``faultlab.faults`` (see :func:`load_plugins`).  The variant
 name ``"baseline"`` is reserved for the unmodified reference.
@@ -15,24 +9,21 @@ name ``"baseline"`` is reserved for the unmodified reference.
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
 import difflib
-import importlib
 import importlib.metadata
-import re
 import warnings
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from faultlab.config import import_object
 from faultlab.errors import FaultError, PluginError
-from faultlab.vocabulary import BASELINE
+from faultlab.faults.builtin import BUILTIN_FAULTS
+from faultlab.faults.fault import Fault, step_names
+from faultlab.vocabulary import BASELINE, UNMODIFIED
 
 __all__ = [
     "ENTRY_POINT_GROUP",
-    "Fault",
-    "UnitExample",
     "PluginFailure",
     "PluginReport",
     "PluginWarning",
@@ -42,8 +33,6 @@ __all__ = [
     "resolve_fault",
     "resolve_variant",
     "load_plugins",
-    "apply_faults",
-    "step_names",
     "FaultListing",
     "list_faults",
 ]
@@ -52,184 +41,14 @@ __all__ = [
 ENTRY_POINT_GROUP = "faultlab.faults"
 
 
-_BUILTIN_NAME = re.compile(r"[a-z][a-z0-9_]*")
-_PLUGIN_NAME = re.compile(r"[a-z0-9][a-z0-9_.-]*/[a-z0-9][a-z0-9_.-]*")
-
-
 class PluginWarning(UserWarning):
     """Issued when a fault plugin fails to load (the other plugins still load)."""
-
-
-def step_names() -> tuple[str, ...]:
-    """Names of the replaceable units of the reference FastSLAM (fields of ``FastSlamSteps``)."""
-    from faultlab.slam import FastSlamSteps  # late import: faults builds on slam
-
-    return tuple(f.name for f in dataclasses.fields(FastSlamSteps))
-
-
-@dataclass(frozen=True, eq=False)
-class UnitExample:
-    """Inputs on which a fault's unit must behave differently from the original unit.
-
-    A cosmic-ray style smoke test for a mutant: calling the original unit and
-    the faulty unit with the same inputs must give different outputs (see
-    :func:`faultlab.faults.check.unit_outputs`).
-
-    Parameters
-    ----------
-    make_args : callable
-        ``make_args() -> (args, kwargs)``; called once per unit so that
-        each call gets fresh arrays (and, for random units, a fresh
-        ``numpy.random.Generator`` with the same seed).
-    note : str
-        What the example shows, one line.
-    """
-
-    make_args: Callable[[], tuple[tuple, dict]]
-    note: str = ""
-
-
-@dataclass(frozen=True)
-class Fault:
-    """A mutation-style fault that replaces one unit of the reference FastSLAM.
-
-    Parameters
-    ----------
-    name : str
-        Stable name used in experiment files and results tables: lower-case
-        ``snake_case`` for built-ins, ``provider/name`` for third-party faults.
-        ``"baseline"`` is reserved.
-    step : str
-        The :class:`~faultlab.slam.FastSlamSteps` field (unit) the fault replaces.
-    description : str
-        One line: what is wrong.
-    rationale : str
-        One paragraph: why this is a realistic mistake and how it shows.
-    origin : str
-        Where the failure mode comes from, e.g. ``"paper Sec. VII-A"``,
-        ``"public bug report: ..."``, ``"textbook pitfall: ..."``.
-    replacement : callable
-        ``replacement(original_unit) -> new_unit``.  It receives the unit it
-        replaces (so a fault can wrap the original) and must return a callable
-        with the same signature.  Use a module-level function (not a lambda) so
-        that the fault can be pickled to worker processes.
-    examples : tuple of UnitExample
-        Optional unit-level inputs on which the new unit differs from the
-        original (not compared, not hashed).
-    """
-
-    name: str
-    step: str
-    description: str
-    rationale: str
-    origin: str
-    replacement: Callable[[Callable], Callable]
-    examples: tuple[UnitExample, ...] = field(default=(), compare=False, repr=False)
-
-    def __post_init__(self) -> None:
-        name = self.name
-        if not isinstance(name, str) or not name:
-            raise FaultError(f"fault name must be a non-empty string, got {name!r}")
-        if name == BASELINE:
-            raise FaultError(f"fault name {BASELINE!r} is reserved for the unmodified reference")
-        if not (_BUILTIN_NAME.fullmatch(name) or _PLUGIN_NAME.fullmatch(name)):
-            raise FaultError(
-                f"fault name {name!r} is invalid: use lower-case snake_case for built-ins or "
-                f"'provider/name' for third-party faults (letters, digits, '_', '.', '-')")
-        if not isinstance(self.step, str) or not self.step.isidentifier():
-            raise FaultError(f"fault {name!r}: step must be the name of a FastSlamSteps field, "
-                             f"got {self.step!r}")
-        for attr in ("description", "rationale", "origin"):
-            value = getattr(self, attr)
-            if not isinstance(value, str) or not value.strip():
-                raise FaultError(f"fault {name!r}: {attr} must be a non-empty string")
-        if "\n" in self.description.strip():
-            raise FaultError(f"fault {name!r}: description must be one line")
-        if not callable(self.replacement):
-            raise FaultError(f"fault {name!r}: replacement must be callable (original_unit) -> new_unit, "
-                             f"got {type(self.replacement).__name__}")
-        examples = tuple(self.examples)
-        if not all(isinstance(e, UnitExample) for e in examples):
-            raise FaultError(f"fault {name!r}: examples must be UnitExample instances")
-        object.__setattr__(self, "examples", examples)
-
-    @property
-    def provider(self) -> str | None:
-        """The ``provider`` part of a third-party name; None for built-ins."""
-        return self.name.split("/", 1)[0] if "/" in self.name else None
-
-    def patch(self, steps):
-        """Return a copy of ``steps`` with unit :attr:`step` replaced.
-
-        Parameters
-        ----------
-        steps : FastSlamSteps
-            Any frozen dataclass of units (normally ``slam.steps``); not modified.
-
-        Raises
-        ------
-        FaultError
-            If :attr:`step` is not a field of ``steps`` or the replacement
-            factory fails or returns something that is not callable.
-        """
-        if not dataclasses.is_dataclass(steps) or isinstance(steps, type):
-            raise FaultError(f"fault {self.name!r}: can only patch a steps dataclass (FastSlamSteps), "
-                             f"got {type(steps).__name__}")
-        names = [f.name for f in dataclasses.fields(steps)]
-        if self.step not in names:
-            raise FaultError(f"fault {self.name!r} patches unknown step {self.step!r}; "
-                             f"{type(steps).__name__} has: {', '.join(names)}")
-        original = getattr(steps, self.step)
-        try:
-            unit = self.replacement(original)
-        except Exception as exc:
-            raise FaultError(f"fault {self.name!r}: building the replacement for step {self.step!r} "
-                             f"failed: {type(exc).__name__}: {exc}") from exc
-        if not callable(unit):
-            raise FaultError(f"fault {self.name!r}: replacement for step {self.step!r} returned "
-                             f"{type(unit).__name__}, not a callable unit")
-        return dataclasses.replace(steps, **{self.step: unit})
-
-    def apply(self, slam):
-        """Return a new SLAM instance with this fault injected; ``slam`` is unchanged.
-
-        Parameters
-        ----------
-        slam : FastSlam
-            Any SLAM with a ``steps`` table and ``with_steps(steps)``.
-        """
-        if not (hasattr(slam, "steps") and callable(getattr(slam, "with_steps", None))):
-            raise FaultError(f"fault {self.name!r} can only be applied to a SLAM with replaceable steps "
-                             f"(FastSlam); {type(slam).__name__} has no steps/with_steps")
-        return slam.with_steps(self.patch(slam.steps))
-
-    @contextlib.contextmanager
-    def applied(self, slam) -> Iterator[Any]:
-        """Context-manager form of :meth:`apply`: ``with fault.applied(slam) as faulty: ...``.
-
-        Yields a new instance; nothing global is modified, so there is nothing
-        to undo on exit (``slam`` itself stays the reference).
-        """
-        yield self.apply(slam)
-
-    def summary(self) -> str:
-        """``name  step  origin  description`` on one line."""
-        return f"{self.name}  [{self.step}]  {self.origin}: {self.description}"
-
-
-def apply_faults(slam, faults: Iterable[Fault]):
-    """Apply several faults in order (a higher-order mutant); returns a new instance."""
-    for fault in faults:
-        slam = fault.apply(slam)
-    return slam
 
 
 # --------------------------------------------------------------------------- built-ins
 
 def builtin_faults() -> dict[str, Fault]:
     """The built-in faults by name, in registration order (the paper's three first)."""
-    from faultlab.faults.builtin import BUILTIN_FAULTS  # late: builtin imports this module
-
     return {f.name: f for f in BUILTIN_FAULTS}
 
 
@@ -405,8 +224,8 @@ def get_fault(name: str) -> Fault:
     """
     if not isinstance(name, str):
         raise FaultError(f"fault name must be a string, got {type(name).__name__}")
-    if name == BASELINE:
-        raise FaultError(f"{BASELINE!r} is the unmodified reference, not a fault")
+    if name in UNMODIFIED:
+        raise FaultError(f"{name!r} is the unmodified reference, not a fault")
     builtins = builtin_faults()
     if name in builtins:
         return builtins[name]
@@ -423,19 +242,7 @@ def get_fault(name: str) -> Fault:
 
 
 def _import_fault(spec: str) -> Fault:
-    module_name, _, attr = spec.partition(":")
-    if not module_name or not attr:
-        raise FaultError(f"fault import path {spec!r} must look like 'package.module:attribute'")
-    try:
-        obj: Any = importlib.import_module(module_name)
-    except Exception as exc:
-        raise FaultError(f"fault {spec!r}: cannot import module {module_name!r}: "
-                         f"{type(exc).__name__}: {exc}") from exc
-    for part in attr.split("."):
-        try:
-            obj = getattr(obj, part)
-        except AttributeError:
-            raise FaultError(f"fault {spec!r}: module {module_name!r} has no attribute {attr!r}") from None
+    obj = import_object(spec, what="fault import path", error=FaultError)
     if not isinstance(obj, Fault):
         raise FaultError(f"fault {spec!r} is a {type(obj).__name__}, not a faultlab.faults.Fault")
     return obj
@@ -456,8 +263,9 @@ def resolve_fault(spec: str | Fault) -> Fault:
 
 
 def resolve_variant(spec: str | Fault) -> Fault | None:
-    """Like :func:`resolve_fault`, but ``"baseline"`` resolves to None (no fault)."""
-    if spec == BASELINE:
+    """Like :func:`resolve_fault`, but the unmodified variants (``"baseline"``, ``"baseline_replica"``)
+    resolve to None (no fault)."""
+    if isinstance(spec, str) and spec in UNMODIFIED:
         return None
     return resolve_fault(spec)
 

@@ -1,7 +1,7 @@
 """The main job: run the paper's protocol through the runner, then build the report.
 
-``python -m faultlab reproduce`` = :func:`reproduce`: load ``experiments/paper.toml``
-(3 runs x 3 suites x 5 cases x 4 variants, Sec. VII), optionally shrink it (``quick``) or
+``python -m faultlab reproduce`` = :func:`reproduce`: load the shipped experiment ``paper``
+(``experiments/paper.toml``: 3 runs x 3 suites x 5 cases x 4 variants, Sec. VII), optionally shrink it (``quick``) or
 repeat it (``runs``), run (or resume) it with :func:`faultlab.runner.run_experiment`, and write
 the tables and the PDF with :func:`faultlab.report.build.build_report` from the saved results.
 """
@@ -19,8 +19,9 @@ from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 __all__ = ["ReproduceResult", "reproduce", "quick_overrides", "default_out", "DEFAULT_EXPERIMENT",
            "QUICK_PARTICLES", "QUICK_STEPS"]
 
-#: The paper's protocol (issue 5).
-DEFAULT_EXPERIMENT = "experiments/paper.toml"
+#: The paper's protocol: the shipped experiment ``paper`` (``experiments/paper.toml``, see
+#: :mod:`faultlab.data`), found wherever faultlab is installed.
+DEFAULT_EXPERIMENT = "paper"
 #: ``--quick``: SLAM particles and active steps per case.
 QUICK_PARTICLES = 60
 QUICK_STEPS = 200
@@ -78,24 +79,18 @@ def quick_overrides(experiment) -> dict:
         "n_steps": QUICK_STEPS,
     }
     if experiment.slam.name == "fastslam":
-        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.particles)}
+        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.config.n_particles)}
     return overrides
 
 
 def default_out(experiment_path: str | Path, *, quick: bool = False, runs: int | None = None) -> Path:
     """``results/<experiment stem>`` with ``-quick`` / ``-runs<N>`` appended, so a shrunk or
-    repeated protocol never collides with the full one's results store."""
+    repeated protocol never collides with the full one's results store.
+
+    ``experiment_path`` is a path or a shipped name: ``"paper"`` and ``"experiments/paper.toml"``
+    both give ``results/paper``."""
     name = Path(experiment_path).stem + ("-quick" if quick else "") + (f"-runs{runs}" if runs else "")
     return Path("results") / name
-
-
-def _resolve_experiment(path: str | Path) -> Path:
-    p = Path(path)
-    if p.is_file() or p.is_absolute():
-        return p
-    # the default path, run from outside the repository: look next to the package
-    root = Path(__file__).resolve().parents[2]
-    return root / p if (root / p).is_file() else p
 
 
 def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Path | None = None,
@@ -106,8 +101,9 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
 
     Parameters
     ----------
-    experiment_path : path
-        Experiment TOML (default ``experiments/paper.toml``, the paper's protocol).
+    experiment_path : path or str
+        Experiment TOML, or the name of a shipped experiment (default ``"paper"``, the
+        paper's protocol; see :func:`faultlab.runner.load_experiment`).
     out : path, optional
         Results directory; default :func:`default_out`.
     reports : path
@@ -137,13 +133,12 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
         raise ConfigError(f"runs must be a positive integer, got {runs!r}")
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ConfigError(f"jobs must be a positive integer, got {jobs!r}")
-    path = _resolve_experiment(experiment_path)
-    experiment = load_experiment(path)
+    experiment = load_experiment(experiment_path)
     if quick:
         experiment = experiment.replace(**quick_overrides(experiment))
     if runs is not None:
         experiment = experiment.replace(runs=runs)
-    out = Path(out) if out is not None else default_out(path, quick=quick, runs=runs)
+    out = Path(out) if out is not None else default_out(experiment_path, quick=quick, runs=runs)
     summary = run_experiment(experiment, out, jobs=jobs, backend=backend, force_new=force_new,
                              progress=progress)
     report = build_report(out, reports)

@@ -14,14 +14,13 @@ from faultlab.runner.execute import (
     run_experiment,
 )
 from faultlab.runner.experiment import (
-    DetectionSpec,
     Experiment,
     SlamSpec,
     SuiteSpec,
     load_experiment,
     parse_experiment,
 )
-from faultlab.runner.jobs import JobKey, JobSpec, case_seed, expand_jobs, slam_seed, suite_seed_sequence
+from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
 from faultlab.runner.store import (
     RESULT_COLUMNS,
     ResultStore,
@@ -35,7 +34,6 @@ __all__ = [
     "Experiment",
     "SuiteSpec",
     "SlamSpec",
-    "DetectionSpec",
     "load_experiment",
     "parse_experiment",
     "JobKey",
@@ -44,9 +42,6 @@ __all__ = [
     "CaseInfo",
     "RunSummary",
     "expand_jobs",
-    "case_seed",
-    "slam_seed",
-    "suite_seed_sequence",
     "execute_job",
     "prepare_cases",
     "run_experiment",

@@ -25,7 +25,6 @@ import contextlib
 import math
 import os
 import signal
-import sys
 import threading
 import time
 import traceback
@@ -35,12 +34,21 @@ from typing import Iterator, Mapping
 
 import numpy as np
 
+from joblib import Parallel, delayed, parallel_config
+from joblib.externals.loky.process_executor import BrokenProcessPool, ProcessPoolExecutor
+
 from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
-from faultlab.runner.experiment import Experiment, load_experiment, resolve_variant
-from faultlab.runner.jobs import JobKey, JobSpec, case_seed, expand_jobs, suite_seed_sequence
+from faultlab.faults import resolve_variant
+from faultlab.metrics import map_errors
+from faultlab.runner.experiment import Experiment, load_experiment
+from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
+from faultlab.runner.progress import format_duration
+from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import ID_COLUMNS, ResultStore, case_path, store_lock
+from faultlab.scenario.model import Scenario, load_scenario, save_scenario
+from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
 from faultlab.slam.protocol import Estimate, SlamAdapter, run_slam
-from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS, CaseSpec
+from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.vocabulary import BACKENDS, JobStatus
 
 __all__ = [
@@ -122,14 +130,7 @@ class RunSummary:
     def __str__(self) -> str:
         counts = ", ".join(f"{self.counts.get(s.value, 0)} {s.value}" for s in JobStatus)
         return (f"{self.n_jobs} jobs: {counts} ({self.n_new} run now, {self.n_skipped} already done); "
-                f"wall time {_fmt_seconds(self.wall_time_s)}")
-
-
-def _fmt_seconds(s: float) -> str:
-    if s < 60:
-        return f"{s:.1f} s"
-    m, s = divmod(int(round(s)), 60)
-    return f"{m} min {s} s" if m < 60 else f"{m // 60} h {m % 60} min {s} s"
+                f"wall time {format_duration(self.wall_time_s)}")
 
 
 # ------------------------------------------------------------------ worker side
@@ -206,10 +207,6 @@ def execute_job(spec: JobSpec) -> JobResult:
     SUT failures become ``crash``/``timeout`` results; only infrastructure
     errors (e.g. a missing case file) raise.
     """
-    from faultlab.faults import resolve_variant as _resolve
-    from faultlab.metrics import map_errors
-    from faultlab.scenario.model import load_scenario
-
     scenario = load_scenario(spec.case_path)
     t0 = time.perf_counter()
     try:
@@ -217,7 +214,7 @@ def execute_job(spec: JobSpec) -> JobResult:
             with _alarm(spec.timeout_s):
                 deadline = time.monotonic() + spec.timeout_s
                 slam = spec.slam.build()
-                fault = _resolve(spec.key.variant)
+                fault = resolve_variant(spec.key.variant)
                 if fault is not None:
                     slam = fault.apply(slam)
                 with np.errstate(all="ignore"):  # a NaN estimate is reported as a crash row, not as warnings
@@ -251,8 +248,6 @@ def _find_killer(suspects: list[JobSpec]) -> tuple[list[JobResult], list[JobSpec
     Returns the results obtained (the killer recorded as ``crash``) and the
     suspects not run yet, which go back to the parallel pool.
     """
-    from joblib.externals.loky.process_executor import BrokenProcessPool, ProcessPoolExecutor
-
     results: list[JobResult] = []
     executor = ProcessPoolExecutor(max_workers=1)  # private: joblib's reusable executor stays untouched
     try:
@@ -271,50 +266,53 @@ def _find_killer(suspects: list[JobSpec]) -> tuple[list[JobResult], list[JobSpec
 def prepare_cases(experiment: Experiment, out: str | Path) -> list[CaseInfo]:
     """Generate and save every test case of ``experiment`` (idempotent).
 
-    Suites are built from :func:`~faultlab.runner.jobs.suite_seed_sequence`, each
-    case generated from its own :func:`~faultlab.runner.jobs.case_seed`.  A case
-    already on disk is loaded and checked against the experiment (seed and
-    parameter values) instead of being regenerated.
+    Cases come from the one case pipeline (:func:`faultlab.scenario.suite.draw_suite`,
+    :func:`~faultlab.scenario.suite.generate_case`), so they are exactly those
+    ``faultlab generate`` writes for the same seed, suite and run.  A case already on disk is
+    loaded and checked against the experiment (seed and parameter values) instead of being
+    regenerated.
 
     Raises
     ------
     ResultsError
         If a saved case belongs to another experiment.
     """
-    from faultlab.scenario import generate_scenario
-    from faultlab.scenario.model import load_scenario, save_scenario
-    from faultlab.space import build_suite
-
     space = experiment.parameter_space()
     infos: list[CaseInfo] = []
     for run in range(1, experiment.runs + 1):
         for suite in experiment.suites:
-            rng = np.random.default_rng(suite_seed_sequence(experiment.seed, run, suite.kind))
-            specs: list[CaseSpec] = build_suite(suite.kind, space, rng=rng, n_cases=suite.n_cases)
-            for c, spec in enumerate(specs, start=1):
-                seed = case_seed(experiment.seed, run, suite.kind, c)
-                path = case_path(out, run, suite.kind, c)
-                scenario = None
-                if path.exists():
-                    try:
-                        scenario = load_scenario(path)
-                    except ScenarioError:
-                        scenario = None  # half-written by a killed run: regenerate
-                    if scenario is not None and (scenario.seed != seed or dict(scenario.case.values) != dict(spec.values)):
-                        raise ResultsError(f"saved test case {path} does not match {experiment.source} "
-                                           f"(seed or parameter values differ); use --force-new")
+            for case in draw_suite(suite.kind, space, root_seed=experiment.seed, run=run, n_cases=suite.n_cases):
+                path = case_path(out, run, suite.kind, case.case)
+                scenario = _saved_case(path, case, experiment)
                 if scenario is None:
-                    scenario = generate_scenario(spec, rng=np.random.default_rng(seed), n_steps=experiment.n_steps,
-                                                 sensor_range=experiment.sensor_range,
-                                                 min_distance=experiment.min_distance, seed=seed)
+                    scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
+                                             min_distance=experiment.min_distance)
                     save_scenario(scenario, path)
-                n_lm = int(scenario.landmarks.shape[0])
-                n_obs = int(scenario.obs_offsets[-1])
-                cost = scenario.n_steps * (1.0 + n_lm / 64.0) + n_obs
-                infos.append(CaseInfo(run=run, suite=suite.kind, case=c, path=path, values=dict(spec.values),
-                                      classes={p: int(spec.classes.get(p, -1)) for p in PARAMETER_NAMES},
-                                      n_landmarks=n_lm, cost=cost))
+                infos.append(_case_info(case, path, scenario))
     return infos
+
+
+def _saved_case(path: Path, case: SuiteCase, experiment: Experiment) -> Scenario | None:
+    """The case saved at ``path`` by an earlier (possibly killed) run; None if absent or half-written."""
+    if not path.exists():
+        return None
+    try:
+        scenario = load_scenario(path)
+    except ScenarioError:
+        return None  # half-written by a killed run: regenerate
+    if scenario.seed != case.seed or dict(scenario.case.values) != dict(case.spec.values):
+        raise ResultsError(f"saved test case {path} does not match {experiment.source} "
+                           f"(seed or parameter values differ); use --force-new")
+    return scenario
+
+
+def _case_info(case: SuiteCase, path: Path, scenario: Scenario) -> CaseInfo:
+    n_lm = int(scenario.landmarks.shape[0])
+    n_obs = int(scenario.obs_offsets[-1])
+    cost = scenario.n_steps * (1.0 + n_lm / 64.0) + n_obs  # rough: per-step work grows with the map
+    return CaseInfo(run=case.run, suite=case.suite, case=case.case, path=path, values=dict(case.spec.values),
+                    classes={p: int(case.spec.classes.get(p, -1)) for p in PARAMETER_NAMES},
+                    n_landmarks=n_lm, cost=cost)
 
 
 def _preflight(experiment: Experiment) -> None:
@@ -330,7 +328,7 @@ def _preflight(experiment: Experiment) -> None:
         raise ConfigError(f"{experiment.source}: [slam] {experiment.slam.name!r} built a "
                           f"{type(slam).__name__}, not a SlamAdapter")
     for i, variant in enumerate(experiment.variants):
-        fault = resolve_variant(variant, where=f"{experiment.source}: variants[{i}]")
+        fault = resolve_variant(variant)  # known: parse_experiment checked every name
         if fault is None:
             continue
         try:
@@ -382,9 +380,6 @@ def _backend(name: str, jobs: int) -> Iterator[tuple[str, int]]:
 
 def _stream(todo: list[JobSpec], *, jobs: int, backend: str) -> Iterator[JobResult]:
     """Execute ``todo`` and yield results as they finish (any order)."""
-    from joblib import Parallel, delayed, parallel_config
-    from joblib.externals.loky.process_executor import BrokenProcessPool
-
     pending = list(todo)
     while pending:
         dispatched: set[JobKey] = set()
@@ -450,7 +445,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         (never deleted).  Without it, ``out`` holding another experiment's
         results is an error.
     progress : bool
-        Show a tqdm progress bar (on a terminal).
+        Show progress on stderr (:func:`faultlab.runner.progress.progress`): a tqdm bar on a
+        terminal, otherwise a log line every 10 % of the jobs (done/total, crashes and
+        timeouts so far, elapsed time, ETA).
 
     Returns
     -------
@@ -483,18 +480,15 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
         n_new, state = 0, "interrupted"
         try:
-            from tqdm.auto import tqdm
-
-            with tqdm(total=len(specs), initial=len(specs) - len(todo), unit="job", desc="faultlab run",
-                      disable=None if progress else True, file=sys.stderr, dynamic_ncols=True) as bar:
-                bar.set_postfix(crash=counts["crash"], timeout=counts["timeout"], refresh=False)
+            with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
+                               enabled=progress,
+                               counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
                 for res in _stream(todo, jobs=jobs, backend=backend):
                     k = res.key
                     store.write(_row(info[(k.run, k.suite, k.case)], res), session=session)
                     n_new += 1
                     counts[res.status.value] = counts.get(res.status.value, 0) + 1
-                    bar.set_postfix(crash=counts["crash"], timeout=counts["timeout"], refresh=False)
-                    bar.update(1)
+                    bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
             state = "complete"
         finally:
             store.end_session(session, state=state, n_new=n_new, wall_time_s=time.perf_counter() - t0)

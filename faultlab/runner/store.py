@@ -29,6 +29,7 @@ from typing import Iterator, Mapping
 import numpy as np
 import pandas as pd
 
+from faultlab import __version__
 from faultlab.errors import ResultsError
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 
@@ -51,7 +52,7 @@ FORMAT_VERSION = 1
 
 ID_COLUMNS: tuple[str, ...] = ("run", "suite", "case", "variant", "rep")
 
-#: Column -> SQLite type, in table order (the results schema of the brief).
+#: Column -> SQLite type, in table order: job identity, the case's parameter values and classes, results.
 _COLUMN_TYPES: dict[str, str] = {
     "run": "INTEGER", "suite": "TEXT", "case": "INTEGER", "variant": "TEXT", "rep": "INTEGER",
     **{k: ("TEXT" if k == "directionality" else "REAL") for k in VALUE_KEYS},
@@ -181,8 +182,6 @@ class ResultStore:
             If ``out`` holds the results of a different experiment (another
             hash) and ``force_new`` is False, or a file that is not a store.
         """
-        from faultlab import __version__
-
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         path = results_path(out)
@@ -257,8 +256,6 @@ class ResultStore:
 
     # ------------------------------------------------------------ sessions
     def begin_session(self, *, jobs: int, backend: str, n_todo: int) -> int:
-        from faultlab import __version__
-
         cur = self.conn.execute(
             "INSERT INTO sessions (started, state, jobs, backend, faultlab_version, n_todo, n_new, started_unix) "
             "VALUES (?, 'running', ?, ?, ?, ?, 0, ?)", (_now(), jobs, backend, __version__, n_todo, time.time()))

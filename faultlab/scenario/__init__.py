@@ -6,10 +6,11 @@ from faultlab.scenario.config import (
     DEFAULT_SENSOR_RANGE,
     ScenarioConfig,
 )
-from faultlab.scenario.files import SuiteFiles, cases_frame, suite_seeds, write_suite
+from faultlab.scenario.files import SuiteFiles, cases_frame, write_suite
 from faultlab.scenario.generator import GENERATOR_VERSION, generate_scenario
 from faultlab.scenario.maps import generate_landmarks, n_symmetric_pairs
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
+from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
 from faultlab.scenario.trace import (
     DEFAULT_PATH_TURN_STD,
     Drive,
@@ -41,6 +42,8 @@ __all__ = [
     "wrap_angle",
     "SuiteFiles",
     "write_suite",
-    "suite_seeds",
+    "SuiteCase",
+    "draw_suite",
+    "generate_case",
     "cases_frame",
 ]

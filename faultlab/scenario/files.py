@@ -5,19 +5,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from faultlab.errors import ConfigError
-from faultlab.scenario.config import DEFAULT_N_STEPS
-from faultlab.scenario.generator import generate_scenario
+from faultlab.scenario.config import DEFAULT_MIN_DISTANCE, DEFAULT_N_STEPS, DEFAULT_SENSOR_RANGE
 from faultlab.scenario.model import Scenario, save_scenario
+from faultlab.scenario.suite import draw_suite, generate_case
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS, CaseSpec
 from faultlab.space.coverage import Coverage, coverage
 from faultlab.space.parameters import ParameterSpace, table1_space
-from faultlab.space.suites import SUITE_KINDS, build_suite
+from faultlab.vocabulary import SUITE_KINDS
 
-__all__ = ["SuiteFiles", "write_suite", "suite_seeds", "cases_frame"]
+__all__ = ["SuiteFiles", "write_suite", "cases_frame"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,20 +48,6 @@ class SuiteFiles:
     cases_csv: Path
 
 
-def suite_seeds(seed: int, n_cases: int) -> tuple[np.random.SeedSequence, list[int]]:
-    """The suite's SeedSequence and one integer seed per case, all derived from ``seed``.
-
-    ``SeedSequence(seed).spawn(2)`` gives the suite draw's sequence and the
-    parent of the cases; case ``i`` uses ``default_rng(case_seeds[i])`` (a
-    63-bit int drawn from the parent's i-th child), so a saved case can be
-    regenerated from its recorded :attr:`Scenario.seed`.
-    """
-    suite_ss, cases_ss = np.random.SeedSequence(int(seed)).spawn(2)
-    # 63-bit ints: fit an int64 column as well as JSON
-    case_seeds = [int(ss.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1)) for ss in cases_ss.spawn(n_cases)]
-    return suite_ss, case_seeds
-
-
 def cases_frame(cases: list[CaseSpec]) -> pd.DataFrame:
     """One row per case (1-based ``case``): the 13 values and ``class_<parameter>``."""
     rows = []
@@ -73,24 +58,31 @@ def cases_frame(cases: list[CaseSpec]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def write_suite(kind: str, *, seed: int, out: str | Path, n_cases: int | None = None,
-                space: ParameterSpace | None = None, n_steps: int = DEFAULT_N_STEPS) -> SuiteFiles:
+def write_suite(kind: str, *, seed: int, out: str | Path, run: int = 1, n_cases: int | None = None,
+                space: ParameterSpace | None = None, n_steps: int = DEFAULT_N_STEPS,
+                sensor_range: float = DEFAULT_SENSOR_RANGE,
+                min_distance: float = DEFAULT_MIN_DISTANCE) -> SuiteFiles:
     """Draw a suite, generate every case and save it to ``out``.
+
+    The cases are those of suite ``kind`` in evaluation run ``run`` of a campaign with root seed
+    ``seed`` (:func:`faultlab.scenario.suite.draw_suite`): byte-identical to the campaign's saved cases.
 
     Parameters
     ----------
     kind : {"systematic", "random", "fixed"}
     seed : int
-        Root seed; the suite and each case use child seeds (:func:`suite_seeds`).
+        Root seed of the campaign.
     out : path
         Directory (created); receives ``case1.npz``/``case1.json``, ...,
         ``coverage.csv`` and ``cases.csv``.
+    run : int
+        Evaluation run (1-based).
     n_cases : int, optional
-        Default: the space's minimal systematic suite size (5 with Table I).
+        Default: the builder's choice (5 for the systematic suite of Table I).
     space : ParameterSpace, optional
         Table I when None.
-    n_steps : int
-        Active steps per case.
+    n_steps, sensor_range, min_distance : int, float, float
+        Generation settings (active steps, m, m), as in an experiment file.
 
     Returns
     -------
@@ -100,17 +92,18 @@ def write_suite(kind: str, *, seed: int, out: str | Path, n_cases: int | None = 
         raise ConfigError(f"unknown suite kind {kind!r} (expected one of {', '.join(SUITE_KINDS)})")
     if n_steps < 1:
         raise ConfigError(f"n_steps must be at least 1, got {n_steps}")
+    if run < 1:
+        raise ConfigError(f"run must be at least 1, got {run}")
     space = space or table1_space()
-    suite_ss, _ = suite_seeds(seed, 0)
-    cases = build_suite(kind, space, rng=np.random.default_rng(suite_ss), n_cases=n_cases)
-    _, case_seeds = suite_seeds(seed, len(cases))
+    drawn = draw_suite(kind, space, root_seed=seed, run=run, n_cases=n_cases)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     scenarios, paths = [], []
-    for i, (case, cs) in enumerate(zip(cases, case_seeds), start=1):
-        sc = generate_scenario(case, rng=np.random.default_rng(cs), n_steps=n_steps, seed=cs)
+    for case in drawn:
+        sc = generate_case(case, n_steps=n_steps, sensor_range=sensor_range, min_distance=min_distance)
         scenarios.append(sc)
-        paths.append(save_scenario(sc, out / f"case{i}"))
+        paths.append(save_scenario(sc, out / f"case{case.case}"))
+    cases = [c.spec for c in drawn]
     cov = coverage(cases, space)
     cov_csv = out / "coverage.csv"
     cov.table().to_csv(cov_csv, index=False)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -111,6 +112,16 @@ class Scenario:
                 raise ScenarioError(msg)
 
 
+def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Write ``arrays`` as an uncompressed ``.npz`` that :func:`numpy.load` reads, byte for byte
+    the same for the same arrays (``numpy.savez`` stamps every member with the current time)."""
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED) as zf:
+        for name, array in arrays.items():
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            with zf.open(info, "w", force_zip64=True) as fh:
+                np.lib.format.write_array(fh, np.asanyarray(array), allow_pickle=False)
+
+
 def save_scenario(scenario: Scenario, path: str | Path) -> Path:
     """Save losslessly as ``<path>.npz`` (arrays) plus ``<path>.json`` (case, seed, meta).
 
@@ -123,7 +134,7 @@ def save_scenario(scenario: Scenario, path: str | Path) -> Path:
     base.parent.mkdir(parents=True, exist_ok=True)
     npz, js = base.with_name(base.name + ".npz"), base.with_name(base.name + ".json")
     tmp_npz, tmp_js = npz.with_name(npz.name + ".tmp.npz"), js.with_name(js.name + ".tmp")
-    np.savez(tmp_npz, **{k: getattr(scenario, k) for k in _ARRAYS})
+    _write_npz(tmp_npz, {k: getattr(scenario, k) for k in _ARRAYS})
     meta = {"format": FORMAT_VERSION, "case": scenario.case.to_dict(), "seed": scenario.seed,
             "meta": scenario.meta}
     tmp_js.write_text(json.dumps(meta, indent=1, sort_keys=True))

@@ -1,6 +1,8 @@
-"""faultlab.slam: the SLAM adapter protocol, the reference FastSLAM 1.0 and a dead-reckoning baseline."""
+"""faultlab.slam: the SLAM adapter protocol, the reference FastSLAM 1.0, FastSLAM 2.0, EKF-SLAM, dead reckoning."""
 
 from faultlab.slam.deadreckoning import DeadReckoning
+from faultlab.slam.ekf import REFERENCE_STEPS as EKF_REFERENCE_STEPS
+from faultlab.slam.ekf import EkfSlam, EkfSlamConfig, EkfSlamSteps
 from faultlab.slam.fastslam import (
     REFERENCE_STEPS,
     FastSlam,
@@ -10,6 +12,8 @@ from faultlab.slam.fastslam import (
     ParticleState,
     landmark_rows,
 )
+from faultlab.slam.fastslam2 import REFERENCE_STEPS as FASTSLAM2_REFERENCE_STEPS
+from faultlab.slam.fastslam2 import FastSlam2, FastSlam2Steps
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_control, run_slam
 
 __all__ = [
@@ -26,4 +30,11 @@ __all__ = [
     "ParticleState",
     "landmark_rows",
     "DeadReckoning",
+    "FastSlam2",
+    "FastSlam2Steps",
+    "FASTSLAM2_REFERENCE_STEPS",
+    "EkfSlam",
+    "EkfSlamConfig",
+    "EkfSlamSteps",
+    "EKF_REFERENCE_STEPS",
 ]

@@ -40,9 +40,23 @@ apply_resample         ``(state, indices (N,)) -> state``
 extract_map            ``(state) -> ids (M,), xy (M,2)``
 ====================== ======================================================================
 
+Random streams (common random numbers by unit)
+----------------------------------------------
+The units that draw random numbers are listed in
+:data:`faultlab.slam.units.STREAM_UNITS` (``sample_controls`` and ``resample``).
+:meth:`FastSlam.reset` derives one generator per such unit from the SLAM's
+``rng`` with :func:`faultlab.slam.streams.unit_streams` (keyed by the unit's
+name), and every call of a unit receives its *own* stream as ``rng``.  A fault
+that changes how one unit uses randomness (more draws, fewer draws, another
+distribution) therefore leaves the draws of every other unit bit-identical:
+with the same seed, a faulty run and the baseline share every random number
+except those of the replaced unit (the runner gives every variant the same
+seed per repetition).  A replacement unit must draw only from the ``rng`` it
+is given.
+
 One update (:meth:`FastSlam.update`) runs::
 
-    u_i   = sample_controls(u, N, rng, config)          # skipped for an empty update (u_i = u)
+    u_i   = sample_controls(u, N, rng_sc, config)       # skipped for an empty update (u_i = u)
     x_i   = motion_model(x_i, u_i, wrap=wrap_heading)
     # if the step has observations z (k, 2) of ids with storage columns cols; all pairs at once:
     mu, P = the particles' stored means/covariances of cols   # zeros for never-seen ids
@@ -56,8 +70,10 @@ One update (:meth:`FastSlam.update`) runs::
     mu', P' = ekf_update(mu, P, H, S, nu), but mu0, P0 where new -> written back to storage
     # always:
     n_eff = effective_sample_size(exp(logw))
-    idx   = resample(exp(logw), n_eff, empty, rng, config)
+    idx   = resample(exp(logw), n_eff, empty, rng_rs, config)
     state = apply_resample(state, idx) if idx is not None
+
+where ``rng_sc`` and ``rng_rs`` are the streams of ``sample_controls`` and ``resample``.
 
 The units after ``classify_new`` are called once per step with all ``k``
 observations; ``combine_weights`` is not called in steps without observations.
@@ -102,23 +118,27 @@ identical in practice (their map errors typically agree to a fraction of a mm).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from typing import Callable
+from types import MappingProxyType
+from typing import Callable, ClassVar
 
 import numpy as np
 
+from faultlab.config import Option, Settings
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam.sharing import correct_in_sharer_order
-from faultlab.slam.units import ParticleState, landmark_rows
+from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.streams import unit_streams
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
            "landmark_rows"]
 
 
 @dataclass(frozen=True)
-class FastSlamConfig:
+class FastSlamConfig(Settings):
     """Settings of the reference FastSLAM 1.0 (defaults: the paper's setup, Sec. VII-A).
 
     Attributes
@@ -144,27 +164,15 @@ class FastSlamConfig:
     std_bearing: float = math.radians(10.0)
     resample_ratio: float = 1.5
 
-    def __post_init__(self) -> None:
-        n = self.n_particles
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ConfigError(f"FastSlamConfig.n_particles must be an integer >= 1, got {n!r}")
-        object.__setattr__(self, "n_particles", int(n))
-        for name, positive in (("std_v", False), ("std_omega", False), ("std_range", True),
-                               ("std_bearing", True), ("resample_ratio", None)):
-            value = getattr(self, name)
-            try:
-                x = float(value)
-            except (TypeError, ValueError):
-                raise ConfigError(f"FastSlamConfig.{name} must be a number, got {value!r}") from None
-            if isinstance(value, bool) or not math.isfinite(x):
-                raise ConfigError(f"FastSlamConfig.{name} must be a finite number, got {value!r}")
-            if positive is None and x < 1.0:
-                raise ConfigError(f"FastSlamConfig.{name} must be >= 1, got {value!r}")
-            if positive is True and x <= 0.0:
-                raise ConfigError(f"FastSlamConfig.{name} must be > 0, got {value!r}")
-            if positive is False and x < 0.0:
-                raise ConfigError(f"FastSlamConfig.{name} must be >= 0, got {value!r}")
-            object.__setattr__(self, name, x)
+    #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
+    OPTIONS: ClassVar[dict[str, Option]] = {
+        "n_particles": Option("particles", integer=True, bounds={"minimum": 1}),
+        "std_v": Option("std_v", bounds={"minimum": 0.0}),
+        "std_omega": Option("std_omega_deg", degrees=True, bounds={"minimum": 0.0}),
+        "std_range": Option("std_range", bounds={"positive": True}),
+        "std_bearing": Option("std_bearing_deg", degrees=True, bounds={"positive": True}),
+        "resample_ratio": Option("resample_ratio", bounds={"minimum": 1.0}),
+    }
 
     @property
     def Q(self) -> np.ndarray:
@@ -178,8 +186,13 @@ class FastSlamSteps:
 
     Every field is a plain function; :data:`REFERENCE_STEPS` holds the reference
     implementations from :mod:`faultlab.slam.units`.  Replace one unit with
-    ``dataclasses.replace(steps, unit=new_function)``.
+    ``dataclasses.replace(steps, unit=new_function)``.  The units named in
+    :attr:`stream_units` receive their own random stream as ``rng`` (see
+    "Random streams" in the module docstring).
     """
+
+    #: Units that draw random numbers, each from its own stream (:data:`faultlab.slam.units.STREAM_UNITS`).
+    stream_units: ClassVar[tuple[str, ...]] = STREAM_UNITS
 
     sample_controls: Callable = _units.sample_controls
     motion_model: Callable = _units.motion_model
@@ -260,7 +273,7 @@ class FastSlam(SlamAdapter):
         self._steps = steps
         self._Q = config.Q
         self._state: ParticleState | None = None
-        self._rng: np.random.Generator | None = None
+        self._streams: dict[str, np.random.Generator] = {}
 
     # -- configuration -------------------------------------------------------------------------
 
@@ -290,7 +303,8 @@ class FastSlam(SlamAdapter):
             raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
         p = p.copy()
         p[2] = float(_units.wrap_heading(p[2]))
-        self._rng = rng
+        # one stream per random unit, keyed by name (common random numbers that survive a fault)
+        self._streams = unit_streams(rng, self._steps.stream_units)
         self._state = ParticleState.initial(p, self._config.n_particles)
         self._sorted_ids = np.empty(0, dtype=np.int64)  # lookup: sorted ids ...
         self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
@@ -301,14 +315,14 @@ class FastSlam(SlamAdapter):
     def update(self, control: np.ndarray, observations: Observations) -> None:
         if self._state is None:
             raise SlamInputError(f"{self.name}: update() called before reset()")
-        steps, cfg, rng = self._steps, self._config, self._rng
+        steps, cfg, streams = self._steps, self._config, self._streams
         st = self._state
         n = st.n_particles
         k = len(observations)
         u = np.asarray(control, dtype=float)
         empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
         # prediction (Table 13.1, line 4); an empty update adds no control noise
-        u_i = np.broadcast_to(u, (n, 2)) if empty else steps.sample_controls(u, n, rng, cfg)
+        u_i = np.broadcast_to(u, (n, 2)) if empty else steps.sample_controls(u, n, streams["sample_controls"], cfg)
         poses = steps.motion_model(st.poses, u_i, wrap=steps.wrap_heading)
         logw = st.logw
         if k:
@@ -318,7 +332,7 @@ class FastSlam(SlamAdapter):
         # resampling (Table 13.1, lines 24-28)
         w = np.exp(logw)
         n_eff = steps.effective_sample_size(w)
-        idx = steps.resample(w, n_eff, empty, rng, cfg)
+        idx = steps.resample(w, n_eff, empty, streams["resample"], cfg)
         if idx is not None:
             st = steps.apply_resample(st, np.asarray(idx))
             self._n_resamples += 1
@@ -338,6 +352,15 @@ class FastSlam(SlamAdapter):
         """How many updates since :meth:`reset` resampled."""
         self._require_state()
         return self._n_resamples
+
+    @property
+    def streams(self) -> Mapping[str, np.random.Generator]:
+        """The random stream of each unit in :attr:`FastSlamSteps.stream_units` (read-only mapping).
+
+        The generators are the filter's own: drawing from them changes the run.
+        """
+        self._require_state()
+        return MappingProxyType(self._streams)
 
     @property
     def state(self) -> ParticleState:

@@ -10,26 +10,21 @@ seed therefore share all random numbers except those of the replaced unit.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Iterable
 
 import numpy as np
 
 from faultlab.errors import SlamInputError
+from faultlab.seeds import stable_code
 
-__all__ = ["unit_streams", "stream_code"]
-
-
-def stream_code(name: str) -> int:
-    """A stable 32-bit code of ``name`` (first 4 bytes of its sha256; never Python's ``hash``)."""
-    return int.from_bytes(hashlib.sha256(name.encode("utf-8")).digest()[:4], "big")
+__all__ = ["unit_streams"]
 
 
 def unit_streams(rng: np.random.Generator, names: Iterable[str]) -> dict[str, np.random.Generator]:
     """One independent generator per unit name, derived from ``rng``.
 
     Draws 128 bits of entropy from ``rng`` once, then gives unit ``name`` the generator of
-    ``SeedSequence(entropy, spawn_key=(stream_code(name),))``.  The stream of a name does not
+    ``SeedSequence(entropy, spawn_key=(stable_code(name),))``.  The stream of a name does not
     depend on which other names are requested nor on their order.
 
     Parameters
@@ -51,4 +46,4 @@ def unit_streams(rng: np.random.Generator, names: Iterable[str]) -> dict[str, np
         raise SlamInputError(f"unit stream names must be distinct, got {names!r}")
     entropy = [int(x) for x in rng.integers(0, 2 ** 63, size=2, dtype=np.int64)]
     return {name: np.random.Generator(np.random.PCG64(np.random.SeedSequence(
-        entropy=entropy, spawn_key=(stream_code(name),)))) for name in names}
+        entropy=entropy, spawn_key=(stable_code(name),)))) for name in names}

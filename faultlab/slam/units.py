@@ -12,6 +12,12 @@ landmark storage), so that ``H[..., 0, 1]`` is one contiguous block and the elem
 run at full memory speed.  This is invisible to
 callers: every unit accepts inputs in any memory layout, and a replacement may return ordinary
 C-ordered arrays.
+
+Randomness: the units named in :data:`STREAM_UNITS` take an ``rng`` argument.  The filter gives
+each of them its *own* :class:`numpy.random.Generator`, derived from the SLAM's seed by unit name
+(:func:`faultlab.slam.streams.unit_streams`), so a replacement that draws more, fewer or other
+random numbers changes no other unit's draws (common random numbers by unit).  A replacement
+must draw only from the ``rng`` it is given; no other unit may draw random numbers.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "STREAM_UNITS",
     "ParticleState",
     "landmark_rows",
     "empty_means",
@@ -54,6 +61,11 @@ __all__ = [
     "apply_resample_aliased",
     "extract_map_closest_to_mean",
 ]
+
+#: Units that receive a random stream as ``rng``, each its own one, keyed by this name
+#: (``unit_streams(rng, STREAM_UNITS)[name]``).  Part of the unit contract: another SLAM built from
+#: replaceable units, and every fault, follows it.
+STREAM_UNITS: tuple[str, ...] = ("sample_controls", "resample")
 
 _TWO_PI = 2.0 * math.pi
 _INV_TWO_PI = 1.0 / _TWO_PI
@@ -236,7 +248,8 @@ def sample_controls(u: np.ndarray, n: int, rng: np.random.Generator, config) -> 
     n : int
         Number of particles N.
     rng : numpy.random.Generator
-        Consumed as exactly one call ``rng.standard_normal((n, 2))``.
+        The unit's own stream (:data:`STREAM_UNITS`); consumed as exactly one call
+        ``rng.standard_normal((n, 2))``.
     config : FastSlamConfig
         Supplies ``std_v`` and ``std_omega``.
 
@@ -635,6 +648,7 @@ def resample(w: np.ndarray, n_eff: float, empty: bool, rng: np.random.Generator,
     empty : bool
         True for an empty update (control exactly (0, 0) and no observation).
     rng : numpy.random.Generator
+        The unit's own stream (:data:`STREAM_UNITS`).
     config : FastSlamConfig
         Supplies ``resample_ratio``.
 

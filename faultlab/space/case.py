@@ -6,6 +6,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Mapping
 
+from faultlab.errors import ScenarioError
+
 __all__ = ["CaseSpec", "VALUE_KEYS", "PARAMETER_NAMES", "FIXED_VALUES"]
 
 #: The 11 parameters of Table I, in the paper's row order.
@@ -79,8 +81,6 @@ class CaseSpec:
     def __post_init__(self) -> None:
         missing = [k for k in VALUE_KEYS if k not in self.values]
         if missing:
-            from faultlab.errors import ScenarioError
-
             raise ScenarioError(f"case values lack {', '.join(missing)}")
         object.__setattr__(self, "values", dict(self.values))
         object.__setattr__(self, "classes", {k: int(v) for k, v in self.classes.items()})

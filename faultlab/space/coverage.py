@@ -1,4 +1,16 @@
-"""Coverage (Sec. V): covered equivalence classes / all classes, per parameter and overall."""
+"""Coverage (Sec. V): covered equivalence classes / all classes, per parameter and overall.
+
+Besides the paper's class coverage (each-choice), the criteria of the combinatorial strategies
+(:mod:`faultlab.space.strategies`):
+
+- *t-wise class coverage* (:func:`t_wise_coverage`): covered / feasible combinations of classes of
+  any ``t`` parameters (pairwise: t = 2); combinations that constraints rule out are not counted;
+- *base-choice coverage* (:func:`base_choice_coverage`): covered / allowed (parameter, non-base
+  class) pairs, a pair being covered by a case with that class and every other parameter at its
+  base class.
+
+All measures classify the cases' values against the space (recorded class indices are not trusted).
+"""
 
 from __future__ import annotations
 
@@ -8,10 +20,23 @@ from typing import Iterable
 import numpy as np
 import pandas as pd
 
+from faultlab.errors import ConfigError
 from faultlab.space.case import CaseSpec
+from faultlab.space.covering import uncovered_tuples
 from faultlab.space.parameters import ParameterSpace
+from faultlab.space.strategies import base_choice_rows, t_wise_kind, t_wise_strength
 
-__all__ = ["ParameterCoverage", "Coverage", "coverage"]
+__all__ = [
+    "ParameterCoverage",
+    "Coverage",
+    "coverage",
+    "class_matrix",
+    "TupleCoverage",
+    "t_wise_coverage",
+    "BaseChoiceCoverage",
+    "base_choice_coverage",
+    "suite_criteria",
+]
 
 
 @dataclass(frozen=True)
@@ -135,3 +160,166 @@ def coverage(cases: Iterable[CaseSpec], space: ParameterSpace) -> Coverage:
         out.append(ParameterCoverage(p.name, p.class_names, tuple(int(c) for c in counts),
                                      int(np.sum(idx < 0))))
     return Coverage(tuple(out), len(cases))
+
+
+def class_matrix(cases: Iterable[CaseSpec], space: ParameterSpace) -> np.ndarray:
+    """Class index of every case and parameter (values classified against ``space``).
+
+    Returns
+    -------
+    ndarray, shape (n_cases, n_parameters), int64
+        -1 where a value lies in no class.
+    """
+    cases = list(cases)
+    return np.array([[p.classify(c.values) for p in space.parameters] for c in cases],
+                    dtype=np.int64).reshape(len(cases), len(space.parameters))
+
+
+@dataclass(frozen=True)
+class TupleCoverage:
+    """t-wise class coverage of a suite.
+
+    Attributes
+    ----------
+    strength : int
+        t (2 = pairwise).
+    covered : int
+        Feasible t-tuples of classes that some case contains.
+    total : int
+        Feasible t-tuples of classes (all combinations of classes of any t parameters that the
+        constraints allow).
+    excluded : int
+        Combinations the constraints rule out (not in ``total``).
+    """
+
+    strength: int
+    covered: int
+    total: int
+    excluded: int = 0
+
+    @property
+    def ratio(self) -> float:
+        return self.covered / self.total if self.total else 1.0
+
+    @property
+    def name(self) -> str:
+        return t_wise_kind(self.strength)
+
+    def __str__(self) -> str:
+        what = "class pairs" if self.strength == 2 else f"class {self.strength}-tuples"
+        tail = f"; {self.excluded} excluded by constraints" if self.excluded else ""
+        return (f"{self.name} coverage: {100 * self.ratio:.0f} % ({self.covered} of {self.total} "
+                f"{what}{tail})")
+
+
+def t_wise_coverage(cases: Iterable[CaseSpec], space: ParameterSpace, strength: int = 2) -> TupleCoverage:
+    """t-wise class coverage of ``cases``: covered / feasible t-tuples of classes.
+
+    Parameters
+    ----------
+    cases : iterable of CaseSpec
+    space : ParameterSpace
+    strength : int
+        t, between 1 and the number of parameters (1 is class coverage).
+
+    Returns
+    -------
+    TupleCoverage
+    """
+    structure = space.structure
+    if not 1 <= int(strength) <= structure.n_parameters:
+        raise ConfigError(f"a t-wise coverage needs a strength between 1 and {structure.n_parameters}, "
+                          f"got {strength}")
+    rows = class_matrix(cases, space)
+    total = excluded = 0
+    for params in structure.interactions(int(strength)):
+        n = structure.tuples(params).shape[0]
+        total += n
+        excluded += int(np.prod([structure.sizes[p] for p in params])) - n
+    missing = sum(len(c) for _, c in uncovered_tuples(structure, rows, int(strength)))
+    return TupleCoverage(int(strength), total - missing, total, excluded)
+
+
+@dataclass(frozen=True)
+class BaseChoiceCoverage:
+    """Base-choice coverage of a suite.
+
+    Attributes
+    ----------
+    base : dict
+        Parameter -> base class name.
+    covered : int
+        Allowed (parameter, non-base class) variations exercised by a case with every other
+        parameter at its base class.
+    total : int
+        Allowed variations.
+    base_case : bool
+        Whether some case has every parameter at its base class.
+    uncovered : tuple of (str, str)
+    excluded : tuple of (str, str)
+        Variations the constraints forbid (not in ``total``).
+    """
+
+    base: dict
+    covered: int
+    total: int
+    base_case: bool
+    uncovered: tuple[tuple[str, str], ...] = ()
+    excluded: tuple[tuple[str, str], ...] = ()
+
+    @property
+    def ratio(self) -> float:
+        return self.covered / self.total if self.total else 1.0
+
+    def __str__(self) -> str:
+        tail = f"; {len(self.excluded)} excluded by constraints" if self.excluded else ""
+        return (f"base-choice coverage: {100 * self.ratio:.0f} % ({self.covered} of {self.total} one-parameter "
+                f"variations of the base case{tail}; base case {'present' if self.base_case else 'missing'})")
+
+
+def base_choice_coverage(cases: Iterable[CaseSpec], space: ParameterSpace,
+                         base=None) -> BaseChoiceCoverage:
+    """Base-choice coverage: covered / allowed (parameter, non-base class) variations.
+
+    Parameters
+    ----------
+    cases : iterable of CaseSpec
+    space : ParameterSpace
+    base : mapping, optional
+        Parameter -> base class name on top of the space's base classes.
+    """
+    rows, excluded = base_choice_rows(space, base)
+    b = rows[0]
+    got = class_matrix(cases, space)
+    diff = got != b
+    one = got[diff.sum(axis=1) == 1]
+    seen = {(int(np.flatnonzero(r != b)[0]), int(r[r != b][0])) for r in one}
+    wanted = [(int(np.flatnonzero(r != b)[0]), int(r[r != b][0])) for r in rows[1:]]
+    params = space.parameters
+    uncovered = tuple((params[j].name, params[j].class_names[k]) for j, k in wanted if (j, k) not in seen)
+    return BaseChoiceCoverage(base={p.name: p.class_names[k] for p, k in zip(params, b)},
+                              covered=len(wanted) - len(uncovered), total=len(wanted),
+                              base_case=bool(np.any(~diff.any(axis=1))) if len(got) else False,
+                              uncovered=uncovered, excluded=tuple(excluded))
+
+
+def suite_criteria(kind: str, cases: Iterable[CaseSpec], space: ParameterSpace) -> tuple:
+    """The coverage measures worth printing beside the class coverage of a suite of ``kind``.
+
+    Base choice: its base-choice coverage; t-wise: its t-wise coverage; every kind: pairwise
+    coverage (once), the common yardstick of the combinatorial strategies.
+
+    Returns
+    -------
+    tuple of TupleCoverage / BaseChoiceCoverage
+    """
+    cases = list(cases)
+    out: list = []
+    if kind == "base-choice":
+        out.append(base_choice_coverage(cases, space))
+    t = t_wise_strength(kind)
+    if t != 2:
+        out.append(t_wise_coverage(cases, space, 2))
+    if t is not None:
+        out.append(t_wise_coverage(cases, space, t))
+    return tuple(out)

@@ -18,7 +18,10 @@ in that class.  Values in no class get ``-1``.
 
 Boundaries and classes can be overridden from a TOML file (:func:`load_space`,
 format documented in ``experiments/space_table1.toml``) or a mapping
-(:func:`space_from_mapping`).  Malformed input raises one
+(:func:`space_from_mapping`).  Besides the parameters, a space file may hold
+``[constraints]`` (forbidden class combinations, :mod:`faultlab.space.constraints`),
+``[base]`` and ``[weights]`` (settings of the base-choice and effect-guided suites,
+:mod:`faultlab.space.settings`).  Malformed input raises one
 :class:`~faultlab.errors.ConfigError` naming the file and the key.
 """
 
@@ -33,9 +36,12 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from faultlab.config import read_toml
+from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError
-from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
-from faultlab.tomlfile import read_toml
+from faultlab.space.case import FIXED_VALUES, PARAMETER_NAMES, VALUE_KEYS
+from faultlab.space.constraints import ClassStructure, Constraint, check_constraints, parse_constraints, structure_of
+from faultlab.space.settings import parse_base, parse_weights
 
 __all__ = [
     "Kind",
@@ -274,16 +280,36 @@ class ParameterSpace:
         In :data:`~faultlab.space.case.PARAMETER_NAMES` order.
     source : str
         Where the space came from ("Table I" or the override file), for messages.
+    constraints : tuple of Constraint
+        Forbidden class combinations (:mod:`faultlab.space.constraints`); none in Table I.
+    base : tuple of (str, str)
+        Base classes that replace the default ones (:meth:`base_classes`), by parameter.
+    weights : tuple of (str, tuple of float)
+        Class weights of the effect-guided suite, by parameter, in class order
+        (:mod:`faultlab.space.settings`); unlisted parameters have equal weights.
     """
 
     parameters: tuple[Parameter, ...]
     source: str = "Table I"
+    constraints: tuple[Constraint, ...] = ()
+    base: tuple[tuple[str, str], ...] = ()
+    weights: tuple[tuple[str, tuple[float, ...]], ...] = ()
 
     def __post_init__(self) -> None:
         names = tuple(p.name for p in self.parameters)
         if names != PARAMETER_NAMES:
             raise ConfigError(f"{self.source}: a parameter space needs the parameters "
                               f"{', '.join(PARAMETER_NAMES)} in this order, got {', '.join(names)}")
+        if self.constraints:
+            check_constraints(self.parameters, self.constraints, source=self.source)
+        for name, cls in self.base:
+            if cls not in self[name].class_names:
+                raise ConfigError(f"{self.source}: [base].{name}: the space has no class {cls!r} "
+                                  f"(classes: {', '.join(self[name].class_names)})")
+        for name, ws in self.weights:
+            if len(ws) != self[name].n_classes:
+                raise ConfigError(f"{self.source}: [weights].{name}: {len(ws)} weights for "
+                                  f"{self[name].n_classes} classes")
 
     def __getitem__(self, name: str) -> Parameter:
         for p in self.parameters:
@@ -308,18 +334,76 @@ class ParameterSpace:
         """Smallest suite that can cover every class: the largest class count."""
         return max(p.n_classes for p in self.parameters)
 
+    @property
+    def structure(self) -> ClassStructure:
+        """Class counts and constraints as indices (what combinatorial builders work on)."""
+        return structure_of(self.parameters, self.constraints)
+
     def classify(self, values: Mapping[str, Any]) -> dict[str, int]:
         """Class index (or -1) of every parameter for a full set of case values."""
         return {p.name: p.classify(values) for p in self.parameters}
+
+    def base_classes(self) -> dict[str, int]:
+        """Class index of every parameter in the base case of the base-choice suite.
+
+        A parameter named in :attr:`base` takes that class; every other one the class of its
+        :data:`~faultlab.space.case.FIXED_VALUES` value (the *fixed* suite's).
+
+        Raises
+        ------
+        ConfigError
+            If a fixed value lies in no class of the space and no base class is given for it.
+        """
+        given = dict(self.base)
+        fixed = self.classify(FIXED_VALUES)
+        out = {}
+        for p in self.parameters:
+            if p.name in given:
+                out[p.name] = p.index(given[p.name])
+            elif fixed[p.name] < 0:
+                value = ", ".join(f"{FIXED_VALUES[k]!r} {VALUE_KEYS[k]}" for k in p.keys)
+                raise ConfigError(f"{self.source}: no base class for {p.name}: the fixed value {value} lies "
+                                  f"in no class; name one in [base] (e.g. {p.name} = "
+                                  f"\"{p.class_names[0]}\")")
+            else:
+                out[p.name] = fixed[p.name]
+        return out
+
+    def class_weights(self) -> dict[str, np.ndarray] | None:
+        """Class weights of every parameter (equal where not given), or None if none are given."""
+        if not self.weights:
+            return None
+        given = dict(self.weights)
+        return {p.name: np.array(given.get(p.name, (1.0,) * p.n_classes), dtype=float)
+                for p in self.parameters}
 
     def with_parameter(self, parameter: Parameter) -> "ParameterSpace":
         """A copy with one parameter replaced."""
         return replace(self, parameters=tuple(parameter if p.name == parameter.name else p
                                               for p in self.parameters))
 
+    def with_base(self, base: Mapping[str, str], *, source: str | None = None) -> "ParameterSpace":
+        """A copy whose base classes are ``base`` (parameter -> class name) on top of :attr:`base`."""
+        merged = {**dict(self.base), **dict(base)}
+        return replace(self, base=parse_base(merged, self.parameters, source=source or self.source))
+
+    def with_weights(self, weights: Mapping[str, Mapping[str, float]], *,
+                     source: str | None = None) -> "ParameterSpace":
+        """A copy with the class weights ``{parameter: {class: weight}}`` (replacing :attr:`weights`)."""
+        return replace(self, weights=parse_weights(weights, self.parameters, source=source or self.source,
+                                                   table="" if source else "[weights]"))
+
     def to_dict(self) -> dict:
-        """Every parameter in the override format; ``space_from_mapping`` reads it back."""
-        return {p.name: p.to_dict() for p in self.parameters}
+        """Every parameter in the override format (and any constraints, base classes, weights);
+        ``space_from_mapping`` reads it back."""
+        out: dict = {p.name: p.to_dict() for p in self.parameters}
+        if self.constraints:
+            out["constraints"] = {"forbid": [c.to_dict() for c in self.constraints]}
+        if self.base:
+            out["base"] = dict(self.base)
+        if self.weights:
+            out["weights"] = {name: dict(zip(self[name].class_names, ws)) for name, ws in self.weights}
+        return out
 
 
 # ---------------------------------------------------------------------------
@@ -436,6 +520,7 @@ def _check_domain(key: str, x: float, where: str, unit: str) -> None:
 
 
 def _parse_parameter(base: Parameter, table: Any, where: str) -> Parameter:
+    """``base`` with the classes of one ``[parameter]`` table of a space file."""
     if not isinstance(table, Mapping):
         raise ConfigError(f"{where}: expected a table with a 'classes' entry, got {type(table).__name__}")
     unknown = [k for k in table if k != "classes"]
@@ -443,70 +528,71 @@ def _parse_parameter(base: Parameter, table: Any, where: str) -> Parameter:
         raise ConfigError(f"{where}.{unknown[0]}: unknown key (a parameter table has only 'classes')")
     if "classes" not in table:
         raise ConfigError(f"{where}: missing 'classes'")
-    raw = table["classes"]
-    where = f"{where}.classes"
-
+    raw, where = table["classes"], f"{where}.classes"
     if base.kind is Kind.CATEGORICAL:
-        if not isinstance(raw, list) or not all(isinstance(x, str) for x in raw):
-            raise ConfigError(f"{where}: expected a list of labels such as [\"random\", \"loop\"]")
-        if not raw:
-            raise ConfigError(f"{where}: no classes (empty list)")
-        for x in raw:
-            if x not in DIRECTIONALITY_LABELS:
-                raise ConfigError(f"{where}: unknown label {x!r} (the generator knows "
-                                  f"{', '.join(DIRECTIONALITY_LABELS)})")
-        if len(set(raw)) != len(raw):
-            raise ConfigError(f"{where}: a label appears twice (overlapping classes)")
-        return replace(base, classes=tuple(EquivalenceClass(x, values=(x,)) for x in raw))
-
+        return replace(base, classes=_categorical_classes(raw, where))
     if not isinstance(raw, Mapping):
         raise ConfigError(f"{where}: expected a table of named classes, got {type(raw).__name__}")
     if not raw:
         raise ConfigError(f"{where}: no classes (empty table)")
-
-    classes: list[EquivalenceClass] = []
     if base.kind is Kind.DISCRETE:
-        key = base.keys[0]
-        for name, spec in raw.items():
-            w = f"{where}.{name}"
-            items = spec if isinstance(spec, list) else [spec]
-            if not items:
-                raise ConfigError(f"{w}: empty class (no values)")
-            vals = []
-            for x in items:
-                if base.integer and (isinstance(x, bool) or not isinstance(x, int)):
-                    raise ConfigError(f"{w}: expected whole numbers of steps, got {x!r}")
-                v = _number(x, w)
-                _check_domain(key, v, w, VALUE_KEYS[key])
-                if key == "rotation_error" and not math.isclose(v / _TWO_PI, round(v / _TWO_PI), abs_tol=1e-9):
-                    raise ConfigError(f"{w}: a rotation error must be a multiple of 2 pi, got {x!r}")
-                vals.append(int(x) if base.integer else v)
-            classes.append(EquivalenceClass(str(name), values=tuple(vals)))
-        for i, a in enumerate(classes):
-            for b in classes[i + 1:]:
-                if any(math.isclose(x, y, rel_tol=1e-12, abs_tol=1e-12) for x in a.values for y in b.values):
-                    raise ConfigError(f"{where}: classes {a.name!r} and {b.name!r} overlap "
-                                      f"(they share a value)")
-        return replace(base, classes=tuple(classes))
+        return replace(base, classes=_discrete_classes(base, raw, where))
+    return replace(base, classes=_interval_classes(base, raw, where))
 
+
+def _categorical_classes(raw: Any, where: str) -> tuple[EquivalenceClass, ...]:
+    """One class per label: ``["random", "loop"]``."""
+    if not isinstance(raw, list) or not all(isinstance(x, str) for x in raw):
+        raise ConfigError(f"{where}: expected a list of labels such as [\"random\", \"loop\"]")
+    if not raw:
+        raise ConfigError(f"{where}: no classes (empty list)")
+    for x in raw:
+        if x not in DIRECTIONALITY_LABELS:
+            raise ConfigError(f"{where}: unknown label {x!r} (the generator knows "
+                              f"{', '.join(DIRECTIONALITY_LABELS)})")
+    if len(set(raw)) != len(raw):
+        raise ConfigError(f"{where}: a label appears twice (overlapping classes)")
+    return tuple(EquivalenceClass(x, values=(x,)) for x in raw)
+
+
+def _discrete_classes(base: Parameter, raw: Mapping, where: str) -> tuple[EquivalenceClass, ...]:
+    """Value sets: ``{ none = [0], positive = ["2pi", "4pi"] }``; no value in two classes."""
+    key = base.keys[0]
+    classes = []
+    for name, spec in raw.items():
+        w = f"{where}.{name}"
+        items = spec if isinstance(spec, list) else [spec]
+        if not items:
+            raise ConfigError(f"{w}: empty class (no values)")
+        classes.append(EquivalenceClass(str(name), values=tuple(_discrete_value(base, key, x, w) for x in items)))
+    for i, a in enumerate(classes):
+        for b in classes[i + 1:]:
+            if any(math.isclose(x, y, rel_tol=1e-12, abs_tol=1e-12) for x in a.values for y in b.values):
+                raise ConfigError(f"{where}: classes {a.name!r} and {b.name!r} overlap "
+                                  f"(they share a value)")
+    return tuple(classes)
+
+
+def _discrete_value(base: Parameter, key: str, x: Any, where: str) -> float | int:
+    if base.integer and (isinstance(x, bool) or not isinstance(x, int)):
+        raise ConfigError(f"{where}: expected whole numbers of steps, got {x!r}")
+    v = _number(x, where)
+    _check_domain(key, v, where, VALUE_KEYS[key])
+    if key == "rotation_error" and not math.isclose(v / _TWO_PI, round(v / _TWO_PI), abs_tol=1e-9):
+        raise ConfigError(f"{where}: a rotation error must be a multiple of 2 pi, got {x!r}")
+    return int(x) if base.integer else v
+
+
+def _interval_classes(base: Parameter, raw: Mapping, where: str) -> tuple[EquivalenceClass, ...]:
+    """Intervals (or point classes), one per component for two-component parameters."""
     comps = base.components
+    classes = []
     for name, spec in raw.items():
         w = f"{where}.{name}"
         if comps:
-            if not isinstance(spec, Mapping):
-                raise ConfigError(f"{w}: expected a table {{ {' = [lo, hi], '.join(comps)} = [lo, hi] }}, "
-                                  f"got {type(spec).__name__}")
-            extra = [k for k in spec if k not in comps]
-            if extra:
-                raise ConfigError(f"{w}.{extra[0]}: unknown component (expected {', '.join(comps)})")
-            missing = [k for k in comps if k not in spec]
-            if missing:
-                raise ConfigError(f"{w}: missing component {missing[0]!r}")
-            bounds = tuple(_interval(spec[c], f"{w}.{c}") for c in comps)
-            ws = [f"{w}.{c}" for c in comps]
+            bounds, ws = _component_bounds(comps, spec, w)
         else:
-            bounds = (_interval(spec, w),)
-            ws = [w]
+            bounds, ws = (_interval(spec, w),), [w]
         for key, (lo, hi), wc in zip(base.keys, bounds, ws):
             _check_domain(key, lo, wc, VALUE_KEYS[key])
             _check_domain(key, hi, wc, VALUE_KEYS[key])
@@ -520,7 +606,25 @@ def _parse_parameter(base: Parameter, table: Any, where: str) -> Parameter:
             if all(max(la, lb) < min(ha, hb) for (la, ha), (lb, hb) in zip(a.bounds, b.bounds)):
                 raise ConfigError(f"{where}: classes {a.name!r} and {b.name!r} overlap "
                                   f"(intervals may share an endpoint only)")
-    return replace(base, classes=tuple(classes))
+    return tuple(classes)
+
+
+def _component_bounds(comps: tuple[str, ...], spec: Any, where: str) -> tuple[tuple, list[str]]:
+    """The intervals of a two-component class: ``{ distance = [0, 20], angle = [0, 0.04] }``."""
+    if not isinstance(spec, Mapping):
+        raise ConfigError(f"{where}: expected a table {{ {' = [lo, hi], '.join(comps)} = [lo, hi] }}, "
+                          f"got {type(spec).__name__}")
+    extra = [k for k in spec if k not in comps]
+    if extra:
+        raise ConfigError(f"{where}.{extra[0]}: unknown component (expected {', '.join(comps)})")
+    missing = [k for k in comps if k not in spec]
+    if missing:
+        raise ConfigError(f"{where}: missing component {missing[0]!r}")
+    return tuple(_interval(spec[c], f"{where}.{c}") for c in comps), [f"{where}.{c}" for c in comps]
+
+
+#: Tables of a space file besides the parameters, in the order they are read.
+SETTINGS_TABLES: tuple[str, ...] = ("constraints", "base", "weights")
 
 
 def space_from_mapping(mapping: Mapping[str, Any], *, source: str,
@@ -532,7 +636,10 @@ def space_from_mapping(mapping: Mapping[str, Any], *, source: str,
     mapping : mapping
         Parameter name -> table ``{"classes": ...}`` in the format of
         ``experiments/space_table1.toml``.  Parameters not given keep their
-        classes (partial override).
+        classes (partial override).  Besides the parameters: ``constraints``
+        (forbidden class combinations, :mod:`faultlab.space.constraints`),
+        ``base`` (base classes) and ``weights`` (class weights,
+        :mod:`faultlab.space.settings`), read against the final classes.
     source : str
         Names the file (and table) in error messages, e.g. ``"experiments/x.toml [space]"``.
     base : ParameterSpace, optional
@@ -542,25 +649,44 @@ def space_from_mapping(mapping: Mapping[str, Any], *, source: str,
     ------
     ConfigError
         Unknown parameter, wrong type, lower > upper, empty or overlapping
-        classes, a value outside the parameter's admissible range.
+        classes, a value outside the parameter's admissible range, a malformed
+        constraint, base class or weight.
     """
     space = base or table1_space()
     if not isinstance(mapping, Mapping):
         raise ConfigError(f"{source}: expected a table of parameters, got {type(mapping).__name__}")
     for name, table in mapping.items():
+        if name in SETTINGS_TABLES:
+            continue
         if name not in PARAMETER_NAMES:
-            raise ConfigError(f"{source}: [{name}]: unknown parameter (known: {', '.join(PARAMETER_NAMES)})")
+            raise ConfigError(f"{source}: [{name}]: unknown parameter (known: {', '.join(PARAMETER_NAMES)}; "
+                              f"besides them a space file has the tables {', '.join(SETTINGS_TABLES)})")
         space = space.with_parameter(_parse_parameter(space[name], table, f"{source}: [{name}]"))
-    return replace(space, source=str(source))
+    settings = {}
+    if "constraints" in mapping:
+        settings["constraints"] = parse_constraints(mapping["constraints"], space.parameters, source=source)
+    if "base" in mapping:
+        settings["base"] = parse_base(mapping["base"], space.parameters, source=source)
+    if "weights" in mapping:
+        settings["weights"] = parse_weights(mapping["weights"], space.parameters, source=source)
+    return replace(space, source=str(source), **settings)
 
 
 def load_space(path: str | Path) -> ParameterSpace:
     """Read a TOML override file (see ``experiments/space_table1.toml``) on top of Table I.
 
+    Parameters
+    ----------
+    path : str or Path
+        A file, or the name of a shipped file (``"space_table1"``, Table I written out;
+        see :func:`faultlab.data.resolve_experiment`).
+
     Raises
     ------
     ConfigError
-        If the file is missing, not valid TOML, or malformed (see :func:`space_from_mapping`).
+        If the file is missing (or the name unknown), not valid TOML, or malformed (see
+        :func:`space_from_mapping`).
     """
-    data, _ = read_toml(path, what="parameter-space file")
+    file = resolve_experiment(path, what="parameter-space file")
+    data, _ = read_toml(file, what="parameter-space file")
     return space_from_mapping(data, source=str(path))

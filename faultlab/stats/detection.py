@@ -1,15 +1,7 @@
-"""The paper's detection rule and the outcome of each faulty job (Sec. VII-A).
+"""The outcome of each faulty job under the paper's detection rule (Sec. VII-A).
 
-Sec. VII-A: a test case detects a fault when the faulty implementation's map
-error exceeds the baseline's "by a value exceeding the expected noise ... 250mm"
-and, "since the noise in map error increases with larger map error", by "an
-increase of at least 25 %".  Read literally, the absolute condition is strict
-(*exceeding*) and the relative one is not (*at least*)::
-
-    increase = faulty - baseline
-    detected = (increase > abs_mm) and (increase >= rel * baseline)
-
-Both thresholds are configurable through :class:`DetectionRule`.
+The rule itself (:class:`~faultlab.metrics.detection.DetectionRule`, :func:`detects`) is
+part of a campaign's configuration and lives in :mod:`faultlab.metrics.detection`.
 
 Outcome classes (:class:`Outcome`) of one faulty job paired with its baseline
 (same run, suite, case and SLAM repetition):
@@ -29,14 +21,11 @@ Outcome classes (:class:`Outcome`) of one faulty job paired with its baseline
 
 from __future__ import annotations
 
-import math
-import numbers
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 
-from faultlab.errors import ConfigError, ResultsError
+from faultlab.errors import ResultsError
+from faultlab.metrics.detection import DetectionRule, detects
 from faultlab.vocabulary import BASELINE, Outcome
 
 __all__ = ["DetectionRule", "detects", "pair_with_baseline", "classify", "outcomes", "KEY_COLUMNS"]
@@ -44,60 +33,6 @@ __all__ = ["DetectionRule", "detects", "pair_with_baseline", "classify", "outcom
 #: Columns identifying one SLAM execution apart from the variant.
 KEY_COLUMNS = ("run", "suite", "case", "rep")
 _REQUIRED = KEY_COLUMNS + ("variant", "rms_mm", "status")
-
-
-@dataclass(frozen=True)
-class DetectionRule:
-    """Thresholds of the paper's detection rule (Sec. VII-A).
-
-    Parameters
-    ----------
-    abs_mm : float
-        The RMS increase must *exceed* this, mm (default 250).
-    rel : float
-        The RMS increase must be *at least* this fraction of the baseline RMS
-        (default 0.25, i.e. 25 %).
-    """
-
-    abs_mm: float = 250.0
-    rel: float = 0.25
-
-    def __post_init__(self) -> None:
-        for name in ("abs_mm", "rel"):
-            value = getattr(self, name)
-            if (isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value)
-                    or value < 0):
-                raise ConfigError(f"DetectionRule.{name} must be a finite number >= 0, got {value!r}")
-        object.__setattr__(self, "abs_mm", float(self.abs_mm))
-        object.__setattr__(self, "rel", float(self.rel))
-
-    def describe(self) -> str:
-        """One line for reports."""
-        return (f"detected when faulty RMS - baseline RMS > {self.abs_mm:g} mm "
-                f"and >= {100 * self.rel:g} % of the baseline RMS")
-
-
-def detects(faulty_mm, baseline_mm, *, rule: DetectionRule = DetectionRule()):
-    """Apply the detection rule elementwise.
-
-    Parameters
-    ----------
-    faulty_mm, baseline_mm : float or array_like, broadcastable
-        RMS errors of the faulty and the baseline variant, mm.
-    rule : DetectionRule
-
-    Returns
-    -------
-    bool or ndarray of bool
-        ``faulty - baseline > rule.abs_mm and faulty - baseline >= rule.rel * baseline``.
-        NaN inputs give False (use :func:`classify` to tell failures apart).
-    """
-    f = np.asarray(faulty_mm, dtype=float)
-    b = np.asarray(baseline_mm, dtype=float)
-    increase = f - b
-    with np.errstate(invalid="ignore"):
-        out = (increase > rule.abs_mm) & (increase >= rule.rel * b)
-    return bool(out) if out.ndim == 0 else out
 
 
 def _check_columns(results: pd.DataFrame, required, *, where: str) -> None:

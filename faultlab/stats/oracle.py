@@ -8,12 +8,45 @@ K baseline RMS values (alternative: faulty is stochastically greater), with the
 Holm step-down correction over the whole family of (suite, run, case, fault)
 tests of one call, so the family-wise error rate is at most ``alpha``.
 
-Power limit: with K values per side and no ties the smallest attainable exact
-one-sided p-value is ``1 / C(2K, K)`` (0.05 for K = 3, 0.0079 for K = 4,
-0.0022 for K = 5, 0.00016 for K = 8); after Holm over m tests nothing can be
-detected unless that is <= alpha / m.  The table reports it as ``p_min``.
-Only jobs with status ``ok`` and a finite RMS enter the test; crashes and
-timeouts are counted by :func:`faultlab.stats.detection_rates`.
+p values (``method``):
+
+``"exact"`` (default)
+    The exact permutation p value: the share of all ``C(n + m, n)`` ways to split
+    the pooled values into a "faulty" sample of size n and a "baseline" sample of
+    size m whose U is at least the observed one.  Without ties this is SciPy's
+    exact null distribution of U (``mannwhitneyu(method="exact")``, any size).
+    With ties (equal values anywhere in the pooled sample -- under common random
+    numbers a fault that does not change a repetition reproduces the baseline's
+    RMS bit for bit) SciPy's exact distribution does not apply, and the splits
+    are enumerated by SciPy's permutation machinery
+    (``mannwhitneyu(method=PermutationMethod(n_resamples=inf))``, ties scored
+    1/2 in U); this is limited to :data:`MAX_TIED_SPLITS` splits (n = m = 9), and
+    a case with ties beyond that raises :class:`~faultlab.errors.ConfigError`
+    instead of silently approximating.  Either way the p value is never below
+    the exact floor ``1 / C(n + m, n)``.
+``"asymptotic"``
+    SciPy's normal approximation with tie and continuity corrections, explicit
+    and for large samples only: it can fall below the exact floor.
+
+Power limit: with K values per side the smallest attainable exact one-sided
+p value is ``1 / C(2K, K)``:
+
+===  =========  ===========
+K    C(2K, K)   min p
+===  =========  ===========
+3    20         0.05
+4    70         0.0143
+5    252        0.00397
+6    924        0.00108
+7    3432       0.000291
+8    12870      7.77e-05
+10   184756     5.41e-06
+===  =========  ===========
+
+After Holm over m tests nothing can be detected unless that is <= alpha / m.
+The table reports it as ``p_min``.  Only jobs with status ``ok`` and a finite
+RMS enter the test; crashes and timeouts are counted by
+:func:`faultlab.stats.detection_rates`.
 """
 
 from __future__ import annotations
@@ -22,7 +55,7 @@ from math import comb
 
 import numpy as np
 import pandas as pd
-from scipy.stats import mannwhitneyu
+from scipy.stats import PermutationMethod, mannwhitneyu, rankdata
 from statsmodels.stats.multitest import multipletests
 
 from faultlab.errors import ConfigError
@@ -31,13 +64,76 @@ from faultlab.vocabulary import BASELINE
 from faultlab.stats.rates import _sort
 from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER
 
-__all__ = ["oracle_detections"]
+__all__ = ["oracle_detections", "mann_whitney_p", "MAX_TIED_SPLITS", "ORACLE_METHODS"]
+
+#: Largest number of splits C(n + m, n) enumerated for an exact p value with ties (n = m = 9).
+MAX_TIED_SPLITS = 50_000
+
+#: The p-value methods of :func:`oracle_detections` (module docstring).
+ORACLE_METHODS = ("exact", "asymptotic")
 
 _COLUMNS = ["suite", "run", "case", "fault", "n_faulty", "n_baseline", "median_faulty_mm",
             "median_baseline_mm", "u", "p", "p_min", "p_holm", "detected"]
 
 
-def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str = "auto") -> pd.DataFrame:
+def mann_whitney_p(x, y, *, method: str = "exact") -> tuple[float, float]:
+    """One-sided Mann-Whitney U test of ``x`` (faulty) greater than ``y`` (baseline).
+
+    Parameters
+    ----------
+    x, y : array_like, shapes (n,) and (m,)
+        Finite values, n, m >= 1.
+    method : {"exact", "asymptotic"}
+        See the module docstring.
+
+    Returns
+    -------
+    (u, p) : floats
+        U of ``x`` (pairs with x > y, ties counted 1/2) and the one-sided p value.
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``method``, or an exact p value with ties needing more than
+        :data:`MAX_TIED_SPLITS` splits.
+    """
+    if method not in ORACLE_METHODS:
+        raise ConfigError(f"oracle: method must be one of {list(ORACLE_METHODS)}, got {method!r}")
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if method == "asymptotic":
+        res = mannwhitneyu(x, y, alternative="greater", method="asymptotic")
+    elif np.unique(np.concatenate([x, y])).size == x.size + y.size:
+        res = mannwhitneyu(x, y, alternative="greater", method="exact")
+    else:
+        splits = comb(x.size + y.size, x.size)
+        if splits > MAX_TIED_SPLITS:
+            raise ConfigError(f"oracle: the exact p value with tied values enumerates C({x.size + y.size}, {x.size}) "
+                              f"= {splits} splits, more than {MAX_TIED_SPLITS}; use method='asymptotic' explicitly")
+        if min(x.size, y.size) == 1:
+            return _single_value_split_p(x, y)
+        res = mannwhitneyu(x, y, alternative="greater", method=PermutationMethod(n_resamples=np.inf))
+    return float(res.statistic), float(res.pvalue)
+
+
+def _single_value_split_p(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Exact permutation p with ties when one sample has a single value (SciPy's machinery needs two).
+
+    There are only ``n + m`` splits: the single value is any one of the pooled values ``v``, and
+    its U against the others is ``midrank(v) - 1`` (midranks of the pooled sample).  With one
+    faulty value, p is the share of pooled values whose midrank is at least its midrank; with one
+    baseline value ``U_x = n m - U_y``, so p is the share whose midrank is at most the baseline's.
+    """
+    ranks = rankdata(np.concatenate([x, y]))
+    u = float(sum((a > b) + 0.5 * (a == b) for a in x for b in y))
+    if x.size == 1:
+        p = np.mean(ranks >= ranks[0])
+    else:
+        p = np.mean(ranks <= ranks[-1])
+    return u, float(p)
+
+
+def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str = "exact") -> pd.DataFrame:
     """Per (suite, run, case, fault): Mann-Whitney U of faulty vs baseline RMS, Holm-corrected.
 
     Parameters
@@ -46,9 +142,10 @@ def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str
         The runner's results; needs ``run, suite, case, rep, variant, rms_mm, status``.
     alpha : float
         Family-wise error rate of the Holm procedure.
-    method : {"auto", "exact", "asymptotic"}
-        Passed to :func:`scipy.stats.mannwhitneyu` (``"auto"``: exact for
-        small samples without ties).
+    method : {"exact", "asymptotic"}
+        How the p values are computed (module docstring): exact permutation p
+        values (default; ties handled exactly), or SciPy's normal approximation
+        (explicit, for large samples).
 
     Returns
     -------
@@ -60,9 +157,17 @@ def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str
         ``detected`` (Holm rejects at ``alpha``).  Rows with no usable
         repetition on one side have NaN statistics, are left out of the Holm
         family, and are not detected.
+
+    Raises
+    ------
+    ConfigError
+        ``alpha`` outside (0, 1), an unknown ``method``, or an exact p value
+        with ties beyond :data:`MAX_TIED_SPLITS` splits (names the case).
     """
     if not 0 < alpha < 1:
         raise ConfigError(f"oracle_detections: alpha must lie in (0, 1), got {alpha!r}")
+    if method not in ORACLE_METHODS:
+        raise ConfigError(f"oracle_detections: method must be one of {list(ORACLE_METHODS)}, got {method!r}")
     _check_columns(results, ("run", "suite", "case", "rep", "variant", "rms_mm", "status"),
                    where="oracle_detections")
     rms = results["rms_mm"].astype(float)
@@ -82,8 +187,11 @@ def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str
                "median_baseline_mm": np.median(y) if y.size else np.nan, "u": np.nan, "p": np.nan,
                "p_min": np.nan}
         if x.size and y.size:
-            res = mannwhitneyu(x, y, alternative="greater", method=method)
-            row.update(u=float(res.statistic), p=float(res.pvalue), p_min=1.0 / comb(x.size + y.size, x.size))
+            try:
+                u, p = mann_whitney_p(x, y, method=method)
+            except ConfigError as exc:
+                raise ConfigError(f"oracle_detections: {suite} run {run} case {case}, {fault}: {exc}") from None
+            row.update(u=u, p=p, p_min=1.0 / comb(x.size + y.size, x.size))
         rows.append(row)
     table = pd.DataFrame(rows, columns=_COLUMNS[:-2])
     table["p_holm"] = np.nan

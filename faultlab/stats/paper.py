@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from faultlab.data import shipped_file
 from faultlab.errors import ResultsError
 from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.vocabulary import BASELINE
@@ -30,13 +31,12 @@ from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER, ordered
 __all__ = ["PaperTable", "paper_table", "load_paper_raw", "load_paper_reported", "resolve_data_path",
            "percent", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV"]
 
-#: Default locations, relative to the working directory or the repository root.
+#: Default locations: relative to the working directory, else the copies shipped in the package.
 RAW_CSV = "paper_repro/paper_table2_rms.csv"
 REPORTED_CSV = "paper_repro/paper_table2_reported.csv"
 #: Table II's printed "by Suite" column (percent), used when the reported CSV lacks it.
 PRINTED_BY_SUITE: dict[str, int] = {"systematic": 100, "fixed": 67, "random": 78}
 _BY_SUITE_VARIANTS = ("by_suite", "(by suite)", "by suite")
-_REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 def percent(k, n):
@@ -50,7 +50,12 @@ def percent(k, n):
 
 
 def resolve_data_path(path: str | Path | None, default: str) -> Path:
-    """Find a data file: ``path`` (or ``default``) as given, else relative to the repository root.
+    """Find a data file: ``path`` (or ``default``) as given, else the copy shipped with faultlab.
+
+    A relative path is looked up in the working directory first; a repository path of a
+    shipped file (``paper_repro/paper_table2_rms.csv``, see
+    :func:`faultlab.data.shipped_file`) then falls back to the package's copy, so the
+    defaults work from any directory and in an install without the repository.
 
     Raises
     ------
@@ -58,7 +63,10 @@ def resolve_data_path(path: str | Path | None, default: str) -> Path:
         If no candidate exists (names every place tried).
     """
     p = Path(default if path is None else path)
-    candidates = [p] if p.is_absolute() else [Path.cwd() / p, _REPO_ROOT / p]
+    candidates = [p] if p.is_absolute() else [Path.cwd() / p]
+    packaged = shipped_file(p)
+    if packaged is not None:
+        candidates.append(packaged)
     for c in candidates:
         if c.is_file():
             return c

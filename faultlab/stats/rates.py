@@ -42,9 +42,9 @@ def proportion_ci(k, n, *, alpha: float = 0.05, method: str = "wilson") -> tuple
     Parameters
     ----------
     k, n : int or array_like of int, broadcastable
-        Successes and trials.
+        Successes and trials: whole numbers (integers or integral floats) with ``0 <= k <= n``.
     alpha : float
-        Significance level (0.05 gives 95 % intervals).
+        Significance level (0.05 gives 95 % intervals), in (0, 1).
     method : {"wilson", "cp"}
         Wilson score interval or Clopper-Pearson exact interval
         (statsmodels' ``proportion_confint`` methods ``"wilson"`` / ``"beta"``).
@@ -53,12 +53,46 @@ def proportion_ci(k, n, *, alpha: float = 0.05, method: str = "wilson") -> tuple
     -------
     (low, high) : ndarrays (0-d for scalar input)
         NaN where ``n == 0``.
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``method``, ``alpha`` outside (0, 1), or counts that are negative, not whole
+        numbers (NaN included) or with ``k > n`` (the message names the first bad value).
     """
-    if method not in _CI_METHODS:
+    def counts(name: str, value) -> np.ndarray:
+        """``value`` as a float array of non-negative whole numbers, or one ConfigError naming the bad entry."""
+        try:
+            arr = np.asarray(value)
+        except Exception:  # ragged input
+            raise ConfigError(f"proportion_ci: {name} must be integer counts, got {value!r}") from None
+        if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+            raise ConfigError(f"proportion_ci: {name} must be integer counts, got {value!r}")
+        arr = arr.astype(float)
+        bad = ~np.isfinite(arr) | (arr != np.floor(arr))
+        if bad.any():
+            raise ConfigError(f"proportion_ci: {name} must be integer counts, got {name} = {float(arr[bad].flat[0])!r}")
+        if (arr < 0).any():
+            raise ConfigError(f"proportion_ci: {name} must be >= 0, got {name} = {arr[arr < 0].flat[0]:g}")
+        return arr
+
+    if not isinstance(method, str) or method not in _CI_METHODS:
         raise ConfigError(f"proportion_ci: method must be one of {sorted(_CI_METHODS)}, got {method!r}")
-    if not 0 < alpha < 1:
+    if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.integer, np.floating)) \
+            or not 0 < alpha < 1:
         raise ConfigError(f"proportion_ci: alpha must lie in (0, 1), got {alpha!r}")
-    k, n = np.broadcast_arrays(np.asarray(k, dtype=float), np.asarray(n, dtype=float))
+    k = counts("k", k)
+    n = counts("n", n)
+    try:
+        k, n = np.broadcast_arrays(k, n)
+    except ValueError:
+        raise ConfigError(f"proportion_ci: k and n must be broadcastable, got shapes {k.shape} and {n.shape}") \
+            from None
+    over = k > n
+    if over.any():
+        i = np.argwhere(over)[0]
+        where = f" at index {tuple(int(j) for j in i)}" if k.ndim else ""
+        raise ConfigError(f"proportion_ci: k must not exceed n, got k = {k[tuple(i)]:g} > n = {n[tuple(i)]:g}{where}")
     low = np.full(k.shape, np.nan)
     high = np.full(k.shape, np.nan)
     ok = n > 0

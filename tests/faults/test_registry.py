@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from faultlab.errors import FaultError, PluginError
-from faultlab.faults.registry import (
-    BASELINE,
+from faultlab.vocabulary import BASELINE, PAPER_FAULTS
+from faultlab.faults import (
     ENTRY_POINT_GROUP,
     Fault,
     PluginWarning,
@@ -27,7 +27,6 @@ from faultlab.faults.registry import (
     step_names,
 )
 
-PAPER_FAULTS = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")
 
 
 # --------------------------------------------------------------------------- a toy step table

@@ -42,7 +42,7 @@ def test_quick_overrides_shrink_the_paper_protocol():
     assert quick.runs == 1
     assert {s.kind: s.n_cases for s in quick.suites} == {"systematic": None, "random": 2, "fixed": 2}
     assert quick.variants == ("baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error")
-    assert quick.slam.particles == 60 and quick.n_steps == 200 and quick.repetitions == 1
+    assert quick.slam.config.n_particles == 60 and quick.n_steps == 200 and quick.repetitions == 1
     assert quick.seed == paper.seed and quick.detection == paper.detection
     assert quick.hash != paper.hash
 
@@ -52,6 +52,16 @@ def test_default_out_never_mixes_protocols():
     assert default_out("experiments/paper.toml", quick=True) == Path("results/paper-quick")
     assert default_out("experiments/paper.toml", runs=30) == Path("results/paper-runs30")
     assert default_out("x/y.toml", quick=True, runs=2) == Path("results/y-quick-runs2")
+
+
+def test_default_is_the_shipped_paper_protocol_from_any_directory(captured, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no experiments/ here: the packaged copy is used
+    reproduce(progress=False)
+    experiment, out, _ = captured["run"]
+    assert experiment.hash == load_experiment(PAPER_TOML).hash and experiment.source == "paper"
+    assert out == Path("results/paper")
+    reproduce("smoke", quick=True, progress=False)
+    assert captured["run"][1] == Path("results/smoke-quick")
 
 
 def test_options_reach_the_runner_and_the_report(captured, tmp_path):
@@ -69,7 +79,7 @@ def test_quick_and_runs_together(captured, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     reproduce(PAPER_TOML, quick=True, runs=2, progress=False)
     experiment, out, _ = captured["run"]
-    assert experiment.runs == 2 and experiment.slam.particles == 60
+    assert experiment.runs == 2 and experiment.slam.config.n_particles == 60
     assert out == Path("results/paper-quick-runs2")
     assert captured["build"] == (Path("results/paper-quick-runs2"), Path("reports"))
 

@@ -19,7 +19,8 @@ from faultlab.runner import (
     run_experiment,
 )
 from faultlab.runner.execute import _alarm, execute_job
-from faultlab.runner.jobs import JobKey, JobSpec, case_seed, expand_jobs, slam_seed, suite_seed_sequence
+from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
+from faultlab.seeds import case_seed, slam_seed, suite_seed_sequence
 from faultlab.scenario import generate_scenario, load_scenario
 from faultlab.space import build_suite
 from tests.runner.suts import write_experiment

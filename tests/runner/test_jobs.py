@@ -1,56 +1,7 @@
-import hashlib
-import os
-import subprocess
-import sys
-from pathlib import Path
-
-import numpy as np
-
 from faultlab.runner.experiment import parse_experiment
-from faultlab.runner.jobs import JobKey, case_seed, expand_jobs, slam_seed, stable_code, suite_seed_sequence
+from faultlab.runner.jobs import JobKey, expand_jobs
+from faultlab.seeds import slam_seed
 from tests.runner.suts import tiny_experiment
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def test_stable_code_is_sha256_prefix():
-    for name in ("systematic", "random", "fixed", "x"):
-        assert stable_code(name) == int(hashlib.sha256(name.encode()).hexdigest()[:8], 16)
-
-
-def test_seeds_are_distinct_per_identity_and_fit_int64():
-    seeds = {}
-    for run in (1, 2):
-        for suite in ("systematic", "random", "fixed"):
-            for case in (1, 2, 3):
-                seeds[("case", run, suite, case)] = case_seed(7, run, suite, case)
-                for rep in (0, 1):
-                    seeds[("slam", run, suite, case, rep)] = slam_seed(7, run, suite, case, rep)
-    values = list(seeds.values())
-    assert len(set(values)) == len(values)
-    assert all(0 <= v < 2**63 for v in values)
-    # another root seed changes every seed
-    assert case_seed(8, 1, "random", 1) != case_seed(7, 1, "random", 1)
-
-
-def test_seeds_follow_seedsequence_spawn_keys():
-    # independent reference: the documented SeedSequence recipe, written out by hand
-    ss = np.random.SeedSequence(entropy=7, spawn_key=(3, 2, stable_code("fixed"), 4, 1))
-    assert slam_seed(7, 2, "fixed", 4, 1) == int(ss.generate_state(1, np.uint64)[0]) >> 1
-    a = np.random.default_rng(suite_seed_sequence(7, 1, "random")).random(3)
-    b = np.random.default_rng(np.random.SeedSequence(7, spawn_key=(1, 1, stable_code("random")))).random(3)
-    np.testing.assert_array_equal(a, b)
-
-
-def test_seeds_do_not_depend_on_the_interpreter_hash_seed():
-    code = ("from faultlab.runner.jobs import slam_seed, case_seed;"
-            "print(slam_seed(3, 1, 'random', 2, 0), case_seed(3, 2, 'fixed', 1))")
-    outs = set()
-    for hs in ("0", "12345"):
-        env = dict(os.environ, PYTHONHASHSEED=hs)
-        outs.add(subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True,
-                                text=True, check=True).stdout)
-    assert outs == {f"{slam_seed(3, 1, 'random', 2, 0)} {case_seed(3, 2, 'fixed', 1)}\n"}
 
 
 def test_expand_jobs_common_random_numbers_across_variants():
@@ -74,3 +25,11 @@ def test_job_key_order_and_text():
     a, b = JobKey(1, "random", 1, "baseline", 0), JobKey(1, "random", 1, "baseline", 1)
     assert a < b and a.astuple() == (1, "random", 1, "baseline", 0)
     assert str(a) == "run 1 random case 1 baseline rep 0"
+
+
+def test_the_replica_variant_gets_its_own_seeds():
+    exp = parse_experiment(tiny_experiment(variants=["baseline", "baseline_replica"], repetitions=2))
+    jobs = expand_jobs(exp, [(1, "random", 1, "a.npz", 1.0)])
+    seeds = {(j.key.variant, j.key.rep): j.seed for j in jobs}
+    assert seeds[("baseline_replica", 0)] == slam_seed(exp.seed, 1, "random", 1, 0, replica=True)
+    assert len(set(seeds.values())) == 4

@@ -8,10 +8,13 @@ uses ``np.linalg.inv`` / ``@``, angles are wrapped with scalar ``math``, the
 measurement Jacobian is inverted numerically, the covariance update is the
 textbook ``(I - K H) P``, and the weights are linear (normalised every step).
 
-To be comparable draw for draw it consumes the random stream in the same order
-as the vectorised filter: in a non-empty update one ``standard_normal(2)`` per
-particle (particle order) for the control noise, and one ``uniform(0, 1/N)``
-when it resamples.
+To be comparable draw for draw it follows the unit contract on randomness: the
+control noise and the resampling draw from two separate streams derived from
+the seed by unit name (:func:`faultlab.slam.streams.unit_streams`, the only
+faultlab code used here), and it consumes them in the same order as the
+vectorised filter: in a non-empty update one ``standard_normal(2)`` per
+particle (particle order) from the ``sample_controls`` stream, and one
+``uniform(0, 1/N)`` from the ``resample`` stream when it resamples.
 """
 
 from __future__ import annotations
@@ -19,6 +22,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from faultlab.slam.streams import unit_streams
 
 
 def wrap(a: float) -> float:
@@ -60,7 +65,8 @@ class OracleFastSlam:
         self.ratio = resample_ratio
 
     def reset(self, pose, *, rng):
-        self.rng = rng
+        streams = unit_streams(rng, ["sample_controls", "resample"])
+        self.control_rng, self.resample_rng = streams["sample_controls"], streams["resample"]
         self.particles = [Particle(pose) for _ in range(self.n)]
         for p in self.particles:
             p.w = 1.0 / self.n
@@ -74,7 +80,7 @@ class OracleFastSlam:
             if empty:
                 vi, wi = v, omega
             else:
-                e = self.rng.standard_normal(2)
+                e = self.control_rng.standard_normal(2)
                 vi, wi = v + e[0] * self.std_v, omega + e[1] * self.std_omega
             x, y, th = p.pose
             p.pose = np.array([x + vi * math.cos(th), y + vi * math.sin(th), wrap(th + wi)])
@@ -108,7 +114,7 @@ class OracleFastSlam:
     def resample(self):
         """Low-variance sampler, Table 4.4."""
         M = self.n
-        r = self.rng.uniform(0.0, 1.0 / M)
+        r = self.resample_rng.uniform(0.0, 1.0 / M)
         c = self.particles[0].w
         i = 0
         chosen = []

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from faultlab.errors import SlamInputError
-from faultlab.slam.streams import stream_code, unit_streams
+from faultlab.slam.streams import unit_streams
 
 
 def _first(streams, name, n=5):
@@ -31,12 +31,6 @@ def test_the_parent_is_advanced_by_one_draw_only():
     ref = np.random.default_rng(9)
     ref.integers(0, 2 ** 63, size=2, dtype=np.int64)
     assert rng.random() == ref.random()
-
-
-def test_stream_code_is_stable():
-    # sha256("resample")[:4] as a big-endian integer, computed independently with hashlib
-    import hashlib
-    assert stream_code("resample") == int(hashlib.sha256(b"resample").hexdigest()[:8], 16)
 
 
 def test_bad_input():

@@ -1,11 +1,15 @@
+import itertools
 from math import comb
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.stats import mannwhitneyu
 
 from faultlab.errors import ConfigError
 from faultlab.stats import oracle_detections
+from faultlab.stats.oracle import MAX_TIED_SPLITS, mann_whitney_p
 from tests.stats.synthetic import frame, job
 
 K = 8
@@ -76,3 +80,91 @@ def test_three_reps_cannot_reach_holm_significance():
     assert not table["detected"].any()
     with pytest.raises(ConfigError, match="alpha"):
         oracle_detections(frame(rows), alpha=1.5)
+
+
+# --------------------------------------------------------------------------- exact p values, ties
+
+
+def brute_force_mw_p(x, y) -> float:
+    """Exact one-sided permutation p value of U by enumerating every split of the pooled values."""
+    pooled = np.concatenate([x, y]).astype(float)
+    n = len(x)
+
+    def u(a, b):
+        return sum((ai > bj) + 0.5 * (ai == bj) for ai in a for bj in b)
+
+    observed = u(x, y)
+    hits = total = 0
+    for chosen in itertools.combinations(range(pooled.size), n):
+        mask = np.zeros(pooled.size, bool)
+        mask[list(chosen)] = True
+        hits += u(pooled[mask], pooled[~mask]) >= observed
+        total += 1
+    assert total == comb(pooled.size, n)
+    return hits / total
+
+
+def one_case(x, y):
+    rows = [job(1, "random", 1, "baseline", k, v) for k, v in enumerate(y)]
+    rows += [job(1, "random", 1, "naive_resampling", k, v) for k, v in enumerate(x)]
+    return frame(rows)
+
+
+@pytest.mark.parametrize("x, y", [
+    ([5.0, 7.0, 9.0], [1.0, 6.0, 8.0]),                 # no ties
+    ([3.0, 3.0, 4.0, 5.0], [1.0, 3.0, 2.0, 2.0]),       # ties across and within the samples
+    ([2.0, 2.0, 2.0], [2.0, 2.0, 2.0]),                 # everything tied
+    ([4.0, 4.0, 6.0, 1.0, 4.0], [4.0, 1.0, 3.0, 4.0]),  # unequal sizes with ties
+    ([10.0, 11.0, 12.0, 13.0], [1.0, 2.0, 3.0, 4.0]),   # the floor 1 / C(8, 4)
+    ([3.0], [1.0, 3.0, 5.0, 3.0]),                      # one faulty value, tied
+    ([2.0, 3.0, 3.0, 7.0], [3.0]),                      # one baseline value, tied
+])
+def test_oracle_p_equals_the_enumerated_permutation_distribution(x, y):
+    table = oracle_detections(one_case(x, y))
+    assert table.loc[0, "p"] == pytest.approx(brute_force_mw_p(np.array(x), np.array(y)), abs=1e-12)
+    assert table.loc[0, "p"] >= table.loc[0, "p_min"] - 1e-15
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.integers(0, 4), min_size=1, max_size=5), st.lists(st.integers(0, 4), min_size=1, max_size=5))
+def test_exact_p_with_ties_matches_brute_force_and_never_beats_the_floor(x, y):
+    x, y = np.array(x, float), np.array(y, float)
+    u, p = mann_whitney_p(x, y)
+    assert p == pytest.approx(brute_force_mw_p(x, y), abs=1e-12)
+    assert u == sum((a > b) + 0.5 * (a == b) for a in x for b in y)
+    assert p >= 1.0 / comb(x.size + y.size, x.size) - 1e-15
+
+
+def test_minimum_p_values_of_the_docstring_table():
+    for k, p_min in ((3, 0.05), (4, 0.0143), (5, 0.00397), (6, 0.00108), (7, 0.000291), (8, 7.77e-05),
+                     (10, 5.41e-06)):
+        assert 1.0 / comb(2 * k, k) == pytest.approx(p_min, rel=5e-3)
+    for k in range(1, 10):
+        x, y = np.arange(k) + 100.0, np.arange(k, dtype=float)
+        assert mann_whitney_p(x, y)[1] == pytest.approx(1.0 / comb(2 * k, k), rel=1e-12)
+        # ties inside the faulty sample only: the floor still holds and is reached
+        assert mann_whitney_p(np.full(k, 100.0), y)[1] == pytest.approx(1.0 / comb(2 * k, k), rel=1e-12)
+
+
+def test_asymptotic_only_when_asked_and_bad_methods_are_refused():
+    x, y = [10.0, 11.0, 12.0], [1.0, 2.0, 3.0]
+    exact = oracle_detections(one_case(x, y))
+    approx = oracle_detections(one_case(x, y), method="asymptotic")
+    assert exact.loc[0, "p"] == pytest.approx(0.05)
+    ref = mannwhitneyu(x, y, alternative="greater", method="asymptotic").pvalue
+    assert approx.loc[0, "p"] == pytest.approx(ref) and ref < exact.loc[0, "p_min"]  # below the exact floor
+    for bad in ("auto", "normal", None):
+        with pytest.raises(ConfigError, match="method"):
+            oracle_detections(one_case(x, y), method=bad)
+
+
+def test_large_samples_exact_without_ties_and_refused_with_ties():
+    rng = np.random.default_rng(4)
+    x, y = rng.normal(1.0, 1.0, 12), rng.normal(0.0, 1.0, 12)
+    table = oracle_detections(one_case(x, y))
+    assert table.loc[0, "p"] == pytest.approx(mannwhitneyu(x, y, alternative="greater", method="exact").pvalue)
+    y[3] = x[5]  # one tie: C(24, 12) splits are too many to enumerate
+    with pytest.raises(ConfigError, match=r"random run 1 case 1, naive_resampling.*asymptotic"):
+        oracle_detections(one_case(x, y))
+    assert np.isfinite(oracle_detections(one_case(x, y), method="asymptotic").loc[0, "p"])
+    assert comb(18, 9) <= MAX_TIED_SPLITS < comb(20, 10)

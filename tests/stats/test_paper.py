@@ -119,7 +119,7 @@ def test_by_suite_rows_in_the_reported_file_are_used(tmp_path):
 
 def test_data_path_resolution(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert resolve_data_path(None, "paper_repro/paper_table2_rms.csv") == RAW
+    assert resolve_data_path(None, "paper_repro/paper_table2_rms.csv").samefile(RAW)  # the shipped copy
     (tmp_path / "paper_repro").mkdir()
     local = tmp_path / "paper_repro" / "paper_table2_rms.csv"
     local.write_text("x")

@@ -44,6 +44,38 @@ def test_ci_vectorised_and_empty():
         proportion_ci(1, 2, method="agresti")
 
 
+@pytest.mark.parametrize("k, n, kwargs, message", [
+    (5, 3, {}, r"k must not exceed n, got k = 5 > n = 3"),
+    ([1, 4, 2], [2, 3, 9], {}, r"k = 4 > n = 3 at index \(1,\)"),
+    (1, 0, {}, r"k = 1 > n = 0"),
+    (-1, 3, {}, r"k must be >= 0, got k = -1"),
+    (1, [4, -2], {}, r"n must be >= 0, got n = -2"),
+    (2.5, 4, {}, r"k must be integer counts, got k = 2.5"),
+    (1, np.nan, {}, r"n must be integer counts, got n = nan"),
+    ([1, np.inf], 4, {}, r"k must be integer counts, got k = inf"),
+    ("3", 4, {}, r"k must be integer counts, got '3'"),
+    (True, 4, {}, r"k must be integer counts, got True"),
+    ([1, 2], [3, 4, 5], {}, r"broadcastable"),
+    (1, 2, {"alpha": 0.0}, r"alpha must lie in \(0, 1\), got 0.0"),
+    (1, 2, {"alpha": 1.0}, r"alpha must lie in \(0, 1\), got 1.0"),
+    (1, 2, {"alpha": -0.05}, r"alpha must lie in \(0, 1\), got -0.05"),
+    (1, 2, {"alpha": np.nan}, r"alpha must lie in \(0, 1\), got nan"),
+    (1, 2, {"alpha": "0.05"}, r"alpha must lie in \(0, 1\), got '0.05'"),
+    (1, 2, {"method": "agresti"}, r"method must be one of \['cp', 'wilson'\], got 'agresti'"),
+    (1, 2, {"method": None}, r"got None"),
+])
+def test_bad_counts_and_options_raise_one_config_error_naming_the_value(k, n, kwargs, message):
+    with pytest.raises(ConfigError, match=message):
+        proportion_ci(k, n, **kwargs)
+
+
+def test_whole_number_floats_and_integer_arrays_are_counts():
+    np.testing.assert_allclose(proportion_ci(3.0, 4.0), proportion_ci(3, 4))
+    lo, hi = proportion_ci(np.array([0, 4], dtype=np.int32), np.array([4, 4], dtype=np.int64), method="cp")
+    np.testing.assert_allclose([lo[0], hi[1]], [0.0, 1.0])
+    assert np.isnan(proportion_ci(0, 0)[0])  # no trials: NaN, not an error
+
+
 def results_with_failures():
     """2 suites x 1 fault, 2 runs x 2 cases x K = 2 reps, with every outcome class."""
     rows = []

@@ -1,7 +1,7 @@
 import pytest
 
 from faultlab.errors import ConfigError
-from faultlab.tomlfile import read_toml
+from faultlab.config import read_toml
 
 
 def test_reads_table_and_text(tmp_path):

@@ -1,0 +1,67 @@
+"""``python -m faultlab mutate list|show``: the mutants of a SLAM's units, screened before any campaign."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["register"]
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "mutate", help="mutation analysis: list the mutants of a SLAM's units, show one",
+        description="Generate mutants of the replaceable units of a SLAM from their source (one small "
+                    "change per mutant, classic and numpy-aware operators) and screen them at the unit "
+                    "level: stillborn (does not compile or always raises), equivalent (same bytecode or "
+                    "bit-identical unit outputs) and duplicate mutants never need a campaign.")
+    sub = p.add_subparsers(dest="mutate_command", metavar="VERB")
+    p.set_defaults(func=lambda args: _usage(p))
+
+    ls = sub.add_parser("list", help="list the mutants (by default only the live ones) and count each class",
+                        description="One line per mutant: id, unit, line, operator and the changed line; then "
+                                    "a count line per class. By default stillborn, equivalent and duplicate "
+                                    "mutants are only counted; --all lists them too, with their class.")
+    _common(ls)
+    ls.add_argument("--unit", default=None, metavar="U", help="only the mutants of this unit")
+    ls.add_argument("--operator", default=None, metavar="O", help="only the mutants of this operator")
+    ls.add_argument("--all", action="store_true", dest="all_mutants",
+                    help="list every mutant with its class, not only the live ones")
+    ls.set_defaults(func=_list)
+
+    show = sub.add_parser("show", help="show one mutant: its unified diff and its class",
+                          description="Print a mutant's record, its screening class (with the reason, and "
+                                      "the mutant it duplicates or the duplicates it stands for) and the "
+                                      "unified diff of its file (applies with `patch -p1` from the directory "
+                                      "holding the package).")
+    show.add_argument("mutant_id", metavar="ID", help="mutant id, e.g. ekf_update:arithmetic:3")
+    _common(show)
+    show.set_defaults(func=_show)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--slam", default="fastslam", metavar="NAME",
+                   help="SLAM whose units are mutated: a built-in name or package.module:factory "
+                        "(default: fastslam, the reference FastSLAM 1.0)")
+    p.add_argument("--no-cache", action="store_true",
+                   help="screen afresh instead of reading the cached screening results")
+
+
+def _usage(p: argparse.ArgumentParser) -> int:
+    p.print_help()
+    return 2
+
+
+def _list(args: argparse.Namespace) -> int:
+    # imported when the command runs: libcst and the scenario generator take a second to import
+    from faultlab.mutation import list_mutants
+
+    print(list_mutants(args.slam, unit=args.unit, operator=args.operator, all_mutants=args.all_mutants,
+                       cache=not args.no_cache))
+    return 0
+
+
+def _show(args: argparse.Namespace) -> int:
+    from faultlab.mutation import show_mutant
+
+    print(show_mutant(args.mutant_id, args.slam, cache=not args.no_cache))
+    return 0

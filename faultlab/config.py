@@ -1,0 +1,260 @@
+"""Validation of configuration, in one place: TOML files, typed tables, numbers and import paths.
+
+Every configuration value faultlab accepts -- an experiment file, a parameter-space file, the
+settings of a SLAM or of the detection rule, an import path ``package.module:attr`` -- is checked
+by the functions here, so that a malformed value always gives one :class:`~faultlab.errors.ConfigError`
+(or the error class a caller names) saying *what* is wrong and *where* (file and key).
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import numbers
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+from faultlab.errors import ConfigError
+
+__all__ = ["read_toml", "Table", "check_number", "check_int", "import_object", "Option", "Settings"]
+
+
+def read_toml(path: str | Path, *, what: str) -> tuple[dict, str]:
+    """Read and parse a TOML file.
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What the file is, for messages (e.g. ``"experiment file"``).
+
+    Returns
+    -------
+    (dict, str)
+        The parsed table and the file's text.
+
+    Raises
+    ------
+    ConfigError
+        ``"<path>: <what> cannot be read (...)"`` or ``"<path>: <what> is not valid TOML (...)"``.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{p}: {what} cannot be read ({exc.strerror or exc})") from exc
+    try:
+        return tomllib.loads(text), text
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: {what} is not valid TOML ({exc})") from exc
+
+
+def check_number(value: Any, *, name: str, minimum: float | None = None, positive: bool = False,
+                 maximum: float | None = None, error: type[Exception] = ConfigError) -> float:
+    """``value`` as a finite float, or ``error`` naming ``name``.
+
+    Parameters
+    ----------
+    value : any
+        Booleans are rejected (TOML and Python both let ``true`` pass as a number).
+    name : str
+        Where the value comes from, e.g. ``"exp.toml: slam.std_v"`` or ``"FastSlamConfig.std_v"``.
+    minimum, maximum : float, optional
+        Inclusive bounds.
+    positive : bool
+        Require ``value > 0``.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise error(f"{name} must be a number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise error(f"{name} must be finite, got {value!r}")
+    if positive and x <= 0:
+        raise error(f"{name} must be > 0, got {value!r}")
+    if minimum is not None and x < minimum:
+        raise error(f"{name} must be >= {minimum:g}, got {value!r}")
+    if maximum is not None and x > maximum:
+        raise error(f"{name} must be <= {maximum:g}, got {value!r}")
+    return x
+
+
+def check_int(value: Any, *, name: str, minimum: int | None = None,
+              error: type[Exception] = ConfigError) -> int:
+    """``value`` as an int (numpy integers accepted, booleans and floats rejected), or ``error``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise error(f"{name} must be an integer, got {value!r}")
+    if minimum is not None and value < minimum:
+        raise error(f"{name} must be >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def import_object(spec: str, *, what: str = "import path", error: type[Exception] = ConfigError) -> Any:
+    """Import ``"package.module:attr"`` (``attr`` may be dotted).
+
+    Parameters
+    ----------
+    spec : str
+    what : str
+        Names the setting in messages, e.g. ``"exp.toml: slam.name"``.
+    error : exception class
+        Raised, with ``what`` and ``spec`` in the message, for a malformed path, a module that
+        fails to import (any exception, with its type and message) or a missing attribute.
+    """
+    module_name, sep, attr = spec.partition(":") if isinstance(spec, str) else ("", "", "")
+    if not sep or not module_name or not attr:
+        raise error(f"{what} = {spec!r}: expected 'package.module:attr'")
+    try:
+        obj = importlib.import_module(module_name)
+    except Exception as exc:
+        raise error(f"{what} = {spec!r}: cannot import module {module_name!r} "
+                    f"({type(exc).__name__}: {exc})") from exc
+    for part in attr.split("."):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            raise error(f"{what} = {spec!r}: module {module_name!r} has no attribute {attr!r}") from None
+    return obj
+
+
+class Table:
+    """Typed, validated access to one TOML table; messages name the file and the key.
+
+    Parameters
+    ----------
+    data : mapping
+        The table (anything else raises ConfigError).
+    where : str
+        The table's dotted name in the file (``""`` for the top level, ``"slam"``, ...).
+    source : str
+        The file (or other source) for messages.
+    """
+
+    def __init__(self, data: Any, where: str, source: str):
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"{source}: {where or 'the file'} must be a table, got {type(data).__name__}")
+        self.data, self.where, self.source = data, where, source
+
+    def name(self, key: str) -> str:
+        """The dotted name of ``key`` (``slam.particles``)."""
+        return f"{self.where}.{key}" if self.where else key
+
+    def error(self, key: str, reason: str) -> ConfigError:
+        return ConfigError(f"{self.source}: {self.name(key)} {reason}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self.data.get(key, default)
+
+    def int(self, key: str, default: int | None = None, *, minimum: int | None = None) -> int:
+        """An integer; required when ``default`` is None."""
+        if key not in self.data:
+            if default is None:
+                raise self.error(key, "is required")
+            return default
+        return check_int(self.data[key], name=f"{self.source}: {self.name(key)}", minimum=minimum)
+
+    def float(self, key: str, default: float, *, positive: bool = False, minimum: float | None = None,
+              maximum: float | None = None) -> float:
+        """A finite number (an integer is accepted)."""
+        if key not in self.data:
+            return default
+        return check_number(self.data[key], name=f"{self.source}: {self.name(key)}", positive=positive,
+                            minimum=minimum, maximum=maximum)
+
+    def bool(self, key: str, default: bool) -> bool:
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        if not isinstance(v, bool):
+            raise self.error(key, f"must be true or false, got {v!r}")
+        return v
+
+    def str(self, key: str, default: str, *, choices: tuple[str, ...] | None = None) -> str:
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        if not isinstance(v, str):
+            raise self.error(key, f"must be a string, got {v!r}")
+        if choices is not None and v not in choices:
+            raise self.error(key, f"must be one of {', '.join(map(repr, choices))}, got {v!r}")
+        return v
+
+    def table(self, key: str) -> "Table":
+        """The sub-table ``key`` (an empty one when absent)."""
+        return Table(self.data.get(key, {}), self.name(key), self.source)
+
+    def check_unknown(self, allowed: tuple[str, ...] | Mapping) -> None:
+        """Raise for the first key not in ``allowed``."""
+        for key in self.data:
+            if key not in allowed:
+                raise self.error(key, f"is not a known key (known: {', '.join(allowed)})")
+
+
+@dataclass(frozen=True)
+class Option:
+    """One setting of a configuration dataclass as it appears in an experiment file.
+
+    Attributes
+    ----------
+    key : str
+        The key in the file (e.g. ``"std_omega_deg"``).
+    degrees : bool
+        The file gives degrees; the field holds radians.
+    integer : bool
+        An integer setting.
+    bounds : dict
+        Keyword bounds for :func:`check_number` / :func:`check_int` (``minimum``, ``positive``, ...).
+    """
+
+    key: str
+    degrees: bool = False
+    integer: bool = False
+    bounds: Mapping[str, Any] = field(default_factory=dict)
+
+    def check(self, value: Any, *, name: str) -> float | int:
+        if self.integer:
+            return check_int(value, name=name, **self.bounds)
+        return check_number(value, name=name, **self.bounds)
+
+
+class Settings:
+    """Mixin of frozen configuration dataclasses whose fields are experiment-file settings.
+
+    A subclass declares ``OPTIONS: ClassVar[dict[str, Option]]`` (field name -> :class:`Option`),
+    the one place where each setting's file key, unit and bounds are defined; fields hold SI values.
+    The mixin validates every field on construction and converts from and to the file's keys and units.
+    """
+
+    OPTIONS: ClassVar[dict[str, Option]] = {}
+
+    def __post_init__(self) -> None:
+        for name, option in self.OPTIONS.items():
+            value = option.check(getattr(self, name), name=f"{type(self).__name__}.{name}")
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def from_options(cls, options: Mapping[str, Any], *, where: str | None = None):
+        """An instance from file-shaped ``options`` (missing keys take the defaults).
+
+        ``where`` prefixes every message (e.g. ``"exp.toml: slam"``); default: the class name.
+        """
+        where = where or cls.__name__
+        by_key = {option.key: (name, option) for name, option in cls.OPTIONS.items()}
+        kwargs = {}
+        for key, value in options.items():
+            if key not in by_key:
+                raise ConfigError(f"{where}.{key} is not a known key (known: {', '.join(by_key)})")
+            name, option = by_key[key]
+            x = option.check(value, name=f"{where}.{key}")
+            kwargs[name] = math.radians(x) if option.degrees else x
+        return cls(**kwargs)
+
+    def to_options(self) -> dict[str, Any]:
+        """The file-shaped options of this instance (inverse of :meth:`from_options`)."""
+        return {option.key: (math.degrees(getattr(self, name)) if option.degrees else getattr(self, name))
+                for name, option in self.OPTIONS.items()}

@@ -1,0 +1,348 @@
+"""FastSLAM 2.0 with known correspondences, structured for fault injection like FastSLAM 1.0.
+
+FastSLAM 2.0 (Montemerlo, Thrun, Koller & Wegbreit, IJCAI 2003; Thrun, Burgard & Fox,
+*Probabilistic Robotics*, Sec. 13.4 and Table 13.2) differs from FastSLAM 1.0
+(:class:`faultlab.slam.FastSlam`) in the prediction: each particle's new pose is sampled from a
+proposal that incorporates the step's observations of landmarks the particle already knows, not
+from the motion model alone, and the importance weight is that proposal's normaliser (the
+likelihood of the observations with the pose uncertainty of the motion included).  Landmarks are
+initialised and updated exactly as in FastSLAM 1.0, from the sampled pose.  Settings
+(:class:`faultlab.slam.FastSlamConfig`), storage (:class:`faultlab.slam.ParticleState`, copy-on-write
+landmark storage), resampling, the estimate (the highest-weight particle) and the conventions are
+FastSLAM 1.0's: drive ``v`` along the heading, then turn ``omega``; an *empty update* (control
+exactly (0, 0) and no observation) samples no control noise and never resamples.
+
+One update (:meth:`FastSlam2.update`) runs, for all ``N`` particles and ``k`` observations at once::
+
+    x_hat = motion_model(x, u, wrap=wrap_heading)                 # noise-free prediction
+    # if the step has observations z (k, 2); mu, P: the particles' stored landmarks
+    new   = classify_new(seen, mu)
+    mu, P = init_landmarks(x_hat, z, Q, wrap=wrap_bearing) where new   # keeps the arithmetic finite
+    z_hat, H = predict_measurement(x_hat, mu)
+    nu    = innovation(z, z_hat, wrap=wrap_bearing)
+    Z     = innovation_covariance(H, P, Q)                         # H P H^T + Q
+    ll    = log_likelihood(nu, Z)
+    G, V  = motion_jacobians(x, u)
+    Lam, eta = proposal_information(pose_jacobian(H), V, Z, nu, ~new)
+    # always (Lam = 0, eta = 0 without observations) except in an empty update:
+    mean, cov = proposal(Lam, eta, M)                              # over the control noise
+    du    = sample_proposal(mean, cov, rng['sample_proposal'])
+    x     = motion_model(x, u + du, wrap=wrap_heading)             # the sampled pose
+    # with observations:
+    logw  = combine_weights(logw, ll, ~new) + proposal_correction(Lam, eta, cov, M)   # normalised
+    mu0, P0 = init_landmarks(x, z, Q, wrap=wrap_bearing)           # the new pairs
+    z_hat, H = predict_measurement(x, mu); nu = innovation(...); Z = innovation_covariance(H, P, Q)
+    mu, P = ekf_update(mu, P, H, Z, nu), but mu0, P0 where new     -> written back to storage
+    # always:
+    n_eff = effective_sample_size(exp(logw))
+    idx   = resample(exp(logw), n_eff, empty, rng['resample'], config)
+    state = apply_resample(state, idx) if idx is not None
+
+Variant: the proposal is computed in control space (the pose is linear in the control noise, so
+this is Table 13.2's pose-space Gaussian exactly, and it stays defined although the motion noise
+has rank 2; see :mod:`faultlab.slam.units2`), and a step's observations of known landmarks enter
+it *jointly*, linearised at the noise-free prediction, with the joint likelihood as the weight
+(Montemerlo's sequential variant re-linearises after each observation).  Without known landmarks
+the proposal is FastSLAM 1.0's motion noise, draw for draw.
+
+Randomness: ``reset`` derives one stream per randomness-consuming unit (``sample_proposal``,
+``resample``) with :func:`faultlab.slam.streams.unit_streams`, so a fault in one unit never
+changes the draws of the other.
+
+Units: the fields of :class:`FastSlam2Steps`; those shared with FastSLAM 1.0 are documented in
+:mod:`faultlab.slam.units`, the others in :mod:`faultlab.slam.units2`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
+from faultlab.slam import units as _units
+from faultlab.slam import units2 as _units2
+from faultlab.slam.bookkeeping import LandmarkIndex, UnitTable
+from faultlab.slam.fastslam import FastSlamConfig, Particles
+from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.streams import unit_streams
+from faultlab.slam.units import ParticleState, landmark_rows
+
+__all__ = ["FastSlam2Steps", "REFERENCE_STEPS", "RANDOM_UNITS", "FastSlam2"]
+
+
+@dataclass(frozen=True)
+class FastSlam2Steps(UnitTable):
+    """The replaceable units of FastSLAM 2.0 (see the module docstring for the call order).
+
+    Replace one unit with ``dataclasses.replace(steps, unit=new_function)``.
+    """
+
+    motion_model: Callable = _units.motion_model
+    wrap_heading: Callable = _units.wrap_heading
+    wrap_bearing: Callable = _units.wrap_bearing
+    motion_jacobians: Callable = _units2.motion_jacobians
+    classify_new: Callable = _units.classify_new
+    init_landmarks: Callable = _units.init_landmarks
+    predict_measurement: Callable = _units.predict_measurement
+    pose_jacobian: Callable = _units2.pose_jacobian
+    innovation: Callable = _units.innovation
+    innovation_covariance: Callable = _units.innovation_covariance
+    log_likelihood: Callable = _units.log_likelihood
+    proposal_information: Callable = _units2.proposal_information
+    proposal: Callable = _units2.proposal
+    sample_proposal: Callable = _units2.sample_proposal
+    combine_weights: Callable = _units.combine_weights
+    proposal_correction: Callable = _units2.proposal_correction
+    ekf_update: Callable = _units.ekf_update
+    effective_sample_size: Callable = _units.effective_sample_size
+    resample: Callable = _units.resample
+    apply_resample: Callable = _units.apply_resample
+    extract_map: Callable = _units.extract_map
+
+
+#: The reference FastSLAM 2.0 units.
+REFERENCE_STEPS = FastSlam2Steps()
+
+#: The units that draw random numbers; each gets its own stream (common random numbers by unit).
+RANDOM_UNITS: tuple[str, ...] = ("sample_proposal", "resample")
+
+
+class FastSlam2(SlamAdapter):
+    """FastSLAM 2.0 (known correspondences) as a :class:`SlamAdapter`.
+
+    Parameters
+    ----------
+    config : FastSlamConfig
+        The same settings as FastSLAM 1.0 (particles, noise, resampling threshold).
+    steps : FastSlam2Steps
+        The units; :data:`REFERENCE_STEPS` or a copy with one unit replaced (a fault).
+    """
+
+    name = "fastslam2"
+
+    def __init__(self, config: FastSlamConfig = FastSlamConfig(), *, steps: FastSlam2Steps = REFERENCE_STEPS):
+        if not isinstance(config, FastSlamConfig):
+            raise ConfigError(f"FastSlam2: config must be a FastSlamConfig, got {type(config).__name__}")
+        if not isinstance(steps, FastSlam2Steps):
+            raise ConfigError(f"FastSlam2: steps must be a FastSlam2Steps, got {type(steps).__name__}")
+        self._config = config
+        self._steps = steps
+        self._Q = config.Q
+        self._M = np.diag([config.std_v ** 2, config.std_omega ** 2])
+        self._state: ParticleState | None = None
+
+    # -- configuration -------------------------------------------------------------------------
+
+    @property
+    def config(self) -> FastSlamConfig:
+        return self._config
+
+    @property
+    def steps(self) -> FastSlam2Steps:
+        return self._steps
+
+    def with_steps(self, steps: FastSlam2Steps) -> "FastSlam2":
+        """A new, un-reset FastSlam2 with the same config and other units."""
+        return type(self)(self._config, steps=steps)
+
+    def __repr__(self) -> str:
+        return f"FastSlam2({self._config!r}, replaced={list(self._steps.replaced())})"
+
+    # -- SlamAdapter -----------------------------------------------------------------------------
+
+    def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
+        p = np.asarray(pose, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+        if not isinstance(rng, np.random.Generator):
+            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        p = p.copy()
+        p[2] = float(_units.wrap_heading(p[2]))
+        self._streams = unit_streams(rng, RANDOM_UNITS)
+        self._state = ParticleState.initial(p, self._config.n_particles)
+        self._ident = self._state.owner  # arange(N); lineage starts as this very object
+        self._index = LandmarkIndex()
+        self._t = 0
+        self._n_resamples = 0
+
+    def update(self, control: np.ndarray, observations: Observations) -> None:
+        st = self._require_state()
+        steps, cfg, Q, M = self._steps, self._config, self._Q, self._M
+        n = st.n_particles
+        k = len(observations)
+        u = np.asarray(control, dtype=float)
+        empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
+        u_n = np.broadcast_to(u, (n, 2))
+        logw = st.logw
+        if empty:
+            poses = steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading)
+        else:
+            if k:
+                st, cols, seen = self._columns(st, observations.ids)
+                z = np.column_stack([observations.ranges, observations.bearings])
+                st, mu, P = self._gather(st, cols)
+                new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
+                known = ~new
+                # the proposal, linearised at the noise-free prediction (Table 13.2, lines 4-15)
+                x_hat = np.asarray(steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading), dtype=float)
+                mu_p, P_p = self._initialise_new(mu, P, new, x_hat, z)
+                zhat, H = steps.predict_measurement(x_hat, mu_p)
+                nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+                Z = steps.innovation_covariance(H, P_p, Q)
+                loglik = steps.log_likelihood(nu, Z)
+                _, V = steps.motion_jacobians(st.poses, u_n)
+                lam, eta = steps.proposal_information(steps.pose_jacobian(H), V, Z, nu, known)
+            else:
+                lam, eta = np.zeros((n, 2, 2)), np.zeros((n, 2))
+            mean, cov = steps.proposal(lam, eta, M)
+            du = np.asarray(steps.sample_proposal(mean, cov, self._streams["sample_proposal"]), dtype=float)
+            poses = steps.motion_model(st.poses, u_n + du, wrap=steps.wrap_heading)
+            if k:
+                # importance weight: the proposal's normaliser (Table 13.2, lines 21-22)
+                logw = np.asarray(steps.combine_weights(st.logw, loglik, known), dtype=float)
+                logw = logw + np.asarray(steps.proposal_correction(lam, eta, cov, M), dtype=float)
+                logw = self._normalised(logw)
+                # landmarks from the sampled pose, as in FastSLAM 1.0 (Table 13.2, lines 17-20)
+                mu_s, P_s = self._initialise_new(mu, P, new, poses, z)
+                zhat, H = steps.predict_measurement(poses, mu_s)
+                nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+                Z = steps.innovation_covariance(H, P_s, Q)
+                mu_new, P_new = steps.ekf_update(mu_s, P_s, H, Z, nu)
+                mu_new, P_new = np.asarray(mu_new, dtype=float), np.asarray(P_new, dtype=float)
+                if new.any():  # new pairs keep their initial values
+                    mu_new, P_new = np.copy(mu_new, order="K"), np.copy(P_new, order="K")
+                    mu_new[new], P_new[new] = mu_s[new], P_s[new]
+                self._write(st, cols, mu_new, P_new)
+        st = st.replace(poses=np.asarray(poses, dtype=float), logw=logw)
+        w = np.exp(logw)
+        n_eff = steps.effective_sample_size(w)
+        idx = steps.resample(w, n_eff, empty, self._streams["resample"], cfg)
+        if idx is not None:
+            st = steps.apply_resample(st, np.asarray(idx))
+            self._n_resamples += 1
+        self._state = st
+        self._t += 1
+
+    def estimate(self) -> Estimate:
+        st = self._require_state()
+        ids, xy = self._steps.extract_map(st)
+        i = int(np.argmax(st.logw))
+        return Estimate(st.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+
+    # -- diagnostics -----------------------------------------------------------------------------
+
+    @property
+    def n_resamples(self) -> int:
+        """How many updates since :meth:`reset` resampled."""
+        self._require_state()
+        return self._n_resamples
+
+    @property
+    def state(self) -> ParticleState:
+        """The current particle state (read-only use: its arrays are the filter's own)."""
+        return self._require_state()
+
+    def particles(self) -> Particles:
+        """A materialised copy of all particles (means and covariances in column order)."""
+        st = self._require_state()
+        C = st.n_landmarks
+        rows = landmark_rows(st, np.arange(C))
+        cols = np.arange(C)[None, :]
+        return Particles(st.poses.copy(), np.exp(st.logw), st.ids.copy(), st.mu[rows, cols].copy(),
+                         st.P[rows, cols].copy())
+
+    # -- internals -------------------------------------------------------------------------------
+
+    def _require_state(self) -> ParticleState:
+        if self._state is None:
+            raise SlamInputError(f"{self.name}: reset() must be called first")
+        return self._state
+
+    def _normalised(self, logw: np.ndarray) -> np.ndarray:
+        top = logw.max()
+        if not math.isfinite(top):
+            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
+        logw = logw - top
+        logw -= math.log(np.exp(logw).sum())
+        return logw
+
+    def _columns(self, st: ParticleState, ids: np.ndarray) -> tuple[ParticleState, np.ndarray, np.ndarray]:
+        """Storage columns of ``ids`` (k,), adding columns for unseen ids; returns (state, cols, seen)."""
+        cols, seen = self._index.lookup(ids)
+        if not seen.all():
+            new_ids = ids[~seen]
+            cols = cols.copy()
+            cols[~seen] = self._index.add(new_ids)
+            st = self._grow(st, len(self._index)).replace(ids=np.concatenate([st.ids, new_ids]))
+        return st, cols, seen
+
+    @staticmethod
+    def _grow(st: ParticleState, needed: int) -> ParticleState:
+        """``st`` with landmark storage for at least ``needed`` columns (capacity doubles)."""
+        cap = st.mu.shape[1]
+        if needed <= cap:
+            return st
+        new_cap = max(2 * cap, needed)
+        n, C = st.n_particles, st.n_landmarks
+        mu, P = _units.empty_means(n, new_cap), _units.empty_covariances(n, new_cap)
+        anc = _units.initial_ancestry(n, new_cap)
+        mu[:, :C], P[:, :C], anc[:, :C] = st.mu[:, :C], st.P[:, :C], st.anc[:, :C]
+        return st.replace(mu=mu, P=P, anc=anc)
+
+    def _gather(self, st: ParticleState, cols: np.ndarray) -> tuple[ParticleState, np.ndarray, np.ndarray]:
+        """The state and the particles' means (N, k, 2) and covariances (N, k, 2, 2) of ``cols`` (copies).
+
+        First applies any pending resampling to the ancestry (``anc = anc[lineage]``), so that
+        particle ``i`` reads and later rewrites ancestry row ``i``.  With the reference storage
+        layout (component-major, particle-fastest: :func:`faultlab.slam.units.empty_means`) the
+        gather reads contiguous runs and returns views of (2, k, N) / (2, 2, k, N) buffers, the
+        layout of the reference units' outputs; any other layout is gathered element by element.
+        """
+        if st.lineage is not self._ident:
+            C = st.n_landmarks
+            st.anc[:, :C] = st.anc[st.lineage, :C]
+            st = st.replace(lineage=self._ident)
+        rows = st.anc[:, cols]  # (N, k)
+        n, cap = st.mu.shape[:2]
+        mb, pb = st.mu.transpose(2, 1, 0), st.P.transpose(2, 3, 1, 0)
+        if mb.flags.c_contiguous and pb.flags.c_contiguous:
+            flat = rows.T + (cols * n)[:, None]  # (k, N) positions in a component's (cap * N) block
+            k = cols.size
+            mu = np.take(mb.reshape(2, cap * n), flat, axis=1)  # (2, k, N)
+            P = np.take(pb.reshape(4, cap * n), flat, axis=1).reshape(2, 2, k, n)
+            return st, mu.transpose(2, 1, 0), P.transpose(3, 2, 0, 1)
+        return st, st.mu[rows, cols[None, :]], st.P[rows, cols[None, :]]
+
+    def _write(self, st: ParticleState, cols: np.ndarray, mu: np.ndarray, P: np.ndarray) -> None:
+        """Every particle ``i`` writes its estimates of ``cols`` into its storage row ``owner[i]``."""
+        owner = st.owner
+        n, cap = st.mu.shape[:2]
+        k = cols.size
+        mb, pb = st.mu.transpose(2, 1, 0), st.P.transpose(2, 3, 1, 0)
+        if (mb.flags.c_contiguous and pb.flags.c_contiguous
+                and (owner is self._ident or np.array_equal(owner, self._ident))):
+            # particle i owns row i: whole (component, column) rows of N values are copied
+            rows = cols + (cap * np.arange(4))[:, None]  # (4, k) rows of the (4 cap, N) view
+            mb.reshape(2 * cap, n)[rows[:2].ravel()] = mu.transpose(2, 1, 0).reshape(2 * k, n)
+            pb.reshape(4 * cap, n)[rows.ravel()] = P.transpose(2, 3, 1, 0).reshape(4 * k, n)
+        else:
+            st.mu[owner[:, None], cols[None, :]] = mu
+            st.P[owner[:, None], cols[None, :]] = P
+        st.anc[:, cols] = owner[:, None]
+
+    def _initialise_new(self, mu: np.ndarray, P: np.ndarray, new: np.ndarray, poses: np.ndarray,
+                        z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``mu``, ``P`` with the new pairs set to ``init_landmarks`` from ``poses``."""
+        if not new.any():
+            return mu, P
+        steps = self._steps
+        c = np.flatnonzero(new.any(axis=0))
+        mu0, P0 = steps.init_landmarks(poses, z[c], self._Q, wrap=steps.wrap_bearing)
+        mu, P = np.copy(mu, order="K"), np.copy(P, order="K")
+        m = new[:, c]
+        mu[:, c] = np.where(m[..., None], np.asarray(mu0, dtype=float), mu[:, c])
+        P[:, c] = np.where(m[..., None, None], np.asarray(P0, dtype=float), P[:, c])
+        return mu, P

@@ -1,0 +1,105 @@
+"""The SLAMs faultlab ships, by the name an experiment file uses, and how each is configured.
+
+An experiment's ``[slam]`` table names a SLAM: a built-in name from :data:`BUILTIN_SLAMS` or an
+import path ``"package.module:factory"`` whose factory is called with the table's ``options`` as
+keyword arguments.  A built-in SLAM with settings has a config class with
+``from_options(mapping, *, where)`` and ``to_options()`` (the file's keys and units), which is
+the one place its keys, defaults and bounds are defined.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from faultlab.config import import_object
+from faultlab.errors import ConfigError
+from faultlab.slam.deadreckoning import DeadReckoning
+from faultlab.slam.ekf import EkfSlam, EkfSlamConfig
+from faultlab.slam.fastslam import FastSlam, FastSlamConfig
+from faultlab.slam.fastslam2 import FastSlam2
+from faultlab.slam.protocol import SlamAdapter
+
+__all__ = ["SlamKind", "BUILTIN_SLAMS", "get_slam_kind", "build_slam", "normalise_options"]
+
+
+@dataclass(frozen=True)
+class SlamKind:
+    """A built-in SLAM.
+
+    Attributes
+    ----------
+    name : str
+        The name an experiment's ``[slam] name`` uses.
+    description : str
+        One line.
+    adapter : callable
+        ``adapter(config)`` (or ``adapter()`` when ``config`` is None) returns a fresh :class:`SlamAdapter`.
+    config : type or None
+        Its settings: a class with ``from_options(mapping, *, where)`` and ``to_options()``.
+    """
+
+    name: str
+    description: str
+    adapter: Callable[..., SlamAdapter]
+    config: type | None = None
+
+    def options(self, options: Mapping[str, Any], *, where: str) -> dict[str, Any]:
+        """``options`` validated, with every default filled in (file keys and units)."""
+        if self.config is None:
+            if options:
+                raise ConfigError(f"{where}.{next(iter(options))} is not accepted by {self.name!r} "
+                                  f"(it has no settings)")
+            return {}
+        self.config.from_options(options, where=where)  # validates
+        return {**self.config().to_options(), **dict(options)}
+
+    def build(self, options: Mapping[str, Any]) -> SlamAdapter:
+        if self.config is None:
+            return self.adapter()
+        return self.adapter(self.config.from_options(options))
+
+
+#: Built-in SLAMs by name.
+BUILTIN_SLAMS: dict[str, SlamKind] = {
+    k.name: k for k in (
+        SlamKind("fastslam", "the reference FastSLAM 1.0 (known correspondences)", FastSlam, FastSlamConfig),
+        SlamKind("fastslam2", "FastSLAM 2.0: poses sampled from the proposal that includes the observations",
+                 FastSlam2, FastSlamConfig),
+        SlamKind("ekf", "EKF-SLAM: one joint Gaussian over the pose and every landmark", EkfSlam, EkfSlamConfig),
+        SlamKind("dead_reckoning", "odometry only: the baseline any SLAM should beat", DeadReckoning),
+    )
+}
+
+
+def get_slam_kind(name: str, *, where: str = "slam.name") -> SlamKind | None:
+    """The built-in SLAM ``name``; None for an import path; ConfigError for anything else."""
+    if name in BUILTIN_SLAMS:
+        return BUILTIN_SLAMS[name]
+    if isinstance(name, str) and ":" in name:
+        return None
+    raise ConfigError(f"{where} must be one of {', '.join(map(repr, BUILTIN_SLAMS))} or "
+                      f"'package.module:factory', got {name!r}")
+
+
+def normalise_options(name: str, options: Mapping[str, Any], *, where: str) -> dict[str, Any]:
+    """Validate the options of SLAM ``name`` and fill in its defaults (file keys and units).
+
+    For an import path the factory is imported (it must be callable) and ``options`` are kept as given.
+    """
+    kind = get_slam_kind(name, where=f"{where}.name")
+    if kind is not None:
+        return kind.options(options, where=where)
+    factory = import_object(name, what=f"{where}.name")
+    if not callable(factory):
+        raise ConfigError(f"{where}.name = {name!r} is not callable")
+    return dict(options)
+
+
+def build_slam(name: str, options: Mapping[str, Any]) -> SlamAdapter:
+    """A fresh SLAM adapter: built-in ``name`` with its options, or ``factory(**options)``."""
+    kind = get_slam_kind(name)
+    if kind is not None:
+        return kind.build(options)
+    return import_object(name, what="slam.name")(**dict(options))
