@@ -24,6 +24,16 @@ with the landmark after the last target (which itself comes last).
 
 Inactivity (Sec. VI-B): ``inactivity`` steps with control exactly (0, 0) and no
 observations are inserted after ``n_steps // 2`` active steps.
+
+Field of view: a landmark is within the field of view iff ``|bearing| <= fov / 2`` (``fov`` is the
+full opening angle, Table I).  ``fov_bug=True`` reproduces a *defect* of the paper's replication
+package instead (``simulator.py``): it tests ``min(angle, 2 pi - angle) < sensor_fov`` with
+``angle`` in [-pi, pi) and ``sensor_fov`` the half opening (its FoV classes span [pi/4, pi], half of
+Table I's [pi/2, 2 pi]).  For a left-side bearing (``angle >= 0``) that is the intended half-angle
+test; for a right-side bearing ``min`` returns the negative angle itself, so *every* landmark on the
+right passes whatever the opening.  With the defect the visible region is
+``bearing < 0 or bearing <= fov / 2``; it decides both what is observed and which landmarks count as
+seen for the steering, as in the package.  Off by default.
 """
 
 from __future__ import annotations
@@ -37,7 +47,7 @@ from scipy.spatial import cKDTree
 from faultlab.errors import ScenarioError
 
 __all__ = ["Drive", "Measurements", "drive", "measure_controls", "measure_observations", "wrap_angle",
-           "DEFAULT_PATH_TURN_STD"]
+           "in_field_of_view", "DEFAULT_PATH_TURN_STD"]
 
 DEFAULT_PATH_TURN_STD = 0.05  # rad, perturbation of every true turn ("noise on the path", Sec. VI-B)
 _TWO_PI = 2.0 * math.pi
@@ -46,6 +56,31 @@ _TWO_PI = 2.0 * math.pi
 def wrap_angle(a):
     """Wrap angles to [-pi, pi)."""
     return (np.asarray(a) + math.pi) % _TWO_PI - math.pi
+
+
+def in_field_of_view(bearing: np.ndarray, fov: float, *, fov_bug: bool = False) -> np.ndarray:
+    """Which bearings lie within the field of view.
+
+    Parameters
+    ----------
+    bearing : ndarray
+        Bearings relative to the heading, wrapped to [-pi, pi), rad.
+    fov : float
+        Full opening angle, rad.
+    fov_bug : bool
+        Reproduce the replication package's defect (see the module docstring): every
+        negative (right-side) bearing is visible, the left side up to ``fov / 2``.
+
+    Returns
+    -------
+    ndarray of bool, same shape as ``bearing``
+        ``|bearing| <= fov / 2``, or with the defect ``bearing < 0 or bearing <= fov / 2``.
+    """
+    b = np.asarray(bearing)
+    visible = np.abs(b) <= fov / 2.0
+    if fov_bug:
+        visible |= b < 0.0
+    return visible
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,7 +123,7 @@ class Drive:
 
 def drive(landmarks: np.ndarray, landmark_ids: np.ndarray | None = None, *, rng: np.random.Generator,
           n_steps: int, step: float, fov: float, sensor_range: float, loop: bool, inactivity: int = 0,
-          path_turn_std: float = DEFAULT_PATH_TURN_STD) -> Drive:
+          path_turn_std: float = DEFAULT_PATH_TURN_STD, fov_bug: bool = False) -> Drive:
     """Simulate the true path and the visible landmarks (Sec. VI-B).
 
     Parameters
@@ -103,7 +138,7 @@ def drive(landmarks: np.ndarray, landmark_ids: np.ndarray | None = None, *, rng:
     step : float
         Forward distance per active step, m.
     fov : float
-        Full opening angle, rad; visible iff ``|bearing| <= fov / 2``.
+        Full opening angle, rad; visible iff ``|bearing| <= fov / 2`` (see :func:`in_field_of_view`).
     sensor_range : float
         Visible iff ``range <= sensor_range``, m.
     loop : bool
@@ -112,6 +147,9 @@ def drive(landmarks: np.ndarray, landmark_ids: np.ndarray | None = None, *, rng:
         Idle steps inserted after ``n_steps // 2`` active steps.
     path_turn_std : float
         Std of the Gaussian perturbation of every true turn, rad.
+    fov_bug : bool
+        Reproduce the replication package's field-of-view defect (right-side bearings always
+        visible); False by default.
 
     Returns
     -------
@@ -128,7 +166,6 @@ def drive(landmarks: np.ndarray, landmark_ids: np.ndarray | None = None, *, rng:
     sort_ids = landmark_ids is not None and bool(np.any(np.diff(ids) < 0))
     tree = cKDTree(lm)
     polar = np.mod(np.arctan2(lm[:, 1], lm[:, 0]), _TWO_PI)
-    half_fov = fov / 2.0
     turn_noise = rng.normal(0.0, path_turn_std, n_steps) if path_turn_std > 0 else np.zeros(n_steps)
 
     poses = np.zeros((n_steps + 1, 3))
@@ -171,7 +208,7 @@ def drive(landmarks: np.ndarray, landmark_ids: np.ndarray | None = None, *, rng:
         if idx.size:
             d = lm[idx]
             b = (np.arctan2(d[:, 1] - y, d[:, 0] - x) - th + math.pi) % _TWO_PI - math.pi
-            idx = idx[np.abs(b) <= half_fov]
+            idx = idx[in_field_of_view(b, fov, fov_bug=fov_bug)]
             idx = idx[np.argsort(ids[idx], kind="stable")] if sort_ids else np.sort(idx)
             unseen[idx] = False
         vis.append(idx)

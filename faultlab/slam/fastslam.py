@@ -128,6 +128,7 @@ import numpy as np
 from faultlab.config import Option, Settings
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
+from faultlab.slam.sharing import correct_in_sharer_order
 from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
 from faultlab.slam.streams import unit_streams
@@ -473,6 +474,8 @@ class FastSlam(SlamAdapter):
         pb = np.take(P_store.reshape(4, cap * n), flat, axis=1).reshape(2, 2, k, n)
         mu = mb.transpose(2, 1, 0)  # (N, k, 2) view
         P = pb.transpose(3, 2, 0, 1)  # (N, k, 2, 2) view
+        if st.sequential_sharers and np.unique(st.owner).size < n:
+            return self._correct_in_sharer_order(st, poses, cols, seen, z, mu, P, mu_store, P_store, anc)
         new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
         new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
         if new_cols is not None:
@@ -515,5 +518,29 @@ class FastSlam(SlamAdapter):
             wflat = owner[None, :] + base
             mu_store.reshape(2, cap * n)[:, wflat] = mu_new
             P_store.reshape(4, cap * n)[:, wflat] = P_new.reshape(4, k, n)
+        anc[:, cols] = owner[:, None]
+        return st, logw
+
+    def _correct_in_sharer_order(self, st: ParticleState, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                                 z: np.ndarray, mu: np.ndarray, P: np.ndarray, mu_store: np.ndarray,
+                                 P_store: np.ndarray, anc: np.ndarray) -> tuple[ParticleState, np.ndarray]:
+        """Correction when particles share storage rows and update them one after another.
+
+        Only reached with ``state.sequential_sharers`` (shallow-copy resampling) and at least
+        two particles on one row; see :mod:`faultlab.slam.sharing`.
+        """
+        n, cap = st.mu.shape[:2]
+        k = cols.size
+        logw, mu_new, P_new = correct_in_sharer_order(self._steps, st.logw, st.owner, poses, z, seen, mu, P,
+                                                      self._Q)
+        top = logw.max()
+        if not math.isfinite(top):
+            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
+        logw = logw - top
+        logw -= math.log(np.exp(logw).sum())
+        owner = np.asarray(st.owner)
+        wflat = owner[None, :] + (cols * n)[:, None]  # sharers write equal values to their common row
+        mu_store.reshape(2, cap * n)[:, wflat] = mu_new.transpose(2, 1, 0)
+        P_store.reshape(4, cap * n)[:, wflat] = P_new.transpose(2, 3, 1, 0).reshape(4, k, n)
         anc[:, cols] = owner[:, None]
         return st, logw
