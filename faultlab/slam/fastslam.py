@@ -120,17 +120,19 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Callable, ClassVar
 
 import numpy as np
 
 from faultlab.config import Option, Settings
-from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
+from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
+from faultlab.slam.bookkeeping import UnitSlam, UnitTable
+from faultlab.slam.sharing import correct_in_sharer_order
 from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
@@ -181,7 +183,7 @@ class FastSlamConfig(Settings):
 
 
 @dataclass(frozen=True)
-class FastSlamSteps:
+class FastSlamSteps(UnitTable):
     """The replaceable units of FastSLAM 1.0 (see the table in the module docstring).
 
     Every field is a plain function; :data:`REFERENCE_STEPS` holds the reference
@@ -210,20 +212,6 @@ class FastSlamSteps:
     resample: Callable = _units.resample
     apply_resample: Callable = _units.apply_resample
     extract_map: Callable = _units.extract_map
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            if not callable(getattr(self, f.name)):
-                raise ConfigError(f"FastSlamSteps.{f.name} must be callable, got {getattr(self, f.name)!r}")
-
-    @classmethod
-    def unit_names(cls) -> tuple[str, ...]:
-        """Names of the replaceable units, in algorithm order."""
-        return tuple(f.name for f in fields(cls))
-
-    def replaced(self) -> tuple[str, ...]:
-        """Names of the units that differ from :data:`REFERENCE_STEPS`."""
-        return tuple(n for n in self.unit_names() if getattr(self, n) is not getattr(REFERENCE_STEPS, n))
 
 
 #: The reference FastSLAM 1.0 units.
@@ -294,7 +282,7 @@ class BatchUnsupported(SlamOutputError):
     """
 
 
-class FastSlam(SlamAdapter):
+class FastSlam(UnitSlam):
     """Reference FastSLAM 1.0 (known correspondences) as a :class:`SlamAdapter`.
 
     Runs one filter (:meth:`reset`) or several independent repetitions in one vectorised filter
@@ -309,42 +297,20 @@ class FastSlam(SlamAdapter):
 
     name = "fastslam1"
     supports_batch: ClassVar[bool] = True
+    config_type = FastSlamConfig
+    steps_type = FastSlamSteps
+    reference_steps = REFERENCE_STEPS
 
-    def __init__(self, config: FastSlamConfig = FastSlamConfig(), *, steps: FastSlamSteps = REFERENCE_STEPS):
-        if not isinstance(config, FastSlamConfig):
-            raise ConfigError(f"FastSlam: config must be a FastSlamConfig, got {type(config).__name__}")
-        if not isinstance(steps, FastSlamSteps):
-            raise ConfigError(f"FastSlam: steps must be a FastSlamSteps, got {type(steps).__name__}")
-        self._config = config
-        self._steps = steps
-        self._Q = config.Q
+    def __init__(self, config: FastSlamConfig | None = None, *, steps: FastSlamSteps | None = None):
+        super().__init__(config, steps=steps)
+        self._Q = self._config.Q
         self._started = False
         self._batched_steps: dict[int, FastSlamSteps] = {}
-
-    # -- configuration -------------------------------------------------------------------------
-
-    @property
-    def config(self) -> FastSlamConfig:
-        return self._config
-
-    @property
-    def steps(self) -> FastSlamSteps:
-        return self._steps
-
-    def with_steps(self, steps: FastSlamSteps) -> "FastSlam":
-        """A new, un-reset FastSlam with the same config and other units."""
-        return type(self)(self._config, steps=steps)
-
-    def __repr__(self) -> str:
-        changed = self._steps.replaced()
-        return f"FastSlam({self._config!r}, replaced={list(changed)})"
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        if not isinstance(rng, np.random.Generator):
-            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        self._start(pose, [rng], isolate=False)
+        self._start(self._start_pose(pose, rng), [rng], isolate=False)
 
     def reset_batch(self, pose: np.ndarray, *, rngs: Sequence[np.random.Generator]) -> None:
         """Start one independent filter per generator (repetition ``i`` uses ``rngs[i]``).
@@ -366,7 +332,7 @@ class FastSlam(SlamAdapter):
             if not isinstance(rng, np.random.Generator):
                 raise SlamInputError(f"{self.name}: rngs[{i}] must be a numpy.random.Generator, "
                                      f"got {type(rng).__name__}")
-        self._start(pose, rngs, isolate=True)
+        self._start(self._start_pose(pose, rngs[0]), rngs, isolate=True)
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
         if not self._started:
@@ -479,12 +445,8 @@ class FastSlam(SlamAdapter):
         """One stream per random unit, keyed by name (common random numbers that survive a fault)."""
         return unit_streams(rng, self._steps.stream_units)
 
-    def _start(self, pose, rngs: list[np.random.Generator], *, isolate: bool) -> None:
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        p = p.copy()
-        p[2] = float(_units.wrap_heading(p[2]))
+    def _start(self, p: np.ndarray, rngs: list[np.random.Generator], *, isolate: bool) -> None:
+        """Set up ``len(rngs)`` filters at the validated start pose ``p``."""
         n, b = self._config.n_particles, len(rngs)
         cap = 16
         self._n = n
@@ -506,6 +468,7 @@ class FastSlam(SlamAdapter):
         self._anc = self._local_ancestry(b, cap)
         self._lineage = [self._ident] * b
         self._owner = [self._ident] * b
+        self._sharers = [False] * b  # ParticleState.sequential_sharers of each filter
         self._sorted_ids = np.empty(0, dtype=np.intp)  # lookup: sorted ids ...
         self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
         self._offsets = None  # storage offset of each particle's filter, (B N,), when B > 1
@@ -553,7 +516,8 @@ class FastSlam(SlamAdapter):
         sl = self._slice(j)
         return ParticleState(poses=self._poses[sl], logw=self._logw[sl], ids=self._ids,
                              mu=self._mu[:, :, sl].transpose(2, 1, 0), P=self._P[:, :, :, sl].transpose(3, 2, 0, 1),
-                             anc=self._anc[sl], lineage=self._lineage[j], owner=self._owner[j])
+                             anc=self._anc[sl], lineage=self._lineage[j], owner=self._owner[j],
+                             sequential_sharers=self._sharers[j])
 
     def _store(self, j: int, given: ParticleState, st: ParticleState) -> None:
         """Write the state a per-filter unit returned for slot ``j`` back into the batch's arrays."""
@@ -578,6 +542,7 @@ class FastSlam(SlamAdapter):
                 self._logw[sl] = st.logw
         self._lineage[j] = st.lineage
         self._owner[j] = st.owner
+        self._sharers[j] = bool(st.sequential_sharers)
         # landmark storage that the unit replaced (another layout, a deep copy) is copied back into the batch's
         cap = self._mu.shape[1]
         for name, shape in (("mu", (n, cap, 2)), ("P", (n, cap, 2, 2)), ("anc", (n, cap))):
@@ -605,7 +570,7 @@ class FastSlam(SlamAdapter):
         self._mu = self._mu[:, :, rows]
         self._P = self._P[:, :, :, rows]
         self._anc = self._anc[rows]
-        for name in ("_reps", "_streams", "_lineage", "_owner"):
+        for name in ("_reps", "_streams", "_lineage", "_owner", "_sharers"):
             setattr(self, name, [getattr(self, name)[j] for j in keep])
         self._dead = []
         self._offsets = None
@@ -686,7 +651,7 @@ class FastSlam(SlamAdapter):
         observation) arrays are handled as (k, B N) blocks (the transpose of the units' (B N, k)
         views), matching the storage layout.
         """
-        Q, n = self._Q, self._n
+        n = self._n
         slots = len(self._reps)
         bn = slots * n
         mu_store, P_store, anc = self._mu, self._P, self._anc
@@ -711,6 +676,31 @@ class FastSlam(SlamAdapter):
         flat = anc[:, cols].T + base  # (k, B N) positions in the flattened storage
         mb = np.take(mu_store.reshape(2, cap * bn), flat, axis=1)  # (2, k, B N), a fresh copy
         pb = np.take(P_store.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, k, bn)
+        # filters whose particles share storage rows and update them one after another
+        sharers = [j for j in range(slots) if self._sharers[j] and np.unique(self._owner[j]).size < n]
+        if len(sharers) < slots:
+            logw = self._correct_in_parallel(steps, poses, cols, seen, z, mb, pb, base, skip=sharers)
+        else:
+            logw = np.array(self._logw)
+        for j in sharers:
+            self._call(j, self._correct_in_sharer_order, j, poses, cols, seen, z, mb, pb, base, logw)
+        return logw
+
+    def _correct_in_parallel(self, steps: FastSlamSteps, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                             z: np.ndarray, mb: np.ndarray, pb: np.ndarray, base: np.ndarray, *,
+                             skip: list[int]) -> np.ndarray:
+        """The reference correction of all particles at once from the gathered (2, k, B N) blocks.
+
+        Every particle is corrected from the stored values and writes its own row (sharers of a
+        row: the last particle's values win).  The weights of the filters in ``skip`` are left
+        as they were.
+        """
+        Q, n = self._Q, self._n
+        mu_store, P_store, anc = self._mu, self._P, self._anc
+        slots = len(self._reps)
+        bn = slots * n
+        cap = mu_store.shape[1]
+        k = cols.size
         mu = mb.transpose(2, 1, 0)  # (B N, k, 2) view
         P = pb.transpose(3, 2, 0, 1)  # (B N, k, 2, 2) view
         new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
@@ -734,13 +724,15 @@ class FastSlam(SlamAdapter):
             if logw is _FAILED:
                 logw = self._logw
         else:
-            logw = np.empty(bn)
+            logw = np.array(self._logw)
             for j in range(slots):
+                if j in skip:
+                    continue
                 sl = self._slice(j)
                 lw = self._call(j, self._weights, self._logw[sl], loglik[sl], known[sl])
                 if lw is _FAILED:
-                    lw = self._logw[sl]
-                elif lw.shape != (n,):
+                    continue
+                if lw.shape != (n,):
                     raise BatchUnsupported(f"{self.name}: combine_weights returned shape {lw.shape}, expected "
                                            f"({n},); run the repetitions one at a time")
                 logw[sl] = lw
@@ -769,6 +761,31 @@ class FastSlam(SlamAdapter):
             P_store.reshape(4, cap * bn)[:, wflat] = P_new.reshape(4, k, bn)
         anc[:, cols] = owner[:, None]
         return logw
+
+    def _correct_in_sharer_order(self, j: int, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                                 z: np.ndarray, mb: np.ndarray, pb: np.ndarray, base: np.ndarray,
+                                 logw: np.ndarray) -> None:
+        """Correction of the filter in slot ``j``, whose particles share rows and update them in turn.
+
+        Only reached with ``sequential_sharers`` (shallow-copy resampling) and at least two
+        particles on one row; see :mod:`faultlab.slam.sharing`.  Writes the filter's normalised
+        log weights into ``logw`` and its landmarks into the storage.
+        """
+        n = self._n
+        sl = self._slice(j)
+        mu_store, P_store, anc = self._mu, self._P, self._anc
+        bn = mu_store.shape[2]
+        cap = mu_store.shape[1]
+        k = cols.size
+        owner = np.asarray(self._owner[j])
+        lw, mu_new, P_new = correct_in_sharer_order(self._steps, self._logw[sl], owner, poses[sl], z, seen,
+                                                    mb[:, :, sl].transpose(2, 1, 0),
+                                                    pb[:, :, :, sl].transpose(3, 2, 0, 1), self._Q)
+        logw[sl] = self._normalise(np.asarray(lw, dtype=float))
+        wflat = owner[None, :] + base[:, sl]  # sharers write equal values to their common row
+        mu_store.reshape(2, cap * bn)[:, wflat] = np.asarray(mu_new).transpose(2, 1, 0)
+        P_store.reshape(4, cap * bn)[:, wflat] = np.asarray(P_new).transpose(2, 3, 1, 0).reshape(4, k, n)
+        anc[sl, cols] = owner[:, None]
 
     def _weights(self, logw: np.ndarray, loglik: np.ndarray, known: np.ndarray) -> np.ndarray:
         """One filter's new normalised log weights: ``combine_weights``, then log-sum-exp."""
