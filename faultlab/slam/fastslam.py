@@ -297,6 +297,10 @@ class FastSlam(UnitSlam):
 
     name = "fastslam1"
     supports_batch: ClassVar[bool] = True
+    #: Particle-observation pairs per call of a particle unit in a batch: the filters of a batch are
+    #: corrected in blocks of about this many pairs (whole filters, at least one), which keeps the
+    #: units' work arrays in the cache and below the allocator's mmap threshold.
+    block_pairs: ClassVar[int] = 16384
     config_type = FastSlamConfig
     steps_type = FastSlamSteps
     reference_steps = REFERENCE_STEPS
@@ -647,15 +651,14 @@ class FastSlam(UnitSlam):
                  obs: Observations) -> np.ndarray:
         """Correction for the step's observations; updates the storage in place.
 
-        Returns the normalised log weights of all filters (B N,).  Internally the (particle,
-        observation) arrays are handled as (k, B N) blocks (the transpose of the units' (B N, k)
-        views), matching the storage layout.
+        Returns the normalised log weights of all filters (B N,).  The filters are corrected in
+        blocks of consecutive filters of about :attr:`block_pairs` particle-observation pairs
+        (:meth:`_correct_block`); a filter whose particles share rows that they update in turn
+        is corrected on its own (:meth:`_correct_in_sharer_order`).
         """
         n = self._n
         slots = len(self._reps)
-        bn = slots * n
-        mu_store, P_store, anc = self._mu, self._P, self._anc
-        cap = mu_store.shape[1]
+        anc = self._anc
         k = cols.size
         C = self._ids.size
         # materialise pending resamplings (lineage -> identity), O(N C) ints, only after a resampling
@@ -668,77 +671,93 @@ class FastSlam(UnitSlam):
         z = np.empty((k, 2))
         z[:, 0] = obs.ranges
         z[:, 1] = obs.bearings
-        base = (cols * bn)[:, None]
-        if slots > 1:  # each filter's rows of the storage start at its slot's offset
-            if self._offsets is None:
-                self._offsets = np.repeat(np.arange(slots, dtype=np.intp) * n, n)
-            base = base + self._offsets
-        flat = anc[:, cols].T + base  # (k, B N) positions in the flattened storage
-        mb = np.take(mu_store.reshape(2, cap * bn), flat, axis=1)  # (2, k, B N), a fresh copy
-        pb = np.take(P_store.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, k, bn)
-        # filters whose particles share storage rows and update them one after another
-        sharers = [j for j in range(slots) if self._sharers[j] and np.unique(self._owner[j]).size < n]
-        if len(sharers) < slots:
-            logw = self._correct_in_parallel(steps, poses, cols, seen, z, mb, pb, base, skip=sharers)
-        else:
-            logw = np.array(self._logw)
-        for j in sharers:
-            self._call(j, self._correct_in_sharer_order, j, poses, cols, seen, z, mb, pb, base, logw)
+        sharers = {j for j in range(slots) if self._sharers[j] and np.unique(self._owner[j]).size < n}
+        logw = np.array(self._logw)
+        size = max(1, self.block_pairs // (n * k))  # filters per block
+        start = 0
+        while start < slots:
+            if start in sharers:
+                self._call(start, self._correct_in_sharer_order, start, poses, cols, seen, z, logw)
+                start += 1
+                continue
+            stop = start + 1
+            while stop < slots and stop - start < size and stop not in sharers:
+                stop += 1
+            self._correct_block(steps, start, stop, poses, cols, seen, z, logw)
+            start = stop
         return logw
 
-    def _correct_in_parallel(self, steps: FastSlamSteps, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
-                             z: np.ndarray, mb: np.ndarray, pb: np.ndarray, base: np.ndarray, *,
-                             skip: list[int]) -> np.ndarray:
-        """The reference correction of all particles at once from the gathered (2, k, B N) blocks.
+    def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The stored landmarks of ``cols`` for the particles of slots ``start .. stop - 1``.
+
+        Returns ``(mb (2, k, M), pb (2, 2, k, M), base (k, M) or (k, 1))``, ``M`` the block's
+        particles: fresh copies of the means and covariances, and the storage offset of each
+        (column, particle's filter) in the flattened (component, column x particle) storage.
+        """
+        n = self._n
+        bn = self._mu.shape[2]
+        cap = self._mu.shape[1]
+        p0, p1 = start * n, stop * n
+        base = (cols * bn)[:, None]
+        if bn > n:  # each filter's rows of the storage start at its slot's offset
+            if self._offsets is None:
+                self._offsets = np.repeat(np.arange(bn // n, dtype=np.intp) * n, n)
+            base = base + self._offsets[p0:p1]
+        flat = self._anc[p0:p1, cols].T + base  # (k, M) positions in the flattened storage
+        mb = np.take(self._mu.reshape(2, cap * bn), flat, axis=1)  # (2, k, M), a fresh copy
+        pb = np.take(self._P.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, cols.size, p1 - p0)
+        return mb, pb, base
+
+    def _correct_block(self, steps: FastSlamSteps, start: int, stop: int, poses: np.ndarray, cols: np.ndarray,
+                       seen: np.ndarray, z: np.ndarray, logw: np.ndarray) -> None:
+        """The reference correction of the particles of slots ``start .. stop - 1``, all at once.
 
         Every particle is corrected from the stored values and writes its own row (sharers of a
-        row: the last particle's values win).  The weights of the filters in ``skip`` are left
-        as they were.
+        row: the last particle's values win).  Writes the block's normalised log weights into
+        ``logw`` (a filter that fails keeps its old ones and is dropped after the step).
+        Internally the (particle, observation) arrays are handled as (k, M) blocks (the
+        transpose of the units' (M, k) views), matching the storage layout.
         """
         Q, n = self._Q, self._n
-        mu_store, P_store, anc = self._mu, self._P, self._anc
-        slots = len(self._reps)
-        bn = slots * n
+        mu_store, P_store = self._mu, self._P
+        bn = mu_store.shape[2]
         cap = mu_store.shape[1]
         k = cols.size
-        mu = mb.transpose(2, 1, 0)  # (B N, k, 2) view
-        P = pb.transpose(3, 2, 0, 1)  # (B N, k, 2, 2) view
+        p0, p1 = start * n, stop * n
+        m_rows = p1 - p0
+        mb, pb, base = self._gather(start, stop, cols)
+        x = poses if m_rows == poses.shape[0] else poses[p0:p1]
+        mu = mb.transpose(2, 1, 0)  # (M, k, 2) view
+        P = pb.transpose(3, 2, 0, 1)  # (M, k, 2, 2) view
         new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
         new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
         if new_cols is not None:
             # initialise where new (only the observations with at least one new pair)
-            mu_i, P_i = steps.init_landmarks(poses, z[new_cols], Q, wrap=steps.wrap_bearing)
+            mu_i, P_i = steps.init_landmarks(x, z[new_cols], Q, wrap=steps.wrap_bearing)
             mi = np.asarray(mu_i, dtype=float).transpose(2, 1, 0)
             pi = np.asarray(P_i, dtype=float).transpose(2, 3, 1, 0)
             m = new[:, new_cols].T
             mb[:, new_cols] = np.where(m, mi, mb[:, new_cols])
             pb[:, :, new_cols] = np.where(m, pi, pb[:, :, new_cols])
-        zhat, H = steps.predict_measurement(poses, mu)
+        zhat, H = steps.predict_measurement(x, mu)
         nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
         S = steps.innovation_covariance(H, P, Q)
         loglik = steps.log_likelihood(nu, S)
         known = ~new
         # weights, filter by filter: combine_weights, then normalise (log-sum-exp)
-        if slots == 1:
-            logw = self._call(0, self._weights, self._logw, loglik, known)
-            if logw is _FAILED:
-                logw = self._logw
-        else:
-            logw = np.array(self._logw)
-            for j in range(slots):
-                if j in skip:
-                    continue
-                sl = self._slice(j)
-                lw = self._call(j, self._weights, self._logw[sl], loglik[sl], known[sl])
-                if lw is _FAILED:
-                    continue
-                if lw.shape != (n,):
-                    raise BatchUnsupported(f"{self.name}: combine_weights returned shape {lw.shape}, expected "
-                                           f"({n},); run the repetitions one at a time")
-                logw[sl] = lw
+        for j in range(start, stop):
+            sl = self._slice(j)
+            local = slice(sl.start - p0, sl.stop - p0)
+            lw = self._call(j, self._weights, self._logw[sl], loglik[local], known[local])
+            if lw is _FAILED:
+                continue
+            if bn > n and np.shape(lw) != (n,):
+                raise BatchUnsupported(f"{self.name}: combine_weights returned shape {np.shape(lw)}, expected "
+                                       f"({n},); run the repetitions one at a time")
+            logw[sl] = lw
         mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
-        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, B N)
-        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, B N)
+        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, M)
+        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, M)
         if new_cols is not None:
             # new pairs keep their initial values
             mu_new = mu_new.copy()
@@ -747,24 +766,22 @@ class FastSlam(UnitSlam):
             mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
             P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
         # write every particle's estimate of the observed columns into its own storage row
-        owners = self._owner
+        owners = self._owner[start:stop]
         if all(o is self._ident or np.array_equal(o, self._ident) for o in owners):
             # rows of the (component, column) x particle views of the storage: contiguous row copies
             rows = cols + (cap * np.arange(4))[:, None]
-            mu_store.reshape(2 * cap, bn)[rows[:2].ravel()] = mu_new.reshape(2 * k, bn)
-            P_store.reshape(4 * cap, bn)[rows.ravel()] = P_new.reshape(4 * k, bn)
-            owner = owners[0] if slots == 1 else np.tile(self._ident, slots)
+            mu_store.reshape(2 * cap, bn)[rows[:2].ravel(), p0:p1] = mu_new.reshape(2 * k, m_rows)
+            P_store.reshape(4 * cap, bn)[rows.ravel(), p0:p1] = P_new.reshape(4 * k, m_rows)
+            owner = owners[0] if len(owners) == 1 else np.tile(self._ident, len(owners))
         else:
-            owner = np.asarray(owners[0]) if slots == 1 else np.concatenate(owners)
+            owner = np.asarray(owners[0]) if len(owners) == 1 else np.concatenate(owners)
             wflat = owner[None, :] + base  # sharers of a row: the last particle's values win
             mu_store.reshape(2, cap * bn)[:, wflat] = mu_new
-            P_store.reshape(4, cap * bn)[:, wflat] = P_new.reshape(4, k, bn)
-        anc[:, cols] = owner[:, None]
-        return logw
+            P_store.reshape(4, cap * bn)[:, wflat] = P_new.reshape(4, k, m_rows)
+        self._anc[p0:p1, cols] = owner[:, None]
 
     def _correct_in_sharer_order(self, j: int, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
-                                 z: np.ndarray, mb: np.ndarray, pb: np.ndarray, base: np.ndarray,
-                                 logw: np.ndarray) -> None:
+                                 z: np.ndarray, logw: np.ndarray) -> None:
         """Correction of the filter in slot ``j``, whose particles share rows and update them in turn.
 
         Only reached with ``sequential_sharers`` (shallow-copy resampling) and at least two
@@ -773,19 +790,19 @@ class FastSlam(UnitSlam):
         """
         n = self._n
         sl = self._slice(j)
-        mu_store, P_store, anc = self._mu, self._P, self._anc
+        mu_store, P_store = self._mu, self._P
         bn = mu_store.shape[2]
         cap = mu_store.shape[1]
         k = cols.size
+        mb, pb, base = self._gather(j, j + 1, cols)
         owner = np.asarray(self._owner[j])
         lw, mu_new, P_new = correct_in_sharer_order(self._steps, self._logw[sl], owner, poses[sl], z, seen,
-                                                    mb[:, :, sl].transpose(2, 1, 0),
-                                                    pb[:, :, :, sl].transpose(3, 2, 0, 1), self._Q)
+                                                    mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
         logw[sl] = self._normalise(np.asarray(lw, dtype=float))
-        wflat = owner[None, :] + base[:, sl]  # sharers write equal values to their common row
+        wflat = owner[None, :] + base  # sharers write equal values to their common row
         mu_store.reshape(2, cap * bn)[:, wflat] = np.asarray(mu_new).transpose(2, 1, 0)
         P_store.reshape(4, cap * bn)[:, wflat] = np.asarray(P_new).transpose(2, 3, 1, 0).reshape(4, k, n)
-        anc[sl, cols] = owner[:, None]
+        self._anc[sl, cols] = owner[:, None]
 
     def _weights(self, logw: np.ndarray, loglik: np.ndarray, known: np.ndarray) -> np.ndarray:
         """One filter's new normalised log weights: ``combine_weights``, then log-sum-exp."""
