@@ -256,10 +256,13 @@ _PARTICLE_ARGS: dict[str, tuple[int, ...]] = {
 _FAILED = object()  # a per-filter call that raised (the filter is dropped at the end of the step)
 
 
-def _looped(unit: Callable, positions: tuple[int, ...], n: int, n_filters: int) -> Callable:
+def _looped(unit: Callable, positions: tuple[int, ...], n: int) -> Callable:
     """``unit`` called once per filter on its ``n`` particles, outputs stacked along the particle axis."""
 
     def per_filter(*args, **kwargs):
+        n_filters = len(args[positions[0]]) // n
+        if n_filters == 1:
+            return unit(*args, **kwargs)
         outs = []
         for j in range(n_filters):
             part = list(args)
@@ -270,6 +273,7 @@ def _looped(unit: Callable, positions: tuple[int, ...], n: int, n_filters: int) 
             return tuple(np.concatenate([np.asarray(o[i]) for o in outs]) for i in range(len(outs[0])))
         return np.concatenate([np.asarray(o) for o in outs])
 
+    per_filter.filter_wise = True
     return per_filter
 
 
@@ -309,7 +313,7 @@ class FastSlam(UnitSlam):
         super().__init__(config, steps=steps)
         self._Q = self._config.Q
         self._started = False
-        self._batched_steps: dict[int, FastSlamSteps] = {}
+        self._batched_steps: FastSlamSteps | None = None
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
@@ -492,14 +496,12 @@ class FastSlam(UnitSlam):
         """The units for ``slots`` filters: particle units marked filter-wise are looped per filter."""
         if slots == 1:
             return self._steps
-        steps = self._batched_steps.get(slots)
-        if steps is None:
-            looped = {name: _looped(getattr(self._steps, name), pos, self._n, slots)
+        if self._batched_steps is None:
+            looped = {name: _looped(getattr(self._steps, name), pos, self._n)
                       for name, pos in _PARTICLE_ARGS.items()
                       if getattr(getattr(self._steps, name), "filter_wise", False)}
-            steps = dataclasses.replace(self._steps, **looped) if looped else self._steps
-            self._batched_steps[slots] = steps
-        return steps
+            self._batched_steps = dataclasses.replace(self._steps, **looped) if looped else self._steps
+        return self._batched_steps
 
     def _call(self, j: int, fn: Callable, *args, **kwargs):
         """Call ``fn`` on behalf of the filter in slot ``j``; in a batch, its failure ends only that filter."""
@@ -578,7 +580,6 @@ class FastSlam(UnitSlam):
             setattr(self, name, [getattr(self, name)[j] for j in keep])
         self._dead = []
         self._offsets = None
-        self._batched_steps = {}
 
     def _estimate(self, j: int) -> Estimate:
         st = self._filter_state(j)
