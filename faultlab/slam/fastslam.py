@@ -113,6 +113,42 @@ The estimate is the highest-weight particle: its pose and its map
 the lowest particle index.  This follows the "best particle" convention; since
 resampling soon gives all particles a common ancestor, their maps are nearly
 identical in practice (their map errors typically agree to a fraction of a mm).
+
+Batched repetitions
+-------------------
+:meth:`FastSlam.reset_batch` starts ``K`` independent filters (repetitions), one
+per generator, and every :meth:`~FastSlam.update` advances all of them;
+:meth:`FastSlam.estimates` returns one estimate per repetition
+(:func:`faultlab.slam.protocol.run_slam_batch` drives a whole scenario).  All
+repetitions of a test case see the same controls and observations, so the
+``K`` filters are stored as one particle set of ``K N`` particles whose
+landmark columns align: filter ``b`` is rows ``b N .. (b + 1) N - 1`` of the
+poses and weights and particles ``b N ..`` of the storage buffers, with its own
+ancestry rows (numbered from 0 within the filter), lineage and owner.  The
+particle units (:data:`faultlab.slam.units.PARTICLE_UNITS`) run once per step
+on blocks of whole filters of about :attr:`FastSlam.block_pairs`
+particle-observation pairs (all ``K N`` particles at once when the step has
+few observations), which removes the per-call overhead of ``K`` small calls
+without pushing the work arrays out of the cache; the per-filter units
+(:data:`faultlab.slam.units.FILTER_UNITS`: ``sample_controls``,
+``combine_weights``, ``effective_sample_size``, ``resample``,
+``apply_resample``, ``extract_map``) and the weight normalisation run once per
+filter, each filter with its own streams derived from its own generator.  Every
+elementwise result is computed by the same operations on the same values as in
+a single filter, so repetition ``b`` is bit-identical to a filter reset with
+the same generator (tested for the reference and every built-in fault).
+:meth:`FastSlam.reset` is the batch of one: the single-filter path is this
+same code.  Which units see which particles, and the :func:`~faultlab.slam.units.filter_wise`
+fallback for a particle unit that looks across particles, are documented in
+:mod:`faultlab.slam.units`.
+
+A failure that belongs to one filter -- non-finite weights, or an exception in
+a unit called for that filter alone -- ends that repetition only (its entry of
+:meth:`~FastSlam.estimates` is the exception a single run would raise) and its
+particles leave the batch.  An exception in a unit that sees several filters
+propagates: the caller reruns the repetitions one at a time
+(:class:`BatchUnsupported` is raised when a replaced per-filter unit returns
+an output that cannot be stacked).
 """
 
 from __future__ import annotations
