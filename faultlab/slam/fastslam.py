@@ -126,10 +126,9 @@ landmark columns align: filter ``b`` is rows ``b N .. (b + 1) N - 1`` of the
 poses and weights and particles ``b N ..`` of the storage buffers, with its own
 ancestry rows (numbered from 0 within the filter), lineage and owner.  The
 particle units (:data:`faultlab.slam.units.PARTICLE_UNITS`) run once per step
-on blocks of whole filters of about :attr:`FastSlam.block_pairs`
-particle-observation pairs (all ``K N`` particles at once when the step has
-few observations), which removes the per-call overhead of ``K`` small calls
-without pushing the work arrays out of the cache; the per-filter units
+on all ``K N`` particles (in blocks of at most :attr:`FastSlam.block_pairs`
+particle-observation pairs), which removes the per-call overhead of ``K``
+small calls; the per-filter units
 (:data:`faultlab.slam.units.FILTER_UNITS`: ``sample_controls``,
 ``combine_weights``, ``effective_sample_size``, ``resample``,
 ``apply_resample``, ``extract_map``) and the weight normalisation run once per
@@ -337,10 +336,11 @@ class FastSlam(UnitSlam):
 
     name = "fastslam1"
     supports_batch: ClassVar[bool] = True
-    #: Particle-observation pairs per call of a particle unit in a batch: the filters of a batch are
-    #: corrected in blocks of about this many pairs (whole filters, at least one), which keeps the
-    #: units' work arrays in the cache and below the allocator's mmap threshold.
-    block_pairs: ClassVar[int] = 16384
+    #: Particle-observation pairs per call of a particle unit: the particles of a step (of one filter
+    #: or of a batch) are corrected in blocks of at most about this many pairs, which bounds the
+    #: units' work arrays (2 MiB each).  Smaller blocks do not pay: on the benchmark machine the
+    #: per-call overhead they add outweighs what the smaller arrays gain in cache.
+    block_pairs: ClassVar[int] = 1 << 18
     config_type = FastSlamConfig
     steps_type = FastSlamSteps
     reference_steps = REFERENCE_STEPS
@@ -688,10 +688,9 @@ class FastSlam(UnitSlam):
                  obs: Observations) -> np.ndarray:
         """Correction for the step's observations; updates the storage in place.
 
-        Returns the normalised log weights of all filters (B N,).  The filters are corrected in
-        blocks of consecutive filters of about :attr:`block_pairs` particle-observation pairs
-        (:meth:`_correct_block`); a filter whose particles share rows that they update in turn
-        is corrected on its own (:meth:`_correct_in_sharer_order`).
+        Returns the normalised log weights of all filters (B N,).  Consecutive filters are
+        corrected together (:meth:`_correct_filters`); a filter whose particles share rows that
+        they update in turn is corrected on its own (:meth:`_correct_in_sharer_order`).
         """
         n = self._n
         slots = len(self._reps)
@@ -710,7 +709,6 @@ class FastSlam(UnitSlam):
         z[:, 1] = obs.bearings
         sharers = {j for j in range(slots) if self._sharers[j] and np.unique(self._owner[j]).size < n}
         logw = np.array(self._logw)
-        size = max(1, self.block_pairs // (n * k))  # filters per block
         start = 0
         while start < slots:
             if start in sharers:
@@ -718,16 +716,16 @@ class FastSlam(UnitSlam):
                 start += 1
                 continue
             stop = start + 1
-            while stop < slots and stop - start < size and stop not in sharers:
+            while stop < slots and stop not in sharers:
                 stop += 1
-            self._correct_block(steps, start, stop, poses, cols, seen, z, logw)
+            self._correct_filters(steps, start, stop, poses, cols, seen, z, logw)
             start = stop
         return logw
 
     def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The stored landmarks of ``cols`` for the particles of slots ``start .. stop - 1``.
 
-        Returns ``(mb (2, k, M), pb (2, 2, k, M), base (k, M) or (k, 1))``, ``M`` the block's
+        Returns ``(mb (2, k, M), pb (2, 2, k, M), base (k, M) or (k, 1))``, ``M`` the filters'
         particles: fresh copies of the means and covariances, and the storage offset of each
         (column, particle's filter) in the flattened (component, column x particle) storage.
         """
@@ -745,17 +743,33 @@ class FastSlam(UnitSlam):
         pb = np.take(self._P.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, cols.size, p1 - p0)
         return mb, pb, base
 
-    def _correct_block(self, steps: FastSlamSteps, start: int, stop: int, poses: np.ndarray, cols: np.ndarray,
-                       seen: np.ndarray, z: np.ndarray, logw: np.ndarray) -> None:
-        """The reference correction of the particles of slots ``start .. stop - 1``, all at once.
+    def _blocks(self, m_rows: int, k: int) -> list[tuple[int, int]]:
+        """Row ranges that split ``m_rows`` particles into blocks of about :attr:`block_pairs` pairs.
 
-        Every particle is corrected from the stored values and writes its own row (sharers of a
-        row: the last particle's values win).  Writes the block's normalised log weights into
-        ``logw`` (a filter that fails keeps its old ones and is dropped after the step).
-        Internally the (particle, observation) arrays are handled as (k, M) blocks (the
-        transpose of the units' (M, k) views), matching the storage layout.
+        Blocks hold whole filters if a particle unit is declared filter-wise.
         """
-        Q, n = self._Q, self._n
+        count = max(1, -(-m_rows * k // self.block_pairs))
+        if count == 1:
+            return [(0, m_rows)]
+        size = -(-m_rows // count)
+        if any(getattr(getattr(self._steps, name), "filter_wise", False) for name in _PARTICLE_ARGS):
+            size = -(-size // self._n) * self._n
+        return [(b, min(b + size, m_rows)) for b in range(0, m_rows, size)]
+
+    def _correct_filters(self, steps: FastSlamSteps, start: int, stop: int, poses: np.ndarray, cols: np.ndarray,
+                         seen: np.ndarray, z: np.ndarray, logw: np.ndarray) -> None:
+        """The reference correction of the particles of slots ``start .. stop - 1``.
+
+        Every particle is corrected from the values stored before the step (all are gathered
+        first) and writes its own row (sharers of a row: the last particle's values win).  The
+        particle units run on blocks of at most about :attr:`block_pairs` particle-observation
+        pairs (:meth:`_correct_rows`); then ``combine_weights`` and the normalisation run filter
+        by filter, writing each filter's
+        weights into ``logw`` (a filter that fails keeps its old ones and leaves the batch after
+        the step).  Internally the (particle, observation) arrays are handled as (k, M) blocks
+        (the transpose of the units' (M, k) views), matching the storage layout.
+        """
+        n = self._n
         mu_store, P_store = self._mu, self._P
         bn = mu_store.shape[2]
         cap = mu_store.shape[1]
@@ -764,23 +778,20 @@ class FastSlam(UnitSlam):
         m_rows = p1 - p0
         mb, pb, base = self._gather(start, stop, cols)
         x = poses if m_rows == poses.shape[0] else poses[p0:p1]
-        mu = mb.transpose(2, 1, 0)  # (M, k, 2) view
-        P = pb.transpose(3, 2, 0, 1)  # (M, k, 2, 2) view
-        new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
-        new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
-        if new_cols is not None:
-            # initialise where new (only the observations with at least one new pair)
-            mu_i, P_i = steps.init_landmarks(x, z[new_cols], Q, wrap=steps.wrap_bearing)
-            mi = np.asarray(mu_i, dtype=float).transpose(2, 1, 0)
-            pi = np.asarray(P_i, dtype=float).transpose(2, 3, 1, 0)
-            m = new[:, new_cols].T
-            mb[:, new_cols] = np.where(m, mi, mb[:, new_cols])
-            pb[:, :, new_cols] = np.where(m, pi, pb[:, :, new_cols])
-        zhat, H = steps.predict_measurement(x, mu)
-        nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
-        S = steps.innovation_covariance(H, P, Q)
-        loglik = steps.log_likelihood(nu, S)
-        known = ~new
+        blocks = self._blocks(m_rows, k)
+        if len(blocks) == 1:
+            loglik, known, mu_new, P_new = self._correct_rows(steps, x, mb, pb, seen, z)
+        else:
+            loglik = np.empty((k, m_rows)).T
+            known = np.empty((k, m_rows), dtype=bool).T
+            mu_new = np.empty((2, k, m_rows))
+            P_new = np.empty((2, 2, k, m_rows))
+            for b0, b1 in blocks:
+                ll, kn, mn, pn = self._correct_rows(steps, x[b0:b1], mb[:, :, b0:b1], pb[:, :, :, b0:b1], seen, z)
+                loglik[b0:b1] = ll
+                known[b0:b1] = kn
+                mu_new[:, :, b0:b1] = mn
+                P_new[:, :, :, b0:b1] = pn
         # weights, filter by filter: combine_weights, then normalise (log-sum-exp)
         for j in range(start, stop):
             sl = self._slice(j)
@@ -792,16 +803,6 @@ class FastSlam(UnitSlam):
                 raise BatchUnsupported(f"{self.name}: combine_weights returned shape {np.shape(lw)}, expected "
                                        f"({n},); run the repetitions one at a time")
             logw[sl] = lw
-        mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
-        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, M)
-        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, M)
-        if new_cols is not None:
-            # new pairs keep their initial values
-            mu_new = mu_new.copy()
-            P_new = P_new.copy()
-            m = new[:, new_cols].T
-            mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
-            P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
         # write every particle's estimate of the observed columns into its own storage row
         owners = self._owner[start:stop]
         if all(o is self._ident or np.array_equal(o, self._ident) for o in owners):
@@ -816,6 +817,44 @@ class FastSlam(UnitSlam):
             mu_store.reshape(2, cap * bn)[:, wflat] = mu_new
             P_store.reshape(4, cap * bn)[:, wflat] = P_new.reshape(4, k, m_rows)
         self._anc[p0:p1, cols] = owner[:, None]
+
+    def _correct_rows(self, steps: FastSlamSteps, x: np.ndarray, mb: np.ndarray, pb: np.ndarray,
+                      seen: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The particle units on one block of particles (M' rows).
+
+        ``x`` (M', 3) are the predicted poses, ``mb`` (2, k, M') and ``pb`` (2, 2, k, M') the
+        gathered landmarks (new pairs are initialised in place).  Returns the log likelihoods
+        (M', k), which pairs are known (M', k), and the new means (2, k, M') and covariances
+        (2, 2, k, M') (the initial values where new).
+        """
+        Q = self._Q
+        mu = mb.transpose(2, 1, 0)  # (M', k, 2) view
+        P = pb.transpose(3, 2, 0, 1)  # (M', k, 2, 2) view
+        new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
+        new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
+        if new_cols is not None:
+            # initialise where new (only the observations with at least one new pair)
+            mu_i, P_i = steps.init_landmarks(x, z[new_cols], Q, wrap=steps.wrap_bearing)
+            mi = np.asarray(mu_i, dtype=float).transpose(2, 1, 0)
+            pi = np.asarray(P_i, dtype=float).transpose(2, 3, 1, 0)
+            m = new[:, new_cols].T
+            mb[:, new_cols] = np.where(m, mi, mb[:, new_cols])
+            pb[:, :, new_cols] = np.where(m, pi, pb[:, :, new_cols])
+        zhat, H = steps.predict_measurement(x, mu)
+        nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+        S = steps.innovation_covariance(H, P, Q)
+        loglik = steps.log_likelihood(nu, S)
+        mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
+        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, M')
+        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, M')
+        if new_cols is not None:
+            # new pairs keep their initial values
+            mu_new = mu_new.copy()
+            P_new = P_new.copy()
+            m = new[:, new_cols].T
+            mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
+            P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
+        return loglik, ~new, mu_new, P_new
 
     def _correct_in_sharer_order(self, j: int, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
                                  z: np.ndarray, logw: np.ndarray) -> None:
