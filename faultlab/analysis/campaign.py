@@ -37,8 +37,9 @@ def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
     """
     det = metadata.get("detection") or {}
     try:
-        rule = DetectionRule(**{k: det[k] for k in ("abs_mm", "rel") if k in det})
-    except (TypeError, FaultlabError) as exc:
+        rule = DetectionRule(**{k: det[k] for k in ("abs_mm", "rel", "rule", "alpha", "family")
+                                 if k in det})
+    except (TypeError, ValueError, FaultlabError) as exc:
         raise ResultsError(f"results metadata has an invalid detection rule {det!r} ({exc})") from exc
     return rule, bool(det)
 

@@ -44,7 +44,7 @@ from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.faults import resolve_variant
-from faultlab.metrics.detection import DetectionRule
+from faultlab.metrics.detection import FAMILIES, RULES, DetectionRule
 from faultlab.scenario.config import DEFAULT_MIN_DISTANCE, DEFAULT_N_STEPS, DEFAULT_SENSOR_RANGE
 from faultlab.slam.fastslam import FastSlamConfig
 from faultlab.slam.protocol import SlamAdapter
@@ -340,5 +340,14 @@ def _parse_detection(top: Table, source: str) -> DetectionRule:
         return DetectionRule()
     t = top.table("detection")
     d = DetectionRule()
-    t.check_unknown(tuple(d.to_dict()))
-    return DetectionRule(abs_mm=t.float("abs_mm", d.abs_mm, minimum=0.0), rel=t.float("rel", d.rel, minimum=0.0))
+    t.check_unknown(("abs_mm", "rel", "rule", "alpha", "family"))
+    choices = {}
+    for key, allowed in (("rule", RULES), ("family", FAMILIES)):
+        choices[key] = t.data.get(key, getattr(d, key))
+        if choices[key] not in allowed:
+            raise t.error(key, f"must be one of {', '.join(map(repr, allowed))}, got {choices[key]!r}")
+    alpha = t.float("alpha", d.alpha, positive=True)
+    if not alpha < 1:
+        raise t.error("alpha", f"must lie in (0, 1), got {alpha!r}")
+    return DetectionRule(abs_mm=t.float("abs_mm", d.abs_mm, minimum=0.0), rel=t.float("rel", d.rel, minimum=0.0),
+                         alpha=alpha, **choices)

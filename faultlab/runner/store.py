@@ -218,7 +218,7 @@ class ResultStore:
             "faultlab_version": __version__,
             "root_seed": experiment.seed,
             "metric": experiment.metric,
-            "detection": {"abs_mm": experiment.detection.abs_mm, "rel": experiment.detection.rel},
+            "detection": experiment.detection.to_dict(),
             "suites": list(experiment.suite_kinds),
             "variants": list(experiment.variants),
             "created": _now(),
