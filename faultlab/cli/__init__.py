@@ -23,6 +23,7 @@ COMMAND_MODULES = (
     "faultlab.cli.generate",  # generate
     "faultlab.cli.faults",  # faults
     "faultlab.cli.stats",  # paper-table, effects
+    "faultlab.cli.calibrate",  # calibrate
     "faultlab.cli.mutate",  # mutate list, mutate show
 )
 
