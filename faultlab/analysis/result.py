@@ -465,7 +465,7 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
             f"per repetition, a case detected when a strict majority of its judged repetitions detect")
     faults = verdicts[verdicts["fault"] != REPLICA]
     n_cj = int((faults["verdict"] == "cannot_judge").sum())
-    notes.append(Note("case_verdicts", f"Per-case verdicts by the campaign's rule ({rule.rule}): {test}; a crash "
+    notes.append(Note("verdicts", f"Per-case verdicts by the campaign's rule ({rule.rule}): {test}; a crash "
                                        f"or timeout of the faulty variant alone counts as detected; {n_cj} of "
                                        f"{len(faults)} (case, fault) pairs cannot be judged (baseline failed or too "
                                        f"few pairs) and are counted apart, never as misses."))

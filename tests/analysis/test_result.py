@@ -194,7 +194,7 @@ def test_notes_say_what_could_not_be_done_and_why(tmp_path):
     a = Analysis.from_frame(frame(rows), meta, paper_raw=tmp_path / "missing.csv")
     topics = [n.topic for n in a.notes]
     assert topics == ["metric", "equivalent_faults", "paper", "campaign", "coverage", "false_alarms", "oracle",
-                      "suite_comparisons", "case_verdicts", "replica_false_alarms"]
+                      "suite_comparisons", "verdicts", "replica_false_alarms"]
     text = {n.topic: n.text for n in a.notes}
     assert "primary metric is 'emd'" in text["metric"]
     assert text["equivalent_faults"].startswith("naive_resampling: every result is identical")
