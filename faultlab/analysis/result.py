@@ -33,6 +33,7 @@ from faultlab.analysis.schema import (
     BY_SUITE,
     CASE_COMPARISONS,
     CASE_RATES,
+    CLASS_EFFECTS,
     CASE_VERDICTS,
     COVERAGE,
     FALSE_ALARMS,
@@ -65,12 +66,14 @@ from faultlab.errors import ConfigError, FaultlabError, ResultsError
 from faultlab.runner import load_metadata, load_results
 from faultlab.stats.cases import (case_rates, compare_suites_by_case, compare_with_paper, replica_false_alarms,
                                   rule_verdicts)
+from faultlab.stats.class_effects import fit_class_effects
 from faultlab.stats.comparison import compare_suite_rates
 from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.stats.effects import fit_effects, validate_parameters
 from faultlab.stats.oracle import oracle_detections
 from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, paper_table, resolve_data_path
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
+from faultlab.space.case import PARAMETER_NAMES
 from faultlab.vocabulary import METRICS, REPLICA, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["Analysis", "Note", "analyse", "FORMAT_VERSION", "JSON_FILE", "BEYOND_THE_PAPER"]
@@ -83,7 +86,7 @@ JSON_FILE = "analysis.json"
 #: the table holds nothing to show.
 BEYOND_THE_PAPER: tuple[str, ...] = ("false_alarms", "oracle", "suite_comparisons", "parameter_effects",
                                       "case_verdicts", "case_rates", "case_comparisons", "replica_false_alarms",
-                                      "paper_comparisons")
+                                      "paper_comparisons", "class_effects")
 
 
 @dataclass(frozen=True)
@@ -133,7 +136,7 @@ class Analysis:
     ------
     jobs, cases, outcomes, detection_rates, by_suite, false_alarms, oracle, oracle_summary,
     suite_comparisons, parameter_effects, table2_cells, paper_rates, paper_by_suite, coverage,
-    runtimes, case_verdicts, case_rates, case_comparisons, replica_false_alarms, paper_comparisons : DataFrame
+    runtimes, case_verdicts, case_rates, case_comparisons, replica_false_alarms, paper_comparisons, class_effects : DataFrame
         Treat them as read-only.
     """
 
@@ -166,6 +169,7 @@ class Analysis:
     case_comparisons: pd.DataFrame
     replica_false_alarms: pd.DataFrame
     paper_comparisons: pd.DataFrame
+    class_effects: pd.DataFrame
 
     # ------------------------------------------------------------------ construction
 
@@ -214,7 +218,8 @@ class Analysis:
         coverage, coverage_note = _coverage(cases, metadata)
         beyond, beyond_notes = _beyond_the_paper(results, pairs, rates, rule=rule, alpha=alpha,
                                                  parameters=parameters, n_reps=results["rep"].nunique())
-        by_case, case_notes = _case_tables(results, pairs, metadata, rule=rule, alpha=alpha, paper=paper_tab)
+        by_case, case_notes = _case_tables(results, pairs, metadata, rule=rule, alpha=alpha, paper=paper_tab,
+                                           cases=cases, parameters=parameters)
         notes = (_rule_notes(metadata, stored, rule) + _equivalence_notes(equivalent) + [paper_note]
                  + _completeness_notes(metadata, len(results)) + [coverage_note] + beyond_notes + case_notes)
         return cls(
@@ -448,7 +453,7 @@ def _metric(metadata: Mapping) -> str:
 
 
 def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mapping, *, rule: DetectionRule,
-                 alpha: float,
+                 alpha: float, cases: pd.DataFrame, parameters,
                  paper: PaperTable | None) -> tuple[dict, list[Note]]:
     """The case-level tables: verdicts by the stored rule, rates and suite comparisons over cases, the A/A
     false alarms and the two-sample comparison with the paper's printed figures."""
@@ -495,9 +500,12 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
                                 "paper_k": (pr["reported_pct"].astype(float) / 100 * pr["n"]).round().astype(int)})
         pc, p_note = _guarded(PAPER_COMPARISONS, lambda: compare_with_paper(printed, rates, alpha=alpha),
                               "Comparison with the paper")
-    notes += [n for n in (r_note, c_note, f_note, p_note) if n is not None]
+    names = [p for p in PARAMETER_NAMES if f"class_{p}" in cases.columns]  # every Table I parameter, by class
+    eff, e_note = _guarded(CLASS_EFFECTS, lambda: fit_class_effects(faults, cases, names), "Class effects",
+                           (FaultlabError, ValueError, np.linalg.LinAlgError))
+    notes += [n for n in (r_note, c_note, f_note, p_note, e_note) if n is not None]
     tables = {"case_verdicts": verdicts, "case_rates": rates, "case_comparisons": cmp,
-              "replica_false_alarms": fa, "paper_comparisons": pc}
+              "replica_false_alarms": fa, "paper_comparisons": pc, "class_effects": eff}
     return tables, notes
 
 

@@ -28,6 +28,7 @@ import pandas as pd
 
 from faultlab.errors import ResultsError
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
+from faultlab.stats.class_effects import CLASS_EFFECT_COLUMNS
 from faultlab.stats.cases import (CASE_COMPARISON_COLUMNS, CASE_RATE_COLUMNS, CASE_VERDICT_COLUMNS,
                                   PAPER_COMPARISON_COLUMNS)
 from faultlab.stats.comparison import COMPARISON_COLUMNS
@@ -39,7 +40,8 @@ from faultlab.stats.rates import BY_SUITE_COLUMNS, FALSE_ALARM_COLUMNS, RATE_COL
 __all__ = ["TableSchema", "KINDS", "THIS_RUN", "PAPER", "ALL_VARIANTS", "TABLES"] + [
     "JOBS", "CASES", "OUTCOMES", "DETECTION_RATES", "BY_SUITE", "FALSE_ALARMS", "ORACLE", "ORACLE_SUMMARY",
     "SUITE_COMPARISONS", "PARAMETER_EFFECTS", "TABLE2_CELLS", "PAPER_RATES", "PAPER_BY_SUITE", "COVERAGE",
-    "RUNTIMES", "CASE_VERDICTS", "CASE_RATES", "CASE_COMPARISONS", "REPLICA_FALSE_ALARMS", "PAPER_COMPARISONS"]
+    "RUNTIMES", "CASE_VERDICTS", "CASE_RATES", "CASE_COMPARISONS", "REPLICA_FALSE_ALARMS", "PAPER_COMPARISONS",
+    "CLASS_EFFECTS"]
 
 #: ``source`` of rows from the analysed campaign.
 THIS_RUN = "this run"
@@ -56,6 +58,7 @@ _KIND_OF: dict[str, str] = {
     **{c: "str" for c in ("source", "suite", "variant", "fault", "status", "baseline_status", "outcome",
                           "missed", "suite_a", "suite_b", "term", "note", "parameter", "counts", "uncovered",
                           "rule", "verdict", "reason", "family", "method")},
+    **{c: "float" for c in ("epv", "lr_chi2")},
     **{c: "int" for c in ("run", "case", "rep", "n_cases", "n_reps", "n_jobs", "not_detected", "crash",
                           "timeout", "baseline_failed", "k", "n", "k_incl", "n_incl", "n_pairs",
                           "detected_pairs", "flagged", "n_faulty", "n_baseline", "k_a", "n_a", "k_b", "n_b",
@@ -282,8 +285,14 @@ PAPER_COMPARISONS = TableSchema.define(
     "(faultlab.stats.cases.compare_with_paper).", PAPER_COMPARISON_COLUMNS, k="int", n="int", paper_k="int",
     paper_n="int")
 
+CLASS_EFFECTS = TableSchema.define(
+    "class_effects", "Per fault and class indicator of a scenario parameter: logistic regression of the case "
+    "verdicts (ML, Firth where separated), the parameter's LR test with Holm over the fault's parameters, events "
+    "per predictor; a (model) row where too few data (faultlab.stats.class_effects.fit_class_effects).",
+    CLASS_EFFECT_COLUMNS, df="int")
+
 #: Every table of an Analysis, in the order they are saved.
 TABLES: tuple[TableSchema, ...] = (JOBS, CASES, OUTCOMES, DETECTION_RATES, BY_SUITE, FALSE_ALARMS, ORACLE,
                                    ORACLE_SUMMARY, SUITE_COMPARISONS, PARAMETER_EFFECTS, TABLE2_CELLS,
                                    PAPER_RATES, PAPER_BY_SUITE, COVERAGE, RUNTIMES, CASE_VERDICTS, CASE_RATES,
-                                   CASE_COMPARISONS, REPLICA_FALSE_ALARMS, PAPER_COMPARISONS)
+                                   CASE_COMPARISONS, REPLICA_FALSE_ALARMS, PAPER_COMPARISONS, CLASS_EFFECTS)

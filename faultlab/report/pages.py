@@ -39,6 +39,7 @@ from faultlab.report.tables import (
 from faultlab.runner import case_path
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
+from faultlab.stats.class_effects import MIN_EPV
 from faultlab.stats.verdict import min_pairs
 from faultlab.vocabulary import JobStatus
 
@@ -542,12 +543,36 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
                             "deviation. Also: python -m faultlab effects RESULTS.")
 
 
+def _class_effect_pages(analysis: Analysis) -> list[Figure]:
+    e = analysis.class_effects
+    if (e["term"] == "(model)").all():
+        return text_pages("Which classes drive detection (logistic regression over cases)",
+                          [f"- {variant_label(f)}: {n}" for f, n in zip(e["fault"], e["note"])]
+                          + [f"Class-indicator logistic regressions need at least {MIN_EPV:g} events per predictor; "
+                             "run more evaluation runs (cases are the unit, repetitions do not add events)."])
+    show = pd.DataFrame({
+        "fault": e["fault"].map(variant_label), "term": e["term"],
+        "detected/n": [f"{k}/{n}" for k, n in zip(e["n_detected"], e["n"])],
+        "EPV": [_g3(x) for x in e["epv"]], "fit": e["method"],
+        "odds ratio": [_g3(x) for x in e["odds_ratio"]], "LR chi2 (df)": [
+            "" if not math.isfinite(x) else f"{x:.3g} ({d})" for x, d in zip(e["lr_chi2"], e["df"])],
+        "p": [_g3(x) for x in e["p"]], "p (Holm)": [_g3(x) for x in e["p_holm"]], "note": e["note"],
+    })
+    return table_pages("Which classes drive detection (logistic regression over cases)", show, fontsize=7,
+                       max_rows=34,
+                       note=f"Per fault, the case verdicts ({analysis.rule.rule} rule; cannot-judge cases left out) "
+                            f"on class indicators of every Table I parameter (reference: its first class; rotation "
+                            f"error by magnitude). Maximum likelihood, Firth's penalised likelihood where the data "
+                            f"are separated; likelihood-ratio test per parameter, Holm over the fault's "
+                            f"parameters. Fits need {MIN_EPV:g} events per predictor (EPV).")
+
+
 #: Page renderer of each statistic beyond the paper, in the Analysis' order.
 _BEYOND_PAGES = {"false_alarms": _false_alarm_pages, "oracle": _oracle_pages,
                  "suite_comparisons": _suite_comparison_pages, "parameter_effects": _effect_pages,
                  "case_verdicts": _case_verdict_pages, "case_rates": _case_rate_pages,
                  "case_comparisons": _case_comparison_pages, "replica_false_alarms": _replica_false_alarm_pages,
-                 "paper_comparisons": _paper_comparison_pages}
+                 "paper_comparisons": _paper_comparison_pages, "class_effects": _class_effect_pages}
 
 
 #: Topics whose notes are caveats beside a table that still has something to show.
