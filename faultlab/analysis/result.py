@@ -580,6 +580,11 @@ def _beyond_the_paper(results: pd.DataFrame, pairs: pd.DataFrame, rates: pd.Data
         if orc_note is None and (tested.empty or int(tested["n_baseline"].max()) < 2):
             orc_note = needs_reps
     cmp, cmp_note = _guarded(SUITE_COMPARISONS, lambda: compare_suite_rates(rates, alpha=alpha), "Suite comparisons")
+    if cmp_note is None and n_reps > 1:
+        cmp_note = Note("suite_comparisons", f"Suite comparisons (Fisher's exact test) count jobs: with K = {n_reps} "
+                                             "repetitions the jobs of a case are not independent and these p values "
+                                             "fall with K on the same cases; the case-level comparisons (cases as "
+                                             "units, runs as clusters) are the ones to trust.")
     if cmp_note is None and cmp.empty:
         cmp_note = Note("suite_comparisons", "Suite comparisons (Fisher's exact test): no suite pair with usable "
                                              "jobs.")

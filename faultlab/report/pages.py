@@ -576,7 +576,7 @@ _BEYOND_PAGES = {"false_alarms": _false_alarm_pages, "oracle": _oracle_pages,
 
 
 #: Topics whose notes are caveats beside a table that still has something to show.
-_INFORMATIVE_NOTES = ("case_comparisons",)
+_INFORMATIVE_NOTES = ("case_comparisons", "suite_comparisons")
 
 
 def beyond_pages(analysis: Analysis) -> list[Figure]:

@@ -18,6 +18,12 @@ from faultlab.lazy import lazy_exports
 #: Public name -> submodule that defines it.  Submodules load on first use
 #: (PEP 562), so importing faultlab.stats (e.g. by the CLI) stays cheap.
 _EXPORTS = {
+    "cases": ["CASE_VERDICT_COLUMNS", "CASE_RATE_COLUMNS", "CASE_COMPARISON_COLUMNS", "PAPER_COMPARISON_COLUMNS",
+              "REPLICA_FALSE_ALARM_COLUMNS", "rule_verdicts", "case_rates", "compare_suites_by_case",
+              "compare_with_paper", "replica_false_alarms", "holm_within", "gee_suite_test",
+              "detectable_difference"],
+    "class_effects": ["CLASS_EFFECT_COLUMNS", "MIN_EPV", "fit_class_effects"],
+    "verdict": ["Verdict", "case_verdicts", "clustered_rate", "min_pairs", "min_p_value"],
     "comparison": ["COMPARISON_COLUMNS", "compare_suite_rates", "compare_suites", "odds_ratio"],
     "detection": ["DetectionRule", "KEY_COLUMNS", "OUTCOME_COLUMNS", "classify", "detects", "outcomes",
                   "pair_with_baseline"],
