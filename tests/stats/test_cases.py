@@ -106,7 +106,8 @@ def _duplicate_reps(res: pd.DataFrame, times: int) -> pd.DataFrame:
     return pd.concat([res.assign(rep=res["rep"] + i * k) for i in range(times)], ignore_index=True)
 
 
-@pytest.mark.parametrize("rule", [DetectionRule(), DetectionRule(rule="statistical", family="case")])
+@pytest.mark.parametrize("rule", [DetectionRule(), pytest.param(DetectionRule(rule="statistical", family="case"),
+                                                                 marks=pytest.mark.slow)])
 def test_repeating_the_same_cases_does_not_shrink_the_suite_comparison_p(rule):
     base = campaign(1 if not rule.statistical else 5, seed=7, shift={"systematic": 150.0, "random": 400.0})
     p = []
