@@ -22,6 +22,7 @@ from faultlab.slam.deadreckoning import DeadReckoning
 from faultlab.slam.ekf import EkfSlam, EkfSlamConfig, EkfSlamSteps
 from faultlab.slam.fastslam import FastSlam, FastSlamConfig, FastSlamSteps
 from faultlab.slam.fastslam2 import FastSlam2, FastSlam2Steps
+from faultlab.slam.gtsam import GtsamSlam, GtsamSlamConfig
 from faultlab.slam.protocol import SlamAdapter
 
 __all__ = ["SlamKind", "BUILTIN_SLAMS", "get_slam_kind", "build_slam", "normalise_options"]
@@ -94,6 +95,8 @@ BUILTIN_SLAMS: dict[str, SlamKind] = {
         SlamKind("ekf", "EKF-SLAM: one joint Gaussian over the pose and every landmark", EkfSlam, EkfSlamConfig,
                  EkfSlamSteps),
         SlamKind("dead_reckoning", "odometry only: the baseline any SLAM should beat", DeadReckoning),
+        SlamKind("gtsam", "GTSAM iSAM2: incremental smoothing over all poses with range-bearing factors",
+                 GtsamSlam, GtsamSlamConfig, requires="gtsam"),
     )
 }
 
