@@ -35,6 +35,13 @@ fixed-suite cases ``update_every = 7`` ran about 3x faster and its map error was
 landmark.  Everything is deterministic: ``reset`` accepts an ``rng`` for the protocol and draws
 nothing from it.
 
+iSAM2 relinearises only the variables whose update exceeds GTSAM's default threshold (0.1), and
+only at every 10th update, so its solution is not fully converged and depends slightly on the frame
+of the problem: the ``rigid_motion`` metamorphic relation (:mod:`faultlab.metamorphic`) finds that
+rotating and shifting the world moves this SLAM's map by about 1 mm more than the motion itself
+(0.0018 m median on a 100-step case), against 4e-7 m with relinearisation of every variable at every
+update.  The defaults are kept: they are how iSAM2 is used.
+
 The adapter has no replaceable units (no steps table), so no fault applies to it.  Factors are
 built one per observation in a Python loop: GTSAM's Python API has no vectorised factor
 constructor; the cost is dominated by iSAM2 itself.
