@@ -30,9 +30,9 @@ import numpy as np
 
 from faultlab.faults.fault import Fault, UnitExample
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlamConfig
-from faultlab.slam.units import ParticleState
+from faultlab.slam.units import ParticleState, shallow_copy_ancestors
 
-__all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors"]
+__all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors", "PAPER_ALIASING"]
 
 _LOG_TWO_PI = math.log(2.0 * math.pi)
 
@@ -213,33 +213,9 @@ MOTION_SIGN_ERROR = Fault(
 
 # --------------------------------------------------------------------------- realistic faults
 
-def in_place_ancestors(indices: np.ndarray) -> np.ndarray:
-    """Ancestors that an in-place resampling loop over a shallow list copy really copies.
-
-    Copying ``particles[i] <- particles[indices[i]]`` for ``i = 0, 1, ...`` *in place*
-    (the list was copied shallowly, so the "old" particles are the same objects)
-    reads an already overwritten particle whenever ``indices[i] < i``.  Then
-    particle ``i`` receives what was written to slot ``indices[i]``:
-    ``eff[i] = eff[indices[i]]`` if ``indices[i] < i`` else ``indices[i]``.
-    Vectorised by pointer jumping (each hop strictly decreases the slot).
-
-    Parameters
-    ----------
-    indices : ndarray of int, shape (N,)
-
-    Returns
-    -------
-    ndarray of intp, shape (N,)
-    """
-    idx = np.asarray(indices, dtype=np.intp)
-    eff = idx.copy()
-    pending = eff < np.arange(idx.size)
-    while pending.any():
-        slot = eff[pending]
-        nxt = idx[slot]
-        eff[pending] = nxt
-        pending[pending] = nxt < slot
-    return eff
+#: Ancestors that an in-place resampling loop over a shallow list copy really copies (see
+#: :func:`faultlab.slam.units.shallow_copy_ancestors`).
+in_place_ancestors = shallow_copy_ancestors
 
 
 def _shallow_copy_resampling(original):
@@ -582,6 +558,49 @@ RESAMPLE_KEEPS_WEIGHTS = Fault(
     examples=(UnitExample(_ex_apply_resample, "weights not reset to uniform"),),
 )
 
+def _paper_aliasing(original):
+    """Shallow-copy resampling whose sharers then update their common landmarks one after another."""
+
+    def apply_resample(state, indices):
+        from faultlab.slam.units import shallow_copy_ancestors
+
+        eff = shallow_copy_ancestors(indices)
+        out = original(state, eff)
+        return dataclasses.replace(out, owner=np.asarray(state.owner)[eff], sequential_sharers=True)
+
+    return apply_resample
+
+
+def _ex_apply_resample_aliased():
+    return (_state_example(), np.array([2, 0, 0, 3])), {}
+
+
+PAPER_ALIASING = Fault(
+    name="paper_aliasing",
+    step="apply_resample",
+    description=("Resampling by shallow copies as in the paper's filter: copies share landmark arrays and every "
+                 "sharer re-applies each later update of them, one after another."),
+    rationale=(
+        "PythonRobotics' FastSLAM 1.0 resamples with tmp = particles[:] (a shallow list copy) and assigns "
+        "views lm[:, :] and lmP[:, :] of the drawn particle's landmark arrays, overwriting the particles in "
+        "place. A copy drawn from a slot that was already overwritten gets that slot's new content, and all "
+        "copies of an ancestor keep the very same arrays, for good: no particle ever gets fresh arrays again, "
+        "so the number of distinct maps only shrinks, typically to one. The update loop then runs over the "
+        "particles one by one: the first sharer initialises or updates a shared landmark with its pose, the "
+        "next one updates that result with its own pose, and so on, so each observation is applied once per "
+        "sharer, the landmark covariance shrinks once per sharer and the weights of later sharers are "
+        "computed against estimates their own update has not produced. The paper's correct variant has this "
+        "defect, so all its faulty variants inherit it. Unlike shallow_copy_resampling (duplicates update "
+        "in parallel, the last write wins), this reproduces the sequential updates exactly "
+        "(faultlab.slam.sharing; a loop over sharer ranks, slower than the reference path)."),
+    origin=("public code: PythonRobotics SLAM/FastSLAM1/fast_slam1.py, resampling() (shallow list copy "
+            "particles[:], array views lm[:, :], lmP[:, :]) and update_with_observation() (per-particle loop); "
+            "unrepaired in the paper's replication package EmbSys-WWU/SLAMtesting slam/slam_correct.py"),
+    replacement=_paper_aliasing,
+    examples=(UnitExample(_ex_apply_resample_aliased,
+                          "particles 1 and 2 share slot 0's landmarks, which slot 0 took from particle 2"),),
+)
+
 #: The paper's three faults (Sec. VII-A), in Table II order.
 PAPER_FAULTS: tuple[Fault, ...] = (NAIVE_RESAMPLING, MISSING_ANGLE_WRAP, MOTION_SIGN_ERROR)
 
@@ -600,4 +619,5 @@ BUILTIN_FAULTS: tuple[Fault, ...] = PAPER_FAULTS + (
     LIKELIHOOD_WITHOUT_NORMALISER,
     TURN_BEFORE_DRIVE,
     RESAMPLE_KEEPS_WEIGHTS,
+    PAPER_ALIASING,
 )

@@ -33,6 +33,11 @@ import numpy as np
 from faultlab.errors import FaultError
 from faultlab.faults.fault import Fault, UnitExample
 from faultlab.faults.registry import all_faults, load_plugins, resolve_fault
+from faultlab.metrics import map_errors
+from faultlab.scenario import generate_scenario
+from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig
+from faultlab.slam.protocol import run_slam
+from faultlab.space.case import FIXED_VALUES, CaseSpec
 
 __all__ = [
     "CheckStatus",
@@ -203,8 +208,6 @@ def _num(x: float) -> str:
 
 
 def _rms_mm(scenario, estimate) -> float:
-    from faultlab.metrics import map_errors
-
     try:
         return float(map_errors(scenario, estimate, emd=False).rms_mm)
     except Exception:  # a malformed faulty estimate has no map error
@@ -225,9 +228,6 @@ def check_scenario(*, seed: int = 0, n_steps: int = CHECK_N_STEPS):
     -------
     faultlab.scenario.model.Scenario
     """
-    from faultlab.scenario import generate_scenario
-    from faultlab.space.case import FIXED_VALUES, CaseSpec
-
     case = CaseSpec(values={**FIXED_VALUES, **CHECK_CASE_OVERRIDES})
     rng = np.random.default_rng(np.random.SeedSequence(seed))
     return generate_scenario(case, rng=rng, n_steps=n_steps, seed=seed)
@@ -297,11 +297,31 @@ def check_faults(
     FaultCheckReport
         One :class:`FaultCheck` per fault, in input order.
     """
-    from faultlab.slam import FastSlam, FastSlamConfig
-    from faultlab.slam.protocol import run_slam
-
     if n_seeds < 1:
         raise FaultError(f"check_faults: n_seeds must be >= 1, got {n_seeds}")
+    faults, plugin_errors = _faults_to_check(faults, plugins=plugins)
+    scenario, origin = _scenario_to_check(scenario, seed=seed, n_steps=n_steps)
+    config = FastSlamConfig() if config is None else config
+    if n_particles is not None:
+        config = dataclasses.replace(config, n_particles=n_particles)
+    reference = FastSlam(config)
+    seeds = _slam_seeds(seed, n_seeds)
+    ref_estimates = [run_slam(reference, scenario, rng=np.random.default_rng(ss)) for ss in seeds]
+    if not estimates_identical(run_slam(reference, scenario, rng=np.random.default_rng(seeds[0])),
+                               ref_estimates[0]):
+        raise FaultError("check_faults: the reference FastSLAM is not deterministic for a fixed seed; "
+                         "the equivalence check is meaningless")
+    checks = tuple(_check_one(fault.apply(reference), fault, scenario, seeds, ref_estimates) for fault in faults)
+    desc = (f"{origin}: {scenario.n_steps} steps, {scenario.landmarks.shape[0]} landmarks, "
+            f"scenario seed {scenario.seed}, {config.n_particles} particles")
+    spread = estimate_difference(ref_estimates[0], ref_estimates[1])[0] if n_seeds > 1 else math.nan
+    ref_rms = _nanmean([_rms_mm(scenario, e) for e in ref_estimates])
+    return FaultCheckReport(checks=checks, scenario=desc, seeds=tuple(range(n_seeds)),
+                            plugin_errors=plugin_errors, reference_spread_m=spread, reference_rms_mm=ref_rms)
+
+
+def _faults_to_check(faults, *, plugins: bool) -> tuple[list[Fault], tuple[str, ...]]:
+    """The faults to check (default: all built-ins, plus plugins) and the plugin load errors."""
     plugin_errors: tuple[str, ...] = ()
     if faults is None:
         faults = all_faults(plugins=False)
@@ -309,62 +329,45 @@ def check_faults(
             report = load_plugins(warn=False)
             faults += list(report.faults)
             plugin_errors = tuple(str(e) for e in report.errors)
-    faults = [resolve_fault(f) for f in faults]
+    return [resolve_fault(f) for f in faults], plugin_errors
+
+
+def _scenario_to_check(scenario, *, seed: int, n_steps: int | None):
+    """The scenario of the check and a phrase saying where it comes from."""
     if scenario is None:
         scenario = check_scenario(seed=seed, n_steps=CHECK_N_STEPS if n_steps is None else n_steps)
         overrides = ", ".join(f"{k}={v:.6g}" for k, v in CHECK_CASE_OVERRIDES.items())
-        origin = f"the check scenario (FIXED_VALUES with {overrides})"
-    elif n_steps is not None:
+        return scenario, f"the check scenario (FIXED_VALUES with {overrides})"
+    if n_steps is not None:
         raise FaultError("check_faults: give either scenario or n_steps, not both")
+    return scenario, "the given scenario"
+
+
+def _check_one(faulty, fault: Fault, scenario, seeds, ref_estimates) -> FaultCheck:
+    """Run ``faulty`` with every seed and compare each estimate with the reference's."""
+    n_same, maps, poses, rms, mismatch, error = 0, [], [], [], 0, ""
+    for ss, ref in zip(seeds, ref_estimates):
+        try:
+            with np.errstate(all="ignore"):  # a faulty SLAM may produce NaN on its way to a crash
+                est = run_slam(faulty, scenario, rng=np.random.default_rng(ss))
+        except Exception as exc:  # a crash is an outcome (the runner records it as such)
+            error = f"{type(exc).__name__}: {exc}"
+            break
+        n_same += estimates_identical(est, ref)
+        m, p, k = estimate_difference(est, ref)
+        maps.append(m)
+        poses.append(p)
+        rms.append(_rms_mm(scenario, est))
+        mismatch += k
+    if error:
+        status = CheckStatus.CRASH
+    elif n_same == len(seeds):
+        status = CheckStatus.EQUIVALENT
     else:
-        origin = "the given scenario"
-    config = FastSlamConfig() if config is None else config
-    if n_particles is not None:
-        config = dataclasses.replace(config, n_particles=n_particles)
-    reference = FastSlam(config)
-    seeds = _slam_seeds(seed, n_seeds)
-
-    def run(slam, ss):
-        return run_slam(slam, scenario, rng=np.random.default_rng(ss))
-
-    ref_estimates = [run(reference, ss) for ss in seeds]
-    ref_rms = _nanmean([_rms_mm(scenario, e) for e in ref_estimates])
-    if not estimates_identical(run(reference, seeds[0]), ref_estimates[0]):
-        raise FaultError("check_faults: the reference FastSLAM is not deterministic for a fixed seed; "
-                         "the equivalence check is meaningless")
-    checks = []
-    for fault in faults:
-        faulty = fault.apply(reference)
-        n_same, maps, poses, rms, mismatch, error = 0, [], [], [], 0, ""
-        for ss, ref in zip(seeds, ref_estimates):
-            try:
-                with np.errstate(all="ignore"):  # a faulty SLAM may produce NaN on its way to a crash
-                    est = run(faulty, ss)
-            except Exception as exc:  # a crash is an outcome (the runner records it as such)
-                error = f"{type(exc).__name__}: {exc}"
-                break
-            if estimates_identical(est, ref):
-                n_same += 1
-            m, p, k = estimate_difference(est, ref)
-            maps.append(m)
-            poses.append(p)
-            rms.append(_rms_mm(scenario, est))
-            mismatch += k
-        if error:
-            status = CheckStatus.CRASH
-        elif n_same == n_seeds:
-            status = CheckStatus.EQUIVALENT
-        else:
-            status = CheckStatus.DIFFERS
-        checks.append(FaultCheck(
-            name=fault.name, step=fault.step, status=status, n_seeds=n_seeds, n_identical=n_same,
-            map_diff_m=_nanmean(maps), pose_diff_m=_nanmean(poses), n_map_mismatch=mismatch,
-            rms_mm=_nanmean(rms) if not error else math.nan, error=error))
-    desc = (f"{origin}: {scenario.n_steps} steps, {scenario.landmarks.shape[0]} landmarks, "
-            f"scenario seed {scenario.seed}, {config.n_particles} particles")
-    spread = estimate_difference(ref_estimates[0], ref_estimates[1])[0] if n_seeds > 1 else math.nan
-    return FaultCheckReport(checks=tuple(checks), scenario=desc, seeds=tuple(range(n_seeds)),
-                            plugin_errors=plugin_errors, reference_spread_m=spread, reference_rms_mm=ref_rms)
+        status = CheckStatus.DIFFERS
+    return FaultCheck(name=fault.name, step=fault.step, status=status, n_seeds=len(seeds), n_identical=n_same,
+                      map_diff_m=_nanmean(maps), pose_diff_m=_nanmean(poses), n_map_mismatch=mismatch,
+                      rms_mm=_nanmean(rms) if not error else math.nan, error=error)
 
 
 def _nanmean(values: list[float]) -> float:
@@ -391,7 +394,7 @@ def unit_outputs(fault: Fault, example: UnitExample, steps=None) -> tuple[object
     (original_output, faulty_output)
     """
     if steps is None:
-        from faultlab.slam import REFERENCE_STEPS as steps
+        steps = REFERENCE_STEPS
     original = getattr(steps, fault.step)
     faulty = getattr(fault.patch(steps), fault.step)
     args, kwargs = example.make_args()

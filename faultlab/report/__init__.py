@@ -1,7 +1,8 @@
 """faultlab.report: Table II of a run beside the paper's, figures, the PDF report and ``reproduce``.
 
-The only layer that plots.  Everything is built from saved results
-(:func:`build_report`); :func:`reproduce` runs an experiment first.
+The only layer that plots.  Reports render an :class:`faultlab.analysis.Analysis` of saved
+results (:func:`build_report` analyses a results store and renders it); :func:`reproduce` runs
+an experiment first.
 
 >>> from faultlab.report import build_report                             # doctest: +SKIP
 >>> from faultlab.report.reproduce import reproduce                      # doctest: +SKIP
@@ -14,16 +15,15 @@ import importlib
 #: Public name -> submodule.  Imported on first use, so that importing one submodule (e.g.
 #: ``faultlab.report.casefig`` for ``generate``) does not pull in seaborn and statsmodels.
 _EXPORTS = {
-    "Table2": "tables", "TableFiles": "tables", "table2": "tables", "table2_csv_frame": "tables",
-    "table2_markdown": "tables", "table2_latex": "tables", "detection_frame": "tables",
-    "detection_markdown": "tables", "detection_records": "tables", "write_tables": "tables",
-    "load_paper": "tables", "round_mm": "tables",
+    "TableFiles": "tables", "table2_frame": "tables", "table2_csv_frame": "tables",
+    "table2_markdown": "tables", "table2_latex": "tables", "detection_markdown": "tables",
+    "detection_records": "tables", "write_tables": "tables", "round_mm": "tables",
     "Verdict": "comparison", "Statement": "comparison", "Comparison": "comparison",
     "compare_with_paper": "comparison",
     "detection_rate_figure": "figures", "rms_distribution_figure": "figures",
     "plot_case": "casefig", "plot_suite": "casefig", "save_case_png": "casefig",
     "PdfReport": "pdf", "text_pages": "pdf", "table_pages": "pdf", "write_pdf": "pdf",
-    "ReportFiles": "build", "build_report": "build",
+    "ReportFiles": "build", "build_report": "build", "render_report": "build",
     # the function ``reproduce`` is not re-exported: the name is its submodule's
     # (use ``from faultlab.report.reproduce import reproduce``)
     "ReproduceResult": "reproduce", "quick_overrides": "reproduce",
@@ -42,34 +42,4 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
 
 
-__all__ = [
-    "Table2",
-    "TableFiles",
-    "table2",
-    "table2_csv_frame",
-    "table2_markdown",
-    "table2_latex",
-    "detection_frame",
-    "detection_markdown",
-    "detection_records",
-    "write_tables",
-    "load_paper",
-    "round_mm",
-    "Verdict",
-    "Statement",
-    "Comparison",
-    "compare_with_paper",
-    "detection_rate_figure",
-    "rms_distribution_figure",
-    "plot_case",
-    "plot_suite",
-    "save_case_png",
-    "PdfReport",
-    "text_pages",
-    "table_pages",
-    "write_pdf",
-    "ReportFiles",
-    "build_report",
-    "ReproduceResult",
-    "quick_overrides",
-]
+__all__ = list(_EXPORTS)

@@ -15,13 +15,9 @@ import seaborn as sns
 from matplotlib import MatplotlibDeprecationWarning
 from matplotlib.figure import Figure
 
-from faultlab.report.tables import (
-    order_suites,
-    order_variants,
-    round_mm,
-    suite_label,
-    variant_label,
-)
+from faultlab.analysis import Analysis
+from faultlab.analysis.schema import PAPER, THIS_RUN
+from faultlab.report.tables import order_suites, order_variants, round_mm, suite_label, variant_label
 
 __all__ = ["detection_rate_figure", "rms_distribution_figure", "suite_palette", "PAGE_SIZE"]
 
@@ -37,23 +33,23 @@ def suite_palette(suites) -> dict[str, tuple]:
     return {s: fixed.get(s) or next(extra) for s in suites}
 
 
-def detection_rate_figure(detection: pd.DataFrame, *, alpha: float = 0.05,
-                          interval: str = "wilson", figsize=PAGE_SIZE) -> Figure:
+def detection_rate_figure(analysis: Analysis, *, interval: str = "wilson", figsize=PAGE_SIZE) -> Figure:
     """Detection rate per suite x fault, bars with confidence-interval error bars.
 
     Parameters
     ----------
-    detection : DataFrame
-        :func:`faultlab.report.tables.detection_frame`: suite, variant, k, n, rate and the
-        interval columns ``<interval>_low`` / ``<interval>_high``; ``paper_rate`` (optional)
-        is drawn as a black diamond: the paper's rate from its raw data.
+    analysis : Analysis
+        Its detection rates: ``rate`` and the interval columns ``<interval>_low`` /
+        ``<interval>_high``, ``k/n`` above each bar, and (with paper data) ``paper_rate`` as a
+        black diamond: the paper's rate from its raw data.
     interval : {"wilson", "cp"}
         Which interval to draw (Wilson or Clopper-Pearson).
     """
+    detection = analysis.detection_rates
     fig = Figure(figsize=figsize)
     with sns.axes_style("whitegrid"):  # rc styles apply to axes created inside the context
         ax = fig.add_subplot(1, 1, 1)
-    conf = round_mm(100 * (1 - alpha))
+    conf = round_mm(100 * (1 - analysis.alpha))
     name = {"wilson": "Wilson", "cp": "Clopper-Pearson"}[interval]
     if detection.empty:
         ax.text(0.5, 0.5, "no faulty variant in this run", ha="center", va="center",
@@ -66,33 +62,14 @@ def detection_rate_figure(detection: pd.DataFrame, *, alpha: float = 0.05,
     width = 0.8 / len(suites)
     ax.grid(axis="x", visible=False)
     ax.set_axisbelow(True)
-    paper_label_done = False
+    paper_label = "paper (rule on its raw data)"
     for i, suite in enumerate(suites):
-        rows = detection[detection["suite"] == suite].set_index("variant")
         x = np.arange(len(faults)) + (i - (len(suites) - 1) / 2) * width
-        present = [f in rows.index for f in faults]
-        rate = np.array([rows.loc[f, "rate"] if p else np.nan for f, p in zip(faults, present)])
-        low = np.array([rows.loc[f, f"{interval}_low"] if p else np.nan
-                        for f, p in zip(faults, present)])
-        high = np.array([rows.loc[f, f"{interval}_high"] if p else np.nan
-                         for f, p in zip(faults, present)])
-        ax.bar(x, 100 * rate, width=width * 0.92, color=palette[suite], label=suite_label(suite),
-               edgecolor="white")
-        err = np.vstack([100 * (rate - low), 100 * (high - rate)])
-        ax.errorbar(x, 100 * rate, yerr=np.clip(err, 0, None), fmt="none", ecolor="0.15",
-                    elinewidth=1.2, capsize=4)
-        for xi, f, p in zip(x, faults, present):
-            if p:
-                k, n = int(rows.loc[f, "k"]), int(rows.loc[f, "n"])
-                ax.text(xi, 101.5, f"{k}/{n}", ha="center", va="bottom", fontsize=8, color="0.25")
-        if "paper_rate" in rows.columns:
-            pr = np.array([rows.loc[f, "paper_rate"] if p else np.nan
-                           for f, p in zip(faults, present)], dtype=float)
-            ok = np.isfinite(pr)
-            if ok.any():
-                ax.scatter(x[ok], 100 * pr[ok], marker="D", s=36, color="black", zorder=5,
-                           label=None if paper_label_done else "paper (rule on its raw data)")
-                paper_label_done = True
+        rows = detection[detection["suite"] == suite].set_index("variant").reindex(faults)
+        _draw_suite_bars(ax, x, rows, interval=interval, width=width, colour=palette[suite],
+                         label=suite_label(suite))
+        if analysis.has_paper and _draw_paper_rates(ax, x, rows, label=paper_label):
+            paper_label = None  # one legend entry for every suite's diamonds
     ax.set_xticks(np.arange(len(faults)), [variant_label(f) for f in faults])
     ax.set_ylim(0, 112)
     ax.set_ylabel("cases detecting the fault (%)")
@@ -103,17 +80,38 @@ def detection_rate_figure(detection: pd.DataFrame, *, alpha: float = 0.05,
     return fig
 
 
-def rms_distribution_figure(results: pd.DataFrame, *, paper_results: pd.DataFrame | None = None,
-                            figsize=PAGE_SIZE) -> Figure:
+def _draw_suite_bars(ax, x: np.ndarray, rows: pd.DataFrame, *, interval: str, width: float, colour,
+                     label: str) -> None:
+    """One suite's bars (rows: one per fault, NaN where absent), error bars and k/n labels."""
+    rate = rows["rate"].to_numpy(dtype=float)
+    low = rows[f"{interval}_low"].to_numpy(dtype=float)
+    high = rows[f"{interval}_high"].to_numpy(dtype=float)
+    ax.bar(x, 100 * rate, width=width * 0.92, color=colour, label=label, edgecolor="white")
+    err = np.vstack([100 * (rate - low), 100 * (high - rate)])
+    ax.errorbar(x, 100 * rate, yerr=np.clip(err, 0, None), fmt="none", ecolor="0.15", elinewidth=1.2, capsize=4)
+    for xi, k, n in zip(x, rows["k"], rows["n"]):
+        if not pd.isna(n):
+            ax.text(xi, 101.5, f"{int(k)}/{int(n)}", ha="center", va="bottom", fontsize=8, color="0.25")
+
+
+def _draw_paper_rates(ax, x: np.ndarray, rows: pd.DataFrame, *, label: str | None) -> bool:
+    """The paper's rates (rule on its raw data) as black diamonds; whether any was drawn."""
+    pr = rows["paper_rate"].to_numpy(dtype=float)
+    ok = np.isfinite(pr)
+    if ok.any():
+        ax.scatter(x[ok], 100 * pr[ok], marker="D", s=36, color="black", zorder=5, label=label)
+    return bool(ok.any())
+
+
+def rms_distribution_figure(analysis: Analysis, *, figsize=PAGE_SIZE) -> Figure:
     """RMS map error per suite x variant on a log scale (box plot plus every job as a dot).
 
-    One column per suite; a second row shows the paper's raw data when ``paper_results``
-    (suite, variant, rms_mm) is given.  Crashed and timed-out jobs have no error and are
-    counted under the axis instead.
+    One column per suite; a second row shows the paper's raw data when the analysis has it.
+    Crashed and timed-out jobs have no error and are counted under the axis instead.
     """
-    sources = [("this run", results)]
-    if paper_results is not None:
-        sources.append(("paper", paper_results))
+    jobs = analysis.jobs
+    sources = [(source, jobs[jobs["source"] == source]) for source in (THIS_RUN, PAPER)
+               if (jobs["source"] == source).any()]
     suites = order_suites(pd.concat([s[1]["suite"] for s in sources]))
     variants = order_variants(pd.concat([s[1]["variant"] for s in sources]))
     fig = Figure(figsize=figsize)
@@ -123,7 +121,7 @@ def rms_distribution_figure(results: pd.DataFrame, *, paper_results: pd.DataFram
     finite = pd.concat([s[1]["rms_mm"] for s in sources]).to_numpy(dtype=float)
     finite = finite[np.isfinite(finite) & (finite > 0)]
     for r, (source, frame) in enumerate(sources):
-        status = frame["status"] if "status" in frame else pd.Series("ok", index=frame.index)
+        status = frame["status"]
         for c, suite in enumerate(suites):
             ax = axes[r][c]
             sub = frame[(frame["suite"] == suite) & (status == "ok")]

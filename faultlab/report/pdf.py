@@ -7,6 +7,7 @@ no GUI backend is needed; :func:`write_pdf` renders them with matplotlib's PDF b
 
 from __future__ import annotations
 
+import sys
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
@@ -202,9 +203,8 @@ def write_pdf(path: str | Path, pages: Iterable[Figure], *, title: str = "faultl
                          f"{footer}{'  ·  ' if footer else ''}page {i} of {len(pages)}",
                          fontsize=7.5, color="0.45", ha="right", va="bottom")
                 pdf.savefig(fig)
-                if getattr(fig.canvas, "manager", None) is not None:  # made with pyplot
-                    import matplotlib.pyplot as plt
-
-                    plt.close(fig)
+                pyplot = sys.modules.get("matplotlib.pyplot")
+                if pyplot is not None and getattr(fig.canvas, "manager", None) is not None:
+                    pyplot.close(fig)  # made with pyplot, which holds on to it until closed
     tmp.replace(path)  # a reader never sees a half-written report
     return PdfReport(path=path, n_pages=len(pages), titles=titles)

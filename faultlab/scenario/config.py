@@ -48,6 +48,10 @@ class ScenarioConfig:
         Active steps of the trace (inactivity comes on top).
     min_distance : float
         Minimum distance between two landmarks, m.
+    fov_bug : bool
+        Reproduce the replication package's field-of-view *defect*: every right-side
+        (negative) bearing is visible whatever the opening (see :mod:`faultlab.scenario.trace`).
+        False by default.
     """
 
     map_side: float
@@ -66,6 +70,7 @@ class ScenarioConfig:
     loop: bool
     n_steps: int = DEFAULT_N_STEPS
     min_distance: float = DEFAULT_MIN_DISTANCE
+    fov_bug: bool = False
 
     @classmethod
     def from_case(
@@ -75,6 +80,7 @@ class ScenarioConfig:
         n_steps: int = DEFAULT_N_STEPS,
         sensor_range: float = DEFAULT_SENSOR_RANGE,
         min_distance: float = DEFAULT_MIN_DISTANCE,
+        fov_bug: bool = False,
     ) -> "ScenarioConfig":
         """Convert Table I units (m², lm/m², cm, %, mm, rad) to SI."""
         v = case.values
@@ -96,4 +102,5 @@ class ScenarioConfig:
             loop=str(v["directionality"]) == "loop",
             n_steps=int(n_steps),
             min_distance=float(min_distance),
+            fov_bug=bool(fov_bug),
         )

@@ -6,6 +6,7 @@ from dataclasses import asdict
 
 import numpy as np
 
+from faultlab.errors import ScenarioError
 from faultlab.scenario.config import (
     DEFAULT_MIN_DISTANCE,
     DEFAULT_N_STEPS,
@@ -25,7 +26,8 @@ GENERATOR_VERSION = 1
 
 def generate_scenario(case: CaseSpec, *, rng: np.random.Generator, n_steps: int = DEFAULT_N_STEPS,
                       sensor_range: float = DEFAULT_SENSOR_RANGE, min_distance: float = DEFAULT_MIN_DISTANCE,
-                      seed: int | None = None, path_turn_std: float = DEFAULT_PATH_TURN_STD) -> Scenario:
+                      seed: int | None = None, path_turn_std: float = DEFAULT_PATH_TURN_STD,
+                      fov_bug: bool = False) -> Scenario:
     """Generate the test case of ``case`` (Sec. VI-A..C).
 
     Draw order from ``rng`` (fixed, so the same seed gives the same case):
@@ -48,6 +50,10 @@ def generate_scenario(case: CaseSpec, *, rng: np.random.Generator, n_steps: int 
         Recorded in :attr:`Scenario.seed` (the entropy ``rng`` was created from).
     path_turn_std : float
         Std of the perturbation of the true turns, rad (see :mod:`faultlab.scenario.trace`).
+    fov_bug : bool
+        Reproduce the replication package's field-of-view *defect* (every right-side bearing is
+        visible whatever the opening; see :mod:`faultlab.scenario.trace`).  False by default;
+        recorded in ``meta["config"]["fov_bug"]``.
 
     Returns
     -------
@@ -61,12 +67,15 @@ def generate_scenario(case: CaseSpec, *, rng: np.random.Generator, n_steps: int 
     """
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    cfg = ScenarioConfig.from_case(case, n_steps=n_steps, sensor_range=sensor_range, min_distance=min_distance)
+    if not isinstance(fov_bug, (bool, np.bool_)):
+        raise ScenarioError(f"generate_scenario: fov_bug must be True or False, got {fov_bug!r}")
+    cfg = ScenarioConfig.from_case(case, n_steps=n_steps, sensor_range=sensor_range, min_distance=min_distance,
+                                   fov_bug=bool(fov_bug))
     landmarks, ids = generate_landmarks(side=cfg.map_side, n_landmarks=cfg.n_landmarks, symmetry=cfg.symmetry,
                                         min_distance=cfg.min_distance, rng=rng)
     drv = drive(landmarks, ids, rng=rng, n_steps=cfg.n_steps, step=cfg.step, fov=cfg.fov,
                 sensor_range=cfg.sensor_range, loop=cfg.loop, inactivity=cfg.inactivity,
-                path_turn_std=path_turn_std)
+                path_turn_std=path_turn_std, fov_bug=cfg.fov_bug)
     noise = dict(std_distance=cfg.std_distance, std_angle=cfg.std_angle, bias_distance=cfg.bias_distance,
                  bias_angle=cfg.bias_angle, rotation_error=cfg.rotation_error)
     controls = measure_controls(drv.controls, drv.active, rng=rng, **noise)

@@ -71,6 +71,14 @@ class Scenario:
         return int(self.controls.shape[0])
 
     @property
+    def fov_bug(self) -> bool:
+        """Whether the scenario was generated with the replication package's field-of-view defect.
+
+        Read from ``meta["config"]["fov_bug"]``; False for scenarios that do not record it.
+        """
+        return bool(self.meta.get("config", {}).get("fov_bug", False))
+
+    @property
     def start_pose(self) -> np.ndarray:
         """The known initial pose, shape (3,)."""
         return self.true_poses[0].copy()

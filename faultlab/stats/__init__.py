@@ -6,36 +6,30 @@ and :func:`by_suite` give Table II's columns with confidence intervals, and
 :func:`paper_table` recomputes Table II from the paper's raw data.  Beyond the
 paper: :func:`false_alarm_rate`, :func:`oracle_detections`,
 :func:`compare_suites` and :func:`parameter_effects`.
+
+Each statistic that starts from the classified jobs also comes as a function of
+:func:`outcomes`' table (:func:`tabulate_rates`, :func:`tabulate_by_suite`,
+:func:`compare_suite_rates`, :func:`fit_effects`, :func:`find_identical_faults`),
+so :mod:`faultlab.analysis` classifies every job once and derives the rest.
 """
 
-import importlib
+from faultlab.lazy import lazy_exports
 
 #: Public name -> submodule that defines it.  Submodules load on first use
 #: (PEP 562), so importing faultlab.stats (e.g. by the CLI) stays cheap.
 _EXPORTS = {
-    "comparison": ["compare_suites", "odds_ratio"],
-    "detection": ["DetectionRule", "classify", "detects", "outcomes",
+    "comparison": ["COMPARISON_COLUMNS", "compare_suite_rates", "compare_suites", "odds_ratio"],
+    "detection": ["DetectionRule", "KEY_COLUMNS", "OUTCOME_COLUMNS", "classify", "detects", "outcomes",
                   "pair_with_baseline"],
-    "effects": ["NUMERIC_PARAMETERS", "format_effects", "parameter_effects"],
+    "effects": ["EFFECT_COLUMNS", "NUMERIC_PARAMETERS", "fit_effects", "format_effects", "parameter_effects",
+                "validate_parameters"],
     "oracle": ["oracle_detections"],
-    "paper": ["PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV", "PaperTable", "load_paper_raw",
-              "load_paper_reported", "paper_table", "percent", "resolve_data_path"],
-    "rates": ["by_suite", "detection_rates", "false_alarm_rate",
-              "proportion_ci", "suspected_equivalent_faults"],
+    "paper": ["PAPER_BY_SUITE_COLUMNS", "PAPER_RATE_COLUMNS", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV",
+              "PaperTable", "load_paper_raw", "load_paper_reported", "paper_table", "percent",
+              "resolve_data_path"],
+    "rates": ["BY_SUITE_COLUMNS", "FALSE_ALARM_COLUMNS", "RATE_COLUMNS", "by_suite", "detection_rates",
+              "false_alarm_rate", "find_identical_faults", "proportion_ci", "suspected_equivalent_faults",
+              "tabulate_by_suite", "tabulate_rates"],
 }
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
 
-__all__ = [name for names in _EXPORTS.values() for name in names]
-
-
-def __getattr__(name: str):
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'faultlab.stats' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"faultlab.stats.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

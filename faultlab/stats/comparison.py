@@ -25,13 +25,14 @@ from scipy.stats import fisher_exact, norm
 from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.proportion import confint_proportions_2indep
 
-from faultlab.stats.detection import DetectionRule
+from faultlab.stats.detection import DetectionRule, _check_columns
 from faultlab.stats.rates import detection_rates
 from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER, ordered
 
-__all__ = ["compare_suites", "odds_ratio"]
+__all__ = ["compare_suites", "compare_suite_rates", "odds_ratio", "COMPARISON_COLUMNS"]
 
-_COLUMNS = ["fault", "suite_a", "suite_b", "k_a", "n_a", "k_b", "n_b", "rate_a", "rate_b",
+#: Columns of :func:`compare_suite_rates`.
+COMPARISON_COLUMNS = _COLUMNS = ["fault", "suite_a", "suite_b", "k_a", "n_a", "k_b", "n_b", "rate_a", "rate_b",
             "risk_difference", "rd_low", "rd_high", "odds_ratio", "or_low", "or_high", "haldane",
             "p", "p_holm"]
 
@@ -72,13 +73,35 @@ def compare_suites(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule
     Returns
     -------
     DataFrame
+        :func:`compare_suite_rates` of :func:`faultlab.stats.detection_rates`.
+    """
+    return compare_suite_rates(detection_rates(results, rule=rule, alpha=alpha), alpha=alpha,
+                               failures_detect=failures_detect)
+
+
+def compare_suite_rates(rates: pd.DataFrame, *, alpha: float = 0.05, failures_detect: bool = False) -> pd.DataFrame:
+    """Per fault, Fisher's exact test for every pair of suites of a detection-rate table.
+
+    Parameters
+    ----------
+    rates : DataFrame
+        Output of :func:`faultlab.stats.detection_rates` or :func:`faultlab.stats.tabulate_rates`
+        (needs ``suite, fault, k, n`` and, with ``failures_detect``, ``k_incl, n_incl``).
+    alpha : float
+        For the intervals and the Holm adjustment.
+    failures_detect : bool
+        Use the counts with crash/timeout counted as detections instead of excluding them.
+
+    Returns
+    -------
+    DataFrame
         One row per (fault, suite pair) in Table II order: counts, rates,
         ``risk_difference`` with ``rd_low, rd_high``, ``odds_ratio`` with
         ``or_low, or_high`` and ``haldane``, Fisher ``p`` and ``p_holm``
         (module docstring).  Pairs where a suite has no usable job are left out.
     """
-    rates = detection_rates(results, rule=rule, alpha=alpha)
     sfx = "_incl" if failures_detect else ""
+    _check_columns(rates, ("suite", "fault", "k" + sfx, "n" + sfx), where="compare_suite_rates")
     rows = []
     for fault in ordered(rates["fault"], PAPER_FAULTS):
         r = rates[rates["fault"] == fault].set_index("suite")

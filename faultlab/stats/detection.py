@@ -28,10 +28,13 @@ from faultlab.errors import ResultsError
 from faultlab.metrics.detection import DetectionRule, detects
 from faultlab.vocabulary import BASELINE, Outcome
 
-__all__ = ["DetectionRule", "detects", "pair_with_baseline", "classify", "outcomes", "KEY_COLUMNS"]
+__all__ = ["DetectionRule", "detects", "pair_with_baseline", "classify", "outcomes", "KEY_COLUMNS",
+           "OUTCOME_COLUMNS"]
 
 #: Columns identifying one SLAM execution apart from the variant.
 KEY_COLUMNS = ("run", "suite", "case", "rep")
+#: Leading columns of :func:`outcomes` (every other column of the faulty job's row follows).
+OUTCOME_COLUMNS = KEY_COLUMNS + ("fault", "rms_mm", "status", "baseline_rms_mm", "baseline_status", "outcome")
 _REQUIRED = KEY_COLUMNS + ("variant", "rms_mm", "status")
 
 
@@ -49,7 +52,7 @@ def pair_with_baseline(results: pd.DataFrame) -> pd.DataFrame:
     Parameters
     ----------
     results : DataFrame
-        The runner's results (one row per job, see the brief's schema); needs
+        The runner's results (one row per job, :data:`faultlab.runner.RESULT_COLUMNS`); needs
         at least ``run, suite, case, rep, variant, rms_mm, status``.
 
     Returns

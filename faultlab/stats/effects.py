@@ -33,16 +33,18 @@ from statsmodels.tools.sm_exceptions import ConvergenceWarning, PerfectSeparatio
 
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.space.case import VALUE_KEYS
-from faultlab.stats.detection import DetectionRule, Outcome, outcomes
-from faultlab.vocabulary import PAPER_FAULTS, ordered
+from faultlab.stats.detection import DetectionRule, outcomes
+from faultlab.vocabulary import PAPER_FAULTS, Outcome, ordered
 
-__all__ = ["parameter_effects", "format_effects", "NUMERIC_PARAMETERS"]
+__all__ = ["parameter_effects", "fit_effects", "format_effects", "validate_parameters", "NUMERIC_PARAMETERS",
+           "EFFECT_COLUMNS"]
 
 #: Numeric scenario value columns used as predictors.
 NUMERIC_PARAMETERS: tuple[str, ...] = tuple(k for k in VALUE_KEYS if k != "directionality")
 _DUMMY = "directionality[loop]"
-_COLUMNS = ["fault", "term", "n", "n_detected", "coef", "std_err", "p", "odds_ratio", "or_low", "or_high",
-            "note"]
+#: Columns of :func:`fit_effects`.
+EFFECT_COLUMNS: tuple[str, ...] = ("fault", "term", "n", "n_detected", "coef", "std_err", "p", "odds_ratio",
+                                   "or_low", "or_high", "note")
 
 try:  # statsmodels < 0.14 raised instead of warning
     from statsmodels.tools.sm_exceptions import PerfectSeparationError
@@ -117,11 +119,12 @@ def _fit_one(fault: str, jobs: pd.DataFrame, alpha: float, parameters: tuple[str
     z = norm.ppf(1 - alpha / 2)
     params, bse, pvals = np.asarray(res.params), np.asarray(res.bse), np.asarray(res.pvalues)
     cov = "cluster-robust by case" if clustered else ""
-    for i, name in enumerate(X.columns, start=1):
-        rows.append({"fault": fault, "term": name, "n": n, "n_detected": n_det, "coef": params[i],
-                     "std_err": bse[i], "p": pvals[i], "odds_ratio": np.exp(params[i]),
-                     "or_low": np.exp(params[i] - z * bse[i]), "or_high": np.exp(params[i] + z * bse[i]),
-                     "note": cov})
+    with np.errstate(over="ignore"):  # a huge log odds ratio (near separation) is an infinite ratio
+        for i, name in enumerate(X.columns, start=1):
+            rows.append({"fault": fault, "term": name, "n": n, "n_detected": n_det, "coef": params[i],
+                         "std_err": bse[i], "p": pvals[i], "odds_ratio": np.exp(params[i]),
+                         "or_low": np.exp(params[i] - z * bse[i]), "or_high": np.exp(params[i] + z * bse[i]),
+                         "note": cov})
     return rows
 
 
@@ -132,7 +135,7 @@ def parameter_effects(results: pd.DataFrame, *, rule: DetectionRule = DetectionR
     Parameters
     ----------
     results : DataFrame
-        The runner's results with the scenario value columns (schema in the brief).
+        The runner's results with the scenario value columns (:data:`faultlab.runner.RESULT_COLUMNS`).
     rule : DetectionRule
         Decides ``detected`` for each job.
     alpha : float
@@ -146,10 +149,7 @@ def parameter_effects(results: pd.DataFrame, *, rule: DetectionRule = DetectionR
     Returns
     -------
     DataFrame
-        Columns ``fault, term, n, n_detected, coef, std_err, p, odds_ratio,
-        or_low, or_high, note``.  One row per fitted term (intercept omitted);
-        note rows (NaN numbers) for dropped constant columns and for a model
-        that could not be fitted (``term == "(model)"``, reason in ``note``).
+        :func:`fit_effects` of :func:`faultlab.stats.outcomes`.
 
     Raises
     ------
@@ -158,28 +158,75 @@ def parameter_effects(results: pd.DataFrame, *, rule: DetectionRule = DetectionR
     ConfigError
         If ``parameters`` names an unknown parameter.
     """
+    parameters = validate_parameters(parameters)
+    _check_parameter_columns(results)
+    return fit_effects(outcomes(results, rule=rule), alpha=alpha, parameters=parameters)
+
+
+def validate_parameters(parameters: Sequence[str] | None) -> tuple[str, ...]:
+    """The predictors named by ``parameters`` (None: all of them), checked.
+
+    Raises
+    ------
+    ConfigError
+        An unknown parameter, or none.
+    """
     allowed = NUMERIC_PARAMETERS + ("directionality",)
     if parameters is None:
-        parameters = allowed
-    else:
-        parameters = tuple(parameters)
-        unknown = [p for p in parameters if p not in allowed]
-        if unknown or not parameters:
-            raise ConfigError(f"parameter_effects: unknown parameter {unknown[0] if unknown else '(none given)'!r}; "
-                              f"choose from {', '.join(allowed)}")
-    if not any(c in results.columns for c in NUMERIC_PARAMETERS + ("directionality",)):
+        return allowed
+    parameters = tuple(parameters)
+    unknown = [p for p in parameters if p not in allowed]
+    if unknown or not parameters:
+        raise ConfigError(f"parameter_effects: unknown parameter {unknown[0] if unknown else '(none given)'!r}; "
+                          f"choose from {', '.join(allowed)}")
+    return parameters
+
+
+def _check_parameter_columns(frame: pd.DataFrame) -> None:
+    if not any(c in frame.columns for c in NUMERIC_PARAMETERS + ("directionality",)):
         raise ResultsError("parameter_effects: results have no scenario parameter columns "
                            f"(expected e.g. {', '.join(NUMERIC_PARAMETERS[:3])})")
-    oc = outcomes(results, rule=rule)
-    judged = oc[oc["outcome"].isin([Outcome.DETECTED.value, Outcome.NOT_DETECTED.value])]
+
+
+def fit_effects(pairs: pd.DataFrame, *, alpha: float = 0.05,
+                parameters: Sequence[str] | None = None) -> pd.DataFrame:
+    """Per fault, the logistic regression of detection on the scenario parameters (module docstring).
+
+    Parameters
+    ----------
+    pairs : DataFrame
+        Output of :func:`faultlab.stats.outcomes`, with the faulty jobs' scenario value columns.
+    alpha : float
+        1 - confidence level of the odds-ratio intervals (Wald, log scale).
+    parameters : sequence of str, optional
+        As for :func:`parameter_effects`.
+
+    Returns
+    -------
+    DataFrame
+        Columns :data:`EFFECT_COLUMNS`: ``fault, term, n, n_detected, coef, std_err, p, odds_ratio,
+        or_low, or_high, note``.  One row per fitted term (intercept omitted);
+        note rows (NaN numbers) for dropped constant columns and for a model
+        that could not be fitted (``term == "(model)"``, reason in ``note``).
+
+    Raises
+    ------
+    ResultsError
+        If the pairs have none of the parameter columns.
+    ConfigError
+        If ``parameters`` names an unknown parameter.
+    """
+    parameters = validate_parameters(parameters)
+    _check_parameter_columns(pairs)
+    judged = pairs[pairs["outcome"].isin([Outcome.DETECTED.value, Outcome.NOT_DETECTED.value])]
     rows = []
-    for fault in ordered(oc["fault"], PAPER_FAULTS):
+    for fault in ordered(pairs["fault"], PAPER_FAULTS):
         jobs = judged[judged["fault"] == fault]
         if jobs.empty:
             rows.append(_note(fault, "(model)", 0, 0, "not fitted: no judged job (all failed)"))
             continue
         rows.extend(_fit_one(fault, jobs, alpha, parameters))
-    return pd.DataFrame(rows, columns=_COLUMNS)
+    return pd.DataFrame(rows, columns=list(EFFECT_COLUMNS))
 
 
 def format_effects(table: pd.DataFrame) -> str:

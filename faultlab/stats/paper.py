@@ -2,9 +2,11 @@
 
 The paper's replication data (``paper_repro/paper_table2_rms.csv``) holds the
 unrounded RMS errors behind Table II; ``paper_table2_reported.csv`` the
-"Detected Faults" percentages as printed.  :func:`paper_table` applies the
-detection module (:func:`detection_rates`, :func:`by_suite`) to the raw rows
--- nothing computed is hard-coded -- rounds the percentages as the paper does
+"Detected Faults" percentages as printed.  :func:`paper_table` classifies the
+raw rows once (:func:`faultlab.stats.outcomes`) and tabulates them with the
+detection module (:func:`faultlab.stats.tabulate_rates`,
+:func:`faultlab.stats.tabulate_by_suite`) -- nothing computed is hard-coded --
+rounds the percentages as the paper does
 (to whole percent, halves up) and marks every cell where the computed and the
 printed figure differ.
 
@@ -16,6 +18,7 @@ rows with variant ``by_suite``, the printed values of Table II are taken from
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -24,12 +27,12 @@ import pandas as pd
 from faultlab.data import shipped_file
 from faultlab.errors import ResultsError
 from faultlab.stats.detection import DetectionRule, outcomes
-from faultlab.vocabulary import BASELINE
-from faultlab.stats.rates import by_suite, detection_rates
-from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER, ordered
+from faultlab.stats.rates import tabulate_by_suite, tabulate_rates
+from faultlab.vocabulary import BASELINE, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["PaperTable", "paper_table", "load_paper_raw", "load_paper_reported", "resolve_data_path",
-           "percent", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV"]
+           "percent", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV", "PAPER_RATE_COLUMNS",
+           "PAPER_BY_SUITE_COLUMNS"]
 
 #: Default locations: relative to the working directory, else the copies shipped in the package.
 RAW_CSV = "paper_repro/paper_table2_rms.csv"
@@ -37,6 +40,12 @@ REPORTED_CSV = "paper_repro/paper_table2_reported.csv"
 #: Table II's printed "by Suite" column (percent), used when the reported CSV lacks it.
 PRINTED_BY_SUITE: dict[str, int] = {"systematic": 100, "fixed": 67, "random": 78}
 _BY_SUITE_VARIANTS = ("by_suite", "(by suite)", "by suite")
+#: Columns of :attr:`PaperTable.rates` (``detected`` counts the detecting jobs, ``k`` elsewhere).
+PAPER_RATE_COLUMNS: tuple[str, ...] = ("suite", "fault", "detected", "n", "rate", "wilson_low", "wilson_high",
+                                       "cp_low", "cp_high", "computed_pct", "reported_pct", "agrees")
+#: Columns of :attr:`PaperTable.by_suite`.
+PAPER_BY_SUITE_COLUMNS: tuple[str, ...] = ("suite", "detected_pairs", "n_pairs", "rate", "wilson_low",
+                                           "wilson_high", "computed_pct", "reported_pct", "agrees", "missed")
 
 
 def percent(k, n):
@@ -151,27 +160,47 @@ class PaperTable:
     Attributes
     ----------
     rule : DetectionRule
-    rms : DataFrame
-        RMS errors, mm; index (suite, variant) in Table II order, columns
-        MultiIndex (run, case).
-    detected : DataFrame of bool
-        Same shape: True where the faulty cell detects its fault (baseline rows False).
+    results : DataFrame
+        The raw RMS rows in the results schema (:func:`load_paper_raw`).
+    outcomes : DataFrame
+        :func:`faultlab.stats.outcomes` of ``results`` under ``rule``.
     rates : DataFrame
-        Per (suite, fault): ``detected, n, rate, wilson_low, wilson_high,
-        computed_pct, reported_pct, agrees``.
+        Per (suite, fault), columns :data:`PAPER_RATE_COLUMNS`: ``detected, n, rate,
+        wilson_low, wilson_high, cp_low, cp_high, computed_pct, reported_pct, agrees``.
     by_suite : DataFrame
-        Per suite: ``detected_pairs, n_pairs, rate, computed_pct,
-        reported_pct, agrees, missed``.
+        Per suite, columns :data:`PAPER_BY_SUITE_COLUMNS`: ``detected_pairs, n_pairs, rate,
+        wilson_low, wilson_high, computed_pct, reported_pct, agrees, missed``.
     raw_path, reported_path : Path
     """
 
     rule: DetectionRule
-    rms: pd.DataFrame
-    detected: pd.DataFrame
+    results: pd.DataFrame
+    outcomes: pd.DataFrame
     rates: pd.DataFrame
     by_suite: pd.DataFrame
     raw_path: Path
     reported_path: Path
+
+    @cached_property
+    def rms(self) -> pd.DataFrame:
+        """RMS errors, mm; index (suite, variant) in Table II order, columns MultiIndex (run, case)."""
+        suites = ordered(self.results["suite"], SUITE_ORDER)
+        faulty = self.results.loc[self.results["variant"] != BASELINE, "variant"]
+        variants = [BASELINE] + ordered(faulty, PAPER_FAULTS)
+        wide = self.results.pivot_table(index=["suite", "variant"], columns=["run", "case"], values="rms_mm",
+                                        aggfunc="first")
+        index = pd.MultiIndex.from_product([suites, variants], names=["suite", "variant"])
+        return wide.reindex(index).sort_index(axis=1)
+
+    @cached_property
+    def detected(self) -> pd.DataFrame:
+        """Same shape as :attr:`rms`: True where the faulty cell detects its fault (baseline rows False)."""
+        rms = self.rms
+        oc = self.outcomes
+        det = oc.assign(hit=oc["outcome"] == Outcome.DETECTED.value).pivot_table(
+            index=["suite", "fault"], columns=["run", "case"], values="hit", aggfunc="any")
+        det.index = det.index.set_names(["suite", "variant"])
+        return det.reindex(index=rms.index, columns=rms.columns).fillna(False).astype(bool)
 
     @property
     def disagreements(self) -> pd.DataFrame:
@@ -222,7 +251,7 @@ class PaperTable:
 
 
 def paper_table(raw_csv: str | Path, reported_csv: str | Path, *,
-                rule: DetectionRule = DetectionRule()) -> PaperTable:
+                rule: DetectionRule = DetectionRule(), alpha: float = 0.05) -> PaperTable:
     """Recompute Table II from the raw RMS rows and compare with the printed percentages.
 
     Parameters
@@ -233,6 +262,8 @@ def paper_table(raw_csv: str | Path, reported_csv: str | Path, *,
         ``suite, variant, detected_pct`` as printed.
     rule : DetectionRule
         Detection thresholds (the paper's by default).
+    alpha : float
+        1 - confidence level of the intervals.
 
     Returns
     -------
@@ -241,20 +272,9 @@ def paper_table(raw_csv: str | Path, reported_csv: str | Path, *,
     raw_path, reported_path = Path(raw_csv), Path(reported_csv)
     results = load_paper_raw(raw_path)
     printed, printed_bs = load_paper_reported(reported_path)
-
-    suites = ordered(results["suite"], SUITE_ORDER)
-    variants = [BASELINE] + ordered(results.loc[results["variant"] != BASELINE, "variant"], PAPER_FAULTS)
-    wide = results.pivot_table(index=["suite", "variant"], columns=["run", "case"], values="rms_mm",
-                               aggfunc="first")
-    index = pd.MultiIndex.from_product([suites, variants], names=["suite", "variant"])
-    rms = wide.reindex(index).sort_index(axis=1)
     oc = outcomes(results, rule=rule)
-    det = oc.assign(hit=oc["outcome"] == "detected").pivot_table(
-        index=["suite", "fault"], columns=["run", "case"], values="hit", aggfunc="any")
-    det.index = det.index.set_names(["suite", "variant"])
-    detected = det.reindex(index=index, columns=rms.columns).fillna(False).astype(bool)
 
-    dr = detection_rates(results, rule=rule)
+    dr = tabulate_rates(oc, alpha=alpha)
     rates = dr[["suite", "fault", "k", "n", "rate", "wilson_low", "wilson_high", "cp_low", "cp_high"]].rename(
         columns={"k": "detected"})
     rates["computed_pct"] = [percent(k, n) if n else -1 for k, n in zip(rates["detected"], rates["n"])]
@@ -262,12 +282,10 @@ def paper_table(raw_csv: str | Path, reported_csv: str | Path, *,
     rates["reported_pct"] = rates["reported_pct"].astype(float)
     rates["agrees"] = rates["computed_pct"] == rates["reported_pct"]
 
-    bs = by_suite(results, rule=rule)
+    bs = tabulate_by_suite(oc, alpha=alpha)
     bs["computed_pct"] = [percent(k, n) for k, n in zip(bs["detected_pairs"], bs["n_pairs"])]
     bs = bs.merge(printed_bs, on="suite", how="left")
     bs["reported_pct"] = bs["reported_pct"].astype(float)
     bs["agrees"] = bs["computed_pct"] == bs["reported_pct"]
-    bs = bs[["suite", "detected_pairs", "n_pairs", "rate", "wilson_low", "wilson_high", "computed_pct",
-             "reported_pct", "agrees", "missed"]]
-    return PaperTable(rule=rule, rms=rms, detected=detected, rates=rates, by_suite=bs, raw_path=raw_path,
-                      reported_path=reported_path)
+    return PaperTable(rule=rule, results=results, outcomes=oc, rates=rates[list(PAPER_RATE_COLUMNS)],
+                      by_suite=bs[list(PAPER_BY_SUITE_COLUMNS)], raw_path=raw_path, reported_path=reported_path)

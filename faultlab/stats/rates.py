@@ -31,9 +31,21 @@ from faultlab.errors import ConfigError
 from faultlab.stats.detection import DetectionRule, _check_columns, detects, outcomes, pair_with_baseline
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
-__all__ = ["proportion_ci", "detection_rates", "by_suite", "false_alarm_rate"]
+__all__ = ["proportion_ci", "detection_rates", "tabulate_rates", "by_suite", "tabulate_by_suite",
+           "false_alarm_rate", "suspected_equivalent_faults", "find_identical_faults", "RATE_COLUMNS",
+           "BY_SUITE_COLUMNS", "FALSE_ALARM_COLUMNS"]
 
 _CI_METHODS = {"wilson": "wilson", "cp": "beta"}
+_INTERVALS = ("wilson_low", "wilson_high", "cp_low", "cp_high")
+
+#: Columns of :func:`tabulate_rates` (and :func:`detection_rates`).
+RATE_COLUMNS: tuple[str, ...] = (
+    ("suite", "fault", "n_cases", "n_reps", "n_jobs") + tuple(o.value for o in Outcome)
+    + ("k", "n", "rate") + _INTERVALS + ("k_incl", "n_incl", "rate_incl") + tuple(f"{c}_incl" for c in _INTERVALS))
+#: Columns of :func:`tabulate_by_suite` (and :func:`by_suite`).
+BY_SUITE_COLUMNS: tuple[str, ...] = ("suite", "n_pairs", "detected_pairs", "rate") + _INTERVALS + ("missed",)
+#: Columns of :func:`false_alarm_rate`.
+FALSE_ALARM_COLUMNS: tuple[str, ...] = ("suite", "n_cases", "n_pairs", "flagged", "rate") + _INTERVALS
 
 
 def proportion_ci(k, n, *, alpha: float = 0.05, method: str = "wilson") -> tuple[np.ndarray, np.ndarray]:
@@ -131,8 +143,27 @@ def detection_rates(results: pd.DataFrame, *, rule: DetectionRule = DetectionRul
     Parameters
     ----------
     results : DataFrame
-        The runner's results (schema in the brief).
+        The runner's results (:data:`faultlab.runner.RESULT_COLUMNS`).
     rule : DetectionRule
+    alpha : float
+        1 - confidence level of the intervals.
+
+    Returns
+    -------
+    DataFrame
+        :func:`tabulate_rates` of :func:`faultlab.stats.outcomes`.
+    """
+    return tabulate_rates(outcomes(results, rule=rule), alpha=alpha)
+
+
+def tabulate_rates(pairs: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
+    """Detection rate per (suite, fault) of classified pairs.
+
+    Parameters
+    ----------
+    pairs : DataFrame
+        Output of :func:`faultlab.stats.outcomes` (needs ``run, suite, case, rep,
+        fault, outcome``).
     alpha : float
         1 - confidence level of the intervals.
 
@@ -146,11 +177,11 @@ def detection_rates(results: pd.DataFrame, *, rule: DetectionRule = DetectionRul
         cp_high`` with failures excluded and the same with suffix ``_incl``
         with crash/timeout counted as detections (module docstring).
     """
-    oc = outcomes(results, rule=rule)
+    _check_columns(pairs, ("run", "suite", "case", "rep", "fault", "outcome"), where="tabulate_rates")
+    oc = pairs
     cols = ["suite", "fault", "n_cases", "n_reps", "n_jobs"] + [o.value for o in Outcome]
     if oc.empty:
-        return pd.DataFrame(columns=cols + list(_rate_columns([], [], alpha=alpha))
-                            + list(_rate_columns([], [], alpha=alpha, suffix="_incl")))
+        return pd.DataFrame(columns=list(RATE_COLUMNS))
     counts = (pd.crosstab([oc["suite"], oc["fault"]], oc["outcome"])
               .reindex(columns=[o.value for o in Outcome], fill_value=0))
     g = oc.groupby(["suite", "fault"])
@@ -162,7 +193,7 @@ def detection_rates(results: pd.DataFrame, *, rule: DetectionRule = DetectionRul
     excl = _rate_columns(d, d + nd, alpha=alpha)
     incl = _rate_columns(d + fails, table["n_jobs"] - table[Outcome.BASELINE_FAILED.value], alpha=alpha,
                          suffix="_incl")
-    table = pd.concat([table[cols], pd.DataFrame(excl), pd.DataFrame(incl)], axis=1)
+    table = pd.concat([table[cols], pd.DataFrame(excl), pd.DataFrame(incl)], axis=1)[list(RATE_COLUMNS)]
     return _sort(table, {"suite": SUITE_ORDER, "fault": PAPER_FAULTS})
 
 
@@ -184,9 +215,28 @@ def suspected_equivalent_faults(results: pd.DataFrame) -> list[str]:
     Returns
     -------
     list of str
-        Fault names, in Table II order; empty when every fault changed at least one result.
+        :func:`find_identical_faults` of :func:`faultlab.stats.pair_with_baseline`.
     """
-    pairs = pair_with_baseline(results)
+    return find_identical_faults(pair_with_baseline(results))
+
+
+def find_identical_faults(pairs: pd.DataFrame) -> list[str]:
+    """Faults whose RMS equals the paired baseline's on every job where both finished.
+
+    Parameters
+    ----------
+    pairs : DataFrame
+        Output of :func:`faultlab.stats.pair_with_baseline` or
+        :func:`faultlab.stats.outcomes`.
+
+    Returns
+    -------
+    list of str
+        Fault names, in Table II order; empty when every fault changed at least one result
+        (see :func:`suspected_equivalent_faults`).
+    """
+    _check_columns(pairs, ("fault", "rms_mm", "status", "baseline_rms_mm", "baseline_status"),
+                   where="find_identical_faults")
     both_ok = (pairs["status"] == "ok") & (pairs["baseline_status"] == "ok")
     pairs = pairs[both_ok]
     if pairs.empty:
@@ -200,11 +250,6 @@ def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), al
              failures_detect: bool = False) -> pd.DataFrame:
     """The paper's "by Suite" figure: share of fault x run pairs the suite detected.
 
-    A (fault, run) pair counts as detected when at least one case (any
-    repetition) of the suite in that run detected the fault (Table II, Sec.
-    VII-D: "the percentage of faults that the test suite detected in total
-    over the three runs").
-
     Parameters
     ----------
     results : DataFrame
@@ -216,28 +261,52 @@ def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), al
     Returns
     -------
     DataFrame
+        :func:`tabulate_by_suite` of :func:`faultlab.stats.outcomes`.
+    """
+    return tabulate_by_suite(outcomes(results, rule=rule), alpha=alpha, failures_detect=failures_detect)
+
+
+def tabulate_by_suite(pairs: pd.DataFrame, *, alpha: float = 0.05, failures_detect: bool = False) -> pd.DataFrame:
+    """The "by Suite" figure of classified pairs.
+
+    A (fault, run) pair counts as detected when at least one case (any
+    repetition) of the suite in that run detected the fault (Table II, Sec.
+    VII-D: "the percentage of faults that the test suite detected in total
+    over the three runs").
+
+    Parameters
+    ----------
+    pairs : DataFrame
+        Output of :func:`faultlab.stats.outcomes` (needs ``run, suite, fault, outcome``).
+    alpha : float
+    failures_detect : bool
+        Count a crash/timeout of the faulty SLAM as a detection (default: no).
+
+    Returns
+    -------
+    DataFrame
         One row per suite: ``suite, n_pairs, detected_pairs, rate``, Wilson
         and Clopper-Pearson bounds (``wilson_low`` ...), and ``missed``: the
         undetected pairs as text, e.g. ``"naive_resampling (run 2)"``.
     """
-    oc = outcomes(results, rule=rule)
+    _check_columns(pairs, ("run", "suite", "fault", "outcome"), where="tabulate_by_suite")
     hits = {Outcome.DETECTED.value}
     if failures_detect:
         hits |= {Outcome.CRASH.value, Outcome.TIMEOUT.value}
-    oc["hit"] = oc["outcome"].isin(hits)
-    pairs = oc.groupby(["suite", "fault", "run"], as_index=False)["hit"].any()
+    oc = pairs.assign(hit=pairs["outcome"].isin(hits))
+    grouped = oc.groupby(["suite", "fault", "run"], as_index=False)["hit"].any()
     rows = []
-    for suite in ordered(pairs["suite"], SUITE_ORDER):
-        p = pairs[pairs["suite"] == suite]
+    for suite in ordered(grouped["suite"], SUITE_ORDER):
+        p = grouped[grouped["suite"] == suite]
         p = _sort(p, {"fault": PAPER_FAULTS, "run": ()})
         missed = "; ".join(f"{r.fault} (run {r.run})" for r in p.itertuples() if not r.hit)
         rows.append({"suite": suite, "n_pairs": len(p), "detected_pairs": int(p["hit"].sum()),
                      "missed": missed})
     table = pd.DataFrame(rows, columns=["suite", "n_pairs", "detected_pairs", "missed"])
     rc = _rate_columns(table["detected_pairs"], table["n_pairs"], alpha=alpha)
-    for name in ("rate", "wilson_low", "wilson_high", "cp_low", "cp_high"):
+    for name in ("rate",) + _INTERVALS:
         table.insert(len(table.columns) - 1, name, rc[name])
-    return table
+    return table[list(BY_SUITE_COLUMNS)]
 
 
 def false_alarm_rate(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
@@ -282,7 +351,7 @@ def false_alarm_rate(results: pd.DataFrame, *, rule: DetectionRule = DetectionRu
     table = pd.DataFrame(rows)
     rc = _rate_columns(table["flagged"], table["n_pairs_"], alpha=alpha)
     table = table.rename(columns={"n_pairs_": "n_pairs"})
-    for name in ("rate", "wilson_low", "wilson_high", "cp_low", "cp_high"):
+    for name in ("rate",) + _INTERVALS:
         table[name] = rc[name]
-    return table
+    return table[list(FALSE_ALARM_COLUMNS)]
 

@@ -301,3 +301,27 @@ def test_faults_do_not_modify_their_inputs():
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(u, u0)
     assert FastSlamSteps() == REFERENCE_STEPS
+
+
+# --------------------------------------------------------------------------- the paper's aliasing
+
+
+def test_paper_aliasing_is_the_paper_profiles_shallow_copy_resampling():
+    from faultlab.slam import units as U
+
+    st0 = _state(6)
+    idx = np.array([2, 0, 0, 5, 3, 3])
+    out = faulty("paper_aliasing")(st0, idx)
+    ref = U.apply_resample_aliased(st0, idx)
+    eff = np.array([2, 2, 2, 5, 5, 5])  # slots 0 and 3 were overwritten before 1, 2 and 4, 5 read them
+    np.testing.assert_array_equal(in_place_ancestors(idx), eff)
+    for a in (out, ref):
+        np.testing.assert_array_equal(a.poses, st0.poses[eff])
+        np.testing.assert_array_equal(a.owner, eff)
+        np.testing.assert_array_equal(a.lineage, eff)
+        np.testing.assert_allclose(np.exp(a.logw), 1 / 6)
+        assert a.sequential_sharers
+    # shallow_copy_resampling shares the same rows but lets the sharers update in parallel
+    last_wins = faulty("shallow_copy_resampling")(st0, idx)
+    np.testing.assert_array_equal(last_wins.owner, eff)
+    assert not last_wins.sequential_sharers

@@ -10,8 +10,10 @@ import pandas as pd
 import pypdf
 import pytest
 
+import faultlab.stats.detection
+from faultlab.analysis import Analysis, analyse
 from faultlab.errors import ResultsError
-from faultlab.report.build import ReportFiles, build_report
+from faultlab.report.build import ReportFiles, build_report, render_report
 from faultlab.report.comparison import Verdict
 from faultlab.report.tables import round_mm
 from faultlab.runner import case_path, load_metadata, load_results
@@ -38,10 +40,22 @@ def built(tiny_store, tmp_path_factory):
     mp = pytest.MonkeyPatch()
     try:
         _forbid_running(mp)
+        _count_classifications(mp)
         files = build_report(tiny_store, tmp_path_factory.mktemp("reports"))
     finally:
         mp.undo()
     return files, before
+
+
+CLASSIFIED: list[int] = []
+
+
+def _count_classifications(monkeypatch) -> None:
+    """Record the size of every table of pairs the detection rule classifies."""
+    original = faultlab.stats.detection.classify
+    CLASSIFIED.clear()
+    monkeypatch.setattr(faultlab.stats.detection, "classify",
+                        lambda pairs, **kw: CLASSIFIED.append(len(pairs)) or original(pairs, **kw))
 
 
 def _pdf_text(path) -> list[str]:
@@ -199,3 +213,20 @@ def test_a_fault_identical_to_the_baseline_everywhere_is_flagged(tiny_store, tmp
     (note,) = [n for n in files.notes if "equivalent mutant" in n]
     assert note.startswith("missing_angle_wrap:")
     assert "equivalent mutant" in " ".join(_pdf_text(files.pdf)[0].split())
+
+
+def test_the_report_classifies_every_job_once(built):
+    # this run's 12 faulty jobs (3 cases x 2 faults x 2 repetitions) and the paper's 135 faulty cells,
+    # each once: every table and page is rendered from the one Analysis
+    assert sorted(CLASSIFIED) == [12, 135]
+
+
+@pytest.mark.slow
+def test_a_saved_analysis_renders_the_same_report(built, tiny_store, tmp_path):
+    files, _ = built
+    analyse(tiny_store).save(tmp_path / "analysis")
+    again = render_report(Analysis.load(tmp_path / "analysis"), tmp_path / "rep", store_dir=tiny_store)
+    for name in ("table2.csv", "table2.md", "table2.tex", "detection_rates.csv", "detection_rates.md",
+                 "comparison.md"):
+        assert (tmp_path / "rep" / name).read_bytes() == (files.reports_dir / name).read_bytes(), name
+    assert again.page_titles == files.page_titles and again.notes == files.notes

@@ -4,19 +4,20 @@ from __future__ import annotations
 
 import pytest
 
+from faultlab.analysis import Analysis
 from faultlab.report.comparison import Verdict, compare_with_paper
-from faultlab.report.tables import load_paper, table2
 
 from .conftest import PAPER_FAULTS, make_results, paper_results
 
 
 @pytest.fixture(scope="module")
 def paper():
-    return load_paper()
+    """Compare with the paper's data (``paper_repro/``)."""
+    return True
 
 
 def _compare(results, paper, **kw):
-    return compare_with_paper(table2(results, paper=paper), **kw)
+    return compare_with_paper(Analysis.from_frame(results, paper=paper), **kw)
 
 
 def _paper_like(changes: dict):
@@ -123,7 +124,7 @@ def test_by_suite_and_systematic_claim(paper):
 
 
 def test_without_paper_data_nothing_is_compared(synthetic_results):
-    cmp = compare_with_paper(table2(synthetic_results))
+    cmp = compare_with_paper(Analysis.from_frame(synthetic_results, paper=False))
     assert [s.verdict for s in cmp.statements] == [Verdict.NOT_COMPARABLE]
 
 

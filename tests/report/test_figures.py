@@ -7,10 +7,14 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+from faultlab.analysis import Analysis
 from faultlab.report.figures import detection_rate_figure, rms_distribution_figure, suite_palette
-from faultlab.report.tables import detection_frame, load_paper, paper_results_frame
 
 from .conftest import make_results
+
+
+def analysed(results, *, paper=False) -> Analysis:
+    return Analysis.from_frame(results, paper=paper)
 
 
 def _bars(ax):
@@ -18,9 +22,10 @@ def _bars(ax):
 
 
 def test_detection_bars_and_error_bars_follow_the_rates(synthetic_results):
-    det = detection_frame(synthetic_results)
+    a = analysed(synthetic_results)
+    det = a.detection_rates
     n_before = len(plt.get_fignums())
-    fig = detection_rate_figure(det)
+    fig = detection_rate_figure(a)
     assert isinstance(fig, Figure)
     assert len(plt.get_fignums()) == n_before  # nothing registered with pyplot
     ax = fig.axes[0]
@@ -42,8 +47,9 @@ def test_detection_bars_and_error_bars_follow_the_rates(synthetic_results):
 
 
 def test_clopper_pearson_bars_can_be_chosen(synthetic_results):
-    det = detection_frame(synthetic_results)
-    ax = detection_rate_figure(det, interval="cp").axes[0]
+    a = analysed(synthetic_results)
+    det = a.detection_rates
+    ax = detection_rate_figure(a, interval="cp").axes[0]
     segs = [seg for coll in ax.collections if hasattr(coll, "get_segments")
             for seg in coll.get_segments()]
     lows = sorted(round(s[0][1], 6) for s in segs)
@@ -52,8 +58,9 @@ def test_clopper_pearson_bars_can_be_chosen(synthetic_results):
 
 
 def test_paper_rates_are_drawn_as_markers(synthetic_results):
-    det = detection_frame(synthetic_results, paper=load_paper())
-    ax = detection_rate_figure(det).axes[0]
+    a = analysed(synthetic_results, paper=True)
+    det = a.detection_rates
+    ax = detection_rate_figure(a).axes[0]
     offsets = np.vstack([c.get_offsets() for c in ax.collections if c.get_offsets().size and
                          not hasattr(c, "get_segments")])
     np.testing.assert_allclose(sorted(offsets[:, 1]), sorted(100 * det["paper_rate"].to_numpy()))
@@ -61,13 +68,15 @@ def test_paper_rates_are_drawn_as_markers(synthetic_results):
 
 
 def test_empty_detection_frame_gives_a_message(synthetic_results):
-    det = detection_frame(synthetic_results).iloc[:0]
-    fig = detection_rate_figure(det)
+    baseline_only = synthetic_results[synthetic_results["variant"] == "baseline"]
+    a = analysed(baseline_only)
+    assert a.detection_rates.empty
+    fig = detection_rate_figure(a)
     assert "no faulty variant" in fig.axes[0].texts[0].get_text()
 
 
 def test_rms_distributions_log_scale_one_panel_per_suite(synthetic_results):
-    fig = rms_distribution_figure(synthetic_results)
+    fig = rms_distribution_figure(analysed(synthetic_results))
     axes = fig.axes
     assert len(axes) == 3
     assert all(ax.get_yscale() == "log" for ax in axes)
@@ -84,7 +93,7 @@ def test_rms_distributions_log_scale_one_panel_per_suite(synthetic_results):
 def test_rms_distributions_with_the_paper_and_failures():
     res = make_results(lambda *k: 100.0, suites=("fixed",),
                        status={(1, "fixed", 1, "motion_sign_error", 0): "crash"})
-    fig = rms_distribution_figure(res, paper_results=paper_results_frame(load_paper()))
+    fig = rms_distribution_figure(analysed(res, paper=True))
     assert len(fig.axes) == 2 * 3  # this run and paper rows x the paper's 3 suites
     titles = [ax.get_title() for ax in fig.axes]
     assert "Fixed - this run" in titles and "Random - paper" in titles

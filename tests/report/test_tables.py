@@ -12,27 +12,33 @@ from hypothesis import given
 from hypothesis import strategies as st
 from statsmodels.stats.proportion import proportion_confint
 
+from faultlab.analysis import Analysis, analyse
 from faultlab.errors import ResultsError
+from faultlab.report.comparison import compare_with_paper
 from faultlab.report.tables import (
     PAPER,
     THIS_RUN,
     cell_text,
-    detection_frame,
     detection_markdown,
     format_mm,
-    load_paper,
     round_mm,
-    table2,
     table2_csv_frame,
     table2_frame,
     table2_latex,
     table2_markdown,
+    table2_runs,
     tex_escape,
     write_tables,
 )
 from faultlab.stats import DetectionRule
 
-from .conftest import make_results, paper_results
+from .conftest import REPO, make_results, paper_results
+
+
+def analysed(results, *, rule=None, paper=False, rep=None) -> Analysis:
+    """The Analysis a report renders Table II from (``rule`` stored with the results)."""
+    meta = {} if rule is None else {"detection": {"abs_mm": rule.abs_mm, "rel": rule.rel}}
+    return Analysis.from_frame(results, meta, paper=paper, rep=rep)
 
 
 # --------------------------------------------------------------------------- rounding
@@ -71,7 +77,7 @@ def test_cell_text_marks_and_failures():
 
 
 def _csv(synthetic_results, **kw) -> pd.DataFrame:
-    return table2_csv_frame(table2(synthetic_results, **kw)).set_index(["Suite", "Algorithm", "Source"])
+    return table2_csv_frame(analysed(synthetic_results, **kw)).set_index(["Suite", "Algorithm", "Source"])
 
 
 def test_detected_cells_marked_exactly_where_the_rule_fires(synthetic_results):
@@ -92,7 +98,7 @@ def test_detected_cells_marked_exactly_where_the_rule_fires(synthetic_results):
 
 
 def test_detected_percentages_intervals_and_by_suite(synthetic_results):
-    t = table2(synthetic_results)
+    t = analysed(synthetic_results)
     f = table2_csv_frame(t).set_index(["Suite", "Algorithm", "Source"])
     assert f.loc[("Systematic", "Faulty Rotation", THIS_RUN), "Detected %"] == "100"
     assert f.loc[("Systematic", "Sign Error", THIS_RUN), "Detected %"] == "50"
@@ -106,7 +112,7 @@ def test_detected_percentages_intervals_and_by_suite(synthetic_results):
     assert f.loc[("Random", "Nonfaulty Baseline", THIS_RUN), "by Suite %"] == "67"
     assert f.loc[("Fixed", "Nonfaulty Baseline", THIS_RUN), "by Suite %"] == "33"
     assert f.loc[("Fixed", "Sign Error", THIS_RUN), "by Suite %"] == ""
-    rates = t.rates.set_index(["suite", "variant"])
+    rates = t.detection_rates.set_index(["suite", "variant"])
     assert (rates.loc[("systematic", "motion_sign_error"), ["k", "n"]].tolist()) == [1, 2]
 
 
@@ -127,10 +133,10 @@ def test_crash_and_timeout_cells_and_their_counts():
               (1, "fixed", 2, "motion_sign_error", 0): "timeout"}
     res = make_results(lambda *k: 50.0 if k[3] == "baseline" else 900.0, suites=("fixed",),
                        status=status)
-    t = table2(res)
+    t = analysed(res)
     f = table2_csv_frame(t).set_index(["Suite", "Algorithm", "Source"])
     assert f.loc[("Fixed", "Sign Error", THIS_RUN)][["R1C1", "R1C2"]].tolist() == ["crash", "timeout"]
-    det = detection_frame(res).set_index("variant")
+    det = t.detection_rates.set_index("variant")
     assert int(det.loc["motion_sign_error", "crash"]) == 1
     assert int(det.loc["motion_sign_error", "timeout"]) == 1
     assert int(det.loc["motion_sign_error", "n"]) == 0  # failures excluded from k/n
@@ -142,28 +148,28 @@ def test_cells_show_one_repetition_and_rates_count_all():
     res = make_results(lambda run, suite, case, variant, rep:
                        50.0 if variant == "baseline" else (60.0 if rep == 0 else 900.0),
                        suites=("fixed",), variants=("baseline", "motion_sign_error"), reps=2)
-    t = table2(res)
+    t = analysed(res)
     f = table2_csv_frame(t).set_index(["Suite", "Algorithm", "Source"])
     assert f.loc[("Fixed", "Sign Error", THIS_RUN)][["R1C1", "R1C2"]].tolist() == ["60", "60"]
     assert f.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == "50"
     assert "repetition 0 of 2" in table2_markdown(t)
-    t1 = table2(res, rep=1)
+    t1 = analysed(res, rep=1)
     f1 = table2_csv_frame(t1).set_index(["Suite", "Algorithm", "Source"])
     assert f1.loc[("Fixed", "Sign Error", THIS_RUN)][["R1C1", "R1C2"]].tolist() == ["900*", "900*"]
     with pytest.raises(ResultsError, match="repetition 5"):
-        table2(res, rep=5)
+        analysed(res, rep=5)
 
 
 def test_empty_results_are_refused(synthetic_results):
     with pytest.raises(ResultsError, match="no rows"):
-        table2(synthetic_results.iloc[:0])
+        analysed(synthetic_results.iloc[:0])
 
 
 # --------------------------------------------------------------------------- writers
 
 
 def test_markdown_and_latex_mark_the_same_cells(synthetic_results):
-    t = table2(synthetic_results)
+    t = analysed(synthetic_results)
     md = table2_markdown(t)
     assert md.count("**1234**") == 6 and md.count("**3001**") == 2
     assert "| Systematic | Sign Error | this run | **3001** | 60 |" in md
@@ -184,8 +190,8 @@ def test_tex_escape():
 def test_many_runs_are_split_into_blocks_of_three():
     res = make_results(lambda *k: 50.0, runs=4, suites=("fixed",), cases=1,
                        variants=("baseline", "naive_resampling"))
-    t = table2(res)
-    assert t.runs() == [1, 2, 3, 4]
+    t = analysed(res)
+    assert table2_runs(t) == [1, 2, 3, 4]
     md = table2_markdown(t)
     assert "## Evaluation runs 1-3" in md and "## Evaluation runs 4-4" in md
     assert table2_latex(t).count("\\begin{tabular}") == 2
@@ -194,9 +200,8 @@ def test_many_runs_are_split_into_blocks_of_three():
 
 
 def test_write_tables_round_trip(tmp_path, synthetic_results):
-    t = table2(synthetic_results)
-    det = detection_frame(synthetic_results)
-    files = write_tables(t, det, tmp_path / "rep")
+    t = analysed(synthetic_results)
+    files = write_tables(t, tmp_path / "rep")
     for p in (files.table2_csv, files.table2_md, files.table2_tex, files.detection_csv, files.detection_md):
         assert p.is_file() and p.stat().st_size > 0
     back = pd.read_csv(files.table2_csv, dtype=str, keep_default_na=False)
@@ -211,13 +216,8 @@ def test_write_tables_round_trip(tmp_path, synthetic_results):
 # --------------------------------------------------------------------------- the paper's data
 
 
-@pytest.fixture(scope="module")
-def paper():
-    return load_paper()
-
-
-def test_paper_rows_reproduce_the_printed_grid_and_marks(paper):
-    t = table2(paper_results(), paper=paper)
+def test_paper_rows_reproduce_the_printed_grid_and_marks():
+    t = analysed(paper_results(), paper=True)
     f = table2_csv_frame(t).set_index(["Suite", "Algorithm", "Source"])
     # cells as printed in Table II (rounded to mm)
     row = f.loc[("Systematic", "Nonfaulty Baseline", PAPER)]
@@ -237,11 +237,26 @@ def test_paper_rows_reproduce_the_printed_grid_and_marks(paper):
     assert f.loc[("Fixed", "Nonfaulty Baseline", PAPER), "by Suite %"] == "67"
 
 
-def test_detection_frame_puts_the_paper_beside(paper, synthetic_results):
-    d = detection_frame(synthetic_results, paper=paper).set_index(["suite", "variant"])
+def test_detection_rates_put_the_paper_beside(synthetic_results):
+    a = analysed(synthetic_results, paper=True)
+    d = a.detection_rates.set_index(["suite", "variant"])
     np.testing.assert_allclose(d.loc[("systematic", "naive_resampling"), "paper_rate"], 4 / 15)
     assert d.loc[("random", "missing_angle_wrap"), "paper_printed_pct"] == 80
     np.testing.assert_allclose(d.loc[("random", "missing_angle_wrap"), "paper_rate"], 11 / 15)
     assert math.isclose(d.loc[("systematic", "motion_sign_error"), "rate"], 0.5)
-    md = detection_markdown(d.reset_index())
+    md = detection_markdown(a)
     assert "Paper % (printed)" in md
+    assert "Paper % (printed)" not in detection_markdown(analysed(synthetic_results))
+
+
+# --------------------------------------------------------------------------- the reference run
+
+
+def test_the_committed_store_renders_the_committed_tables(tmp_path):
+    """The reference run's results store gives the committed report files byte for byte."""
+    analysis = analyse(REPO / "reports" / "store")
+    files = write_tables(analysis, tmp_path)
+    for path in (files.table2_csv, files.detection_csv, files.table2_md, files.table2_tex, files.detection_md):
+        assert path.read_bytes() == (REPO / "reports" / path.name).read_bytes(), path.name
+    comparison = compare_with_paper(analysis).markdown()
+    assert comparison == (REPO / "reports" / "comparison.md").read_text(encoding="utf-8")

@@ -237,3 +237,84 @@ def test_empty_map_is_an_error():
     with pytest.raises(ScenarioError, match="no landmarks"):
         drive(np.empty((0, 2)), rng=np.random.default_rng(0), n_steps=5, step=1, fov=1, sensor_range=2,
               loop=False)
+
+
+# --------------------------------------------------------------------------- the package's field-of-view defect
+
+
+def _package_fov_test(angle, half_opening):
+    """The replication package's test (simulator.py), angle wrapped to [-pi, pi) first."""
+    angle = (angle + math.pi) % (2 * math.pi) - math.pi
+    return min(angle, 2 * math.pi - angle) < half_opening
+
+
+def test_in_field_of_view_with_the_bug_is_the_packages_expression():
+    from faultlab.scenario.trace import in_field_of_view
+
+    angles = np.linspace(-math.pi, math.pi, 721, endpoint=False) + 1e-7  # off the grid of boundaries
+    for fov in (math.pi / 2, math.pi, 1.5 * math.pi, 2 * math.pi):
+        bug = in_field_of_view(angles, fov, fov_bug=True)
+        expected = [_package_fov_test(a, fov / 2) for a in angles]  # sensor_fov is the half opening
+        np.testing.assert_array_equal(bug, expected)
+        assert np.all(bug[angles < 0])  # every right-side bearing passes, whatever the opening
+        np.testing.assert_array_equal(in_field_of_view(angles, fov), np.abs(angles) <= fov / 2)
+
+
+def _brute_force_visible_with_bug(landmarks, ids, pose, sensor_range, fov):
+    """Per landmark, the package's visibility: (visible ids, ids near a boundary)."""
+    x, y, th = pose
+    vis, near = set(), set()
+    for (lx, ly), i in zip(landmarks, ids):
+        r = math.hypot(lx - x, ly - y)
+        b = math.atan2(ly - y, lx - x) - th
+        if abs(r - sensor_range) < 1e-9 or abs(((b + math.pi) % (2 * math.pi) - math.pi) - fov / 2) < 1e-9:
+            near.add(int(i))
+        if r <= sensor_range and _package_fov_test(b, fov / 2):
+            vis.add(int(i))
+    return vis, near
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), fov=st.floats(math.pi / 2, 1.5 * math.pi))
+def test_fov_bug_observes_every_right_side_landmark_in_range(seed, fov):
+    case = _case(field_of_view=fov, map_size=36.0, **NO_NOISE)
+    bug = generate_scenario(case, rng=np.random.default_rng(seed), n_steps=40, fov_bug=True)
+    n_right_outside = n_expected = 0
+    for t in range(bug.n_steps):
+        r, b, ids = bug.observations(t)
+        vis, near = _brute_force_visible_with_bug(bug.landmarks, bug.landmark_ids, bug.true_poses[t + 1], 2.0, fov)
+        assert {int(i) for i in ids} - near == vis - near
+        n_right_outside += int(np.sum(b < -fov / 2))  # observed although outside the opening
+        pose = bug.true_poses[t + 1]
+        for (lx, ly), i in zip(bug.landmarks, bug.landmark_ids):  # brute force: right side, outside, in range
+            bb = (math.atan2(ly - pose[1], lx - pose[0]) - pose[2] + math.pi) % (2 * math.pi) - math.pi
+            if math.hypot(lx - pose[0], ly - pose[1]) <= 2.0 and bb < -fov / 2 and int(i) not in near:
+                n_expected += 1
+    assert n_right_outside == n_expected and n_expected > 0
+    assert bug.fov_bug and bug.meta["config"]["fov_bug"] is True
+
+
+def test_fov_bug_is_off_by_default_and_the_default_is_unchanged():
+    case = _case(**NO_NOISE)
+    default = generate_scenario(case, rng=np.random.default_rng(4), n_steps=60)
+    explicit = generate_scenario(case, rng=np.random.default_rng(4), n_steps=60, fov_bug=False)
+    bug = generate_scenario(case, rng=np.random.default_rng(4), n_steps=60, fov_bug=True)
+    assert not default.fov_bug and default.meta["config"]["fov_bug"] is False
+    for name in ("landmarks", "true_poses", "controls", "obs_offsets", "obs_range", "obs_bearing", "obs_ids"):
+        np.testing.assert_array_equal(getattr(default, name), getattr(explicit, name))
+    fov = FIXED_VALUES["field_of_view"]
+    assert np.all(np.abs(default.obs_bearing) <= fov / 2 + 1e-12)  # nothing outside the opening by default
+    assert np.sum(bug.obs_bearing < -fov / 2) > 0  # the defect sees behind on the right
+    assert bug.obs_range.size > default.obs_range.size
+    with pytest.raises(ScenarioError, match="fov_bug"):
+        generate_scenario(case, rng=np.random.default_rng(4), n_steps=5, fov_bug="yes")
+
+
+def test_fov_bug_is_recorded_in_the_saved_scenario_and_loaded_back(tmp_path):
+    from faultlab.scenario import load_scenario, save_scenario
+
+    for flag in (True, False):
+        sc = generate_scenario(_case(), rng=np.random.default_rng(2), n_steps=20, fov_bug=flag)
+        loaded = load_scenario(save_scenario(sc, tmp_path / f"case_{flag}"))
+        assert loaded.fov_bug is flag and loaded.meta["config"]["fov_bug"] is flag
+        np.testing.assert_array_equal(loaded.obs_bearing, sc.obs_bearing)

@@ -55,10 +55,10 @@ def test_config_defaults_are_fastslams_noise_settings():
 
 @pytest.mark.parametrize("kwargs, message", [
     (dict(std_v=-0.1), "std_v must be >= 0"),
-    (dict(std_omega=float("nan")), "std_omega must be a finite"),
+    (dict(std_omega=float("nan")), "std_omega must be finite"),
     (dict(std_range=0.0), "std_range must be > 0"),
     (dict(std_bearing="x"), "std_bearing must be a number"),
-    (dict(std_v=True), "std_v must be a finite"),
+    (dict(std_v=True), "std_v must be a number"),
 ])
 def test_config_rejects_bad_values(kwargs, message):
     with pytest.raises(ConfigError, match=message):

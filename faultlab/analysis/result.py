@@ -1,0 +1,509 @@
+"""One analysis of a campaign: every statistic computed once, from the results and the stored rule.
+
+:func:`analyse` reads a results store; :meth:`Analysis.from_frame` takes a results frame and its
+metadata.  Both classify every faulty job once (:func:`faultlab.stats.outcomes`, with the
+detection rule stored with the campaign) and derive every table from that classification:
+detection rates with confidence intervals and "by Suite" (Table II, Sec. VII-D), false alarms,
+the statistical oracle, suite comparisons and parameter effects (beyond the paper), Table II's
+cells, coverage (Sec. V) and the paper's own figures recomputed from its raw data
+(:func:`faultlab.stats.paper_table`).  Reports, figures and commands render an
+:class:`Analysis`; they never compute a statistic themselves.
+
+An Analysis is saved as one CSV per table plus ``analysis.json`` (rule, confidence level,
+options, the store's metadata, notes) and loads back equal, table for table
+(:meth:`Analysis.save`, :meth:`Analysis.load`).
+
+To add a statistic: define its table in :mod:`faultlab.analysis.schema` (and add it to
+``TABLES``), add a field of that name here and compute it in :meth:`Analysis.from_frame`;
+:class:`Note` records, under the table's name, why it could not be computed.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from faultlab.analysis.campaign import count_expected_jobs, read_rule, read_space
+from faultlab.analysis.schema import (
+    BY_SUITE,
+    COVERAGE,
+    FALSE_ALARMS,
+    JOBS,
+    ORACLE,
+    OUTCOMES,
+    PAPER,
+    PAPER_BY_SUITE,
+    PAPER_RATES,
+    PARAMETER_EFFECTS,
+    SUITE_COMPARISONS,
+    TABLE2_CELLS,
+    TABLES,
+    THIS_RUN,
+    TableSchema,
+)
+from faultlab.analysis.tables import (
+    case_table,
+    coverage_table,
+    detection_rate_table,
+    job_table,
+    oracle_summary_table,
+    outcome_table,
+    runtime_table,
+    table2_cell_table,
+)
+from faultlab.errors import ConfigError, FaultlabError, ResultsError
+from faultlab.runner import load_metadata, load_results
+from faultlab.stats.comparison import compare_suite_rates
+from faultlab.stats.detection import DetectionRule, outcomes
+from faultlab.stats.effects import fit_effects, validate_parameters
+from faultlab.stats.oracle import oracle_detections
+from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, paper_table, resolve_data_path
+from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
+from faultlab.vocabulary import SUITE_ORDER, JobStatus, ordered
+
+__all__ = ["Analysis", "Note", "analyse", "FORMAT_VERSION", "JSON_FILE", "BEYOND_THE_PAPER"]
+
+#: Version of the saved form (``analysis.json`` + CSV files).
+FORMAT_VERSION = 1
+#: File of the scalars, options, metadata and notes of a saved Analysis.
+JSON_FILE = "analysis.json"
+#: Tables of the statistics beyond the paper; a :class:`Note` under one of these names says why
+#: the table holds nothing to show.
+BEYOND_THE_PAPER: tuple[str, ...] = ("false_alarms", "oracle", "suite_comparisons", "parameter_effects")
+
+
+@dataclass(frozen=True)
+class Note:
+    """Something the analysis could not do, or a caveat, and why.
+
+    Attributes
+    ----------
+    topic : str
+        A table name (e.g. ``"oracle"``) or ``"rule"``, ``"metric"``, ``"equivalent_faults"``,
+        ``"paper"``, ``"campaign"``.
+    text : str
+        One or two sentences, for the reader of a report.
+    """
+
+    topic: str
+    text: str
+
+    def __str__(self) -> str:
+        return self.text
+
+
+@dataclass(frozen=True, eq=False)
+class Analysis:
+    """Every statistic of one campaign, computed once (see the module docstring).
+
+    Scalars
+    -------
+    rule : DetectionRule
+        The detection rule stored with the campaign (the paper's when none is stored).
+    alpha : float
+        1 - confidence level of every interval and the family-wise level of the oracle.
+    rep : int
+        The SLAM repetition shown in Table II's RMS cells (rates count every repetition).
+    parameters : tuple of str or None
+        The predictors of the parameter effects (None: every scenario parameter).
+    metadata : dict
+        The results store's metadata (:func:`faultlab.runner.load_metadata`), JSON-shaped.
+    equivalent_faults : tuple of str
+        Faults whose every result equals the baseline's (:func:`faultlab.stats.find_identical_faults`).
+    paper_raw, paper_reported : Path or None
+        The paper's data files the paper tables were computed from (None: no paper data).
+    notes : tuple of Note
+        What could not be computed, and why; caveats.
+
+    Tables (columns in :mod:`faultlab.analysis.schema`)
+    ------
+    jobs, cases, outcomes, detection_rates, by_suite, false_alarms, oracle, oracle_summary,
+    suite_comparisons, parameter_effects, table2_cells, paper_rates, paper_by_suite, coverage,
+    runtimes : DataFrame
+        Treat them as read-only.
+    """
+
+    rule: DetectionRule
+    alpha: float
+    rep: int
+    parameters: tuple[str, ...] | None
+    metadata: dict
+    equivalent_faults: tuple[str, ...]
+    paper_raw: Path | None
+    paper_reported: Path | None
+    notes: tuple[Note, ...]
+    jobs: pd.DataFrame
+    cases: pd.DataFrame
+    outcomes: pd.DataFrame
+    detection_rates: pd.DataFrame
+    by_suite: pd.DataFrame
+    false_alarms: pd.DataFrame
+    oracle: pd.DataFrame
+    oracle_summary: pd.DataFrame
+    suite_comparisons: pd.DataFrame
+    parameter_effects: pd.DataFrame
+    table2_cells: pd.DataFrame
+    paper_rates: pd.DataFrame
+    paper_by_suite: pd.DataFrame
+    coverage: pd.DataFrame
+    runtimes: pd.DataFrame
+
+    # ------------------------------------------------------------------ construction
+
+    @classmethod
+    def from_frame(cls, results: pd.DataFrame, metadata: Mapping | None = None, *, alpha: float = 0.05,
+                   paper: bool = True, paper_raw: str | Path | None = None,
+                   paper_reported: str | Path | None = None, rep: int | None = None,
+                   parameters: Sequence[str] | None = None) -> "Analysis":
+        """Analyse a results frame.
+
+        Parameters
+        ----------
+        results : DataFrame
+            One row per job, :data:`faultlab.runner.RESULT_COLUMNS` (as :func:`faultlab.runner.load_results`).
+        metadata : mapping, optional
+            The store's metadata; its ``detection`` entry is the rule every job is judged by.
+        alpha : float
+            1 - confidence level of the intervals.
+        paper : bool
+            Compute the paper's figures from its data (:func:`faultlab.stats.paper_table`) with
+            the same rule, to compare with.
+        paper_raw, paper_reported : path, optional
+            The paper's data; default ``paper_repro/`` (:func:`faultlab.stats.resolve_data_path`).
+        rep : int, optional
+            The SLAM repetition shown in Table II's RMS cells; default the smallest stored.
+        parameters : sequence of str, optional
+            Predictors of the parameter effects (:func:`faultlab.stats.fit_effects`); default all.
+
+        Raises
+        ------
+        ResultsError
+            No rows, no rows of repetition ``rep``, a missing column, or an invalid stored rule.
+        ConfigError
+            ``alpha`` outside (0, 1) or an unknown parameter.
+        """
+        _check_input(results, alpha)
+        metadata = _json_shaped(dict(metadata or {}))
+        rep = _shown_repetition(results, rep)
+        parameters = None if parameters is None else validate_parameters(parameters)
+        rule, stored = read_rule(metadata)
+        pairs = outcomes(results, rule=rule)  # every faulty job classified, once
+        rates = tabulate_rates(pairs, alpha=alpha)
+        equivalent = tuple(find_identical_faults(pairs))
+        paper_tab, paper_note = _paper(paper, paper_raw, paper_reported, rule=rule, alpha=alpha)
+        cases = case_table(results)
+        coverage, coverage_note = _coverage(cases, metadata)
+        beyond, beyond_notes = _beyond_the_paper(results, pairs, rates, rule=rule, alpha=alpha,
+                                                 parameters=parameters, n_reps=results["rep"].nunique())
+        notes = (_rule_notes(metadata, stored, rule) + _equivalence_notes(equivalent) + [paper_note]
+                 + _completeness_notes(metadata, len(results)) + [coverage_note] + beyond_notes)
+        return cls(
+            rule=rule, alpha=float(alpha), rep=rep, parameters=parameters, metadata=metadata,
+            equivalent_faults=equivalent,
+            paper_raw=None if paper_tab is None else paper_tab.raw_path,
+            paper_reported=None if paper_tab is None else paper_tab.reported_path,
+            notes=tuple(n for n in notes if n is not None),
+            cases=cases,
+            detection_rates=detection_rate_table(rates, None if paper_tab is None else paper_tab.rates),
+            by_suite=BY_SUITE.conform(tabulate_by_suite(pairs, alpha=alpha)),
+            coverage=coverage,
+            runtimes=runtime_table(results),
+            **_per_source_tables(results, pairs, paper_tab, rep=rep),
+            **beyond,
+        )
+
+    # ------------------------------------------------------------------ derived views
+
+    @property
+    def has_paper(self) -> bool:
+        """Whether the paper's figures were computed (its data was found)."""
+        return self.paper_raw is not None
+
+    @property
+    def this_run_jobs(self) -> pd.DataFrame:
+        """The rows of :attr:`jobs` of the analysed campaign."""
+        return self.jobs[self.jobs["source"] == THIS_RUN]
+
+    @property
+    def n_rows(self) -> int:
+        """Result rows (jobs) of the analysed campaign."""
+        return len(self.this_run_jobs)
+
+    @property
+    def n_reps(self) -> int:
+        """Distinct SLAM repetitions in the results."""
+        return int(self.this_run_jobs["rep"].nunique())
+
+    @property
+    def status_counts(self) -> dict[str, int]:
+        """Jobs per status (ok, crash, timeout), every status listed."""
+        counts = self.this_run_jobs["status"].value_counts()
+        return {s.value: int(counts.get(s.value, 0)) for s in JobStatus}
+
+    @property
+    def cases_per_run(self) -> dict[str, int]:
+        """Per suite (Table II order), the largest number of cases it has in one run."""
+        per = self.cases.groupby(["suite", "run"]).size().groupby("suite").max()
+        return {s: int(per[s]) for s in ordered(per.index, SUITE_ORDER)}
+
+    @property
+    def expected_jobs(self) -> int | None:
+        """Jobs of the complete campaign, from the stored experiment (None if it does not say)."""
+        return count_expected_jobs(self.metadata)
+
+    @property
+    def paper_table(self) -> PaperTable | None:
+        """The paper's Table II as :func:`faultlab.stats.paper_table` gives it (None without paper data)."""
+        if not self.has_paper:
+            return None
+        jobs = self.jobs[self.jobs["source"] == PAPER]
+        results = jobs[["run", "suite", "case", "variant", "rep", "rms_mm", "status"]].reset_index(drop=True)
+        oc = self.outcomes[self.outcomes["source"] == PAPER].drop(columns="source").reset_index(drop=True)
+        return PaperTable(rule=self.rule, results=results, outcomes=oc, rates=self.paper_rates,
+                          by_suite=self.paper_by_suite, raw_path=self.paper_raw, reported_path=self.paper_reported)
+
+    def notes_on(self, *topics: str) -> tuple[Note, ...]:
+        """The notes on any of ``topics``."""
+        return tuple(n for n in self.notes if n.topic in topics)
+
+    def table(self, name: str) -> pd.DataFrame:
+        """The table called ``name`` (a :data:`~faultlab.analysis.schema.TABLES` name)."""
+        if name not in _TABLE_NAMES:
+            raise KeyError(f"an Analysis has no table {name!r}; tables: {', '.join(_TABLE_NAMES)}")
+        return getattr(self, name)
+
+    def equals(self, other: "Analysis") -> bool:
+        """Same scalars, metadata, notes and tables (NaN equal to NaN, dtypes included)."""
+        if not isinstance(other, Analysis):
+            return False
+        return (self._scalars() == other._scalars()
+                and all(getattr(self, s.name).equals(getattr(other, s.name)) for s in TABLES))
+
+    # ------------------------------------------------------------------ saving
+
+    def save(self, directory: str | Path) -> Path:
+        """Write one CSV per table and :data:`JSON_FILE` into ``directory`` (created); returns it."""
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        for schema in TABLES:
+            schema.to_csv(getattr(self, schema.name), directory / f"{schema.name}.csv")
+        text = json.dumps(self._scalars(), indent=1, sort_keys=True, allow_nan=True)
+        (directory / JSON_FILE).write_text(text + "\n", encoding="utf-8")
+        return directory
+
+    @classmethod
+    def load(cls, directory: str | Path) -> "Analysis":
+        """Read an Analysis written by :meth:`save`.
+
+        Raises
+        ------
+        ResultsError
+            Missing or malformed files (names the file).
+        """
+        directory = Path(directory)
+        path = directory / JSON_FILE
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise ResultsError(f"{path}: cannot read a saved analysis ({exc})") from exc
+        if not isinstance(data, dict) or data.get("format") != FORMAT_VERSION:
+            raise ResultsError(f"{path}: not a saved analysis of format {FORMAT_VERSION}")
+        try:
+            scalars = dict(
+                rule=DetectionRule(**data["rule"]), alpha=float(data["alpha"]), rep=int(data["rep"]),
+                parameters=None if data["parameters"] is None else tuple(data["parameters"]),
+                metadata=data["metadata"], equivalent_faults=tuple(data["equivalent_faults"]),
+                paper_raw=None if data["paper_raw"] is None else Path(data["paper_raw"]),
+                paper_reported=None if data["paper_reported"] is None else Path(data["paper_reported"]),
+                notes=tuple(Note(n["topic"], n["text"]) for n in data["notes"]))
+        except (KeyError, TypeError, ValueError, FaultlabError) as exc:
+            raise ResultsError(f"{path}: malformed saved analysis ({type(exc).__name__}: {exc})") from exc
+        tables = {s.name: s.read_csv(directory / f"{s.name}.csv") for s in TABLES}
+        return cls(**scalars, **tables)
+
+    def _scalars(self) -> dict:
+        """Everything but the tables, JSON-shaped."""
+        return {
+            "format": FORMAT_VERSION,
+            "rule": {"abs_mm": self.rule.abs_mm, "rel": self.rule.rel},
+            "alpha": self.alpha,
+            "rep": self.rep,
+            "parameters": None if self.parameters is None else list(self.parameters),
+            "metadata": self.metadata,
+            "equivalent_faults": list(self.equivalent_faults),
+            "paper_raw": None if self.paper_raw is None else str(self.paper_raw),
+            "paper_reported": None if self.paper_reported is None else str(self.paper_reported),
+            "notes": [{"topic": n.topic, "text": n.text} for n in self.notes],
+        }
+
+
+_TABLE_NAMES = tuple(s.name for s in TABLES)
+assert set(_TABLE_NAMES) <= {f.name for f in fields(Analysis)}, "every table of the schema is an Analysis field"
+
+
+def analyse(results_dir: str | Path, *, alpha: float = 0.05, paper: bool = True,
+            paper_raw: str | Path | None = None, paper_reported: str | Path | None = None,
+            rep: int | None = None, parameters: Sequence[str] | None = None) -> Analysis:
+    """Analyse the results store of a campaign (:meth:`Analysis.from_frame` of its rows and metadata).
+
+    Parameters
+    ----------
+    results_dir : path
+        Output directory of :func:`faultlab.runner.run_experiment` (or its results.sqlite).
+    alpha, paper, paper_raw, paper_reported, rep, parameters
+        As for :meth:`Analysis.from_frame`.
+
+    Raises
+    ------
+    ResultsError
+        No results store at ``results_dir``, or it holds no rows.
+    """
+    metadata = load_metadata(results_dir)
+    results = load_results(results_dir)
+    if results.empty:
+        raise ResultsError(f"the results store at {results_dir} holds no rows yet: nothing to analyse")
+    return Analysis.from_frame(results, metadata, alpha=alpha, paper=paper, paper_raw=paper_raw,
+                               paper_reported=paper_reported, rep=rep, parameters=parameters)
+
+
+# --------------------------------------------------------------------------- parts of from_frame
+
+_EQUIVALENT_NOTE = ("{}: every result is identical to the baseline's, so in this campaign the fault never "
+                    "changed the SLAM's output (an equivalent mutant here); its 0 % detection rate says nothing "
+                    "about the suites. Check it with `python -m faultlab faults --check`.")
+
+
+def _json_shaped(value):
+    """``value`` as JSON gives it back (tuples become lists, numpy scalars Python numbers)."""
+    def default(v):
+        if isinstance(v, np.generic):
+            return v.item()
+        if isinstance(v, Path):
+            return str(v)
+        raise TypeError(f"metadata value {v!r} ({type(v).__name__}) cannot be saved as JSON")
+
+    return json.loads(json.dumps(value, default=default, allow_nan=True))
+
+
+def _check_input(results: pd.DataFrame, alpha: float) -> None:
+    if not (isinstance(alpha, float | int) and 0 < alpha < 1):
+        raise ConfigError(f"analysis: alpha must lie in (0, 1), got {alpha!r}")
+    if results is None or len(results) == 0:
+        raise ResultsError("the results hold no rows: nothing to analyse")
+
+
+def _shown_repetition(results: pd.DataFrame, rep: int | None) -> int:
+    """The SLAM repetition Table II shows: ``rep``, by default the smallest stored."""
+    reps = sorted(set(results["rep"].astype(int)))
+    rep = reps[0] if rep is None else int(rep)
+    if rep not in reps:
+        raise ResultsError(f"no results for SLAM repetition {rep}; the store has {reps}")
+    return rep
+
+
+def _per_source_tables(results: pd.DataFrame, pairs: pd.DataFrame, paper: PaperTable | None, *,
+                       rep: int) -> dict[str, pd.DataFrame]:
+    """Tables with rows of this run and of the paper (``source``), and the paper's own figures."""
+    jobs = [job_table(results, source=THIS_RUN)]
+    oc = [outcome_table(pairs, source=THIS_RUN)]
+    cells = [table2_cell_table(results, pairs, source=THIS_RUN, rep=rep)]
+    if paper is not None:
+        jobs.append(job_table(paper.results, source=PAPER))
+        oc.append(outcome_table(paper.outcomes, source=PAPER))
+        cells.append(table2_cell_table(paper.results, paper.outcomes, source=PAPER, rep=0))
+    return {
+        "jobs": JOBS.conform(pd.concat(jobs, ignore_index=True)),
+        "outcomes": OUTCOMES.conform(pd.concat(oc, ignore_index=True)),
+        "table2_cells": TABLE2_CELLS.conform(pd.concat(cells, ignore_index=True)),
+        "paper_rates": PAPER_RATES.empty() if paper is None else PAPER_RATES.conform(paper.rates),
+        "paper_by_suite": PAPER_BY_SUITE.empty() if paper is None else PAPER_BY_SUITE.conform(paper.by_suite),
+    }
+
+
+def _equivalence_notes(equivalent: tuple[str, ...]) -> list[Note]:
+    return [Note("equivalent_faults", _EQUIVALENT_NOTE.format(", ".join(equivalent)))] if equivalent else []
+
+
+def _rule_notes(metadata: Mapping, rule_stored: bool, rule: DetectionRule) -> list[Note]:
+    notes = []
+    if not rule_stored:
+        notes.append(Note("rule", f"the results metadata stores no detection rule; the paper's is used "
+                                  f"({rule.describe()})."))
+    if metadata.get("metric", "rms") != "rms":
+        notes.append(Note("metric", f"the experiment's primary metric is {metadata.get('metric')!r}; Table II "
+                                    "and every detection figure use the Kabsch-aligned RMS error, as the paper "
+                                    "does."))
+    return notes
+
+
+def _completeness_notes(metadata: Mapping, n_rows: int) -> list[Note]:
+    expected = count_expected_jobs(metadata)
+    if expected is not None and n_rows < expected:
+        return [Note("campaign", f"the campaign is incomplete: {n_rows} of {expected} jobs are stored "
+                                 "(resume it with the same command).")]
+    return []
+
+
+def _paper(wanted: bool, raw, reported, *, rule: DetectionRule, alpha: float) -> tuple[PaperTable | None, Note | None]:
+    if not wanted:
+        return None, None
+    try:
+        table = paper_table(resolve_data_path(raw, RAW_CSV), resolve_data_path(reported, REPORTED_CSV),
+                            rule=rule, alpha=alpha)
+    except ResultsError as exc:
+        return None, Note("paper", f"the paper's data was not found, so nothing is compared with it ({exc}).")
+    return table, None
+
+
+def _coverage(cases: pd.DataFrame, metadata: Mapping) -> tuple[pd.DataFrame, Note | None]:
+    try:
+        space = read_space(metadata)
+    except FaultlabError as exc:
+        return COVERAGE.empty(), Note("coverage", f"coverage tables left out: the stored parameter space is "
+                                                  f"invalid ({exc})")
+    return coverage_table(cases, space), None
+
+
+def _guarded(schema: TableSchema, compute: Callable[[], pd.DataFrame], what: str,
+             errors: tuple[type[BaseException], ...] = (FaultlabError,)) -> tuple[pd.DataFrame, Note | None]:
+    """A statistic's table, or an empty one and a note naming the error."""
+    try:
+        return schema.conform(compute()), None
+    except errors as exc:
+        return schema.empty(), Note(schema.name, f"{what}: not available ({exc}).")
+
+
+def _beyond_the_paper(results: pd.DataFrame, pairs: pd.DataFrame, rates: pd.DataFrame, *, rule: DetectionRule,
+                      alpha: float, parameters, n_reps: int) -> tuple[dict, list[Note]]:
+    """False alarms, the oracle, suite comparisons and parameter effects, with a note where one says nothing."""
+    fa, fa_note = _guarded(FALSE_ALARMS, lambda: false_alarm_rate(results, rule=rule, alpha=alpha), "False alarms")
+    if fa_note is None and int(fa["n_pairs"].sum()) == 0:
+        fa_note = Note("false_alarms", f"False alarms of the paper's rule: need at least 2 SLAM repetitions per "
+                                       f"case (this run has {n_reps}); run an experiment with repetitions >= 2.")
+    needs_reps = Note("oracle", f"Statistical oracle (one-sided Mann-Whitney U over the K repetitions, Holm): "
+                                f"needs repetitions >= 2 per case (this run has {n_reps}).")
+    if n_reps < 2:  # one value per side: nothing to test
+        orc, orc_note = ORACLE.empty(), needs_reps
+    else:
+        orc, orc_note = _guarded(ORACLE, lambda: oracle_detections(results, alpha=alpha), "Statistical oracle")
+        tested = orc[orc["p"].notna()]
+        if orc_note is None and (tested.empty or int(tested["n_baseline"].max()) < 2):
+            orc_note = needs_reps
+    cmp, cmp_note = _guarded(SUITE_COMPARISONS, lambda: compare_suite_rates(rates, alpha=alpha), "Suite comparisons")
+    if cmp_note is None and cmp.empty:
+        cmp_note = Note("suite_comparisons", "Suite comparisons (Fisher's exact test): no suite pair with usable "
+                                             "jobs.")
+    eff, eff_note = _guarded(PARAMETER_EFFECTS, lambda: fit_effects(pairs, alpha=alpha, parameters=parameters),
+                             "Parameter effects", (FaultlabError, ValueError, np.linalg.LinAlgError))
+    if eff_note is None and eff.empty:
+        eff_note = Note("parameter_effects", "Parameter effects: no faulty jobs.")
+    tables = {"false_alarms": fa, "oracle": orc, "oracle_summary": oracle_summary_table(orc),
+              "suite_comparisons": cmp, "parameter_effects": eff}
+    return tables, [n for n in (fa_note, orc_note, cmp_note, eff_note) if n is not None]
+
+

@@ -1,0 +1,261 @@
+"""The tables of an :class:`~faultlab.analysis.Analysis`: every column named and typed once.
+
+Each table has a :class:`TableSchema`: its name (the stem of its CSV file), a description, its
+columns in order and the kind of each column.  The column names are the final ones: the report's
+CSV files and renderers use them as they are.  Where a table is a statistic of
+:mod:`faultlab.stats`, its columns are that function's public column constant.
+
+Naming: a faulty variant is ``fault`` in the per-fault statistics (as :mod:`faultlab.stats`
+names it) and ``variant`` in the rows of Table II (which include the baseline) and in the
+detection-rate table, whose CSV (``reports/detection_rates.csv``) has been published with that
+name.  ``source`` is :data:`THIS_RUN` or :data:`PAPER`.
+
+Kinds: ``int`` (int64), ``Int`` (nullable Int64: empty where a value is missing), ``float``
+(float64, NaN where undefined), ``str`` (text without carriage returns; empty rather than
+missing) and ``bool``.
+CSV files hold floats in their shortest round-trip form, so :meth:`TableSchema.read_csv`
+gives back exactly the frame :meth:`TableSchema.to_csv` wrote.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from faultlab.errors import ResultsError
+from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
+from faultlab.stats.comparison import COMPARISON_COLUMNS
+from faultlab.stats.detection import OUTCOME_COLUMNS
+from faultlab.stats.effects import EFFECT_COLUMNS
+from faultlab.stats.paper import PAPER_BY_SUITE_COLUMNS, PAPER_RATE_COLUMNS
+from faultlab.stats.rates import BY_SUITE_COLUMNS, FALSE_ALARM_COLUMNS, RATE_COLUMNS
+
+__all__ = ["TableSchema", "KINDS", "THIS_RUN", "PAPER", "ALL_VARIANTS", "TABLES"] + [
+    "JOBS", "CASES", "OUTCOMES", "DETECTION_RATES", "BY_SUITE", "FALSE_ALARMS", "ORACLE", "ORACLE_SUMMARY",
+    "SUITE_COMPARISONS", "PARAMETER_EFFECTS", "TABLE2_CELLS", "PAPER_RATES", "PAPER_BY_SUITE", "COVERAGE",
+    "RUNTIMES"]
+
+#: ``source`` of rows from the analysed campaign.
+THIS_RUN = "this run"
+#: ``source`` of rows from the paper's replication data (``paper_repro/``).
+PAPER = "paper"
+#: ``variant`` of the row of :data:`RUNTIMES` that pools every variant.
+ALL_VARIANTS = "(all)"
+
+#: Kind -> pandas dtype.
+KINDS: dict[str, str] = {"int": "int64", "Int": "Int64", "float": "float64", "str": "object", "bool": "bool"}
+
+#: The kind a column name has wherever it appears (a table may override it, see ``detected``).
+_KIND_OF: dict[str, str] = {
+    **{c: "str" for c in ("source", "suite", "variant", "fault", "status", "baseline_status", "outcome",
+                          "missed", "suite_a", "suite_b", "term", "note", "parameter", "counts", "uncovered")},
+    **{c: "int" for c in ("run", "case", "rep", "n_cases", "n_reps", "n_jobs", "not_detected", "crash",
+                          "timeout", "baseline_failed", "k", "n", "k_incl", "n_incl", "n_pairs",
+                          "detected_pairs", "flagged", "n_faulty", "n_baseline", "k_a", "n_a", "k_b", "n_b",
+                          "n_detected", "n_tested", "computed_pct", "classes", "covered", "n_landmarks",
+                          "detected")},
+    **{c: "float" for c in ("rms_mm", "emd_mm", "baseline_rms_mm", "runtime_s", "rate", "rate_incl",
+                            "median_faulty_mm", "median_baseline_mm", "u", "p", "p_min", "p_holm", "rate_a",
+                            "rate_b", "risk_difference", "rd_low", "rd_high", "odds_ratio", "or_low", "or_high",
+                            "coef", "std_err", "reported_pct", "paper_rate", "paper_printed_pct", "min_p_min",
+                            "min_p_holm", "coverage", "median_s", "max_s", "total_s")},
+    **{f"{b}{s}": "float" for b in ("wilson_low", "wilson_high", "cp_low", "cp_high") for s in ("", "_incl")},
+    **{c: "bool" for c in ("haldane", "agrees")},
+    **{c: "Int" for c in ("paper_k", "paper_n")},
+    **{k: ("str" if k == "directionality" else "float") for k in VALUE_KEYS},
+    **{f"class_{p}": "int" for p in PARAMETER_NAMES},
+}
+
+
+@dataclass(frozen=True)
+class TableSchema:
+    """Name, columns and column kinds of one table.
+
+    Attributes
+    ----------
+    name : str
+        Identifier of the table (an :class:`~faultlab.analysis.Analysis` field and the stem of
+        its CSV file).
+    description : str
+        One sentence: what a row is.
+    columns : tuple of str
+        Column names, in order.
+    kinds : tuple of str
+        Kind of every column (keys of :data:`KINDS`).
+    """
+
+    name: str
+    description: str
+    columns: tuple[str, ...]
+    kinds: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.columns) != len(self.kinds) or len(set(self.columns)) != len(self.columns):
+            raise ValueError(f"table {self.name}: columns and kinds do not match or repeat")
+        bad = [k for k in self.kinds if k not in KINDS]
+        if bad:
+            raise ValueError(f"table {self.name}: unknown column kind {bad[0]!r}")
+
+    @classmethod
+    def define(cls, name: str, description: str, columns: Sequence[str], **kinds: str) -> "TableSchema":
+        """A schema whose column kinds are the usual ones for their names, except ``kinds``."""
+        columns = tuple(columns)
+        unknown = [c for c in columns if c not in kinds and c not in _KIND_OF]
+        if unknown:
+            raise ValueError(f"table {name}: no kind for column {unknown[0]!r}")
+        return cls(name, description, columns, tuple(kinds.get(c) or _KIND_OF[c] for c in columns))
+
+    @property
+    def dtypes(self) -> dict[str, str]:
+        """Column -> pandas dtype."""
+        return {c: KINDS[k] for c, k in zip(self.columns, self.kinds)}
+
+    def empty(self) -> pd.DataFrame:
+        """A table without rows."""
+        return pd.DataFrame({c: pd.Series([], dtype=d) for c, d in self.dtypes.items()})
+
+    def conform(self, frame: pd.DataFrame) -> pd.DataFrame:
+        """The schema's columns of ``frame``, in order, each of its kind, with a fresh RangeIndex.
+
+        Raises
+        ------
+        ResultsError
+            A column is missing, or a value does not fit its kind (names the column).
+        """
+        missing = [c for c in self.columns if c not in frame.columns]
+        if missing:
+            raise ResultsError(f"table {self.name}: missing column(s) {', '.join(missing)}")
+        out = {}
+        for column, kind in zip(self.columns, self.kinds):
+            out[column] = _cast(frame[column].reset_index(drop=True), kind, f"{self.name}.{column}")
+        return pd.DataFrame(out, columns=list(self.columns))
+
+    def to_csv(self, frame: pd.DataFrame, path: str | Path) -> Path:
+        """Write ``frame`` (conformed first) as CSV: header, then one line per row."""
+        path = Path(path)
+        self.conform(frame).to_csv(path, index=False)
+        return path
+
+    def read_csv(self, path: str | Path) -> pd.DataFrame:
+        """Read a CSV written by :meth:`to_csv` back into exactly the frame that was written.
+
+        Raises
+        ------
+        ResultsError
+            Unreadable file, other columns than the schema's, or a value that does not fit
+            its column's kind (names file, column and row).
+        """
+        path = Path(path)
+        try:
+            raw = pd.read_csv(path, dtype=str, keep_default_na=False, na_filter=False)
+        except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+            raise ResultsError(f"{path}: cannot read table {self.name} ({exc})") from exc
+        if tuple(raw.columns) != self.columns:
+            raise ResultsError(f"{path}: columns {', '.join(raw.columns)} are not those of table {self.name} "
+                               f"({', '.join(self.columns)})")
+        out = {}
+        for column, kind in zip(self.columns, self.kinds):
+            try:
+                out[column] = _parse(raw[column].tolist(), kind)
+            except (ValueError, KeyError) as exc:
+                raise ResultsError(f"{path}: column {column}: {exc}") from exc
+        return pd.DataFrame(out, columns=list(self.columns))
+
+
+def _cast(values: pd.Series, kind: str, where: str) -> pd.Series:
+    if kind == "str":
+        text = values.astype(object).where(values.notna(), "")
+        if not all(type(v) is str for v in text):
+            text = text.map(str)
+        if any("\r" in v for v in text):  # CSV readers take a lone CR for a line break
+            raise ResultsError(f"table column {where} holds a carriage return, which its CSV file cannot keep")
+        return text
+    if kind == "float":
+        return values.astype("float64")
+    if kind == "Int":
+        return values.astype("Int64")
+    if values.isna().any():
+        raise ResultsError(f"table column {where} must not have missing values")
+    return values.astype(KINDS[kind])
+
+
+_BOOLS = {"True": True, "False": False}
+
+
+def _parse(texts: list[str], kind: str) -> pd.Series:
+    """Column values from the text pandas wrote (``float`` via Python's exact ``float``)."""
+    if kind == "str":
+        return pd.Series(texts, dtype=object)
+    if kind == "float":
+        return pd.Series(np.array([float(t) if t != "" else np.nan for t in texts], dtype=np.float64))
+    if kind == "int":
+        return pd.Series(np.array([int(t) for t in texts], dtype=np.int64))
+    if kind == "Int":
+        return pd.Series(pd.array([int(t) if t != "" else pd.NA for t in texts], dtype="Int64"))
+    return pd.Series(np.array([_BOOLS[t] for t in texts], dtype=bool))
+
+
+# --------------------------------------------------------------------------- the tables
+
+_CASE_VALUES = tuple(VALUE_KEYS) + tuple(f"class_{p}" for p in PARAMETER_NAMES)
+
+JOBS = TableSchema.define(
+    "jobs", "One SLAM execution: this run's jobs, and the paper's raw RMS rows (rep 0, no EMD, no runtime).",
+    ("source", "run", "suite", "case", "variant", "rep", "rms_mm", "emd_mm", "status", "runtime_s"))
+CASES = TableSchema.define(
+    "cases", "One test case of this run: its scenario values and the classes recorded for them.",
+    ("run", "suite", "case", "n_landmarks") + _CASE_VALUES)
+OUTCOMES = TableSchema.define(
+    "outcomes", "One faulty job beside its baseline with its outcome class (faultlab.stats.outcomes).",
+    ("source",) + OUTCOME_COLUMNS)
+DETECTION_RATES = TableSchema.define(
+    "detection_rates", "Per suite and fault of this run: outcome counts, detection rates with Wilson and "
+    "Clopper-Pearson intervals (faultlab.stats.tabulate_rates), and the paper's figures beside.",
+    ("suite", "variant") + RATE_COLUMNS[2:] + ("paper_k", "paper_n", "paper_rate", "paper_printed_pct"))
+BY_SUITE = TableSchema.define(
+    "by_suite", "Per suite of this run: the paper's 'by Suite' share of fault x run pairs detected "
+    "(faultlab.stats.tabulate_by_suite).", BY_SUITE_COLUMNS)
+FALSE_ALARMS = TableSchema.define(
+    "false_alarms", "Per suite and pooled ('all'): how often the rule flags a baseline repetition against "
+    "another (faultlab.stats.false_alarm_rate).", FALSE_ALARM_COLUMNS)
+ORACLE = TableSchema.define(
+    "oracle", "Per suite, run, case and fault: Mann-Whitney U of faulty vs baseline RMS over the "
+    "repetitions, Holm-corrected (faultlab.stats.oracle_detections).",
+    ("suite", "run", "case", "fault", "n_faulty", "n_baseline", "median_faulty_mm", "median_baseline_mm", "u",
+     "p", "p_min", "p_holm", "detected"), detected="bool")
+ORACLE_SUMMARY = TableSchema.define(
+    "oracle_summary", "Per suite and fault: cases, tested cases, cases the oracle detects, smallest "
+    "attainable p and smallest Holm-adjusted p.",
+    ("suite", "fault", "n_cases", "n_tested", "n_detected", "min_p_min", "min_p_holm"))
+SUITE_COMPARISONS = TableSchema.define(
+    "suite_comparisons", "Per fault and pair of suites: Fisher's exact test, risk difference and odds "
+    "ratio (faultlab.stats.compare_suite_rates).", COMPARISON_COLUMNS)
+PARAMETER_EFFECTS = TableSchema.define(
+    "parameter_effects", "Per fault and scenario parameter: odds ratio of detection per standard "
+    "deviation (faultlab.stats.fit_effects); note rows for what was not fitted.", EFFECT_COLUMNS)
+TABLE2_CELLS = TableSchema.define(
+    "table2_cells", "One RMS cell of Table II (one SLAM repetition) of this run or the paper: the error "
+    "(NaN unless ok), the job's status and whether the case detects the fault.",
+    ("source", "suite", "variant", "run", "case", "rms_mm", "status", "detected"), detected="bool")
+PAPER_RATES = TableSchema.define(
+    "paper_rates", "Per suite and fault: the rule applied to the paper's raw data beside the printed "
+    "'Detected Faults' percentage (faultlab.stats.paper_table).", PAPER_RATE_COLUMNS)
+PAPER_BY_SUITE = TableSchema.define(
+    "paper_by_suite", "Per suite: the paper's 'by Suite' share from its raw data beside the printed one "
+    "(faultlab.stats.paper_table).", PAPER_BY_SUITE_COLUMNS)
+COVERAGE = TableSchema.define(
+    "coverage", "Per evaluation run (empty: all runs pooled), suite and parameter of Table I (and "
+    "'overall'): classes covered by the suite's cases (faultlab.space.coverage).",
+    ("run", "suite", "parameter", "classes", "covered", "coverage", "counts", "uncovered"), run="Int")
+RUNTIMES = TableSchema.define(
+    "runtimes", "Per variant of this run (and '(all)'): jobs and SLAM execution times, s.",
+    ("variant", "n_jobs", "median_s", "max_s", "total_s"))
+
+#: Every table of an Analysis, in the order they are saved.
+TABLES: tuple[TableSchema, ...] = (JOBS, CASES, OUTCOMES, DETECTION_RATES, BY_SUITE, FALSE_ALARMS, ORACLE,
+                                   ORACLE_SUMMARY, SUITE_COMPARISONS, PARAMETER_EFFECTS, TABLE2_CELLS,
+                                   PAPER_RATES, PAPER_BY_SUITE, COVERAGE, RUNTIMES)

@@ -1,0 +1,511 @@
+"""The pages of ``report.pdf``, each rendered from an :class:`~faultlab.analysis.Analysis`.
+
+One function per kind of page: title, Table II, detection rates, the comparison with the paper,
+figures, the test cases (Fig. 5 style, from the saved cases), coverage of Table I, statistics
+beyond the paper, run metadata.  They select and format the Analysis' tables; none computes a
+statistic.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from faultlab import __version__
+from faultlab.analysis import BEYOND_THE_PAPER, Analysis
+from faultlab.analysis.schema import ALL_VARIANTS, PAPER
+from faultlab.errors import FaultlabError
+from faultlab.report.casefig import case_title, plot_case
+from faultlab.report.comparison import Comparison, Verdict
+from faultlab.report.figures import PAGE_SIZE, detection_rate_figure, rms_distribution_figure
+from faultlab.report.pdf import PAGE_TITLE_ATTR, table_pages, text_pages
+from faultlab.report.tables import (
+    RUNS_PER_BLOCK,
+    detection_records,
+    format_pct,
+    order_suites,
+    round_mm,
+    suite_label,
+    table2_caption,
+    table2_frame,
+    table2_rows,
+    table2_runs,
+    variant_label,
+)
+from faultlab.runner import case_path
+from faultlab.scenario.model import Scenario, load_scenario
+from faultlab.vocabulary import JobStatus
+
+__all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "title_pages", "table2_pages", "rates_pages", "comparison_pages",
+           "figure_pages", "case_pages", "coverage_pages", "beyond_pages", "metadata_pages"]
+
+#: Runs whose cases are pictured (Fig. 5 style) and whose coverage is tabulated one by one.
+MAX_PICTURED_RUNS = 3
+#: Title of the report (first page and PDF metadata).
+REPORT_TITLE = "faultlab report: the paper's Table II reproduced"
+_GREEN = "#c6efce"  # the paper's green "detected" cells
+_RED = "#f4cccc"
+_GREY = "#eeeeee"
+_PANELS_PER_ROW = 5
+_ROWS_PER_PAGE = 3
+
+
+def _titled(fig: Figure, title: str) -> Figure:
+    setattr(fig, PAGE_TITLE_ATTR, title)
+    return fig
+
+
+def _fmt_seconds(s: float | None) -> str:
+    if s is None or not math.isfinite(float(s)):
+        return "unknown"
+    s = float(s)
+    if s < 120:
+        return f"{s:.1f} s"
+    if s < 7200:
+        return f"{s / 60:.1f} min"
+    return f"{s / 3600:.2f} h"
+
+
+def _frame_text(frame: pd.DataFrame, digits: int = 3) -> pd.DataFrame:
+    def fmt(v):
+        if isinstance(v, (bool, np.bool_)):
+            return "yes" if v else "no"
+        if isinstance(v, (float, np.floating)):
+            if not math.isfinite(v):
+                return ""
+            return f"{v:.{digits}g}"
+        return str(v)
+
+    return frame.apply(lambda col: col.map(fmt)).astype(str)
+
+
+def _g3(value: float) -> str:
+    return "" if not math.isfinite(value) else f"{value:.3g}"
+
+
+# --------------------------------------------------------------------------- title
+
+
+def _run_blocks(analysis: Analysis) -> list[str]:
+    """The title page's description of the campaign."""
+    meta = analysis.metadata
+    exp = meta.get("experiment") or {}
+    slam = exp.get("slam") or {}
+    suites = ", ".join(f"{s} {n}" for s, n in analysis.cases_per_run.items())
+    counts = analysis.status_counts
+    return [
+        "## This run",
+        f"- Experiment: {meta.get('experiment_source', '?')} — {meta.get('description', '')}",
+        f"- Protocol: {exp.get('runs', '?')} evaluation run(s); suites {suites or '?'} cases per run; "
+        f"variants {', '.join(meta.get('variants', [])) or '?'}; {exp.get('repetitions', 1)} SLAM "
+        f"repetition(s) per case; {exp.get('n_steps', '?')} steps per case; SLAM "
+        f"{slam.get('name', '?')} with {slam.get('particles', '?')} particles.",
+        f"- Results: {analysis.n_rows} jobs — " + ", ".join(f"{counts[s.value]} {s.value}" for s in JobStatus) + ".",
+        f"- Detection rule (Sec. VII-A): {analysis.rule.describe()}.",
+        f"- Wall time of the campaign: {_fmt_seconds(meta.get('wall_time_s'))}; faultlab "
+        f"{meta.get('faultlab_version', '?')} (report built with {__version__}).",
+    ]
+
+
+def title_pages(analysis: Analysis, comparison: Comparison, notes: list[str]) -> list[Figure]:
+    """What was run, how it compares with the paper, what the report holds, and its notes."""
+    blocks = [
+        "This report reproduces the evaluation of Tasche & Herber, 'A Coverage-Driven Systematic "
+        "Test Approach for Simultaneous Localization and Mapping' (Sec. VII, Table II) with faultlab, "
+        "and extends it with statistics the paper could not afford. It was built from saved results "
+        "only (python -m faultlab report RESULTS rebuilds it).",
+        *_run_blocks(analysis),
+        "## Agreement with the paper",
+        comparison.summary(),
+    ]
+    dis = comparison.by_verdict(Verdict.DISAGREES)
+    if dis:
+        blocks.append("Disagreements: " + "; ".join(
+            f"{suite_label(s.suite)}{' / ' + variant_label(s.variant) if s.variant else ''} ({s.topic})"
+            for s in dis) + ".")
+    blocks += [
+        "## Contents",
+        "- Table II of this run beside the paper's; detection rates with confidence intervals; "
+        "the comparison with the paper in words; detection-rate and RMS-distribution figures; the "
+        "test cases of each suite (Fig. 5 style) and each suite's coverage of Table I; statistics "
+        "beyond the paper (false alarms, statistical oracle, suite comparisons, parameter effects); "
+        "run metadata.",
+    ]
+    if notes:
+        blocks.append("## Notes")
+        blocks += [f"- {n}" for n in notes]
+    meta = analysis.metadata
+    return text_pages(REPORT_TITLE, blocks, subtitle=f"results {meta.get('path', '')}  ·  experiment hash "
+                                                     f"{str(meta.get('experiment_hash', ''))[:16]}")
+
+
+# --------------------------------------------------------------------------- Table II and rates
+
+
+def _table2_styles(analysis: Analysis, frame: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Cell colours and bold flags of one block of Table II: detected green, failed red, paper grey."""
+    lookup = {(r.source, r.suite, r.variant, int(r.run), int(r.case)): r
+              for r in analysis.table2_cells.itertuples(index=False)}
+    colours = pd.DataFrame("", index=frame.index, columns=frame.columns)
+    bold = pd.DataFrame(False, index=frame.index, columns=frame.columns)
+    for i, (suite, variant, source) in enumerate(table2_rows(analysis)):
+        if source == PAPER:
+            colours.iloc[i, :3] = _GREY
+        for col in frame.columns:
+            if not (col.startswith("R") and "C" in col[1:]):
+                continue
+            run, case = (int(x) for x in col[1:].split("C"))
+            cell = lookup.get((source, suite, variant, run, case))
+            if cell is None:
+                continue
+            if cell.status in (JobStatus.CRASH.value, JobStatus.TIMEOUT.value):
+                colours.loc[i, col] = _RED
+            elif cell.detected:
+                colours.loc[i, col] = _GREEN
+                bold.loc[i, col] = True
+    return colours, bold
+
+
+def table2_pages(analysis: Analysis) -> list[Figure]:
+    """Table II beside the paper's, three evaluation runs per page block, the paper's colours."""
+    runs = table2_runs(analysis)
+    blocks = [runs[i:i + RUNS_PER_BLOCK] for i in range(0, len(runs), RUNS_PER_BLOCK)] or [[]]
+    note = (table2_caption(analysis) + " Green: detected. Red: crash or timeout. Paper rows: the "
+            "replication package's raw RMS errors rounded to mm (the printed Table II differs from "
+            "them in a few cells: python -m faultlab paper-table lists them).")
+    pages = []
+    for block in blocks:
+        frame = table2_frame(analysis, style="plain", runs=block)
+        colours, bold = _table2_styles(analysis, frame)
+        title = "Table II: this run beside the paper"
+        if len(blocks) > 1:
+            title += f" (evaluation runs {block[0]}-{block[-1]})"
+        pages += table_pages(title, frame, colours=colours, bold=bold, note=note, max_rows=40,
+                             subtitle="columns R<run>C<case>: RMS map error of test case <case> "
+                                      "in evaluation run <run>, mm")
+    return pages
+
+
+def _by_suite_records(analysis: Analysis) -> pd.DataFrame:
+    conf = round_mm(100 * (1 - analysis.alpha))
+    mine = analysis.by_suite.set_index("suite")
+    paper = analysis.paper_by_suite.set_index("suite")
+    rows = []
+    for s in order_suites(list(mine.index) + list(paper.index)):
+        rec = {"Suite": suite_label(s)}
+        if s in mine.index:
+            m = mine.loc[s]
+            rec["this run"] = f"{format_pct(m['rate'])} % ({m['detected_pairs']}/{m['n_pairs']})"
+            rec[f"Wilson {conf} %"] = f"{format_pct(m['wilson_low'])}-{format_pct(m['wilson_high'])}"
+        if s in paper.index:
+            p = paper.loc[s]
+            rec["paper (rule)"] = f"{format_pct(p['rate'])} % ({p['detected_pairs']}/{p['n_pairs']})"
+            rec["paper (printed)"] = "" if pd.isna(p["reported_pct"]) else f"{round_mm(p['reported_pct'])} %"
+        rows.append(rec)
+    return pd.DataFrame(rows)
+
+
+def rates_pages(analysis: Analysis) -> list[Figure]:
+    """Detected faults per suite and fault (Table II's right-hand columns) and "by Suite"."""
+    note = ("k/n: faulty jobs detecting the fault among those where both the faulty and the baseline "
+            "SLAM produced a map (the paper's 'Detected Faults'). Crashes and timeouts of the faulty "
+            "SLAM are their own outcome classes; 'Rate % incl. failures' counts them as detections. "
+            "'base failed': the baseline produced no map, so the case judges nothing. Paper (rule): "
+            "this run's detection rule applied to the paper's raw RMS data; printed: Table II as "
+            "printed.")
+    pages = table_pages("Detected faults per suite and fault (Table II, right-hand columns)",
+                        detection_records(analysis, compact=True), note=note, fontsize=8)
+    pages += table_pages("by Suite: fault x run pairs detected by at least one case",
+                         _by_suite_records(analysis), fontsize=9,
+                         note="The paper's 'by Suite' column: the share of fault x run pairs in "
+                              "which at least one case of the suite detected the fault.")
+    return pages
+
+
+def comparison_pages(comparison: Comparison) -> list[Figure]:
+    """The comparison with the paper, statement by statement, grouped by suite."""
+    blocks = [
+        comparison.summary(),
+        f"Criteria. Baseline rows: the fixed suite agrees when every baseline RMS error lies in the "
+        f"paper's range widened by a factor of {comparison.range_factor:g} on both sides; the "
+        f"systematic and random suites (parameters varied on purpose) agree when their ranges overlap "
+        f"the widened range. Fault rows: agree when the suite detects the fault at all exactly when "
+        f"the paper's did, and the paper's rate (its raw data, this rule) lies inside this run's 95 % "
+        f"Wilson interval. by Suite: the paper's share lies inside this run's interval. Claims: the "
+        f"qualitative conclusions of Sec. VII-D.",
+    ]
+    groups: dict[str, list[str]] = {}
+    for s in comparison.statements:
+        head = ("The paper's claims (Sec. VII-D)" if s.topic == "claim"
+                else f"{suite_label(s.suite)} suite")
+        groups.setdefault(head, []).append(f"- [{str(s.verdict).upper()}] {s.text}")
+    for head, lines in groups.items():
+        blocks.append("## " + head)
+        blocks += lines
+    return text_pages("Comparison with the paper, row by row", blocks)
+
+
+def figure_pages(analysis: Analysis) -> list[Figure]:
+    """Detection rates with intervals, and the RMS distributions (the paper's beside)."""
+    return [_titled(detection_rate_figure(analysis),
+                    "Detection rates per suite and fault with confidence intervals"),
+            _titled(rms_distribution_figure(analysis),
+                    "RMS map error distributions per suite and variant (log scale)")]
+
+
+# --------------------------------------------------------------------------- test cases
+
+
+def _load_run_cases(store_dir: Path, analysis: Analysis, run: int) -> tuple[list[tuple[str, list]], list, int]:
+    """Rows of panels ``(suite, [(case, Scenario)])`` of one run, seed rows, unreadable files."""
+    cases = analysis.cases[analysis.cases["run"] == run]
+    rows: list[tuple[str, list[tuple[int, Scenario]]]] = []
+    seeds, missing = [], 0
+    for suite in order_suites(cases["suite"]):
+        loaded = []
+        for c in sorted(int(c) for c in cases.loc[cases["suite"] == suite, "case"]):
+            try:
+                loaded.append((c, load_scenario(case_path(store_dir, run, suite, c))))
+            except (FaultlabError, OSError):
+                missing += 1
+        seeds += [(run, suite, c, sc.seed, sc.landmarks.shape[0], sc.n_steps) for c, sc in loaded]
+        rows += [(suite, loaded[i:i + _PANELS_PER_ROW]) for i in range(0, len(loaded), _PANELS_PER_ROW)]
+    return rows, seeds, missing
+
+
+def _case_page(run: int, rows: list[tuple[str, list]], continued: bool) -> Figure:
+    """One page of Fig. 5-style panels: a row per suite (wrapped after five cases)."""
+    title = (f"Test cases of evaluation run {run} (Fig. 5 style: landmarks orange, "
+             f"true path blue)" + (" (continued)" if continued else ""))
+    fig = _titled(Figure(figsize=PAGE_SIZE), title)
+    fig.suptitle(title, fontsize=13, fontweight="bold")
+    axes = fig.subplots(len(rows), _PANELS_PER_ROW, squeeze=False)
+    for r, (suite, panel) in enumerate(rows):
+        for k in range(_PANELS_PER_ROW):
+            ax = axes[r][k]
+            if k >= len(panel):
+                ax.set_axis_off()
+                continue
+            c, sc = panel[k]
+            *what, steps = case_title(sc).split(", ")
+            plot_case(sc, ax, title=f"{suite_label(suite)} case {c}\n{', '.join(what)}\n{steps}")
+            ax.title.set_fontsize(7)
+            ax.tick_params(labelsize=6.5)
+            ax.set_xlabel("")
+            ax.set_ylabel("")
+    fig.subplots_adjust(left=0.04, right=0.98, top=0.87, bottom=0.075, hspace=0.62, wspace=0.32)
+    return fig
+
+
+def case_pages(store_dir: Path, analysis: Analysis) -> tuple[list[Figure], list, list[str]]:
+    """Fig. 5-style pictures of the saved cases (runs 1..MAX_PICTURED_RUNS), their seeds, notes.
+
+    The cases are read from the results store's ``cases/`` directory; files that cannot be read
+    are left out and counted in a note.
+    """
+    runs = sorted(int(r) for r in analysis.cases["run"].unique())
+    pages, seeds, notes, missing = [], [], [], 0
+    for run in runs[:MAX_PICTURED_RUNS]:
+        rows, run_seeds, run_missing = _load_run_cases(store_dir, analysis, run)
+        seeds += run_seeds
+        missing += run_missing
+        for start in range(0, len(rows), _ROWS_PER_PAGE):
+            pages.append(_case_page(run, rows[start:start + _ROWS_PER_PAGE], continued=start > 0))
+    if missing:
+        notes.append(f"{missing} saved test case file(s) under {store_dir}/cases could not be "
+                     "read; their pictures are left out.")
+    if len(runs) > MAX_PICTURED_RUNS:
+        notes.append(f"test cases are pictured for evaluation runs 1-{MAX_PICTURED_RUNS} of {len(runs)}.")
+    return pages, seeds, notes
+
+
+# --------------------------------------------------------------------------- coverage
+
+
+def _coverage_frame(coverage: pd.DataFrame) -> pd.DataFrame | None:
+    """One scope's coverage: per parameter, classes and each suite's covered share and gaps."""
+    frame = None
+    for suite in order_suites(coverage["suite"]):
+        t = coverage[coverage["suite"] == suite].reset_index(drop=True)
+        label = suite_label(suite)
+        shown = pd.DataFrame({
+            "parameter": t["parameter"], "classes": t["classes"],
+            label: [f"{c}/{k} ({100 * r:.0f} %)" for c, k, r in zip(t["covered"], t["classes"], t["coverage"])],
+            f"{label}: uncovered": np.where(t["parameter"] == "overall", t["counts"],
+                                            t["uncovered"].replace("", "-")),
+        })
+        frame = shown if frame is None else frame.merge(shown, on=["parameter", "classes"])
+    return frame
+
+
+def coverage_pages(analysis: Analysis) -> list[Figure]:
+    """Each suite's coverage of Table I's classes, per pictured run and pooled over the runs."""
+    cov = analysis.coverage
+    runs = sorted(int(r) for r in cov["run"].dropna().unique())
+    n_runs = analysis.cases["run"].nunique()
+    groups = [(f"evaluation run {r}", cov[cov["run"] == r]) for r in runs[:MAX_PICTURED_RUNS]]
+    if n_runs > 1:
+        groups.append((f"all {n_runs} runs pooled", cov[cov["run"].isna()]))
+    pages = []
+    for label, scope in groups:
+        frame = _coverage_frame(scope)
+        if frame is None:
+            continue
+        pages += table_pages(
+            f"Coverage of Table I's equivalence classes per suite ({label})", frame, fontsize=7.5,
+            note="Covered classes / classes of each parameter (Sec. V), classifying every case's "
+                 "values against the experiment's parameter space. The systematic suite is built to "
+                 "cover every class (Sec. VI); random and fixed suites are the paper's controls.")
+    return pages
+
+
+# --------------------------------------------------------------------------- beyond the paper
+
+
+def _false_alarm_pages(analysis: Analysis) -> list[Figure]:
+    fa = analysis.false_alarms
+    show = pd.DataFrame({
+        "suite": fa["suite"],
+        "cases": fa["n_cases"].astype(str),
+        "baseline pairs": fa["n_pairs"].astype(str),
+        "flagged": fa["flagged"].astype(str),
+        "false-alarm rate %": [format_pct(v, 1) for v in fa["rate"]],
+        "Wilson 95 %": [f"{format_pct(lo, 1)}-{format_pct(hi, 1)}"
+                        for lo, hi in zip(fa["wilson_low"], fa["wilson_high"])],
+    })
+    return table_pages("Beyond the paper: false alarms of the detection rule", show,
+                       note="Every ordered pair of baseline repetitions of one case (another "
+                            "SLAM seed, same scenario) judged by the paper's rule: how often "
+                            "seed noise alone 'detects a fault'. Pairs of one case are not "
+                            "independent, so the intervals are optimistic.")
+
+
+def _oracle_pages(analysis: Analysis) -> list[Figure]:
+    s = analysis.oracle_summary
+    show = pd.DataFrame({
+        "suite": s["suite"].map(suite_label),
+        "fault": s["fault"].map(variant_label),
+        "cases": s["n_cases"],
+        "tested": s["n_tested"],
+        "detected (oracle)": s["n_detected"],
+        "smallest attainable p": s["min_p_min"],
+        "smallest Holm p": s["min_p_holm"],
+    })
+    return table_pages("Beyond the paper: a statistical oracle over the SLAM repetitions", _frame_text(show),
+                       note="Per case, a one-sided Mann-Whitney U test of the faulty against "
+                            "the baseline RMS errors over the K repetitions, Holm-corrected "
+                            "over all (suite, run, case, fault) tests. With K repetitions the "
+                            "smallest attainable p is 1/C(2K, K): with few repetitions the "
+                            "oracle cannot reject anything after the correction.")
+
+
+def _suite_comparison_pages(analysis: Analysis) -> list[Figure]:
+    cmp = analysis.suite_comparisons
+    show = pd.DataFrame({
+        "fault": cmp["fault"].map(variant_label),
+        "suites": [f"{a} vs {b}" for a, b in zip(cmp["suite_a"], cmp["suite_b"])],
+        "k/n": [f"{ka}/{na} vs {kb}/{nb}" for ka, na, kb, nb in zip(cmp["k_a"], cmp["n_a"], cmp["k_b"], cmp["n_b"])],
+        "risk difference [CI]": [f"{rd:+.2f} [{lo:+.2f}, {hi:+.2f}]" for rd, lo, hi in
+                                 zip(cmp["risk_difference"], cmp["rd_low"], cmp["rd_high"])],
+        "odds ratio [CI]": [f"{o:.3g} [{lo:.3g}, {hi:.3g}]{' (H)' if h else ''}"
+                            for o, lo, hi, h in zip(cmp["odds_ratio"], cmp["or_low"], cmp["or_high"], cmp["haldane"])],
+        "p (Fisher)": [f"{p:.3g}" for p in cmp["p"]],
+        "p (Holm)": [f"{p:.3g}" for p in cmp["p_holm"]],
+    })
+    return table_pages("Beyond the paper: suites compared per fault (Fisher's exact test)", show, fontsize=8,
+                       note="Two-sided Fisher exact test on detected / not detected jobs, "
+                            "Holm-adjusted over the table; risk difference with Newcombe's "
+                            "interval; odds ratio with Woolf's interval, (H): Haldane-Anscombe "
+                            "correction on a zero cell.")
+
+
+def _effect_pages(analysis: Analysis) -> list[Figure]:
+    eff = analysis.parameter_effects
+    show = pd.DataFrame({
+        "fault": eff["fault"].map(variant_label),
+        "term": eff["term"],
+        "detected/n": [f"{k}/{n}" for k, n in zip(eff["n_detected"], eff["n"])],
+        "odds ratio per SD": [_g3(v) for v in eff["odds_ratio"]],
+        "95 % CI": [("" if not math.isfinite(lo) else f"{lo:.3g}-{hi:.3g}")
+                    for lo, hi in zip(eff["or_low"], eff["or_high"])],
+        "p": [_g3(p) for p in eff["p"]],
+        "note": eff["note"],
+    })
+    return table_pages("Beyond the paper: which scenario parameters drive detection", show,
+                       fontsize=7.5, max_rows=34,
+                       note="Per fault, a binomial GLM (logistic regression) of 'detected' on "
+                            "the standardised scenario parameters; odds ratios per standard "
+                            "deviation. Also: python -m faultlab effects RESULTS.")
+
+
+#: Page renderer of each statistic beyond the paper, in the Analysis' order.
+_BEYOND_PAGES = {"false_alarms": _false_alarm_pages, "oracle": _oracle_pages,
+                 "suite_comparisons": _suite_comparison_pages, "parameter_effects": _effect_pages}
+
+
+def beyond_pages(analysis: Analysis) -> list[Figure]:
+    """A page per statistic beyond the paper that has something to show; the notes on the others."""
+    pages = [page for topic in BEYOND_THE_PAPER if not analysis.notes_on(topic)
+             for page in _BEYOND_PAGES[topic](analysis)]
+    text = [n.text for n in analysis.notes_on(*BEYOND_THE_PAPER)]
+    if text:
+        pages = text_pages("Beyond the paper: what these results allow", text) + pages
+    return pages
+
+
+# --------------------------------------------------------------------------- metadata
+
+
+def _runtime_blocks(analysis: Analysis) -> list[str]:
+    rt = analysis.runtimes
+    if not len(rt) or int(rt["n_jobs"].iloc[-1]) == 0:
+        return []
+    every = rt[rt["variant"] == ALL_VARIANTS].iloc[0]
+    per = rt[rt["variant"] != ALL_VARIANTS]
+    return ["## SLAM execution times",
+            f"- per job: median {every['median_s']:.2f} s, max {every['max_s']:.2f} s, sum "
+            f"{every['total_s']:.1f} s over {every['n_jobs']} jobs",
+            "- median per variant: " + ", ".join(f"{variant_label(v)} {m:.2f} s"
+                                                 for v, m in zip(per["variant"], per["median_s"]))]
+
+
+def metadata_pages(analysis: Analysis, seeds: list) -> list[Figure]:
+    """Versions, experiment hash, seeds, sessions, run times and the effective experiment settings."""
+    meta = analysis.metadata
+    exp = meta.get("experiment") or {}
+    blocks = [
+        f"- faultlab version (results): {meta.get('faultlab_version', '?')}; report built with "
+        f"{__version__}",
+        f"- Experiment: {meta.get('experiment_source', '?')}",
+        f"- Experiment hash (sha256 of its canonical form): {meta.get('experiment_hash', '?')}",
+        f"- Root seed: {meta.get('root_seed', '?')} (every case and SLAM seed derives from it with "
+        f"numpy SeedSequence)",
+        f"- Detection rule: {analysis.rule.describe()}",
+        f"- Results store: {meta.get('path', '?')}, {meta.get('n_rows', analysis.n_rows)} rows, created "
+        f"{meta.get('created', '?')}",
+        f"- Total wall time: {_fmt_seconds(meta.get('wall_time_s'))}",
+    ]
+    sessions = meta.get("sessions") or []
+    if sessions:
+        blocks.append("## Sessions (each invocation of the runner)")
+        for s in sessions:
+            blocks.append(f"- {s.get('started', '?')}: {s.get('state', '?')}, {s.get('n_new', '?')} new "
+                          f"jobs, {s.get('jobs', '?')} worker(s), backend {s.get('backend', '?')}, "
+                          f"wall time {_fmt_seconds(s.get('wall_time_s'))}")
+    blocks += _runtime_blocks(analysis)
+    if exp:
+        blocks.append("## Effective experiment settings")
+        for key in ("runs", "suites", "n_steps", "sensor_range", "min_distance", "slam", "variants",
+                    "repetitions", "metric", "timeout_s", "detection", "space"):
+            if key in exp:
+                blocks.append(f"- {key}: {exp[key]}")
+    pages = text_pages("Run metadata", blocks)
+    if seeds:
+        frame = pd.DataFrame(seeds, columns=["run", "suite", "case", "seed (SeedSequence entropy)",
+                                             "landmarks", "steps"]).astype(str)
+        pages += table_pages("Run metadata: test-case seeds", frame, fontsize=8, max_rows=32)
+    return pages

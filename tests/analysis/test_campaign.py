@@ -1,0 +1,35 @@
+"""The campaign's own settings, read from its results metadata."""
+
+import pytest
+
+from faultlab.analysis.campaign import count_expected_jobs, read_rule, read_space
+from faultlab.errors import ConfigError, ResultsError
+from faultlab.space import table1_space
+from faultlab.stats import DetectionRule
+
+
+def test_the_stored_rule_is_read_and_missing_thresholds_are_the_papers():
+    assert read_rule({"detection": {"abs_mm": 100.0, "rel": 0.5}}) == (DetectionRule(100.0, 0.5), True)
+    assert read_rule({"detection": {"rel": 0.1}}) == (DetectionRule(250.0, 0.1), True)
+    assert read_rule({}) == (DetectionRule(), False)
+    with pytest.raises(ResultsError, match="invalid detection rule .*'abs_mm': -1"):
+        read_rule({"detection": {"abs_mm": -1}})
+    with pytest.raises(ResultsError, match="invalid detection rule"):
+        read_rule({"detection": {"abs_mm": 1, "bogus": 2, "rel": "x"}})
+
+
+def test_expected_jobs_from_the_stored_experiment():
+    exp = {"runs": 3, "suites": [["systematic", 5], ["random", 5], ["fixed", 5]],
+           "variants": ["baseline", "a", "b", "c"], "repetitions": 2}
+    assert count_expected_jobs({"experiment": exp}) == 3 * 15 * 4 * 2
+    assert count_expected_jobs({"experiment": {**exp, "suites": {"fixed": 2}}}) == 3 * 2 * 4 * 2
+    assert count_expected_jobs({"experiment": {**exp, "suites": [["systematic", "auto"]]}}) is None
+    assert count_expected_jobs({}) is None
+
+
+def test_the_stored_space_overrides_table1():
+    assert read_space({}).to_dict() == table1_space().to_dict()
+    space = read_space({"experiment": {"space": {"map_size": {"classes": {"small": [4, 16], "big": [16, 400]}}}}})
+    assert space["map_size"].class_names == ("small", "big")
+    with pytest.raises(ConfigError, match="paper.toml \\[space\\]"):
+        read_space({"experiment_source": "paper.toml", "experiment": {"space": {"map_size": {"nope": 1}}}})

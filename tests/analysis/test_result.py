@@ -1,0 +1,281 @@
+"""The Analysis: computed once, with the campaign's stored rule, saved and loaded back exactly."""
+
+import ast
+import dataclasses
+import json
+import shutil
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import faultlab.stats.detection
+from faultlab.analysis import Analysis, Note, analyse
+from faultlab.analysis.schema import TABLES
+from faultlab.errors import ConfigError, ResultsError
+from faultlab.runner import load_metadata, load_results
+from faultlab.stats import (
+    DetectionRule,
+    by_suite,
+    compare_suites,
+    detection_rates,
+    false_alarm_rate,
+    oracle_detections,
+    outcomes,
+    paper_table,
+    parameter_effects,
+    resolve_data_path,
+)
+from tests.stats.synthetic import frame, job
+
+REPO = Path(__file__).resolve().parents[2]
+STORE = REPO / "reports" / "store"
+STRICT = {"detection": {"abs_mm": 400.0, "rel": 1.0}}
+
+
+def rich_results() -> pd.DataFrame:
+    """Two suites, two faults, K = 3 repetitions, a crash and a timeout, varied parameters."""
+    rng = np.random.default_rng(3)
+    rows = []
+    for run in (1, 2):
+        for suite in ("systematic", "random"):
+            for case in (1, 2, 3):
+                size = float(rng.uniform(16, 400))
+                for rep in range(3):
+                    b = float(rng.uniform(50, 300))
+                    rows.append(job(run, suite, case, "baseline", rep, b, map_size=size))
+                    # +300 mm: detected by the paper's rule (> 250 mm, >= 25 %), not by STRICT (> 400 mm)
+                    hit = rng.random() < size / 500
+                    rows.append(job(run, suite, case, "naive_resampling", rep, b + (300.0 if hit else 20.0),
+                                    map_size=size))
+                    status = {(1, "random", 2, 0): "crash", (2, "systematic", 1, 2): "timeout"}.get(
+                        (run, suite, case, rep), "ok")
+                    rows.append(job(run, suite, case, "motion_sign_error", rep, b + 5000.0 * (case > 1), status,
+                                    map_size=size))
+    return frame(rows)
+
+
+@pytest.fixture(scope="module")
+def rich():
+    return rich_results()
+
+
+@pytest.fixture(scope="module")
+def strict(rich):
+    return Analysis.from_frame(rich, STRICT)
+
+
+def _named(stats_table: pd.DataFrame, schema_name: str) -> pd.DataFrame:
+    """A statistic's table with its schema's column kinds (text as object, not pandas' string dtype)."""
+    return {s.name: s for s in TABLES}[schema_name].conform(stats_table)
+
+
+def test_every_statistic_uses_the_stored_rule(rich, strict):
+    rule = DetectionRule(400.0, 1.0)
+    assert strict.rule == rule and not strict.notes_on("rule")
+    expected = detection_rates(rich, rule=rule).rename(columns={"fault": "variant"})
+    mine = strict.detection_rates[list(expected.columns)]
+    pd.testing.assert_frame_equal(mine, expected.astype(mine.dtypes.to_dict()))
+    pd.testing.assert_frame_equal(strict.by_suite, _named(by_suite(rich, rule=rule), "by_suite"))
+    pd.testing.assert_frame_equal(strict.false_alarms, _named(false_alarm_rate(rich, rule=rule), "false_alarms"))
+    pd.testing.assert_frame_equal(strict.suite_comparisons, _named(compare_suites(rich, rule=rule), "suite_comparisons"))
+    pd.testing.assert_frame_equal(strict.parameter_effects,
+                                  _named(parameter_effects(rich, rule=rule), "parameter_effects"))
+    pd.testing.assert_frame_equal(strict.oracle, _named(oracle_detections(rich), "oracle"))
+    oc = outcomes(rich, rule=rule)
+    this = strict.outcomes[strict.outcomes["source"] == "this run"].reset_index(drop=True)
+    pd.testing.assert_frame_equal(this, _named(oc.assign(source="this run"), "outcomes"))
+    # the paper's data is judged by the same rule
+    pd.testing.assert_frame_equal(strict.paper_rates, _named(paper_table(
+        resolve_data_path(None, "paper_repro/paper_table2_rms.csv"),
+        resolve_data_path(None, "paper_repro/paper_table2_reported.csv"), rule=rule).rates, "paper_rates"))
+    # ... and the default rule would have given other figures
+    default = Analysis.from_frame(rich, {})
+    assert default.rule == DetectionRule() and default.notes_on("rule")
+    nr = lambda a: a.detection_rates.set_index(["suite", "variant"]).loc[("random", "naive_resampling"), "k"]
+    assert nr(strict) == 0 < nr(default)
+
+
+def test_every_job_is_classified_once_per_data_set(rich, monkeypatch):
+    calls = []
+    original = faultlab.stats.detection.classify
+    monkeypatch.setattr(faultlab.stats.detection, "classify",
+                        lambda pairs, **kw: calls.append(len(pairs)) or original(pairs, **kw))
+    Analysis.from_frame(rich, STRICT, paper=False)
+    assert calls == [len(rich) * 2 // 3]  # this run's faulty jobs, once
+    calls.clear()
+    Analysis.from_frame(rich, STRICT)
+    assert sorted(calls) == [len(rich) * 2 // 3, 9 * 15]  # and the paper's 135 faulty cells, once
+
+
+def test_save_and_load_round_trip_exactly(strict, tmp_path):
+    strict.save(tmp_path / "a")
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == sorted(
+        [f"{s.name}.csv" for s in TABLES] + ["analysis.json"])
+    back = Analysis.load(tmp_path / "a")
+    assert back.equals(strict) and strict.equals(back)
+    for s in TABLES:
+        pd.testing.assert_frame_equal(getattr(back, s.name), getattr(strict, s.name), check_exact=True)
+        assert not getattr(strict, s.name).empty or s.name in ("cases",), s.name
+    assert (back.rule, back.alpha, back.rep, back.parameters, back.notes, back.metadata, back.paper_raw) == (
+        strict.rule, strict.alpha, strict.rep, strict.parameters, strict.notes, strict.metadata, strict.paper_raw)
+    assert back.paper_table.to_text() == strict.paper_table.to_text()
+    # saving the loaded analysis writes the same bytes
+    back.save(tmp_path / "b")
+    for p in (tmp_path / "a").iterdir():
+        assert p.read_bytes() == (tmp_path / "b" / p.name).read_bytes(), p.name
+
+
+def test_equals_notices_any_change(strict, tmp_path):
+    assert not strict.equals(dataclasses.replace(strict, alpha=0.1))
+    assert not strict.equals(dataclasses.replace(strict, notes=strict.notes + (Note("rule", "x"),)))
+    rates = strict.detection_rates.copy()
+    rates.loc[0, "wilson_low"] = np.nextafter(rates.loc[0, "wilson_low"], 1.0)  # one ulp
+    assert not strict.equals(dataclasses.replace(strict, detection_rates=rates))
+    strict.save(tmp_path)
+    path = tmp_path / "by_suite.csv"
+    path.write_text(path.read_text().replace("systematic", "Systematic", 1))
+    assert not Analysis.load(tmp_path).equals(strict)
+
+
+def test_load_refuses_what_is_not_a_saved_analysis(strict, tmp_path):
+    with pytest.raises(ResultsError, match="cannot read a saved analysis"):
+        Analysis.load(tmp_path)
+    strict.save(tmp_path)
+    data = json.loads((tmp_path / "analysis.json").read_text())
+    (tmp_path / "analysis.json").write_text(json.dumps({**data, "format": 99}))
+    with pytest.raises(ResultsError, match="not a saved analysis of format 1"):
+        Analysis.load(tmp_path)
+    (tmp_path / "analysis.json").write_text(json.dumps({**data, "rule": {"abs_mm": -1}}))
+    with pytest.raises(ResultsError, match="malformed saved analysis"):
+        Analysis.load(tmp_path)
+    (tmp_path / "analysis.json").write_text(json.dumps(data))
+    (tmp_path / "oracle.csv").unlink()
+    with pytest.raises(ResultsError, match="oracle.csv: cannot read table oracle"):
+        Analysis.load(tmp_path)
+
+
+def test_paper_table_view_equals_the_stats_function(strict):
+    ref = paper_table(strict.paper_raw, strict.paper_reported, rule=strict.rule)
+    view = strict.paper_table
+    pd.testing.assert_frame_equal(view.rms, ref.rms)
+    pd.testing.assert_frame_equal(view.detected, ref.detected)
+    assert view.to_text() == ref.to_text()
+
+
+def test_table2_cells_show_the_chosen_repetition(rich):
+    a = Analysis.from_frame(rich, STRICT, rep=2, paper=False)
+    cells = a.table2_cells.set_index(["suite", "variant", "run", "case"])
+    row = rich[(rich["rep"] == 2) & (rich["variant"] == "baseline") & (rich["run"] == 1)
+               & (rich["suite"] == "random") & (rich["case"] == 3)]
+    assert cells.loc[("random", "baseline", 1, 3), "rms_mm"] == row["rms_mm"].iloc[0]
+    assert cells.loc[("systematic", "motion_sign_error", 2, 1), "status"] == "timeout"
+    assert set(a.table2_cells["source"]) == {"this run"} and not a.has_paper and a.paper_table is None
+    with pytest.raises(ResultsError, match="no results for SLAM repetition 5; the store has \\[0, 1, 2\\]"):
+        Analysis.from_frame(rich, STRICT, rep=5)
+
+
+def test_summaries_of_the_campaign(strict, rich):
+    assert strict.n_rows == len(rich) and strict.n_reps == 3
+    assert strict.status_counts == {"ok": len(rich) - 2, "crash": 1, "timeout": 1}
+    assert strict.cases_per_run == {"systematic": 3, "random": 3}
+    assert strict.expected_jobs is None  # no experiment in the metadata
+
+
+def test_notes_say_what_could_not_be_done_and_why(tmp_path):
+    rows = []
+    for case in (1, 2):
+        rows += [job(1, "fixed", case, "baseline", 0, 100.0), job(1, "fixed", case, "naive_resampling", 0, 100.0)]
+    meta = {"metric": "emd", "detection": {"abs_mm": 250.0, "rel": 0.25},
+            "experiment": {"runs": 1, "suites": [["fixed", 3]], "variants": ["baseline", "naive_resampling"],
+                           "repetitions": 1, "space": {"map_size": {"nope": 1}}}}
+    a = Analysis.from_frame(frame(rows), meta, paper_raw=tmp_path / "missing.csv")
+    topics = [n.topic for n in a.notes]
+    assert topics == ["metric", "equivalent_faults", "paper", "campaign", "coverage", "false_alarms", "oracle",
+                      "suite_comparisons"]
+    text = {n.topic: n.text for n in a.notes}
+    assert "primary metric is 'emd'" in text["metric"]
+    assert text["equivalent_faults"].startswith("naive_resampling: every result is identical")
+    assert "paper's data was not found" in text["paper"] and "missing.csv" in text["paper"]
+    assert "incomplete: 4 of 6 jobs" in text["campaign"]
+    assert "stored parameter space is invalid" in text["coverage"] and a.coverage.empty
+    assert "need at least 2 SLAM repetitions per case (this run has 1)" in text["false_alarms"]
+    assert "no suite pair" in text["suite_comparisons"]
+    eff = a.parameter_effects  # fitted nothing, and says why in its rows
+    assert eff["term"].iloc[-1] == "(model)" and eff["coef"].isna().all() and "does not vary" in eff["note"].iloc[-1]
+    assert isinstance(a.notes[0], Note) and str(a.notes[0]) == a.notes[0].text
+    assert a.notes_on("oracle", "paper") == (a.notes[6], a.notes[2])[::-1]
+
+
+def test_bad_input_is_refused(rich, strict):
+    with pytest.raises(ResultsError, match="no rows"):
+        Analysis.from_frame(rich.iloc[:0])
+    with pytest.raises(ConfigError, match="alpha must lie in"):
+        Analysis.from_frame(rich, alpha=1.5)
+    with pytest.raises(ConfigError, match="unknown parameter 'size'"):
+        Analysis.from_frame(rich, parameters=["size"])
+    with pytest.raises(ResultsError, match="invalid detection rule"):
+        Analysis.from_frame(rich, {"detection": {"rel": -0.5}})
+    with pytest.raises(ResultsError, match="table cases: missing column\\(s\\) n_landmarks"):
+        Analysis.from_frame(rich.drop(columns=["n_landmarks"]))
+    with pytest.raises(KeyError, match="no table 'nope'"):
+        strict.table("nope")
+    assert strict.table("oracle") is strict.oracle
+
+
+def test_analyse_reads_the_store_and_its_rule(tmp_path):
+    store = tmp_path / "store"
+    shutil.copytree(STORE, store)
+    a = analyse(store, paper=False)
+    assert a.rule == DetectionRule() and a.n_rows == 180 and a.metadata == json.loads(json.dumps(load_metadata(store)))
+    with sqlite3.connect(store / "results.sqlite") as conn:
+        conn.execute("UPDATE meta SET value = ? WHERE key = 'detection'", (json.dumps(STRICT["detection"]),))
+    conn.close()
+    b = analyse(store, paper=False, parameters=["map_size"])
+    assert b.rule == DetectionRule(400.0, 1.0) and b.parameters == ("map_size",)
+    pd.testing.assert_frame_equal(b.parameter_effects, _named(
+        parameter_effects(load_results(store), rule=b.rule, parameters=["map_size"]), "parameter_effects"))
+    with pytest.raises(ResultsError, match="no results store"):
+        analyse(tmp_path / "nothing")
+
+
+def _module_file(name: str) -> Path | None:
+    """The source file of a faultlab module (None for a name that is not a module, e.g. a function)."""
+    p = REPO.joinpath(*name.split("."))
+    for candidate in (p / "__init__.py", p.with_suffix(".py")):
+        if candidate.exists():
+            return candidate
+    return None
+
+
+def _imported_names(path: Path) -> set[str]:
+    """Every absolute import of a module, at any level of nesting."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names |= {node.module} | {f"{node.module}.{a.name}" for a in node.names}
+    return names
+
+
+def test_the_analysis_layer_imports_no_report_cli_or_plotting():
+    """Follow every faultlab import from faultlab.analysis (a static, transitive layer check)."""
+    todo = ["faultlab.analysis"] + [f"faultlab.analysis.{p.stem}" for p in (REPO / "faultlab" / "analysis").glob("*.py")]
+    seen, outside = set(), set()
+    while todo:
+        name = todo.pop()
+        path = _module_file(name)
+        if name in seen or path is None:
+            continue
+        seen.add(name)
+        for imported in _imported_names(path):
+            if imported.startswith("faultlab"):
+                todo.append(imported)
+            else:
+                outside.add(imported.split(".")[0])
+    assert "faultlab.analysis.result" in seen and "faultlab.stats.rates" in seen and "faultlab.runner.store" in seen
+    assert not [m for m in seen if m.startswith(("faultlab.report", "faultlab.cli"))]
+    assert "matplotlib" not in outside and "seaborn" not in outside and "statsmodels" in outside

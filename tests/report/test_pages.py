@@ -1,0 +1,99 @@
+"""PDF pages render what the Analysis holds, and say why a part is missing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from matplotlib.text import Text
+
+from faultlab.analysis import Analysis
+from faultlab.report.comparison import compare_with_paper
+from faultlab.report.pages import (
+    MAX_PICTURED_RUNS,
+    beyond_pages,
+    case_pages,
+    coverage_pages,
+    metadata_pages,
+    title_pages,
+)
+from faultlab.report.pdf import page_title
+
+from .conftest import make_results
+
+
+def _text(pages) -> str:
+    """Every text of the pages: free text and table cells."""
+    texts = [t.get_text() for fig in pages for t in fig.findobj(Text)]
+    texts += [cell.get_text().get_text() for fig in pages for ax in fig.axes for table in ax.tables
+              for cell in table.get_celld().values()]
+    return "\n".join(texts)
+
+
+def _results(reps=1, runs=1):
+    # sign error: +900 mm on odd cases only; naive resampling never detected
+    return make_results(lambda run, suite, case, variant, rep:
+                        50.0 + rep + (900.0 if variant == "motion_sign_error" and case % 2 else 0.0)
+                        + (3.0 if variant == "naive_resampling" else 0.0),
+                        runs=runs, cases=2, reps=reps)
+
+
+@pytest.fixture(scope="module")
+def one_rep():
+    return Analysis.from_frame(_results(), paper=False)
+
+
+@pytest.fixture(scope="module")
+def two_reps():
+    return Analysis.from_frame(_results(reps=2), paper=False)
+
+
+def test_beyond_the_paper_notes_what_one_repetition_cannot_show(one_rep):
+    pages = beyond_pages(one_rep)
+    titles = [page_title(p) for p in pages]
+    assert titles[0] == "Beyond the paper: what these results allow"
+    assert not any("false alarms" in t or "statistical oracle" in t for t in titles)
+    assert "Beyond the paper: suites compared per fault (Fisher's exact test)" in titles
+    text = _text(pages[:1])
+    for note in one_rep.notes_on("false_alarms", "oracle"):
+        assert note.text[:60] in text.replace("\n", " ")
+
+
+def test_beyond_the_paper_tables_with_repetitions(two_reps):
+    pages = beyond_pages(two_reps)
+    titles = [page_title(p) for p in pages]
+    assert "Beyond the paper: false alarms of the detection rule" in titles
+    assert "Beyond the paper: a statistical oracle over the SLAM repetitions" in titles
+    fa = two_reps.false_alarms.set_index("suite")
+    text = _text(pages[titles.index("Beyond the paper: false alarms of the detection rule"):][:1])
+    assert str(fa.loc["all", "n_pairs"]) in text  # 3 suites x 2 cases x 2 ordered pairs = 12
+    oracle_text = _text([pages[titles.index("Beyond the paper: a statistical oracle over the SLAM repetitions")]])
+    assert "Sign Error" in oracle_text and "Naive Resampling" in oracle_text
+
+
+def test_coverage_pages_per_pictured_run_and_pooled():
+    many = Analysis.from_frame(_results(runs=MAX_PICTURED_RUNS + 1), paper=False)
+    titles = [page_title(p) for p in coverage_pages(many)]
+    assert titles == [f"Coverage of Table I's equivalence classes per suite (evaluation run {r})"
+                      for r in range(1, MAX_PICTURED_RUNS + 1)] + [
+        f"Coverage of Table I's equivalence classes per suite (all {MAX_PICTURED_RUNS + 1} runs pooled)"]
+    overall = many.coverage[(many.coverage["run"] == 1) & (many.coverage["parameter"] == "overall")]
+    text = _text(coverage_pages(many)[:1])
+    for c, k, r in zip(overall["covered"], overall["classes"], overall["coverage"]):
+        assert f"{c}/{k} ({100 * r:.0f} %)" in text
+
+
+def test_missing_cases_are_noted_not_fatal(one_rep, tmp_path):
+    pages, seeds, notes = case_pages(tmp_path, one_rep)
+    assert pages == [] and seeds == []
+    assert notes == [f"{len(one_rep.cases)} saved test case file(s) under {tmp_path}/cases could not be read; "
+                     "their pictures are left out."]
+
+
+def test_title_and_metadata_pages_show_the_analysis(one_rep):
+    title = _text(title_pages(one_rep, compare_with_paper(one_rep), ["a note for the reader"])).replace("\n", " ")
+    assert f"Results: {one_rep.n_rows} jobs — {one_rep.n_rows} ok, 0 crash, 0 timeout." in title
+    assert one_rep.rule.describe() in title and "a note for the reader" in title
+    meta = _text(metadata_pages(one_rep, []))
+    rt = one_rep.runtimes.set_index("variant")
+    assert f"median {rt.loc['(all)', 'median_s']:.2f} s" in meta and f"over {len(_results())} jobs" in meta
+    assert np.isclose(rt.loc["(all)", "total_s"], 1.5 * len(_results()))
