@@ -11,8 +11,8 @@ replace (:func:`faultlab.faults.registry.applicable_faults`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
 import importlib.util
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
