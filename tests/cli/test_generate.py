@@ -7,6 +7,8 @@ import pytest
 from faultlab.cli import main
 from faultlab.runner import parse_experiment, prepare_cases
 from faultlab.scenario import load_scenario
+from faultlab.scenario.suite import draw_suite, generate_case
+from faultlab.space import table1_space
 
 
 def test_generate_writes_cases_pictures_and_prints_coverage(tmp_path, capsys):
@@ -176,9 +178,6 @@ def test_generate_writes_the_pairwise_cases_a_campaign_with_constraints_runs(tmp
 
 
 def test_generate_fov_bug_writes_the_defective_cases_a_campaign_would(tmp_path, capsys):
-    from faultlab.scenario.suite import draw_suite, generate_case
-    from faultlab.space import table1_space
-
     assert main(["generate", "--suite", "fixed", "--seed", "4", "--out", str(tmp_path / "bug"), "--cases", "1",
                  "--steps", "20", "--fov-bug"]) == 0
     assert main(["generate", "--suite", "fixed", "--seed", "4", "--out", str(tmp_path / "ok"), "--cases", "1",
