@@ -102,11 +102,18 @@ def _rotation_text(fid: Fidelity) -> list[str]:
         return []
     lo, hi = float(t["min_mm"].min()), float(t["max_mm"].max())
     plo, phi = float(t["paper_min_mm"].min()), float(t["paper_max_mm"].max())
-    inside = plo <= lo and hi <= phi
+    if plo <= lo and hi <= phi:
+        relation = "within the paper's range."
+    elif lo <= phi and plo <= hi:
+        relation = (f"the ranges overlap (this run's extremes are {lo / plo:.2f} and {hi / phi:.2f} times the "
+                    f"paper's).")
+        if 0.5 <= lo / plo <= 2 and 0.5 <= hi / phi <= 2:
+            relation = "the same range within a factor of 2 at both ends; " + relation
+    else:
+        relation = "the ranges do not overlap."
     return ["## Faulty rotation (`missing_angle_wrap`)", "",
             f"Over all suites this run's errors span {format_mm(lo)}-{format_mm(hi)} mm, the paper's "
-            f"{format_mm(plo)}-{format_mm(phi)} mm: "
-            + ("within the paper's range." if inside else "not within the paper's range.")
+            f"{format_mm(plo)}-{format_mm(phi)} mm: " + relation
             + " Per suite: " + "; ".join(
                 f"{suite_label(r.suite)} {format_mm(r.min_mm)}-{format_mm(r.max_mm)} mm (paper "
                 f"{format_mm(r.paper_min_mm)}-{format_mm(r.paper_max_mm)} mm, {r.verdict})"

@@ -39,6 +39,11 @@ def test_markdown_names_what_ran_the_rule_and_every_verdict():
         == "differs"
     assert "Differs (1): Fixed / Nonfaulty Baseline." in md
     assert "## Faulty rotation (`missing_angle_wrap`)" in md
+    rot = fid.table[fid.table.variant == "missing_angle_wrap"]
+    lo, hi, plo, phi = rot.min_mm.min(), rot.max_mm.max(), rot.paper_min_mm.min(), rot.paper_max_mm.max()
+    inside = plo <= lo and hi <= phi  # both samples ~2000 mm with 5 % spread: never far apart
+    assert ("within the paper's range." in md) == inside
+    assert inside or "the same range within a factor of 2 at both ends; the ranges overlap" in md
 
 
 def test_a_reduced_campaign_is_labelled_and_files_hold_the_table(tmp_path):
