@@ -22,12 +22,14 @@ recorded as ``crash``.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import os
 import signal
 import threading
 import time
 import traceback
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator, Mapping
@@ -38,7 +40,7 @@ from joblib import Parallel, delayed, parallel_config
 from joblib.externals.loky.process_executor import BrokenProcessPool, ProcessPoolExecutor
 
 from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
-from faultlab.faults import resolve_variant
+from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, resolve_variant, slam_units
 from faultlab.metrics import map_errors
 from faultlab.runner.experiment import Experiment, load_experiment
 from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
@@ -52,6 +54,7 @@ from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.vocabulary import BACKENDS, JobStatus
 
 __all__ = [
+    "SKIPPED_VARIANTS_KEY",
     "JobResult",
     "CaseInfo",
     "RunSummary",
@@ -59,6 +62,12 @@ __all__ = [
     "prepare_cases",
     "run_experiment",
 ]
+
+#: Key of the store's metadata (:func:`faultlab.runner.load_metadata`) listing the variants skipped
+#: because their fault does not apply to the SLAM: one dict per variant with ``fault`` (the variant),
+#: ``step``, ``slam``, ``n_units`` and ``reason`` (one sentence).
+SKIPPED_VARIANTS_KEY = "skipped_variants"
+
 
 @dataclass(frozen=True)
 class JobResult:
@@ -319,8 +328,14 @@ def _case_info(case: SuiteCase, path: Path, scenario: Scenario) -> CaseInfo:
                     n_landmarks=n_lm, cost=cost)
 
 
-def _preflight(experiment: Experiment) -> None:
-    """Build the SUT and apply every fault once in the parent: configuration errors fail fast."""
+def _preflight(experiment: Experiment) -> tuple[NotApplicable, ...]:
+    """Build the SUT and apply every fault once in the parent: configuration errors fail fast.
+
+    A fault that replaces a unit the SUT does not have (:func:`faultlab.faults.not_applicable`:
+    e.g. a resampling fault and EKF-SLAM, or any fault and dead reckoning) does not apply: its
+    variant is skipped with a :class:`~faultlab.faults.FaultNotApplicableWarning` naming fault,
+    unit and SLAM, and returned so that the caller drops its jobs and records it in the store.
+    """
     try:
         slam = experiment.slam.build()
     except FaultlabError:
@@ -331,15 +346,25 @@ def _preflight(experiment: Experiment) -> None:
     if not isinstance(slam, SlamAdapter):
         raise ConfigError(f"{experiment.source}: [slam] {experiment.slam.name!r} built a "
                           f"{type(slam).__name__}, not a SlamAdapter")
+    units = slam_units(slam)
+    skipped: list[NotApplicable] = []
     for i, variant in enumerate(experiment.variants):
         fault = resolve_variant(variant)  # known: parse_experiment checked every name
         if fault is None:
+            continue
+        reason = not_applicable(fault, experiment.slam.name, units=units)
+        if reason is not None:
+            reason = dataclasses.replace(reason, fault=variant)  # as the experiment names it
+            warnings.warn(f"{experiment.source}: variants[{i}] skipped: {reason}", FaultNotApplicableWarning,
+                          stacklevel=3)
+            skipped.append(reason)
             continue
         try:
             fault.apply(slam)
         except FaultlabError as exc:
             raise ConfigError(f"{experiment.source}: variants[{i}] = {variant!r} cannot be applied to "
                               f"slam {experiment.slam.name!r}: {exc}") from exc
+    return tuple(skipped)
 
 
 @contextlib.contextmanager
@@ -472,11 +497,15 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         raise ConfigError(f"unknown backend {backend!r}; use one of {', '.join(BACKENDS)}")
     t0 = time.perf_counter()
     out = Path(out)
-    _preflight(experiment)
+    skipped = _preflight(experiment)
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
+        store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
         cases = prepare_cases(experiment, out)
         info = {(c.run, c.suite, c.case): c for c in cases}
         specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases))
+        if skipped:  # variants whose fault does not apply to the SLAM have no jobs
+            names = {r.fault for r in skipped}
+            specs = [s for s in specs if s.key.variant not in names]
         done = store.done_keys()
         todo = [s for s in specs if s.key.astuple() not in done]
         todo.sort(key=lambda s: (-s.cost, s.key))  # longest first: shorter tail on few workers

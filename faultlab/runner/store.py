@@ -254,6 +254,12 @@ class ResultStore:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def set_meta(self, key: str, value) -> None:
+        """Set one metadata entry (JSON-serialisable ``value``; committed at once, replacing an older one)."""
+        with self.conn:
+            self.conn.execute("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", (key, json.dumps(value)))
+        self.meta[key] = value
+
     # ------------------------------------------------------------ sessions
     def begin_session(self, *, jobs: int, backend: str, n_todo: int) -> int:
         cur = self.conn.execute(

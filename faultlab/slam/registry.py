@@ -4,7 +4,9 @@ An experiment's ``[slam]`` table names a SLAM: a built-in name from :data:`BUILT
 import path ``"package.module:factory"`` whose factory is called with the table's ``options`` as
 keyword arguments.  A built-in SLAM with settings has a config class with
 ``from_options(mapping, *, where)`` and ``to_options()`` (the file's keys and units), which is
-the one place its keys, defaults and bounds are defined.
+the one place its keys, defaults and bounds are defined.  A built-in SLAM written as replaceable
+units names its steps table (:attr:`SlamKind.steps`), whose fields are the units a fault can
+replace (:func:`faultlab.faults.registry.applicable_faults`).
 
 ``fastslam`` also takes ``profile`` (:mod:`faultlab.slam.profiles`: ``"reference"``, the default,
 ``"paper"``, ``"paper_no_aliasing"``): the profile gives the units and the default settings, and the
@@ -14,16 +16,18 @@ table's other keys override the profile's settings.  A non-default profile is ke
 
 from __future__ import annotations
 
+import importlib.util
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 from faultlab.config import import_object
 from faultlab.errors import ConfigError
 from faultlab.slam.deadreckoning import DeadReckoning
-from faultlab.slam.ekf import EkfSlam, EkfSlamConfig
-from faultlab.slam.fastslam import FastSlam, FastSlamConfig
-from faultlab.slam.fastslam2 import FastSlam2
+from faultlab.slam.ekf import EkfSlam, EkfSlamConfig, EkfSlamSteps
+from faultlab.slam.fastslam import FastSlam, FastSlamConfig, FastSlamSteps
+from faultlab.slam.fastslam2 import FastSlam2, FastSlam2Steps
+from faultlab.slam.gtsam import GtsamSlam, GtsamSlamConfig
 from faultlab.slam.profiles import DEFAULT_PROFILE, get_profile
 from faultlab.slam.protocol import SlamAdapter
 
@@ -44,6 +48,14 @@ class SlamKind:
         ``adapter(config)`` (or ``adapter()`` when ``config`` is None) returns a fresh :class:`SlamAdapter`.
     config : type or None
         Its settings: a class with ``from_options(mapping, *, where)`` and ``to_options()``.
+    steps : type or None
+        Its steps table (a frozen dataclass whose fields are the replaceable units, e.g.
+        :class:`~faultlab.slam.FastSlamSteps`); None for a SLAM without replaceable units, to
+        which no fault applies.
+    requires : str or None
+        An optional dependency the SLAM needs, named as both its module and faultlab's extra
+        (``"gtsam"``: ``pip install "faultlab[gtsam]"``); building the SLAM without it raises
+        :class:`~faultlab.errors.ConfigError`.
     profiles : bool
         Whether it takes a ``profile`` option (:mod:`faultlab.slam.profiles`; FastSLAM 1.0 only).
     """
@@ -52,7 +64,19 @@ class SlamKind:
     description: str
     adapter: Callable[..., SlamAdapter]
     config: type | None = None
+    steps: type | None = None
+    requires: str | None = None
     profiles: bool = False
+
+    @property
+    def available(self) -> bool:
+        """True unless the optional dependency in :attr:`requires` is missing (checked without importing it)."""
+        return self.requires is None or importlib.util.find_spec(self.requires) is not None
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """Names of the replaceable units (the fields of :attr:`steps`), in algorithm order; () if none."""
+        return () if self.steps is None else tuple(f.name for f in fields(self.steps))
 
     def _split(self, options: Mapping[str, Any], *, where: str = "slam"):
         """(profile or None, the other options); the profile name is checked here."""
@@ -97,11 +121,14 @@ class SlamKind:
 BUILTIN_SLAMS: dict[str, SlamKind] = {
     k.name: k for k in (
         SlamKind("fastslam", "the reference FastSLAM 1.0 (known correspondences)", FastSlam, FastSlamConfig,
-                 profiles=True),
+                 FastSlamSteps, profiles=True),
         SlamKind("fastslam2", "FastSLAM 2.0: poses sampled from the proposal that includes the observations",
-                 FastSlam2, FastSlamConfig),
-        SlamKind("ekf", "EKF-SLAM: one joint Gaussian over the pose and every landmark", EkfSlam, EkfSlamConfig),
+                 FastSlam2, FastSlamConfig, FastSlam2Steps),
+        SlamKind("ekf", "EKF-SLAM: one joint Gaussian over the pose and every landmark", EkfSlam, EkfSlamConfig,
+                 EkfSlamSteps),
         SlamKind("dead_reckoning", "odometry only: the baseline any SLAM should beat", DeadReckoning),
+        SlamKind("gtsam", "GTSAM iSAM2: incremental smoothing over all poses with range-bearing factors",
+                 GtsamSlam, GtsamSlamConfig, requires="gtsam"),
     )
 }
 

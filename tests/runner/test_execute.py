@@ -3,6 +3,7 @@ import math
 import signal
 import sqlite3
 import threading
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -18,7 +19,8 @@ from faultlab.runner import (
     prepare_cases,
     run_experiment,
 )
-from faultlab.runner.execute import _alarm, execute_job
+from faultlab.faults import FaultNotApplicableWarning
+from faultlab.runner.execute import SKIPPED_VARIANTS_KEY, _alarm, execute_job
 from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
 from faultlab.seeds import case_seed, slam_seed, suite_seed_sequence
 from faultlab.scenario import generate_scenario, load_scenario
@@ -205,11 +207,10 @@ def test_malformed_experiment_refused_before_any_work(tmp_path):
     with pytest.raises(ConfigError, match="runs must be >= 1"):
         run_experiment(bad, tmp_path / "out")
     assert not (tmp_path / "out").exists()
-    # a fault that cannot be applied to the SUT is caught before the store is created
-    dr = write_experiment(tmp_path / "dr.toml", slam={"name": "dead_reckoning"},
-                          variants=["baseline", "naive_resampling"])
-    with pytest.raises(ConfigError, match=r"variants\[1\] = 'naive_resampling' cannot be applied"):
-        run_experiment(dr, tmp_path / "out2")
+    # a fault whose replacement cannot be built is caught before the store is created
+    broken = write_experiment(tmp_path / "broken.toml", variants=["baseline", f"{SUTS}:UNBUILDABLE"])
+    with pytest.raises(ConfigError, match=r"variants\[1\] = '.*UNBUILDABLE' cannot be applied"):
+        run_experiment(broken, tmp_path / "out2")
     assert not (tmp_path / "out2").exists()
     good = write_experiment(tmp_path / "good.toml")
     with pytest.raises(ConfigError, match="jobs"):
@@ -217,6 +218,37 @@ def test_malformed_experiment_refused_before_any_work(tmp_path):
     with pytest.raises(ConfigError, match="backend"):
         run_experiment(good, tmp_path / "out3", backend="spark")
     assert not (tmp_path / "out3").exists()
+
+
+def test_variants_whose_fault_does_not_apply_are_skipped_and_recorded(tmp_path):
+    # EKF-SLAM has no resampling unit: naive_resampling is skipped, missing_angle_wrap runs
+    exp = write_experiment(tmp_path / "ekf.toml", **_one_case(
+        slam={"name": "ekf"}, variants=["baseline", "naive_resampling", "missing_angle_wrap"]))
+    with pytest.warns(FaultNotApplicableWarning,
+                      match=r"variants\[1\] skipped: fault 'naive_resampling' replaces unit 'resample', "
+                            r"which SLAM 'ekf' does not have"):
+        summary = run_experiment(exp, tmp_path / "out", jobs=1, progress=False)
+    df = load_results(tmp_path / "out")
+    assert sorted(df.variant) == ["baseline", "missing_angle_wrap"]
+    assert summary.n_jobs == 2 and summary.complete
+    skipped = load_metadata(tmp_path / "out")[SKIPPED_VARIANTS_KEY]
+    assert skipped == [{"fault": "naive_resampling", "step": "resample", "slam": "ekf", "n_units": 13,
+                        "reason": "fault 'naive_resampling' replaces unit 'resample', which SLAM 'ekf' does "
+                                  "not have (it has 13 other units)"}]
+    # dead reckoning has no units at all: every fault is skipped, the baseline still runs
+    dr = write_experiment(tmp_path / "dr.toml", **_one_case(
+        slam={"name": "dead_reckoning"}, variants=["baseline", "naive_resampling", "motion_sign_error"]))
+    with pytest.warns(FaultNotApplicableWarning, match="has no replaceable units"):
+        run_experiment(dr, tmp_path / "dr", jobs=1, progress=False)
+    assert list(load_results(tmp_path / "dr").variant) == ["baseline"]
+    assert [r["fault"] for r in load_metadata(tmp_path / "dr")[SKIPPED_VARIANTS_KEY]] == [
+        "naive_resampling", "motion_sign_error"]
+    # a campaign whose faults all apply records an empty list
+    ok = write_experiment(tmp_path / "ok.toml", **_one_case(variants=["baseline", f"{SUTS}:BIAS"]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FaultNotApplicableWarning)
+        run_experiment(ok, tmp_path / "ok", jobs=1, progress=False)
+    assert load_metadata(tmp_path / "ok")[SKIPPED_VARIANTS_KEY] == []
 
 
 def test_changed_experiment_refused_unless_force_new(tmp_path):
