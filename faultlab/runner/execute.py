@@ -295,7 +295,7 @@ def prepare_cases(experiment: Experiment, out: str | Path) -> list[CaseInfo]:
                 scenario = _saved_case(path, case, experiment)
                 if scenario is None:
                     scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
-                                             min_distance=experiment.min_distance)
+                                             min_distance=experiment.min_distance, fov_bug=experiment.fov_bug)
                     save_scenario(scenario, path)
                 infos.append(_case_info(case, path, scenario))
     return infos
@@ -312,6 +312,10 @@ def _saved_case(path: Path, case: SuiteCase, experiment: Experiment) -> Scenario
     if scenario.seed != case.seed or dict(scenario.case.values) != dict(case.spec.values):
         raise ResultsError(f"saved test case {path} does not match {experiment.source} "
                            f"(seed or parameter values differ); use --force-new")
+    saved_bug = bool(scenario.meta.get("config", {}).get("fov_bug", False))
+    if saved_bug != experiment.fov_bug:
+        raise ResultsError(f"saved test case {path} does not match {experiment.source} "
+                           f"(fov_bug = {saved_bug} there, {experiment.fov_bug} here); use --force-new")
     return scenario
 
 

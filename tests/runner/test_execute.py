@@ -288,3 +288,16 @@ def test_expand_matches_store_identities(tmp_path):
     assert sorted(j.key.astuple() for j in jobs) == sorted(
         df[["run", "suite", "case", "variant", "rep"]].itertuples(index=False, name=None))
     assert all(j.seed == slam_seed(exp.seed, j.key.run, j.key.suite, j.key.case, j.key.rep) for j in jobs)
+
+
+def test_prepare_cases_passes_fov_bug_and_notices_a_mismatch(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", fov_bug=True))
+    infos = prepare_cases(exp, tmp_path / "out")
+    saved = load_scenario(infos[0].path)
+    assert saved.meta["config"]["fov_bug"] is True
+    # the same case generated directly with the defect, from its documented seed
+    direct = generate_scenario(saved.case, rng=np.random.default_rng(saved.seed), n_steps=exp.n_steps,
+                               sensor_range=exp.sensor_range, min_distance=exp.min_distance, fov_bug=True)
+    np.testing.assert_array_equal(saved.obs_bearing, direct.obs_bearing)
+    with pytest.raises(ResultsError, match="fov_bug = True there, False here"):
+        prepare_cases(exp.replace(fov_bug=False), tmp_path / "out")
