@@ -173,7 +173,7 @@ def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms"
     ``killed`` (test rejects), ``crash``/``timeout`` (the mutant alone failed), ``""`` otherwise.
     """
     v = case_verdicts(results, alpha=case_alpha, metric=metric)
-    kill = np.where(v["verdict"] == "detected", MutantOutcome.KILLED.value, "")
+    kill = np.where(v["verdict"] == "detected", MutantOutcome.KILLED.value, "").astype(object)
     crashed = (v["verdict"] == "crash_detected").to_numpy()
     if crashed.any():
         st = results[results["variant"] != BASELINE].groupby(["run", "suite", "case", "variant"])["status"]
@@ -217,8 +217,8 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
         for r in range(1, max(n_cases.values()) + 1):
             todo, round_specs = [], []
             for (run, suite), n in n_cases.items():
-                if r > n:
-                    continue
+                if r > n or len(killed[(run, suite)]) == len(mexp.selection.run):
+                    continue  # no case left, or every mutant killed: the baseline is not needed either
                 for s in by_case[(run, suite, r)]:
                     if s.key.variant in killed[(run, suite)]:
                         continue
@@ -339,7 +339,7 @@ def _outcomes(results: pd.DataFrame, sel: dict, metric: str) -> pd.DataFrame:
                 first = kills.iloc[0]
                 rows.append(base | dict(outcome=first["kill"], killing_case=int(first["case"])))
             elif len(mv) < n:
-                rows.append(base | dict(outcome="incomplete", killing_case=0,
+                rows.append(base | dict(outcome=INCOMPLETE, killing_case=0,
                                         note=f"{len(mv)} of {n} cases run"))
             elif (mv["verdict"] == "cannot_judge").all():
                 rows.append(base | dict(outcome="cannot_judge", killing_case=0,
@@ -356,16 +356,19 @@ def _outcomes(results: pd.DataFrame, sel: dict, metric: str) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=OUTCOME_COLUMNS)
 
 
+INCOMPLETE = "incomplete"
 KILL_CLASSES = (MutantOutcome.KILLED.value, MutantOutcome.CRASH.value, MutantOutcome.TIMEOUT.value)
 
 
 def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
     """Mutation score per suite kind, per (suite kind, operator) and per (suite kind, unit).
 
-    Score = killed / (killed + survived) over the (mutant, run) rows that ran (``crash`` and
-    ``timeout`` count as killed), with a Clopper-Pearson ``1 - alpha`` interval.
+    Score = killed / (killed + survived + incomplete) over the (mutant, run) rows that ran
+    (``crash`` and ``timeout`` count as killed), with a Clopper-Pearson ``1 - alpha`` interval.
+    An ``incomplete`` mutant (not killed by the cases run so far of an interrupted campaign)
+    counts as not killed, so the score of an interrupted campaign is a lower bound.
     """
-    judged = outcomes[outcomes["outcome"].isin((*KILL_CLASSES, MutantOutcome.SURVIVED.value))]
+    judged = outcomes[outcomes["outcome"].isin((*KILL_CLASSES, MutantOutcome.SURVIVED.value, INCOMPLETE))]
     rows = []
     for by in (None, "operator", "unit"):
         keys = ["suite"] + ([by] if by else [])
@@ -376,9 +379,9 @@ def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFr
             lo, hi = clopper_pearson(k, n, alpha)
             rows.append(dict(suite=key[0], by=by or "all", group=key[1] if by else "all", killed=k, judged=n,
                              crash=int((g["outcome"] == "crash").sum()), timeout=int((g["outcome"] == "timeout").sum()),
-                             score=k / n, ci_low=lo, ci_high=hi))
-    return pd.DataFrame(rows, columns=["suite", "by", "group", "killed", "judged", "crash", "timeout", "score",
-                                       "ci_low", "ci_high"])
+                             incomplete=int((g["outcome"] == INCOMPLETE).sum()), score=k / n, ci_low=lo, ci_high=hi))
+    return pd.DataFrame(rows, columns=["suite", "by", "group", "killed", "judged", "crash", "timeout", "incomplete",
+                                       "score", "ci_low", "ci_high"])
 
 
 def compare_suites(outcomes: pd.DataFrame, suites) -> pd.DataFrame:

@@ -39,6 +39,7 @@ def score_table(analysis: MutationAnalysis, by: str = "all") -> pd.DataFrame:
         "suite": s["suite"], "group": s["group"],
         "killed / judged": [f"{k}/{n}" for k, n in zip(s["killed"], s["judged"])],
         "crash / timeout": [f"{c}/{t}" for c, t in zip(s["crash"], s["timeout"])],
+        "incomplete": s["incomplete"],
         "score": [f"{100 * v:.1f} %" for v in s["score"]],
         "95 % CI": [f"{100 * lo:.1f}-{100 * hi:.1f} %" for lo, hi in zip(s["ci_low"], s["ci_high"])],
     })
@@ -95,7 +96,10 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
           f"(stillborn, equivalent, duplicate); K = {meta['repetitions']} repetitions per case; a suite kills a "
           f"mutant when one case's exact paired sign-flip test rejects at alpha / n_cases (alpha = {meta['alpha']}, "
           f"Bonferroni over the suite's cases, valid under early stopping) or the mutant alone crashes or times out. "
-          f"{meta['n_jobs']} SLAM executions, {meta['runtime_s_sum']:.0f} s of SLAM time.", "",
+          f"{meta['n_jobs']} SLAM executions, {meta['runtime_s_sum']:.0f} s of SLAM time."
+          + (" The campaign is INCOMPLETE: 'incomplete' mutants were not killed by the cases run so far and count "
+             "as not killed, so every score is a lower bound." if (analysis.outcomes["outcome"] == "incomplete").any()
+             else ""), "",
           "## Mutation score per suite (95 % Clopper-Pearson)", "", markdown_table(all_scores.drop(columns="group")),
           "## Outcomes per suite", "", markdown_table(counts),
           "## Suites compared on the same mutants (exact McNemar)", "", markdown_table(_mcnemar_table(analysis)),
