@@ -165,36 +165,18 @@ def drive(landmarks: np.ndarray, landmark_ids: np.ndarray | None = None, *, rng:
     ids = np.arange(L) if landmark_ids is None else np.asarray(landmark_ids)
     sort_ids = landmark_ids is not None and bool(np.any(np.diff(ids) < 0))
     tree = cKDTree(lm)
-    polar = np.mod(np.arctan2(lm[:, 1], lm[:, 0]), _TWO_PI)
     turn_noise = rng.normal(0.0, path_turn_std, n_steps) if path_turn_std > 0 else np.zeros(n_steps)
+    chooser = _TargetChooser(lm, loop=loop, rng=rng)
 
     poses = np.zeros((n_steps + 1, 3))
     controls = np.zeros((n_steps, 2))
     controls[:, 0] = step
     vis: list[np.ndarray] = []
-    unseen = np.ones(L, dtype=bool)
-    targets, target_steps, target_rounds = [], [], []
-    rnd = 0
-    target = last_target = -1
-    prev_angle = 0.0
+    target = -1
     x = y = th = 0.0
     for t in range(n_steps):
-        if target < 0:  # pick the next unseen landmark
-            if not unseen.any():
-                unseen[:] = True
-                rnd += 1
-            cand = np.flatnonzero(unseen)
-            if loop:
-                inc = np.mod(polar[cand] - prev_angle, _TWO_PI)
-                inc[cand == last_target] = _TWO_PI  # after a reset, the last target comes last
-                target = int(cand[np.argmin(inc)])
-                prev_angle = polar[target]
-            else:
-                target = int(cand[rng.integers(cand.size)])
-            last_target = target
-            targets.append(target)
-            target_steps.append(t)
-            target_rounds.append(rnd)
+        if target < 0:
+            target = chooser.next(t)
         # drive v along the heading, then turn towards the target
         x += step * math.cos(th)
         y += step * math.sin(th)
@@ -203,21 +185,72 @@ def drive(landmarks: np.ndarray, landmark_ids: np.ndarray | None = None, *, rng:
         th = (th + omega + math.pi) % _TWO_PI - math.pi
         poses[t + 1] = (x, y, th)
         controls[t, 1] = omega
-        # what is visible from the new pose
-        idx = np.asarray(tree.query_ball_point((x, y), sensor_range), dtype=np.int64)
-        if idx.size:
-            d = lm[idx]
-            b = (np.arctan2(d[:, 1] - y, d[:, 0] - x) - th + math.pi) % _TWO_PI - math.pi
-            idx = idx[in_field_of_view(b, fov, fov_bug=fov_bug)]
-            idx = idx[np.argsort(ids[idx], kind="stable")] if sort_ids else np.sort(idx)
-            unseen[idx] = False
+        idx = _visible(lm, tree, (x, y, th), sensor_range=sensor_range, fov=fov, fov_bug=fov_bug,
+                       ids=ids if sort_ids else None)
+        chooser.unseen[idx] = False
         vis.append(idx)
-        if not unseen[target]:
+        if not chooser.unseen[target]:
             target = -1
+    return _with_inactivity(poses, controls, vis, chooser, n_steps=n_steps, inactivity=int(inactivity))
 
-    # Sec. VI-B: the inactivity steps go in the middle of the trace.
-    mid = n_steps // 2
-    k = int(inactivity)
+
+class _TargetChooser:
+    """Sec. VI-B: the vehicle steers towards a not-yet-seen landmark, in random or polar-angle order.
+
+    When every landmark has been seen, a new round starts with all of them unseen again.
+    """
+
+    def __init__(self, lm: np.ndarray, *, loop: bool, rng: np.random.Generator):
+        self.polar = np.mod(np.arctan2(lm[:, 1], lm[:, 0]), _TWO_PI)
+        self.loop, self.rng = loop, rng
+        self.unseen = np.ones(lm.shape[0], dtype=bool)
+        self.targets: list[int] = []
+        self.steps: list[int] = []
+        self.rounds: list[int] = []
+        self.round = 0
+        self.last = -1
+        self.prev_angle = 0.0
+
+    def next(self, t: int) -> int:
+        """The target chosen at step ``t`` (recorded with its step and round)."""
+        if not self.unseen.any():
+            self.unseen[:] = True
+            self.round += 1
+        cand = np.flatnonzero(self.unseen)
+        if self.loop:
+            inc = np.mod(self.polar[cand] - self.prev_angle, _TWO_PI)
+            inc[cand == self.last] = _TWO_PI  # after a reset, the last target comes last
+            target = int(cand[np.argmin(inc)])
+            self.prev_angle = self.polar[target]
+        else:
+            target = int(cand[self.rng.integers(cand.size)])
+        self.last = target
+        self.targets.append(target)
+        self.steps.append(t)
+        self.rounds.append(self.round)
+        return target
+
+
+def _visible(lm: np.ndarray, tree: cKDTree, pose: tuple[float, float, float], *, sensor_range: float,
+             fov: float, fov_bug: bool, ids: np.ndarray | None) -> np.ndarray:
+    """Indices of the landmarks visible from ``pose``: in range and in the field of view.
+
+    Sorted by ``ids`` when given (stable), else by index.
+    """
+    x, y, th = pose
+    idx = np.asarray(tree.query_ball_point((x, y), sensor_range), dtype=np.int64)
+    if not idx.size:
+        return idx
+    d = lm[idx]
+    b = (np.arctan2(d[:, 1] - y, d[:, 0] - x) - th + math.pi) % _TWO_PI - math.pi
+    idx = idx[in_field_of_view(b, fov, fov_bug=fov_bug)]
+    return idx[np.argsort(ids[idx], kind="stable")] if ids is not None else np.sort(idx)
+
+
+def _with_inactivity(poses: np.ndarray, controls: np.ndarray, vis: list[np.ndarray], chooser: _TargetChooser, *,
+                     n_steps: int, inactivity: int) -> Drive:
+    """The :class:`Drive` with ``inactivity`` idle steps inserted in the middle (Sec. VI-B)."""
+    mid, k = n_steps // 2, inactivity
     poses = np.concatenate([poses[: mid + 1], np.repeat(poses[mid: mid + 1], k, axis=0), poses[mid + 1:]])
     controls = np.concatenate([controls[:mid], np.zeros((k, 2)), controls[mid:]])
     active = np.concatenate([np.ones(mid, bool), np.zeros(k, bool), np.ones(n_steps - mid, bool)])
@@ -226,11 +259,11 @@ def drive(landmarks: np.ndarray, landmark_ids: np.ndarray | None = None, *, rng:
     counts = np.fromiter((v.size for v in vis), dtype=np.int64, count=len(vis))
     offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     vis_index = np.concatenate(vis).astype(np.int64) if vis else empty
-    tsteps = np.asarray(target_steps, dtype=np.int64)
+    tsteps = np.asarray(chooser.steps, dtype=np.int64)
     tsteps = np.where(tsteps >= mid, tsteps + k, tsteps)
     return Drive(poses=poses, controls=controls, active=active, vis_offsets=offsets, vis_index=vis_index,
-                 targets=np.asarray(targets, dtype=np.int64), target_steps=tsteps,
-                 target_rounds=np.asarray(target_rounds, dtype=np.int64), inactivity_start=mid)
+                 targets=np.asarray(chooser.targets, dtype=np.int64), target_steps=tsteps,
+                 target_rounds=np.asarray(chooser.rounds, dtype=np.int64), inactivity_start=mid)
 
 
 def measure_controls(true_controls: np.ndarray, active: np.ndarray, *, rng: np.random.Generator,

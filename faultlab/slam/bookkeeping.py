@@ -1,19 +1,22 @@
-"""Bookkeeping shared by the SLAMs built from replaceable units (EKF-SLAM, FastSLAM 2.0).
+"""Bookkeeping shared by the SLAMs built from replaceable units (FastSLAM 1.0 and 2.0, EKF-SLAM).
 
 :class:`UnitTable` is the base of their ``...Steps`` tables (a frozen dataclass whose fields are
-the units), :class:`LandmarkIndex` maps landmark ids to storage columns in order of first
-observation.
+the units), :class:`UnitSlam` the base of the adapters (settings, units, ``with_steps``, the start
+pose), :class:`LandmarkIndex` maps landmark ids to storage columns in order of first observation.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import Any, ClassVar
 
 import numpy as np
 
-from faultlab.errors import ConfigError
+from faultlab.errors import ConfigError, SlamInputError
+from faultlab.slam.protocol import SlamAdapter
+from faultlab.slam.units import wrap_heading
 
-__all__ = ["UnitTable", "LandmarkIndex"]
+__all__ = ["UnitTable", "UnitSlam", "LandmarkIndex"]
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,65 @@ class UnitTable:
         """Names of the units that differ from the reference (the field defaults)."""
         ref = type(self)()
         return tuple(n for n in self.unit_names() if getattr(self, n) is not getattr(ref, n))
+
+
+class UnitSlam(SlamAdapter):
+    """Base of a SLAM adapter built from a table of replaceable units.
+
+    A subclass sets :attr:`config_type`, :attr:`steps_type` and :attr:`reference_steps`.  Faults
+    build a copy with other units through :meth:`with_steps`; the instance itself never changes
+    its units.
+
+    Parameters
+    ----------
+    config : config_type, optional
+        The settings (default: ``config_type()``).
+    steps : steps_type, optional
+        The units (default: :attr:`reference_steps`), or a copy with one unit replaced (a fault).
+    """
+
+    config_type: ClassVar[type]
+    steps_type: ClassVar[type]
+    reference_steps: ClassVar[Any]
+
+    def __init__(self, config=None, *, steps=None):
+        config = self.config_type() if config is None else config
+        steps = self.reference_steps if steps is None else steps
+        name = type(self).__name__
+        if not isinstance(config, self.config_type):
+            raise ConfigError(f"{name}: config must be a {self.config_type.__name__}, got {type(config).__name__}")
+        if not isinstance(steps, self.steps_type):
+            raise ConfigError(f"{name}: steps must be a {self.steps_type.__name__}, got {type(steps).__name__}")
+        self._config = config
+        self._steps = steps
+
+    @property
+    def config(self):
+        """The settings."""
+        return self._config
+
+    @property
+    def steps(self):
+        """The units."""
+        return self._steps
+
+    def with_steps(self, steps) -> "UnitSlam":
+        """A new, un-reset instance with the same settings and other units."""
+        return type(self)(self._config, steps=steps)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._config!r}, replaced={list(self._steps.replaced())})"
+
+    def _start_pose(self, pose, rng) -> np.ndarray:
+        """The validated start pose (3,) with its heading wrapped; checks ``rng`` too."""
+        p = np.asarray(pose, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+        if not isinstance(rng, np.random.Generator):
+            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        p = p.copy()
+        p[2] = float(wrap_heading(p[2]))
+        return p
 
 
 class LandmarkIndex:

@@ -50,12 +50,12 @@ import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from faultlab.config import Option, Settings
-from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
+from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam import units2 as _units2
-from faultlab.slam.bookkeeping import LandmarkIndex, UnitTable
+from faultlab.slam.bookkeeping import LandmarkIndex, UnitSlam, UnitTable
 from faultlab.slam.fastslam import FastSlamConfig
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.protocol import Estimate, Observations
 
 __all__ = ["EkfSlamConfig", "EkfSlamSteps", "REFERENCE_STEPS", "EkfSlam"]
 
@@ -137,7 +137,7 @@ class EkfSlamSteps(UnitTable):
 REFERENCE_STEPS = EkfSlamSteps()
 
 
-class EkfSlam(SlamAdapter):
+class EkfSlam(UnitSlam):
     """EKF-SLAM (known correspondences) as a :class:`SlamAdapter`.
 
     Parameters
@@ -148,46 +148,22 @@ class EkfSlam(SlamAdapter):
     """
 
     name = "ekf"
+    config_type = EkfSlamConfig
+    steps_type = EkfSlamSteps
+    reference_steps = REFERENCE_STEPS
 
-    def __init__(self, config: EkfSlamConfig = EkfSlamConfig(), *, steps: EkfSlamSteps = REFERENCE_STEPS):
-        if not isinstance(config, EkfSlamConfig):
-            raise ConfigError(f"EkfSlam: config must be an EkfSlamConfig, got {type(config).__name__}")
-        if not isinstance(steps, EkfSlamSteps):
-            raise ConfigError(f"EkfSlam: steps must be an EkfSlamSteps, got {type(steps).__name__}")
-        self._config = config
-        self._steps = steps
-        self._Q = config.Q
-        self._M = config.M
+    def __init__(self, config: EkfSlamConfig | None = None, *, steps: EkfSlamSteps | None = None):
+        super().__init__(config, steps=steps)
+        self._Q = self._config.Q
+        self._M = self._config.M
         self._no_noise = np.zeros((2, 2))
         self._mu: np.ndarray | None = None
-
-    # -- configuration -------------------------------------------------------------------------
-
-    @property
-    def config(self) -> EkfSlamConfig:
-        return self._config
-
-    @property
-    def steps(self) -> EkfSlamSteps:
-        return self._steps
-
-    def with_steps(self, steps: EkfSlamSteps) -> "EkfSlam":
-        """A new, un-reset EkfSlam with the same config and other units."""
-        return type(self)(self._config, steps=steps)
-
-    def __repr__(self) -> str:
-        return f"EkfSlam({self._config!r}, replaced={list(self._steps.replaced())})"
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        if not isinstance(rng, np.random.Generator):
-            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        self._mu = p.copy()
-        self._mu[2] = float(_units.wrap_heading(p[2]))
+        p = self._start_pose(pose, rng)
+        self._mu = p
         self._Sigma = np.zeros((3, 3))  # the start pose is known
         self._index = LandmarkIndex()
         self._t = 0

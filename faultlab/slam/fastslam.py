@@ -119,18 +119,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Callable, ClassVar
 
 import numpy as np
 
 from faultlab.config import Option, Settings
-from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
+from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
+from faultlab.slam.bookkeeping import UnitSlam, UnitTable
 from faultlab.slam.sharing import correct_in_sharer_order
 from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
@@ -181,7 +182,7 @@ class FastSlamConfig(Settings):
 
 
 @dataclass(frozen=True)
-class FastSlamSteps:
+class FastSlamSteps(UnitTable):
     """The replaceable units of FastSLAM 1.0 (see the table in the module docstring).
 
     Every field is a plain function; :data:`REFERENCE_STEPS` holds the reference
@@ -211,20 +212,6 @@ class FastSlamSteps:
     apply_resample: Callable = _units.apply_resample
     extract_map: Callable = _units.extract_map
 
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            if not callable(getattr(self, f.name)):
-                raise ConfigError(f"FastSlamSteps.{f.name} must be callable, got {getattr(self, f.name)!r}")
-
-    @classmethod
-    def unit_names(cls) -> tuple[str, ...]:
-        """Names of the replaceable units, in algorithm order."""
-        return tuple(f.name for f in fields(cls))
-
-    def replaced(self) -> tuple[str, ...]:
-        """Names of the units that differ from :data:`REFERENCE_STEPS`."""
-        return tuple(n for n in self.unit_names() if getattr(self, n) is not getattr(REFERENCE_STEPS, n))
-
 
 #: The reference FastSLAM 1.0 units.
 REFERENCE_STEPS = FastSlamSteps()
@@ -252,7 +239,7 @@ class Particles:
     covariances: np.ndarray
 
 
-class FastSlam(SlamAdapter):
+class FastSlam(UnitSlam):
     """Reference FastSLAM 1.0 (known correspondences) as a :class:`SlamAdapter`.
 
     Parameters
@@ -263,47 +250,20 @@ class FastSlam(SlamAdapter):
     """
 
     name = "fastslam1"
+    config_type = FastSlamConfig
+    steps_type = FastSlamSteps
+    reference_steps = REFERENCE_STEPS
 
-    def __init__(self, config: FastSlamConfig = FastSlamConfig(), *, steps: FastSlamSteps = REFERENCE_STEPS):
-        if not isinstance(config, FastSlamConfig):
-            raise ConfigError(f"FastSlam: config must be a FastSlamConfig, got {type(config).__name__}")
-        if not isinstance(steps, FastSlamSteps):
-            raise ConfigError(f"FastSlam: steps must be a FastSlamSteps, got {type(steps).__name__}")
-        self._config = config
-        self._steps = steps
-        self._Q = config.Q
+    def __init__(self, config: FastSlamConfig | None = None, *, steps: FastSlamSteps | None = None):
+        super().__init__(config, steps=steps)
+        self._Q = self._config.Q
         self._state: ParticleState | None = None
         self._streams: dict[str, np.random.Generator] = {}
-
-    # -- configuration -------------------------------------------------------------------------
-
-    @property
-    def config(self) -> FastSlamConfig:
-        return self._config
-
-    @property
-    def steps(self) -> FastSlamSteps:
-        return self._steps
-
-    def with_steps(self, steps: FastSlamSteps) -> "FastSlam":
-        """A new, un-reset FastSlam with the same config and other units."""
-        return type(self)(self._config, steps=steps)
-
-    def __repr__(self) -> str:
-        changed = self._steps.replaced()
-        return f"FastSlam({self._config!r}, replaced={list(changed)})"
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        if not isinstance(rng, np.random.Generator):
-            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        p = p.copy()
-        p[2] = float(_units.wrap_heading(p[2]))
-        # one stream per random unit, keyed by name (common random numbers that survive a fault)
+        p = self._start_pose(pose, rng)
         self._streams = unit_streams(rng, self._steps.stream_units)
         self._state = ParticleState.initial(p, self._config.n_particles)
         self._sorted_ids = np.empty(0, dtype=np.int64)  # lookup: sorted ids ...

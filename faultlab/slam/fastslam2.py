@@ -61,12 +61,12 @@ from typing import Callable
 
 import numpy as np
 
-from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
+from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam import units2 as _units2
-from faultlab.slam.bookkeeping import LandmarkIndex, UnitTable
+from faultlab.slam.bookkeeping import LandmarkIndex, UnitSlam, UnitTable
 from faultlab.slam.fastslam import FastSlamConfig, Particles
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
 from faultlab.slam.units import ParticleState, landmark_rows
 
@@ -110,7 +110,7 @@ REFERENCE_STEPS = FastSlam2Steps()
 RANDOM_UNITS: tuple[str, ...] = ("sample_proposal", "resample")
 
 
-class FastSlam2(SlamAdapter):
+class FastSlam2(UnitSlam):
     """FastSLAM 2.0 (known correspondences) as a :class:`SlamAdapter`.
 
     Parameters
@@ -122,45 +122,20 @@ class FastSlam2(SlamAdapter):
     """
 
     name = "fastslam2"
+    config_type = FastSlamConfig
+    steps_type = FastSlam2Steps
+    reference_steps = REFERENCE_STEPS
 
-    def __init__(self, config: FastSlamConfig = FastSlamConfig(), *, steps: FastSlam2Steps = REFERENCE_STEPS):
-        if not isinstance(config, FastSlamConfig):
-            raise ConfigError(f"FastSlam2: config must be a FastSlamConfig, got {type(config).__name__}")
-        if not isinstance(steps, FastSlam2Steps):
-            raise ConfigError(f"FastSlam2: steps must be a FastSlam2Steps, got {type(steps).__name__}")
-        self._config = config
-        self._steps = steps
-        self._Q = config.Q
-        self._M = np.diag([config.std_v ** 2, config.std_omega ** 2])
+    def __init__(self, config: FastSlamConfig | None = None, *, steps: FastSlam2Steps | None = None):
+        super().__init__(config, steps=steps)
+        self._Q = self._config.Q
+        self._M = np.diag([self._config.std_v ** 2, self._config.std_omega ** 2])
         self._state: ParticleState | None = None
-
-    # -- configuration -------------------------------------------------------------------------
-
-    @property
-    def config(self) -> FastSlamConfig:
-        return self._config
-
-    @property
-    def steps(self) -> FastSlam2Steps:
-        return self._steps
-
-    def with_steps(self, steps: FastSlam2Steps) -> "FastSlam2":
-        """A new, un-reset FastSlam2 with the same config and other units."""
-        return type(self)(self._config, steps=steps)
-
-    def __repr__(self) -> str:
-        return f"FastSlam2({self._config!r}, replaced={list(self._steps.replaced())})"
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        if not isinstance(rng, np.random.Generator):
-            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        p = p.copy()
-        p[2] = float(_units.wrap_heading(p[2]))
+        p = self._start_pose(pose, rng)
         self._streams = unit_streams(rng, RANDOM_UNITS)
         self._state = ParticleState.initial(p, self._config.n_particles)
         self._ident = self._state.owner  # arange(N); lineage starts as this very object
