@@ -315,9 +315,11 @@ class MutationAnalysis:
         return cls(**tables, meta=meta)
 
 
-def _outcomes(results: pd.DataFrame, sel: dict, metric: str) -> pd.DataFrame:
+def _outcomes(results: pd.DataFrame, sel: dict, metric: str, suites: dict | None = None) -> pd.DataFrame:
     alpha = float(sel["alpha"])
     ncases = results.groupby(["run", "suite"])["case"].max().to_dict()
+    if suites:  # the experiment's case counts: an interrupted campaign has not reached the last cases
+        ncases = {k: int(suites.get(k[1], n)) for k, n in ncases.items()}
     rows = []
     per_suite = {}
     for (run, suite), n in ncases.items():
@@ -419,7 +421,9 @@ def analyse_mutation(out: str | Path, *, alpha: float = 0.05) -> MutationAnalysi
     exp = meta.get("experiment", {})
     results = load_results(out)
     metric = exp.get("metric", "rms") if isinstance(exp, dict) else "rms"
-    outcomes = _outcomes(results, sel, metric)
+    spec = exp.get("suites", {}) if isinstance(exp, dict) else {}
+    pairs = spec.items() if isinstance(spec, dict) else (tuple(p) for p in spec)  # stored as [[kind, n], ...]
+    outcomes = _outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)})
     suites = list(dict.fromkeys(results["suite"]))
     info = dict(alpha=sel["alpha"], n_mutants_run=len(sel["run"]), n_screened=len(sel["screened"]),
                 n_jobs=len(results), runtime_s_sum=float(results["runtime_s"].sum()),
