@@ -42,8 +42,7 @@ import itertools
 import json
 import math
 import time
-import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +54,7 @@ from statsmodels.stats.proportion import proportion_confint
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.mutation.campaign import MutantSelection, mutant_id_of, mutant_variant, select_mutants
+from faultlab.mutation.campaign import MutantSelection, mutant_variant, select_mutants
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.runner.execute import _row, _stream, prepare_cases
 from faultlab.runner.experiment import Experiment, parse_experiment
