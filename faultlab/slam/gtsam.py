@@ -56,9 +56,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from faultlab.config import Option, Settings
+from faultlab.config import Option
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
-from faultlab.slam.fastslam import FastSlamConfig
+from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
 
 __all__ = ["GTSAM_EXTRA", "PRIOR_STD", "REGULARISER", "MIN_RANGE", "GtsamSlamConfig", "GtsamSlam", "gtsam_available",
@@ -103,32 +103,20 @@ def _import_gtsam() -> Any:
 
 
 @dataclass(frozen=True)
-class GtsamSlamConfig(Settings):
-    """Settings of the iSAM2 SLAM (noise defaults: those of the reference FastSLAM 1.0, Sec. VII-A).
+class GtsamSlamConfig(NoiseConfig):
+    """Settings of the iSAM2 SLAM: the noise of :class:`~faultlab.slam.noise.NoiseConfig` and the batching.
 
     Attributes
     ----------
-    std_v : float
-        Control noise std on the forward motion v per step, m (>= 0).
-    std_omega : float
-        Control noise std on the turn omega per step, rad (>= 0).
-    std_range : float
-        Measurement noise std on range, m (> 0).
-    std_bearing : float
-        Measurement noise std on bearing, rad (> 0).
     update_every : int
         Steps whose factors are added to iSAM2 in one update (>= 1).
     """
 
-    std_v: float = 0.1
-    std_omega: float = math.radians(20.0)
-    std_range: float = 0.3
-    std_bearing: float = math.radians(10.0)
     update_every: int = 1
 
     #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
     OPTIONS: ClassVar[dict[str, Option]] = {
-        **{name: FastSlamConfig.OPTIONS[name] for name in ("std_v", "std_omega", "std_range", "std_bearing")},
+        **NoiseConfig.OPTIONS,
         "update_every": Option("update_every", integer=True, bounds={"minimum": 1}),
     }
 
