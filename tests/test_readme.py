@@ -5,6 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
+from faultlab.slam.profiles import differences_markdown
+
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
 
@@ -34,3 +36,12 @@ def test_minimal_adapter_example_runs_and_maps_landmarks(capsys):
     assert estimate.landmark_ids.size > 0
     # The example maps every landmark it observed and nothing else.
     np.testing.assert_array_equal(np.sort(estimate.landmark_ids), np.unique(scenario.obs_ids))
+
+
+def test_differences_table_is_the_paper_profiles_rows():
+    section = README.split("### Differences from the paper's system and what they change", 1)[1]
+    rows = [line for line in section.split("\n\n", 2)[1].splitlines() if line.startswith("| ")]
+    expected = differences_markdown("paper").splitlines()
+    assert len(rows) == len(expected) - 1  # the separator row does not start with "| "
+    for row, want in zip([rows[0]] + rows[1:], [expected[0]] + expected[2:]):
+        assert row.startswith(want.rstrip(" |") + " | ")

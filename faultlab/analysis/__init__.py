@@ -11,7 +11,7 @@ and computes every statistic with :mod:`faultlab.stats`.  It never plots and nev
 report or command-line layers.
 """
 
-import importlib
+from faultlab.lazy import lazy_exports
 
 #: Public name -> submodule.  Submodules load on first use (PEP 562), so importing
 #: faultlab.analysis (e.g. by the command line) does not import statsmodels.
@@ -20,19 +20,5 @@ _EXPORTS = {
     "schema": ["TableSchema", "TABLES", "THIS_RUN", "PAPER", "ALL_VARIANTS"],
     "campaign": ["read_rule", "read_space", "count_expected_jobs"],
 }
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
 
-__all__ = [name for names in _EXPORTS.values() for name in names]
-
-
-def __getattr__(name: str):
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'faultlab.analysis' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"faultlab.analysis.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Mapping
 
 from faultlab.errors import FaultlabError, ResultsError
+from faultlab.runner.execute import SKIPPED_VARIANTS_KEY
 from faultlab.space import ParameterSpace, space_from_mapping, table1_space
 from faultlab.stats.detection import DetectionRule
 
@@ -37,8 +38,9 @@ def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
     """
     det = metadata.get("detection") or {}
     try:
-        rule = DetectionRule(**{k: det[k] for k in ("abs_mm", "rel") if k in det})
-    except (TypeError, FaultlabError) as exc:
+        rule = DetectionRule(**{k: det[k] for k in ("abs_mm", "rel", "rule", "alpha", "family")
+                                 if k in det})
+    except (TypeError, ValueError, FaultlabError) as exc:
         raise ResultsError(f"results metadata has an invalid detection rule {det!r} ({exc})") from exc
     return rule, bool(det)
 
@@ -60,13 +62,17 @@ def read_space(metadata: Mapping) -> ParameterSpace:
 def count_expected_jobs(metadata: Mapping) -> int | None:
     """Jobs of the complete campaign (runs x cases x variants x repetitions).
 
-    None when the stored experiment does not say, e.g. a suite with ``"auto"`` cases.
+    Variants the runner skipped because their fault does not apply to the SLAM
+    (``metadata["skipped_variants"]``) have no jobs.  None when the stored experiment does not
+    say, e.g. a suite with ``"auto"`` cases.
     """
     exp = metadata.get("experiment") or {}
     try:
         suites = exp.get("suites") or {}
         pairs = suites.items() if isinstance(suites, dict) else suites
         n_cases = sum(int(n) for _, n in pairs)
-        return int(exp["runs"]) * n_cases * len(exp["variants"]) * int(exp["repetitions"])
+        skipped = {s["fault"] for s in metadata.get(SKIPPED_VARIANTS_KEY) or ()}
+        n_variants = sum(1 for v in exp["variants"] if v not in skipped)
+        return int(exp["runs"]) * n_cases * n_variants * int(exp["repetitions"])
     except (KeyError, TypeError, ValueError, AttributeError):
         return None

@@ -31,6 +31,10 @@ import pandas as pd
 from faultlab.analysis.campaign import count_expected_jobs, read_rule, read_space
 from faultlab.analysis.schema import (
     BY_SUITE,
+    CASE_COMPARISONS,
+    CASE_RATES,
+    CLASS_EFFECTS,
+    CASE_VERDICTS,
     COVERAGE,
     FALSE_ALARMS,
     JOBS,
@@ -39,7 +43,9 @@ from faultlab.analysis.schema import (
     PAPER,
     PAPER_BY_SUITE,
     PAPER_RATES,
+    PAPER_COMPARISONS,
     PARAMETER_EFFECTS,
+    REPLICA_FALSE_ALARMS,
     SUITE_COMPARISONS,
     TABLE2_CELLS,
     TABLES,
@@ -58,23 +64,29 @@ from faultlab.analysis.tables import (
 )
 from faultlab.errors import ConfigError, FaultlabError, ResultsError
 from faultlab.runner import load_metadata, load_results
+from faultlab.stats.cases import (case_rates, compare_suites_by_case, compare_with_paper, replica_false_alarms,
+                                  rule_verdicts)
+from faultlab.stats.class_effects import fit_class_effects
 from faultlab.stats.comparison import compare_suite_rates
 from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.stats.effects import fit_effects, validate_parameters
 from faultlab.stats.oracle import oracle_detections
 from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, paper_table, resolve_data_path
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
-from faultlab.vocabulary import SUITE_ORDER, JobStatus, ordered
+from faultlab.space.case import PARAMETER_NAMES
+from faultlab.vocabulary import METRICS, REPLICA, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["Analysis", "Note", "analyse", "FORMAT_VERSION", "JSON_FILE", "BEYOND_THE_PAPER"]
 
 #: Version of the saved form (``analysis.json`` + CSV files).
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 #: File of the scalars, options, metadata and notes of a saved Analysis.
 JSON_FILE = "analysis.json"
 #: Tables of the statistics beyond the paper; a :class:`Note` under one of these names says why
 #: the table holds nothing to show.
-BEYOND_THE_PAPER: tuple[str, ...] = ("false_alarms", "oracle", "suite_comparisons", "parameter_effects")
+BEYOND_THE_PAPER: tuple[str, ...] = ("false_alarms", "oracle", "suite_comparisons", "parameter_effects",
+                                      "case_verdicts", "case_rates", "case_comparisons", "replica_false_alarms",
+                                      "paper_comparisons", "class_effects")
 
 
 @dataclass(frozen=True)
@@ -124,7 +136,7 @@ class Analysis:
     ------
     jobs, cases, outcomes, detection_rates, by_suite, false_alarms, oracle, oracle_summary,
     suite_comparisons, parameter_effects, table2_cells, paper_rates, paper_by_suite, coverage,
-    runtimes : DataFrame
+    runtimes, case_verdicts, case_rates, case_comparisons, replica_false_alarms, paper_comparisons, class_effects : DataFrame
         Treat them as read-only.
     """
 
@@ -152,6 +164,12 @@ class Analysis:
     paper_by_suite: pd.DataFrame
     coverage: pd.DataFrame
     runtimes: pd.DataFrame
+    case_verdicts: pd.DataFrame
+    case_rates: pd.DataFrame
+    case_comparisons: pd.DataFrame
+    replica_false_alarms: pd.DataFrame
+    paper_comparisons: pd.DataFrame
+    class_effects: pd.DataFrame
 
     # ------------------------------------------------------------------ construction
 
@@ -200,8 +218,10 @@ class Analysis:
         coverage, coverage_note = _coverage(cases, metadata)
         beyond, beyond_notes = _beyond_the_paper(results, pairs, rates, rule=rule, alpha=alpha,
                                                  parameters=parameters, n_reps=results["rep"].nunique())
+        by_case, case_notes = _case_tables(results, pairs, metadata, rule=rule, alpha=alpha, paper=paper_tab,
+                                           cases=cases, parameters=parameters)
         notes = (_rule_notes(metadata, stored, rule) + _equivalence_notes(equivalent) + [paper_note]
-                 + _completeness_notes(metadata, len(results)) + [coverage_note] + beyond_notes)
+                 + _completeness_notes(metadata, len(results)) + [coverage_note] + beyond_notes + case_notes)
         return cls(
             rule=rule, alpha=float(alpha), rep=rep, parameters=parameters, metadata=metadata,
             equivalent_faults=equivalent,
@@ -215,6 +235,7 @@ class Analysis:
             runtimes=runtime_table(results),
             **_per_source_tables(results, pairs, paper_tab, rep=rep),
             **beyond,
+            **by_case,
         )
 
     # ------------------------------------------------------------------ derived views
@@ -330,7 +351,7 @@ class Analysis:
         """Everything but the tables, JSON-shaped."""
         return {
             "format": FORMAT_VERSION,
-            "rule": {"abs_mm": self.rule.abs_mm, "rel": self.rule.rel},
+            "rule": self.rule.to_dict(),
             "alpha": self.alpha,
             "rep": self.rep,
             "parameters": None if self.parameters is None else list(self.parameters),
@@ -425,6 +446,69 @@ def _per_source_tables(results: pd.DataFrame, pairs: pd.DataFrame, paper: PaperT
     }
 
 
+def _metric(metadata: Mapping) -> str:
+    """The campaign's primary metric (``rms`` unless the stored experiment says otherwise)."""
+    metric = metadata.get("metric") or (metadata.get("experiment") or {}).get("metric") or "rms"
+    return metric if metric in METRICS else "rms"
+
+
+def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mapping, *, rule: DetectionRule,
+                 alpha: float, cases: pd.DataFrame, parameters,
+                 paper: PaperTable | None) -> tuple[dict, list[Note]]:
+    """The case-level tables: verdicts by the stored rule, rates and suite comparisons over cases, the A/A
+    false alarms and the two-sample comparison with the paper's printed figures."""
+    metric = _metric(metadata)
+    col = f"{metric}_mm"
+    # the paper's thresholds on the campaign's metric (Table II stays on RMS, as in the paper)
+    pairs = rms_pairs if metric == "rms" else outcomes(results.assign(rms_mm=results[col]), rule=rule)
+    notes = []
+    verdicts, v_note = _guarded(CASE_VERDICTS, lambda: rule_verdicts(results, pairs, rule=rule, metric=metric),
+                                "Per-case verdicts")
+    test = (f"exact one-sided paired sign-flip test over the K repetitions on the {metric.upper()} error, "
+            f"Holm within the family '{rule.family}', alpha = {rule.alpha:g}" if rule.statistical else
+            f"the paper's thresholds ({rule.abs_mm:g} mm and {100 * rule.rel:g} %) on the {metric.upper()} error "
+            f"per repetition, a case detected when a strict majority of its judged repetitions detect")
+    faults = verdicts[verdicts["fault"] != REPLICA]
+    n_cj = int((faults["verdict"] == "cannot_judge").sum())
+    notes.append(Note("verdicts", f"Per-case verdicts by the campaign's rule ({rule.rule}): {test}; a crash "
+                                       f"or timeout of the faulty variant alone counts as detected; {n_cj} of "
+                                       f"{len(faults)} (case, fault) pairs cannot be judged (baseline failed or too "
+                                       f"few pairs) and are counted apart, never as misses."))
+    if v_note is not None:
+        notes.append(v_note)
+    rates, r_note = _guarded(CASE_RATES, lambda: case_rates(faults, alpha=alpha), "Case-level rates")
+    cmp, c_note = _guarded(CASE_COMPARISONS, lambda: compare_suites_by_case(faults), "Case-level suite comparisons")
+    if c_note is None and (cmp["method"] == "degenerate").any():
+        c_note = Note("case_comparisons", f"{int((cmp['method'] == 'degenerate').sum())} degenerate comparison(s) "
+                                          "(0/n vs 0/m or n/n vs m/m) carry no information and are left out of the "
+                                          "Holm family.")
+    if c_note is None and (cmp["method"] == "cluster_bootstrap").any():
+        c_note = Note("case_comparisons", "GEE could not fit some comparisons (separation or one cluster): "
+                                          "those use a cluster bootstrap over runs (method column).")
+    fa, f_note = _guarded(REPLICA_FALSE_ALARMS,
+                          lambda: replica_false_alarms(results, pairs, rule=rule, metric=metric, alpha=alpha),
+                          "A/A false alarms")
+    if f_note is None and fa.empty:
+        f_note = Note("replica_false_alarms", f"A/A false alarms: the campaign has no '{REPLICA}' variant; add it "
+                                              "(or run `faultlab calibrate`) to measure the rules' false-alarm "
+                                              "rates.")
+    pc = PAPER_COMPARISONS.empty()
+    p_note = None
+    if paper is not None and not rates.empty:
+        pr = paper.rates.dropna(subset=["reported_pct"])
+        printed = pd.DataFrame({"suite": pr["suite"], "fault": pr["fault"], "paper_n": pr["n"].astype(int),
+                                "paper_k": (pr["reported_pct"].astype(float) / 100 * pr["n"]).round().astype(int)})
+        pc, p_note = _guarded(PAPER_COMPARISONS, lambda: compare_with_paper(printed, rates, alpha=alpha),
+                              "Comparison with the paper")
+    names = [p for p in PARAMETER_NAMES if f"class_{p}" in cases.columns]  # every Table I parameter, by class
+    eff, e_note = _guarded(CLASS_EFFECTS, lambda: fit_class_effects(faults, cases, names), "Class effects",
+                           (FaultlabError, ValueError, np.linalg.LinAlgError))
+    notes += [n for n in (r_note, c_note, f_note, p_note, e_note) if n is not None]
+    tables = {"case_verdicts": verdicts, "case_rates": rates, "case_comparisons": cmp,
+              "replica_false_alarms": fa, "paper_comparisons": pc, "class_effects": eff}
+    return tables, notes
+
+
 def _equivalence_notes(equivalent: tuple[str, ...]) -> list[Note]:
     return [Note("equivalent_faults", _EQUIVALENT_NOTE.format(", ".join(equivalent)))] if equivalent else []
 
@@ -436,8 +520,9 @@ def _rule_notes(metadata: Mapping, rule_stored: bool, rule: DetectionRule) -> li
                                   f"({rule.describe()})."))
     if metadata.get("metric", "rms") != "rms":
         notes.append(Note("metric", f"the experiment's primary metric is {metadata.get('metric')!r}; Table II "
-                                    "and every detection figure use the Kabsch-aligned RMS error, as the paper "
-                                    "does."))
+                                    "and the per-job detection figures use the Kabsch-aligned RMS error, as the "
+                                    "paper does; the per-case verdicts, case rates and case comparisons use the "
+                                    "primary metric."))
     return notes
 
 
@@ -495,6 +580,11 @@ def _beyond_the_paper(results: pd.DataFrame, pairs: pd.DataFrame, rates: pd.Data
         if orc_note is None and (tested.empty or int(tested["n_baseline"].max()) < 2):
             orc_note = needs_reps
     cmp, cmp_note = _guarded(SUITE_COMPARISONS, lambda: compare_suite_rates(rates, alpha=alpha), "Suite comparisons")
+    if cmp_note is None and n_reps > 1:
+        cmp_note = Note("suite_comparisons", f"Suite comparisons (Fisher's exact test) count jobs: with K = {n_reps} "
+                                             "repetitions the jobs of a case are not independent and these p values "
+                                             "fall with K on the same cases; the case-level comparisons (cases as "
+                                             "units, runs as clusters) are the ones to trust.")
     if cmp_note is None and cmp.empty:
         cmp_note = Note("suite_comparisons", "Suite comparisons (Fisher's exact test): no suite pair with usable "
                                              "jobs.")

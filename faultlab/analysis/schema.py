@@ -28,6 +28,9 @@ import pandas as pd
 
 from faultlab.errors import ResultsError
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
+from faultlab.stats.class_effects import CLASS_EFFECT_COLUMNS
+from faultlab.stats.cases import (CASE_COMPARISON_COLUMNS, CASE_RATE_COLUMNS, CASE_VERDICT_COLUMNS,
+                                  PAPER_COMPARISON_COLUMNS)
 from faultlab.stats.comparison import COMPARISON_COLUMNS
 from faultlab.stats.detection import OUTCOME_COLUMNS
 from faultlab.stats.effects import EFFECT_COLUMNS
@@ -37,7 +40,8 @@ from faultlab.stats.rates import BY_SUITE_COLUMNS, FALSE_ALARM_COLUMNS, RATE_COL
 __all__ = ["TableSchema", "KINDS", "THIS_RUN", "PAPER", "ALL_VARIANTS", "TABLES"] + [
     "JOBS", "CASES", "OUTCOMES", "DETECTION_RATES", "BY_SUITE", "FALSE_ALARMS", "ORACLE", "ORACLE_SUMMARY",
     "SUITE_COMPARISONS", "PARAMETER_EFFECTS", "TABLE2_CELLS", "PAPER_RATES", "PAPER_BY_SUITE", "COVERAGE",
-    "RUNTIMES"]
+    "RUNTIMES", "CASE_VERDICTS", "CASE_RATES", "CASE_COMPARISONS", "REPLICA_FALSE_ALARMS", "PAPER_COMPARISONS",
+    "CLASS_EFFECTS"]
 
 #: ``source`` of rows from the analysed campaign.
 THIS_RUN = "this run"
@@ -52,17 +56,20 @@ KINDS: dict[str, str] = {"int": "int64", "Int": "Int64", "float": "float64", "st
 #: The kind a column name has wherever it appears (a table may override it, see ``detected``).
 _KIND_OF: dict[str, str] = {
     **{c: "str" for c in ("source", "suite", "variant", "fault", "status", "baseline_status", "outcome",
-                          "missed", "suite_a", "suite_b", "term", "note", "parameter", "counts", "uncovered")},
+                          "missed", "suite_a", "suite_b", "term", "note", "parameter", "counts", "uncovered",
+                          "rule", "verdict", "reason", "family", "method")},
+    **{c: "float" for c in ("epv", "lr_chi2")},
     **{c: "int" for c in ("run", "case", "rep", "n_cases", "n_reps", "n_jobs", "not_detected", "crash",
                           "timeout", "baseline_failed", "k", "n", "k_incl", "n_incl", "n_pairs",
                           "detected_pairs", "flagged", "n_faulty", "n_baseline", "k_a", "n_a", "k_b", "n_b",
                           "n_detected", "n_tested", "computed_pct", "classes", "covered", "n_landmarks",
-                          "detected")},
+                          "detected", "n_judged", "n_detecting", "n_cannot_judge", "n_clusters")},
     **{c: "float" for c in ("rms_mm", "emd_mm", "baseline_rms_mm", "runtime_s", "rate", "rate_incl",
                             "median_faulty_mm", "median_baseline_mm", "u", "p", "p_min", "p_holm", "rate_a",
                             "rate_b", "risk_difference", "rd_low", "rd_high", "odds_ratio", "or_low", "or_high",
                             "coef", "std_err", "reported_pct", "paper_rate", "paper_printed_pct", "min_p_min",
-                            "min_p_holm", "coverage", "median_s", "max_s", "total_s")},
+                            "min_p_holm", "coverage", "median_s", "max_s", "total_s", "share", "mde_mm", "low",
+                            "high", "design_effect", "difference", "detectable_difference")},
     **{f"{b}{s}": "float" for b in ("wilson_low", "wilson_high", "cp_low", "cp_high") for s in ("", "_incl")},
     **{c: "bool" for c in ("haldane", "agrees")},
     **{c: "Int" for c in ("paper_k", "paper_n")},
@@ -255,7 +262,37 @@ RUNTIMES = TableSchema.define(
     "runtimes", "Per variant of this run (and '(all)'): jobs and SLAM execution times, s.",
     ("variant", "n_jobs", "median_s", "max_s", "total_s"))
 
+CASE_VERDICTS = TableSchema.define(
+    "case_verdicts", "Per suite, run, case and fault (the baseline_replica A/A control included): the verdict "
+    "of the campaign's rule over the case's K repetitions, the exact paired test's p, Holm within the family, "
+    "the smallest detectable shift (faultlab.stats.cases.rule_verdicts).", CASE_VERDICT_COLUMNS,
+    p_holm="float", p="float", paper_k="Int")
+CASE_RATES = TableSchema.define(
+    "case_rates", "Per suite and fault: detected / judged cases (cases are the unit; cannot-judge cases "
+    "counted apart) with Clopper-Pearson and Wilson intervals (faultlab.stats.cases.case_rates).",
+    CASE_RATE_COLUMNS, k="int", n="int")
+CASE_COMPARISONS = TableSchema.define(
+    "case_comparisons", "Per fault and pair of suites: cases as units, runs as clusters (binomial GEE, "
+    "exchangeable, robust SEs; cluster bootstrap where GEE cannot fit), Holm within the fault "
+    "(faultlab.stats.cases.compare_suites_by_case).", CASE_COMPARISON_COLUMNS)
+REPLICA_FALSE_ALARMS = TableSchema.define(
+    "replica_false_alarms", "Per rule and suite (and 'all'): the share of baseline_replica-vs-baseline "
+    "pairs flagged (empirical false-alarm rate), interval clustered by case (faultlab.stats.clustered_rate).",
+    ("rule", "suite", "n_cases", "n_pairs", "flagged", "rate", "low", "high", "design_effect"))
+PAPER_COMPARISONS = TableSchema.define(
+    "paper_comparisons", "Per suite and fault with a printed paper figure: paper k/n vs this run's detected / "
+    "judged cases, Boschloo's exact test, smallest detectable difference at 80 % power, verdict "
+    "(faultlab.stats.cases.compare_with_paper).", PAPER_COMPARISON_COLUMNS, k="int", n="int", paper_k="int",
+    paper_n="int")
+
+CLASS_EFFECTS = TableSchema.define(
+    "class_effects", "Per fault and class indicator of a scenario parameter: logistic regression of the case "
+    "verdicts (ML, Firth where separated), the parameter's LR test with Holm over the fault's parameters, events "
+    "per predictor; a (model) row where too few data (faultlab.stats.class_effects.fit_class_effects).",
+    CLASS_EFFECT_COLUMNS, df="int")
+
 #: Every table of an Analysis, in the order they are saved.
 TABLES: tuple[TableSchema, ...] = (JOBS, CASES, OUTCOMES, DETECTION_RATES, BY_SUITE, FALSE_ALARMS, ORACLE,
                                    ORACLE_SUMMARY, SUITE_COMPARISONS, PARAMETER_EFFECTS, TABLE2_CELLS,
-                                   PAPER_RATES, PAPER_BY_SUITE, COVERAGE, RUNTIMES)
+                                   PAPER_RATES, PAPER_BY_SUITE, COVERAGE, RUNTIMES, CASE_VERDICTS, CASE_RATES,
+                                   CASE_COMPARISONS, REPLICA_FALSE_ALARMS, PAPER_COMPARISONS, CLASS_EFFECTS)

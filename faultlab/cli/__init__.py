@@ -22,8 +22,11 @@ COMMAND_MODULES = (
     "faultlab.cli.run",  # run
     "faultlab.cli.generate",  # generate
     "faultlab.cli.faults",  # faults
+    "faultlab.cli.slams",  # slams
     "faultlab.cli.stats",  # paper-table, effects
+    "faultlab.cli.calibrate",  # calibrate
     "faultlab.cli.mutate",  # mutate list, mutate show
+    "faultlab.cli.metamorphic",  # metamorphic
 )
 
 

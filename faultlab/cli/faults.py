@@ -1,10 +1,11 @@
-"""``python -m faultlab faults``: list every fault; ``--check`` runs the equivalent-mutant check."""
+"""``python -m faultlab faults``: list every fault; ``--slam`` only those that apply to one SLAM;
+``--check`` runs the equivalent-mutant check."""
 
 from __future__ import annotations
 
 import argparse
 
-from faultlab.faults import check_faults, list_faults
+from faultlab.faults import FaultListing, applicable_faults, check_faults, list_faults
 
 __all__ = ["register"]
 
@@ -28,6 +29,9 @@ def register(subparsers) -> None:
                    help="active steps of the check scenario (default 300; inactivity comes on top)")
     p.add_argument("--particles", type=int, default=None, metavar="N",
                    help="particles of the FastSLAM in the check (default: FastSlamConfig default, 200)")
+    p.add_argument("--slam", metavar="NAME", default=None,
+                   help="list only the faults that apply to this SLAM (a built-in name such as 'ekf', or "
+                        "package.module:factory): those replacing one of its units; says how many do not")
     p.add_argument("--no-plugins", action="store_true", help="ignore third-party fault plugins")
     p.add_argument("-v", "--verbose", action="store_true", help="show each fault's rationale and source")
     p.set_defaults(func=_handler)
@@ -43,5 +47,12 @@ def _handler(args: argparse.Namespace) -> int:
     listing = list_faults(plugins=plugins)
     if args.names:
         listing = listing.select(args.names)
+    note = ""
+    if args.slam is not None:
+        fit = applicable_faults(args.slam, listing.faults)
+        listing = FaultListing(faults=fit.applicable, sources=listing.sources, errors=listing.errors)
+        note = fit.summary() or f"all {len(fit.applicable)} faults apply to {fit.slam!r}"
     print(listing.format(verbose=args.verbose))
+    if note:
+        print(note)
     return 0

@@ -57,6 +57,9 @@ def register(subparsers) -> None:
                    help="class weights of the effect-guided suite: a CSV file with the columns "
                         "parameter, class, weight")
     p.add_argument("--steps", type=int, default=1000, metavar="N", help="active steps per case (default: 1000)")
+    p.add_argument("--fov-bug", action="store_true",
+                   help="reproduce the paper's replication package's field-of-view DEFECT: every right-side "
+                        "bearing is visible whatever the opening (as an experiment's fov_bug = true)")
     p.set_defaults(func=handler)
 
 
@@ -69,7 +72,7 @@ def handler(args: argparse.Namespace) -> int:
         if args.weights:
             space = space.with_weights(read_class_weights(args.weights), source=args.weights)
     result = write_suite(args.suite, seed=args.seed, run=args.run, out=args.out, n_cases=args.cases, space=space,
-                         n_steps=args.steps)
+                         n_steps=args.steps, fov_bug=args.fov_bug)
     for path, sc in zip(result.paths, result.scenarios):
         save_case_png(sc, path.with_suffix(".png"))
     print(f"{result.kind} suite, seed {result.seed}, run {args.run}: {len(result.paths)} cases written to {result.out} "

@@ -1,8 +1,11 @@
-"""``python -m faultlab mutate list|show``: the mutants of a SLAM's units, screened before any campaign."""
+"""``python -m faultlab mutate list|show|run|report``: mutants of a SLAM's units, screened, run and scored."""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from faultlab.cli.options import add_execution_options, positive_int
 
 __all__ = ["register"]
 
@@ -37,6 +40,33 @@ def register(subparsers) -> None:
     _common(show)
     show.set_defaults(func=_show)
 
+    run = sub.add_parser(
+        "run", help="run (or resume) a mutation campaign with statistical kills and early stopping",
+        description="Run the selected live mutants of the reference FastSLAM and the baseline on the "
+                    "experiment's suites, K repetitions per case with common random numbers. A suite kills a "
+                    "mutant when the exact paired sign-flip test rejects on one of its cases at alpha / "
+                    "n_cases (Bonferroni, valid under early stopping) or the mutant alone crashes or times "
+                    "out; cases run in rounds and a killed mutant skips the suite's remaining cases. "
+                    "Rerunning the same command resumes.")
+    run.add_argument("experiment", help="mutation experiment file (an experiment with a [mutation] table) or "
+                                        "a shipped name (mutation)")
+    run.add_argument("--out", default=None, help="output directory (default: results/<experiment name>)")
+    run.add_argument("--jobs", type=int, default=2, help="worker processes (default: 2)")
+    run.add_argument("--mutants", default=None, metavar="SELECTOR",
+                     help="replace the file's selection: 'all' or comma-separated unit=U, operator=O, "
+                          "sample=N and mutant ids")
+    run.add_argument("--repetitions", type=positive_int, default=None, metavar="K",
+                     help="repetitions per case (default: the file's)")
+    add_execution_options(run)
+    run.set_defaults(func=_run)
+
+    rep = sub.add_parser("report", help="mutation scores, suite comparison and mutant x suite matrix of a campaign",
+                         description="Read a mutation campaign's results (runs nothing) and write outcomes.csv, "
+                                     "scores.csv/.md, mcnemar.csv/.md and mutation.pdf.")
+    rep.add_argument("results", help="output directory of `faultlab mutate run`")
+    rep.add_argument("--reports", default="reports/mutation", help="where to write (default: reports/mutation)")
+    rep.set_defaults(func=_report)
+
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--slam", default="fastslam", metavar="NAME",
@@ -64,4 +94,22 @@ def _show(args: argparse.Namespace) -> int:
     from faultlab.mutation import show_mutant
 
     print(show_mutant(args.mutant_id, args.slam, cache=not args.no_cache))
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    from faultlab.analysis.mutation import load_mutation_experiment, run_mutation
+
+    mexp = load_mutation_experiment(args.experiment, mutants=args.mutants, repetitions=args.repetitions)
+    out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
+    print(run_mutation(mexp, out, jobs=args.jobs, backend=args.backend, force_new=args.force_new,
+                       progress=not args.no_progress))
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    from faultlab.report.mutation import write_mutation_report
+
+    for path in write_mutation_report(args.results, args.reports):
+        print(path)
     return 0

@@ -30,7 +30,7 @@ import numpy as np
 
 from faultlab.faults.fault import Fault, UnitExample
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlamConfig
-from faultlab.slam.units import ParticleState
+from faultlab.slam.units import ParticleState, shallow_copy_ancestors
 
 __all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors", "PAPER_ALIASING"]
 
@@ -213,27 +213,9 @@ MOTION_SIGN_ERROR = Fault(
 
 # --------------------------------------------------------------------------- realistic faults
 
-def in_place_ancestors(indices: np.ndarray) -> np.ndarray:
-    """Ancestors that an in-place resampling loop over a shallow list copy really copies.
-
-    Copying ``particles[i] <- particles[indices[i]]`` for ``i = 0, 1, ...`` *in place*
-    (the list was copied shallowly, so the "old" particles are the same objects)
-    reads an already overwritten particle whenever ``indices[i] < i``.  Then
-    particle ``i`` receives what was written to slot ``indices[i]``:
-    ``eff[i] = eff[indices[i]]`` if ``indices[i] < i`` else ``indices[i]``.
-    Vectorised by pointer jumping (each hop strictly decreases the slot).
-
-    Parameters
-    ----------
-    indices : ndarray of int, shape (N,)
-
-    Returns
-    -------
-    ndarray of intp, shape (N,)
-    """
-    from faultlab.slam.units import shallow_copy_ancestors
-
-    return shallow_copy_ancestors(indices)
+#: Ancestors that an in-place resampling loop over a shallow list copy really copies (see
+#: :func:`faultlab.slam.units.shallow_copy_ancestors`).
+in_place_ancestors = shallow_copy_ancestors
 
 
 def _shallow_copy_resampling(original):

@@ -59,10 +59,24 @@ _BUILTIN_NAME = re.compile(r"[a-z][a-z0-9_]*")
 _PLUGIN_NAME = re.compile(r"[a-z0-9][a-z0-9_.-]*/[a-z0-9][a-z0-9_.-]*")
 
 
+def step_names(steps: type = FastSlamSteps) -> tuple[str, ...]:
+    """Names of the replaceable units of a SLAM, in algorithm order: the fields of its steps table.
 
-def step_names() -> tuple[str, ...]:
-    """Names of the replaceable units of the reference FastSLAM (fields of ``FastSlamSteps``)."""
-    return tuple(f.name for f in dataclasses.fields(FastSlamSteps))
+    Parameters
+    ----------
+    steps : type
+        A steps dataclass (:class:`~faultlab.slam.FastSlamSteps`, the default,
+        :class:`~faultlab.slam.FastSlam2Steps`, :class:`~faultlab.slam.EkfSlamSteps`, ...);
+        a built-in SLAM names its table in :attr:`faultlab.slam.registry.SlamKind.steps`.
+
+    Raises
+    ------
+    FaultError
+        If ``steps`` is not a dataclass type.
+    """
+    if not (isinstance(steps, type) and dataclasses.is_dataclass(steps)):
+        raise FaultError(f"step_names: steps must be a steps dataclass type (e.g. FastSlamSteps), got {steps!r}")
+    return tuple(f.name for f in dataclasses.fields(steps))
 
 
 @dataclass(frozen=True, eq=False)

@@ -5,10 +5,16 @@ The fault contract (:class:`~faultlab.faults.fault.Fault`) is documented in
 Third-party faults have ``provider/name`` names and are discovered through the
 entry-point group ``faultlab.faults`` (see :func:`load_plugins`).  The variant
 name ``"baseline"`` is reserved for the unmodified reference.
+
+Applicability: a fault replaces one unit (:attr:`Fault.step`), so it applies to exactly the SLAMs
+whose steps table has a unit of that name (the units shared by FastSLAM 1.0, FastSLAM 2.0 and
+EKF-SLAM have the same signatures, see :mod:`faultlab.slam.units`).  :func:`applicable_faults`
+splits a list of faults into those that apply to a SLAM and those that do not, with the reason.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import importlib.metadata
 import warnings
@@ -20,6 +26,7 @@ from faultlab.config import import_object
 from faultlab.errors import FaultError, PluginError
 from faultlab.faults.builtin import BUILTIN_FAULTS
 from faultlab.faults.fault import Fault, step_names
+from faultlab.slam.registry import BUILTIN_SLAMS, SlamKind, build_slam, get_slam_kind
 from faultlab.vocabulary import BASELINE, UNMODIFIED
 
 __all__ = [
@@ -35,6 +42,17 @@ __all__ = [
     "load_plugins",
     "FaultListing",
     "list_faults",
+    "known_steps",
+    "slam_units",
+    "NotApplicable",
+    "FaultNotApplicableWarning",
+    "Applicability",
+    "not_applicable",
+    "fault_applies",
+    "applicable_faults",
+    "SlamSummary",
+    "SlamListing",
+    "list_slams",
 ]
 
 #: Entry-point group a plugin distribution declares its faults in.
@@ -159,7 +177,7 @@ def load_plugins(*, group: str = ENTRY_POINT_GROUP, warn: bool = True) -> Plugin
     -------
     PluginReport
     """
-    known_steps = set(step_names())
+    steps = set(known_steps())
     builtins = builtin_faults()
     eps = sorted(importlib.metadata.entry_points(group=group),
                  key=lambda ep: (ep.name, ep.value, _describe(ep)))
@@ -180,9 +198,9 @@ def load_plugins(*, group: str = ENTRY_POINT_GROUP, warn: bool = True) -> Plugin
             elif item.provider is None:
                 problem = (f"fault {item.name!r} needs a 'provider/name' name (plain names are reserved "
                            f"for built-ins{', and this one is taken' if item.name in builtins else ''})")
-            elif item.step not in known_steps:
+            elif item.step not in steps:
                 problem = (f"fault {item.name!r} patches unknown step {item.step!r}; "
-                           f"known steps: {', '.join(sorted(known_steps))}")
+                           f"known steps: {', '.join(sorted(steps))}")
             elif item.name in faults:
                 problem = (f"duplicate fault name {item.name!r}: defined by {sources[item.name]} "
                            f"and by {source}; the first one is kept")
@@ -262,11 +280,20 @@ def resolve_fault(spec: str | Fault) -> Fault:
     return get_fault(spec)
 
 
+#: Variant names with this prefix are mutants of the reference's units (``mutant:<id>``).
+MUTANT_VARIANT_PREFIX = "mutant:"
+MUTANT_VARIANT_RESOLVER = "faultlab.mutation.campaign:resolve_mutant_variant"
+
+
 def resolve_variant(spec: str | Fault) -> Fault | None:
     """Like :func:`resolve_fault`, but the unmodified variants (``"baseline"``, ``"baseline_replica"``)
     resolve to None (no fault)."""
     if isinstance(spec, str) and spec in UNMODIFIED:
         return None
+    if isinstance(spec, str) and spec.startswith(MUTANT_VARIANT_PREFIX):
+        # "mutant:<id>": looked up by import path, like a ``module:attr`` fault (the mutation
+        # package sits above this one)
+        return import_object(MUTANT_VARIANT_RESOLVER, what="mutant resolver", error=FaultError)(spec)
     return resolve_fault(spec)
 
 
@@ -333,3 +360,241 @@ def list_faults(*, plugins: bool = True) -> FaultListing:
     report = load_plugins(warn=False) if plugins else PluginReport()
     sources = {name: "built-in" for name in builtins} | dict(report.sources)
     return FaultListing(faults=(*builtins.values(), *report.faults), sources=sources, errors=report.errors)
+
+
+# --------------------------------------------------------------------------- applicability
+
+def known_steps() -> tuple[str, ...]:
+    """Every unit of every built-in SLAM (the steps a fault may replace), FastSLAM 1.0's first."""
+    names = list(step_names())
+    for kind in BUILTIN_SLAMS.values():
+        names += [u for u in kind.units if u not in names]
+    return tuple(names)
+
+
+def _slam_label(slam: Any) -> str:
+    if isinstance(slam, str):
+        return slam
+    if isinstance(slam, SlamKind):
+        return slam.name
+    if isinstance(slam, type):
+        return slam.__name__
+    return str(getattr(slam, "name", type(slam).__name__))
+
+
+def slam_units(slam: Any) -> tuple[str, ...]:
+    """The replaceable units of a SLAM, in algorithm order; () for a SLAM without units.
+
+    Parameters
+    ----------
+    slam : str, SlamKind, type or SlamAdapter
+        A built-in SLAM's name (``"ekf"``), an import path ``"package.module:factory"`` (the
+        factory is called without options to find out), a :class:`~faultlab.slam.registry.SlamKind`,
+        a steps dataclass type, or a SLAM instance (its units are the fields of ``slam.steps`` if it
+        has ``steps`` and ``with_steps``, the fault contract of :mod:`faultlab.faults.fault`).
+
+    Raises
+    ------
+    ConfigError
+        An unknown SLAM name.
+    """
+    if isinstance(slam, SlamKind):
+        return slam.units
+    if isinstance(slam, str):
+        kind = get_slam_kind(slam, where="slam")
+        if kind is not None:
+            return kind.units
+        slam = build_slam(slam, {})
+    if isinstance(slam, type):
+        return step_names(slam)
+    steps = getattr(slam, "steps", None)
+    if (steps is None or isinstance(steps, type) or not dataclasses.is_dataclass(steps)
+            or not callable(getattr(slam, "with_steps", None))):
+        return ()
+    return step_names(type(steps))
+
+
+class FaultNotApplicableWarning(UserWarning):
+    """Issued when a campaign skips a variant whose fault replaces a unit its SLAM does not have."""
+
+
+@dataclass(frozen=True)
+class NotApplicable:
+    """A fault that does not apply to a SLAM, and why: the SLAM has no unit of that name.
+
+    Attributes
+    ----------
+    fault : str
+        The fault's name.
+    step : str
+        The unit it replaces.
+    slam : str
+        The SLAM (its name or import path).
+    n_units : int
+        How many replaceable units the SLAM has (0: none at all, e.g. dead reckoning).
+    """
+
+    fault: str
+    step: str
+    slam: str
+    n_units: int
+
+    def __str__(self) -> str:
+        if self.n_units == 0:
+            return (f"fault {self.fault!r} replaces unit {self.step!r}, but SLAM {self.slam!r} has no "
+                    f"replaceable units")
+        return (f"fault {self.fault!r} replaces unit {self.step!r}, which SLAM {self.slam!r} does not have "
+                f"(it has {self.n_units} other units)")
+
+
+def not_applicable(fault: Fault, slam: Any, *, units: tuple[str, ...] | None = None) -> NotApplicable | None:
+    """Why ``fault`` does not apply to ``slam`` (see :func:`slam_units`), or None if it applies.
+
+    ``units`` (the SLAM's units, if already known) saves looking them up again.
+    """
+    units = slam_units(slam) if units is None else tuple(units)
+    if fault.step in units:
+        return None
+    return NotApplicable(fault=fault.name, step=fault.step, slam=_slam_label(slam), n_units=len(units))
+
+
+def fault_applies(fault: Fault, slam: Any) -> bool:
+    """True if ``slam`` has the unit ``fault`` replaces (see :func:`slam_units` for ``slam``)."""
+    return not_applicable(fault, slam) is None
+
+
+@dataclass(frozen=True)
+class Applicability:
+    """Result of :func:`applicable_faults`: which faults apply to one SLAM.
+
+    Attributes
+    ----------
+    slam : str
+    units : tuple of str
+        The SLAM's replaceable units.
+    applicable : tuple of Fault
+        In the order given.
+    not_applicable : tuple of NotApplicable
+        In the order given.
+    """
+
+    slam: str
+    units: tuple[str, ...]
+    applicable: tuple[Fault, ...]
+    not_applicable: tuple[NotApplicable, ...]
+
+    def summary(self) -> str:
+        """One line: how many faults do not apply and why (empty if all apply)."""
+        skipped = self.not_applicable
+        if not skipped:
+            return ""
+        total = len(self.applicable) + len(skipped)
+        if not self.units:
+            return (f"{len(skipped)} of {total} faults do not apply to {self.slam!r}: it has no replaceable "
+                    f"units")
+        by_step: dict[str, list[str]] = {}
+        for item in skipped:
+            by_step.setdefault(item.step, []).append(item.fault)
+        parts = "; ".join(f"{step} ({', '.join(names)})" for step, names in by_step.items())
+        return (f"{len(skipped)} of {total} faults do not apply to {self.slam!r}: they replace units it does "
+                f"not have: {parts}")
+
+
+def applicable_faults(slam: Any, faults: Iterable[Fault] | None = None) -> Applicability:
+    """Split ``faults`` (default: every fault, plugins included) by whether they apply to ``slam``.
+
+    Parameters
+    ----------
+    slam : str, SlamKind, type or SlamAdapter
+        See :func:`slam_units`.
+    faults : iterable of Fault, optional
+    """
+    units = slam_units(slam)
+    faults = all_faults(warn=False) if faults is None else list(faults)
+    label = _slam_label(slam)
+    yes: list[Fault] = []
+    no: list[NotApplicable] = []
+    for fault in faults:
+        reason = not_applicable(fault, label if isinstance(slam, str) else slam, units=units)
+        if reason is None:
+            yes.append(fault)
+        else:
+            no.append(reason)
+    return Applicability(slam=label, units=units, applicable=tuple(yes), not_applicable=tuple(no))
+
+
+# --------------------------------------------------------------------------- the SLAMs
+
+@dataclass(frozen=True)
+class SlamSummary:
+    """One built-in SLAM as :func:`list_slams` describes it.
+
+    Attributes
+    ----------
+    name, description : str
+    n_units : int
+        Replaceable units (0: no fault applies).
+    n_faults : int
+        Built-in faults that apply to it.
+    requires : str or None
+        Optional dependency (and faultlab extra) it needs.
+    available : bool
+        False if that dependency is not installed.
+    version : str or None
+        The installed version of that dependency.
+    """
+
+    name: str
+    description: str
+    n_units: int
+    n_faults: int
+    requires: str | None
+    available: bool
+    version: str | None = None
+
+
+@dataclass(frozen=True)
+class SlamListing:
+    """Result of :func:`list_slams`: every built-in SLAM and the built-in fault count."""
+
+    slams: tuple[SlamSummary, ...]
+    n_builtin_faults: int
+
+    def format(self) -> str:
+        """A plain-text table, then how to select a SLAM and any missing optional dependency."""
+        header = ("name", "units", "faults", "installed", "description")
+        rows = [(s.name, str(s.n_units), f"{s.n_faults}/{self.n_builtin_faults}",
+                 "yes" if s.available else "no", s.description) for s in self.slams]
+        widths = [max(len(r[i]) for r in [header, *rows]) for i in range(4)]
+        lines = ["  ".join([c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r[:4], widths))]
+                           + [r[4]]) for r in [header, *rows]]
+        lines.append("units: replaceable units (steps table); faults: built-in faults that replace one of them "
+                     "(python -m faultlab faults --slam NAME)")
+        for s in self.slams:
+            if s.requires is not None:
+                state = f"installed ({s.version})" if s.available else (f"not installed: pip install 'faultlab[{s.requires}]' "
+                                                          f"to use SLAM {s.name!r}")
+                lines.append(f"{s.requires}: {state}")
+        lines.append("select one in an experiment file with [slam] name = \"NAME\"")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.format()
+
+
+def list_slams() -> SlamListing:
+    """The built-in SLAMs with their unit counts, applicable built-in faults and availability."""
+    faults = list(builtin_faults().values())
+    rows = []
+    for kind in BUILTIN_SLAMS.values():
+        fit = applicable_faults(kind, faults)
+        version = None
+        if kind.requires is not None and kind.available:
+            try:
+                version = importlib.metadata.version(kind.requires)
+            except importlib.metadata.PackageNotFoundError:  # importable, but not an installed distribution
+                version = "unknown version"
+        rows.append(SlamSummary(name=kind.name, description=kind.description, n_units=len(kind.units),
+                                n_faults=len(fit.applicable), requires=kind.requires, available=kind.available,
+                                version=version))
+    return SlamListing(slams=tuple(rows), n_builtin_faults=len(faults))

@@ -11,6 +11,33 @@ increase of at least 25 %".  Read literally, the absolute condition is strict
 
 The rule is part of a campaign's configuration (stored with its results), so it lives in the
 computation layer; pairing jobs and classifying outcomes is :mod:`faultlab.stats.detection`.
+
+Beyond the paper, ``[detection]`` also chooses how a *case* is judged:
+
+``rule = "paper"`` (default)
+    the thresholds above on each (faulty, baseline) pair of one SLAM repetition; with K > 1
+    repetitions a case detects a fault when a strict majority of its judged repetitions do
+    (the per-case share of detecting repetitions is reported beside it).
+``rule = "statistical"``
+    the exact one-sided paired sign-flip test over the case's K repetitions
+    (:func:`faultlab.stats.case_verdicts`) at level ``alpha``, Holm-adjusted within the
+    multiplicity ``family``.  A verdict is possible only from ``K >= min_pairs(alpha)`` usable
+    pairs (the smallest attainable p value is ``2^-K``): K >= 5 at alpha = 0.05, K >= 7 at 0.01,
+    K >= 10 at 0.001; and Holm within a family of m cases needs ``2^-K <= alpha / m`` for the
+    smallest p value to survive (e.g. 15 cases at alpha = 0.05: K >= 9).
+
+``family`` (the multiplicity family of the Holm correction of the statistical rule):
+
+``"fault"`` (default)
+    all cases of one fault, across suites and runs: adding another fault or variant to a
+    campaign changes no verdict of this one;
+``"suite_fault"``
+    the cases of one (suite, fault);
+``"case"``
+    none: each (case, fault) is its own family (per-comparison level ``alpha``).
+
+``metric`` (``"rms"`` or ``"emd"``, the experiment's top-level ``metric``) is the map error both
+rules compare.
 """
 
 from __future__ import annotations
@@ -20,8 +47,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from faultlab.config import check_number
+from faultlab.errors import ConfigError
 
-__all__ = ["DetectionRule", "detects"]
+__all__ = ["DetectionRule", "detects", "RULES", "FAMILIES"]
+
+#: How a case is judged: the paper's thresholds, or the exact paired test over K repetitions.
+RULES: tuple[str, ...] = ("paper", "statistical")
+#: Multiplicity families of the statistical rule's Holm correction (see the module docstring).
+FAMILIES: tuple[str, ...] = ("fault", "suite_fault", "case")
 
 
 @dataclass(frozen=True)
@@ -35,24 +68,60 @@ class DetectionRule:
     rel : float
         The RMS increase must be *at least* this fraction of the baseline RMS
         (default 0.25, i.e. 25 %).
+    rule : {"paper", "statistical"}
+        How a case is judged (module docstring); default the paper's.
+    alpha : float
+        Level of the statistical rule's tests, in (0, 1) (default 0.05).
+    family : {"fault", "suite_fault", "case"}
+        Multiplicity family of the statistical rule's Holm correction (default ``"fault"``).
     """
 
     abs_mm: float = 250.0
     rel: float = 0.25
+    rule: str = "paper"
+    alpha: float = 0.05
+    family: str = "fault"
 
     def __post_init__(self) -> None:
         for name in ("abs_mm", "rel"):
             object.__setattr__(self, name, check_number(getattr(self, name), name=f"DetectionRule.{name}",
                                                         minimum=0.0))
+        alpha = check_number(self.alpha, name="DetectionRule.alpha", positive=True)
+        if not alpha < 1:
+            raise ConfigError(f"DetectionRule.alpha: must lie in (0, 1), got {self.alpha!r}")
+        object.__setattr__(self, "alpha", alpha)
+        for name, allowed in (("rule", RULES), ("family", FAMILIES)):
+            value = getattr(self, name)
+            if value not in allowed:
+                raise ConfigError(f"DetectionRule.{name}: must be one of {', '.join(map(repr, allowed))}, "
+                                  f"got {value!r}")
+
+    @property
+    def statistical(self) -> bool:
+        """Whether cases are judged by the exact paired test."""
+        return self.rule == "statistical"
 
     def describe(self) -> str:
         """One line for reports."""
-        return (f"detected when faulty RMS - baseline RMS > {self.abs_mm:g} mm "
-                f"and >= {100 * self.rel:g} % of the baseline RMS")
+        paper = (f"detected when faulty RMS - baseline RMS > {self.abs_mm:g} mm "
+                 f"and >= {100 * self.rel:g} % of the baseline RMS")
+        if not self.statistical:
+            return paper
+        return (f"detected when the exact one-sided paired sign-flip test over the K repetitions rejects at "
+                f"alpha = {self.alpha:g} after Holm within the family '{self.family}' (a crash of the faulty "
+                f"variant alone counts as detected); per repetition: {paper}")
 
     def to_dict(self) -> dict:
-        """The rule as the ``[detection]`` table of an experiment file."""
-        return {"abs_mm": self.abs_mm, "rel": self.rel}
+        """The rule as the ``[detection]`` table of an experiment file.
+
+        The keys beyond the paper's thresholds appear only where they differ from their defaults,
+        so an experiment of the paper's rule keeps the hash (and resumable store) it always had.
+        """
+        out = {"abs_mm": self.abs_mm, "rel": self.rel}
+        for name in ("rule", "alpha", "family"):
+            if getattr(self, name) != DetectionRule.__dataclass_fields__[name].default:
+                out[name] = getattr(self, name)
+        return out
 
 
 def detects(faulty_mm, baseline_mm, *, rule: DetectionRule = DetectionRule()):

@@ -30,7 +30,7 @@ from faultlab.report.pages import (
     title_pages,
 )
 from faultlab.report.pdf import PdfReport, write_pdf
-from faultlab.report.tables import TableFiles, write_tables
+from faultlab.report.tables import write_tables
 from faultlab.runner import results_path
 
 __all__ = ["ReportFiles", "build_report", "render_report", "MAX_PICTURED_RUNS"]

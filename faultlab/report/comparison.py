@@ -9,9 +9,13 @@ does not, says so in words.  The criteria are explicit and conservative:
   the paper's range widened by ``range_factor`` on both sides (default 2: 19-202 mm).  The
   systematic and random suites vary the parameters on purpose, so their ranges are wide; there
   the run agrees when its range overlaps the paper's range widened the same way.
-* **Fault rows** (suite x fault).  This run agrees when (a) the suite detects the fault in at
-  least one case exactly when the paper's suite did, and (b) the paper's detection rate (the
-  rule applied to the paper's raw RMS data) lies inside this run's 95 % Wilson interval.
+* **Fault rows** (suite x fault).  A two-sample exact test of counts
+  (:func:`faultlab.stats.cases.compare_with_paper`, the Analysis table ``paper_comparisons``):
+  the paper's printed count k/15 against this run's detected / judged cases, Boschloo's exact
+  test; *disagrees* when p < alpha, *agrees* when it does not differ and the smallest difference
+  detectable with 80 % power is below the stated margin, else *inconclusive* (too few cases for
+  "no difference" to mean anything).  Rows without a printed figure fall back to the paper's
+  rate from its raw data lying inside this run's Wilson interval.
 * **by Suite** per suite: the paper's share lies inside this run's interval for that share.
 * **Claims** of Sec. VII-D: the systematic suite detects every fault in every run; it detects at
   least as many fault-run pairs as the random and the fixed suite; only varied suites detect
@@ -44,6 +48,7 @@ class Verdict(StrEnum):
 
     AGREES = "agrees"
     DISAGREES = "disagrees"
+    INCONCLUSIVE = "inconclusive"
     NOT_COMPARABLE = "not comparable"
 
 
@@ -94,8 +99,10 @@ class Comparison:
         agree = len(self.by_verdict(Verdict.AGREES))
         disagree = len(self.by_verdict(Verdict.DISAGREES))
         na = len(self.by_verdict(Verdict.NOT_COMPARABLE))
-        text = f"{agree} of {agree + disagree} comparable statements agree with the paper"
+        unsure = len(self.by_verdict(Verdict.INCONCLUSIVE))
+        text = f"{agree} of {agree + disagree + unsure} comparable statements agree with the paper"
         text += f", {disagree} disagree" if disagree else ""
+        text += f", {unsure} inconclusive (too few cases to tell)" if unsure else ""
         text += f" ({na} not comparable)." if na else "."
         return text
 
@@ -221,7 +228,33 @@ def _baseline_statement(analysis: Analysis, suite: str, factor: float) -> Statem
                      f"widened by a factor of {factor:g} to {widened}.")
 
 
+_TWO_SAMPLE = {"agrees": Verdict.AGREES, "differs": Verdict.DISAGREES, "inconclusive": Verdict.INCONCLUSIVE}
+
+
+def _two_sample_statement(analysis: Analysis, suite: str, variant: str) -> Statement | None:
+    rows = analysis.paper_comparisons
+    rows = rows[(rows["suite"] == suite) & (rows["fault"] == variant)]
+    if rows.empty:
+        return None
+    r = rows.iloc[0]
+    label = f"{suite_label(suite)} suite, {variant_label(variant)}"
+    mine = f"{format_pct(r['rate'])} % ({r['k']}/{r['n']} cases)"
+    paper = f"{format_pct(r['paper_rate'])} % ({r['paper_k']}/{r['paper_n']}, printed)"
+    verdict = _TWO_SAMPLE[r["verdict"]]
+    why = {"differs": f"p = {r['p']:.3g} < alpha = {analysis.alpha:g}",
+           "agrees": f"p = {r['p']:.3g} and a difference of {format_pct(r['detectable_difference'])} percentage "
+                     f"points would have been detected with 80 % power",
+           "inconclusive": f"p = {r['p']:.3g}, but only a difference of {format_pct(r['detectable_difference'])} "
+                           f"percentage points or more would have been detected with 80 % power"}[r["verdict"]]
+    return Statement("detection", suite, variant, verdict, mine, paper,
+                     f"{label}: this run detects the fault in {mine}, the paper in {paper}; {verdict} "
+                     f"(Boschloo's exact two-sample test, {analysis.rule.rule} rule over cases: {why}).")
+
+
 def _detection_statement(analysis: Analysis, suite: str, variant: str) -> Statement:
+    two_sample = _two_sample_statement(analysis, suite, variant)
+    if two_sample is not None:
+        return two_sample
     mine = _rate(analysis, THIS_RUN, suite, variant)
     paper = _rate(analysis, PAPER, suite, variant)
     label = f"{suite_label(suite)} suite, {variant_label(variant)}"

@@ -38,6 +38,9 @@ from faultlab.report.tables import (
 )
 from faultlab.runner import case_path
 from faultlab.scenario.model import Scenario, load_scenario
+from faultlab.stats.cases import AGREEMENT_MARGIN
+from faultlab.stats.class_effects import MIN_EPV
+from faultlab.stats.verdict import min_pairs
 from faultlab.vocabulary import JobStatus
 
 __all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "title_pages", "table2_pages", "rates_pages", "comparison_pages",
@@ -368,20 +371,118 @@ def coverage_pages(analysis: Analysis) -> list[Figure]:
 
 def _false_alarm_pages(analysis: Analysis) -> list[Figure]:
     fa = analysis.false_alarms
+    conf = round(100 * (1 - analysis.alpha))
     show = pd.DataFrame({
         "suite": fa["suite"],
         "cases": fa["n_cases"].astype(str),
         "baseline pairs": fa["n_pairs"].astype(str),
         "flagged": fa["flagged"].astype(str),
         "false-alarm rate %": [format_pct(v, 1) for v in fa["rate"]],
-        "Wilson 95 %": [f"{format_pct(lo, 1)}-{format_pct(hi, 1)}"
-                        for lo, hi in zip(fa["wilson_low"], fa["wilson_high"])],
+        f"{conf} % CI (clustered by case)": [f"{format_pct(lo, 1)}-{format_pct(hi, 1)}"
+                                            for lo, hi in zip(fa["low"], fa["high"])],
     })
     return table_pages("Beyond the paper: false alarms of the detection rule", show,
                        note="Every ordered pair of baseline repetitions of one case (another "
                             "SLAM seed, same scenario) judged by the paper's rule: how often "
-                            "seed noise alone 'detects a fault'. Pairs of one case are not "
-                            "independent, so the intervals are optimistic.")
+                            "seed noise alone 'detects a fault'. Pairs of one case are correlated, "
+                            "so the interval is Clopper-Pearson on the effective sample size from a "
+                            "case-clustered variance (Korn & Graubard).")
+
+
+def _verdict_test(analysis: Analysis) -> str:
+    rule = analysis.rule
+    if rule.statistical:
+        return (f"Test: exact one-sided paired sign-flip test over each case's K repetitions; alpha = "
+                f"{rule.alpha:g}; Holm within the multiplicity family '{rule.family}'.")
+    return ("Test: the paper's thresholds per repetition; a case is detected when a strict majority of its "
+            "judged repetitions detect ('share': detecting / judged repetitions); no multiplicity correction "
+            "(the paper's rule is not a test).")
+
+
+def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
+    v = analysis.case_verdicts
+    show = pd.DataFrame({
+        "suite": v["suite"].map(suite_label), "run": v["run"], "case": v["case"],
+        "fault": v["fault"].map(variant_label), "verdict": v["verdict"].str.replace("_", " "),
+        "reason": v["reason"].str.replace("_", " "), "K": v["n_reps"], "judged": v["n_judged"],
+        "share": [format_pct(x) for x in v["share"]], "p": [_g3(x) for x in v["p"]],
+        "p (Holm)": [_g3(x) for x in v["p_holm"]], "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
+    })
+    cannot = int((v["verdict"] == "cannot_judge").sum())
+    return table_pages(f"Per-case verdicts ({analysis.rule.rule} rule)", _frame_text(show), fontsize=7,
+                       max_rows=34,
+                       note=f"{_verdict_test(analysis)} A crash or timeout of the faulty variant alone counts "
+                            f"as detected. {cannot} case(s) cannot be judged (baseline failed or too few "
+                            f"pairs: K >= {min_pairs(analysis.rule.alpha)} needed at alpha = "
+                            f"{analysis.rule.alpha:g}); they are not misses. MDE: smallest shift of the paired "
+                            f"differences the exact test detects with 80 % power.")
+
+
+def _case_rate_pages(analysis: Analysis) -> list[Figure]:
+    r = analysis.case_rates
+    conf = round(100 * (1 - analysis.alpha))
+    show = pd.DataFrame({
+        "suite": r["suite"].map(suite_label), "fault": r["fault"].map(variant_label),
+        "detected/judged cases": [f"{k}/{n}" for k, n in zip(r["k"], r["n"])],
+        "cannot judge": r["n_cannot_judge"], "rate %": [format_pct(x) for x in r["rate"]],
+        f"Clopper-Pearson {conf} %": [f"{format_pct(lo)}-{format_pct(hi)}" for lo, hi in zip(r["cp_low"], r["cp_high"])],
+        f"Wilson {conf} %": [f"{format_pct(lo)}-{format_pct(hi)}" for lo, hi in zip(r["wilson_low"], r["wilson_high"])],
+    })
+    return table_pages("Detection rates over cases (the case is the unit)", show,
+                       note=f"{_verdict_test(analysis)} Rates are shares of judged cases, whatever K; "
+                            "cannot-judge cases are counted apart.")
+
+
+def _case_comparison_pages(analysis: Analysis) -> list[Figure]:
+    c = analysis.case_comparisons
+    show = pd.DataFrame({
+        "fault": c["fault"].map(variant_label),
+        "suites": [f"{a} vs {b}" for a, b in zip(c["suite_a"], c["suite_b"])],
+        "cases k/n": [f"{ka}/{na} vs {kb}/{nb}" for ka, na, kb, nb in zip(c["k_a"], c["n_a"], c["k_b"], c["n_b"])],
+        "risk difference": [f"{x:+.2f}" for x in c["risk_difference"]],
+        "runs": c["n_clusters"], "method": c["method"].str.replace("_", " "),
+        "p": [_g3(x) for x in c["p"]], "p (Holm)": [_g3(x) for x in c["p_holm"]],
+    })
+    return table_pages("Suites compared per fault, cases as units", show, fontsize=8,
+                       note=f"Binomial GEE of the case verdicts (exchangeable working correlation within an "
+                            f"evaluation run, robust standard errors, Wald test); a cluster bootstrap over runs "
+                            f"where GEE cannot fit; Holm over the suite pairs of one fault (family: the fault) at "
+                            f"alpha = {analysis.alpha:g}. Degenerate tables (none or all detected on both sides) "
+                            f"carry no information and are left out of the Holm family.")
+
+
+def _replica_false_alarm_pages(analysis: Analysis) -> list[Figure]:
+    fa = analysis.replica_false_alarms
+    conf = round(100 * (1 - analysis.alpha))
+    show = pd.DataFrame({
+        "rule": fa["rule"], "suite": fa["suite"], "cases": fa["n_cases"],
+        "trials": [f"{n} {'rep. pairs' if r == 'paper' else 'cases'}" for n, r in zip(fa["n_pairs"], fa["rule"])],
+        "flagged": fa["flagged"], "false-alarm rate %": [format_pct(x, 1) for x in fa["rate"]],
+        f"{conf} % CI (clustered by case)": [f"{format_pct(lo, 1)}-{format_pct(hi, 1)}"
+                                            for lo, hi in zip(fa["low"], fa["high"])],
+    })
+    return table_pages("A/A control: false alarms of both rules (baseline_replica vs baseline)", show,
+                       note=f"The replica is the unmodified SLAM with independent SLAM seeds: every detection "
+                            f"is a false alarm. Paper rule: one trial per repetition; statistical rule: one per "
+                            f"judged case (alpha = {analysis.rule.alpha:g}, the replica its own family). "
+                            f"The statistical rule is calibrated when its interval's lower bound is below alpha.")
+
+
+def _paper_comparison_pages(analysis: Analysis) -> list[Figure]:
+    c = analysis.paper_comparisons
+    show = pd.DataFrame({
+        "suite": c["suite"].map(suite_label), "fault": c["fault"].map(variant_label),
+        "paper k/n": [f"{k}/{n}" for k, n in zip(c["paper_k"], c["paper_n"])],
+        "this run k/n (cases)": [f"{k}/{n}" for k, n in zip(c["k"], c["n"])],
+        "difference": [f"{x:+.2f}" for x in c["difference"]], "p (Boschloo)": [_g3(x) for x in c["p"]],
+        "detectable difference (80 %)": [_g3(x) for x in c["detectable_difference"]], "verdict": c["verdict"],
+    })
+    return table_pages("Detection counts compared with the paper (two-sample exact test)", show, fontsize=8,
+                       note=f"Boschloo's exact unconditional test (two-sided) of the paper's printed count "
+                            f"against this run's detected / judged cases, alpha = {analysis.alpha:g}, no "
+                            f"multiplicity correction (each row is its own question). 'differs': p < alpha; "
+                            f"'agrees': not differing and the smallest difference detectable with 80 % power "
+                            f"is below {AGREEMENT_MARGIN:g}; otherwise 'inconclusive' (too few cases).")
 
 
 def _oracle_pages(analysis: Analysis) -> list[Figure]:
@@ -442,16 +543,48 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
                             "deviation. Also: python -m faultlab effects RESULTS.")
 
 
+def _class_effect_pages(analysis: Analysis) -> list[Figure]:
+    e = analysis.class_effects
+    if (e["term"] == "(model)").all():
+        return text_pages("Which classes drive detection (logistic regression over cases)",
+                          [f"- {variant_label(f)}: {n}" for f, n in zip(e["fault"], e["note"])]
+                          + [f"Class-indicator logistic regressions need at least {MIN_EPV:g} events per predictor; "
+                             "run more evaluation runs (cases are the unit, repetitions do not add events)."])
+    show = pd.DataFrame({
+        "fault": e["fault"].map(variant_label), "term": e["term"],
+        "detected/n": [f"{k}/{n}" for k, n in zip(e["n_detected"], e["n"])],
+        "EPV": [_g3(x) for x in e["epv"]], "fit": e["method"],
+        "odds ratio": [_g3(x) for x in e["odds_ratio"]], "LR chi2 (df)": [
+            "" if not math.isfinite(x) else f"{x:.3g} ({d})" for x, d in zip(e["lr_chi2"], e["df"])],
+        "p": [_g3(x) for x in e["p"]], "p (Holm)": [_g3(x) for x in e["p_holm"]], "note": e["note"],
+    })
+    return table_pages("Which classes drive detection (logistic regression over cases)", show, fontsize=7,
+                       max_rows=34,
+                       note=f"Per fault, the case verdicts ({analysis.rule.rule} rule; cannot-judge cases left out) "
+                            f"on class indicators of every Table I parameter (reference: its first class; rotation "
+                            f"error by magnitude). Maximum likelihood, Firth's penalised likelihood where the data "
+                            f"are separated; likelihood-ratio test per parameter, Holm over the fault's "
+                            f"parameters. Fits need {MIN_EPV:g} events per predictor (EPV).")
+
+
 #: Page renderer of each statistic beyond the paper, in the Analysis' order.
 _BEYOND_PAGES = {"false_alarms": _false_alarm_pages, "oracle": _oracle_pages,
-                 "suite_comparisons": _suite_comparison_pages, "parameter_effects": _effect_pages}
+                 "suite_comparisons": _suite_comparison_pages, "parameter_effects": _effect_pages,
+                 "case_verdicts": _case_verdict_pages, "case_rates": _case_rate_pages,
+                 "case_comparisons": _case_comparison_pages, "replica_false_alarms": _replica_false_alarm_pages,
+                 "paper_comparisons": _paper_comparison_pages, "class_effects": _class_effect_pages}
+
+
+#: Topics whose notes are caveats beside a table that still has something to show.
+_INFORMATIVE_NOTES = ("case_comparisons", "suite_comparisons")
 
 
 def beyond_pages(analysis: Analysis) -> list[Figure]:
     """A page per statistic beyond the paper that has something to show; the notes on the others."""
-    pages = [page for topic in BEYOND_THE_PAPER if not analysis.notes_on(topic)
+    pages = [page for topic in BEYOND_THE_PAPER
+             if (topic in _INFORMATIVE_NOTES or not analysis.notes_on(topic)) and len(analysis.table(topic))
              for page in _BEYOND_PAGES[topic](analysis)]
-    text = [n.text for n in analysis.notes_on(*BEYOND_THE_PAPER)]
+    text = [n.text for n in analysis.notes_on("verdicts", *BEYOND_THE_PAPER)]
     if text:
         pages = text_pages("Beyond the paper: what these results allow", text) + pages
     return pages

@@ -4,6 +4,11 @@
 (``experiments/paper.toml``: 3 runs x 3 suites x 5 cases x 4 variants, Sec. VII), optionally shrink it (``quick``) or
 repeat it (``runs``), run (or resume) it with :func:`faultlab.runner.run_experiment`, and write
 the tables and the PDF with :func:`faultlab.report.build.build_report` from the saved results.
+
+``profile`` runs the protocol on a FastSLAM profile (:mod:`faultlab.slam.profiles`): ``"paper"`` is the
+paper's own filter, run as the paper ran it, so with ``fov_bug`` on.  Its results and reports go beside
+the default ones (``results/<experiment>-profile-<name>``, ``reports/profile-<name>``) and its report also
+gets the comparison with the paper's raw RMS data (:mod:`faultlab.report.fidelity`).
 """
 
 from __future__ import annotations
@@ -12,12 +17,14 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from faultlab.analysis.fidelity import fidelity
 from faultlab.errors import ConfigError
 from faultlab.report.build import ReportFiles, build_report
+from faultlab.report.fidelity import FidelityFiles, write_fidelity
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
-__all__ = ["ReproduceResult", "reproduce", "quick_overrides", "default_out", "DEFAULT_EXPERIMENT",
-           "QUICK_PARTICLES", "QUICK_STEPS"]
+__all__ = ["ReproduceResult", "reproduce", "quick_overrides", "profile_overrides", "default_out",
+           "default_reports", "DEFAULT_EXPERIMENT", "QUICK_PARTICLES", "QUICK_STEPS"]
 
 #: The paper's protocol: the shipped experiment ``paper`` (``experiments/paper.toml``, see
 #: :mod:`faultlab.data`), found wherever faultlab is installed.
@@ -42,6 +49,8 @@ class ReproduceResult:
         The runner's summary (jobs run now, resumed, per status, wall time).
     report : ReportFiles
         The tables and the PDF.
+    fidelity : FidelityFiles
+        The comparison of the map errors with the paper's raw data (:mod:`faultlab.report.fidelity`).
     out : Path
         The results directory.
     wall_time_s : float
@@ -51,6 +60,7 @@ class ReproduceResult:
     experiment: object
     summary: object
     report: ReportFiles
+    fidelity: FidelityFiles
     out: Path
     wall_time_s: float
 
@@ -58,6 +68,7 @@ class ReproduceResult:
         return "\n".join([
             f"results: {self.out} ({self.summary})",
             str(self.report),
+            str(self.fidelity),
             f"reproduce took {self.wall_time_s:.1f} s",
         ])
 
@@ -83,19 +94,43 @@ def quick_overrides(experiment) -> dict:
     return overrides
 
 
-def default_out(experiment_path: str | Path, *, quick: bool = False, runs: int | None = None) -> Path:
-    """``results/<experiment stem>`` with ``-quick`` / ``-runs<N>`` appended, so a shrunk or
-    repeated protocol never collides with the full one's results store.
+def profile_overrides(experiment, profile: str) -> dict:
+    """Overrides that run ``experiment`` on FastSLAM profile ``profile`` (as the paper did for ``"paper"``).
+
+    The SLAM becomes ``fastslam`` with the profile's settings (the file's SLAM settings are replaced:
+    the profile is the system under test); every profile other than ``"reference"`` also gets
+    ``fov_bug = true``, the field of view the paper's scenarios had.
+    """
+    from faultlab.slam.profiles import DEFAULT_PROFILE, get_profile
+
+    p = get_profile(profile)  # ConfigError for an unknown name
+    if experiment.slam.name != "fastslam":
+        raise ConfigError(f"a FastSLAM profile needs [slam] name = 'fastslam', {experiment.source} has "
+                          f"{experiment.slam.name!r}")
+    return {"slam": {"name": "fastslam", "profile": p.name, **p.config.to_options()},
+            "fov_bug": p.name != DEFAULT_PROFILE}
+
+
+def default_out(experiment_path: str | Path, *, quick: bool = False, runs: int | None = None,
+                profile: str | None = None) -> Path:
+    """``results/<experiment stem>`` with ``-profile-<name>`` / ``-quick`` / ``-runs<N>`` appended, so a
+    profile, a shrunk or a repeated protocol never collides with the full one's results store.
 
     ``experiment_path`` is a path or a shipped name: ``"paper"`` and ``"experiments/paper.toml"``
     both give ``results/paper``."""
-    name = Path(experiment_path).stem + ("-quick" if quick else "") + (f"-runs{runs}" if runs else "")
+    name = (Path(experiment_path).stem + (f"-profile-{profile}" if profile else "")
+            + ("-quick" if quick else "") + (f"-runs{runs}" if runs else ""))
     return Path("results") / name
 
 
+def default_reports(*, profile: str | None = None) -> Path:
+    """``reports`` for the default SLAM, ``reports/profile-<name>`` for a profile."""
+    return Path("reports") if profile is None else Path("reports") / f"profile-{profile}"
+
+
 def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Path | None = None,
-              reports: str | Path = "reports", runs: int | None = None, quick: bool = False,
-              jobs: int = 2, backend: str = "loky", force_new: bool = False,
+              reports: str | Path | None = None, runs: int | None = None, quick: bool = False,
+              profile: str | None = None, jobs: int = 2, backend: str = "loky", force_new: bool = False,
               progress: bool = True) -> ReproduceResult:
     """Run an experiment (resuming if its results exist) and write the report.
 
@@ -106,12 +141,16 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
         paper's protocol; see :func:`faultlab.runner.load_experiment`).
     out : path, optional
         Results directory; default :func:`default_out`.
-    reports : path
-        Report directory (table2.csv/.md/.tex, detection_rates.csv/.md, comparison.md, report.pdf).
+    reports : path, optional
+        Report directory (table2.csv/.md/.tex, detection_rates.csv/.md, comparison.md, report.pdf, and
+        fidelity.csv/.md); default :func:`default_reports`.
     runs : int, optional
         Evaluation runs (overrides the file's ``runs``; e.g. 30 for power).
     quick : bool
         Run the smoke version (:func:`quick_overrides`).
+    profile : str, optional
+        Run on this FastSLAM profile (:func:`profile_overrides`; ``"paper"``: the paper's filter with
+        ``fov_bug`` on).
     jobs, backend, force_new, progress
         Passed to :func:`faultlab.runner.run_experiment`.
 
@@ -134,13 +173,17 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ConfigError(f"jobs must be a positive integer, got {jobs!r}")
     experiment = load_experiment(experiment_path)
+    if profile is not None:
+        experiment = experiment.replace(**profile_overrides(experiment, profile))
     if quick:
         experiment = experiment.replace(**quick_overrides(experiment))
     if runs is not None:
         experiment = experiment.replace(runs=runs)
-    out = Path(out) if out is not None else default_out(experiment_path, quick=quick, runs=runs)
+    out = Path(out) if out is not None else default_out(experiment_path, quick=quick, runs=runs, profile=profile)
+    reports = Path(reports) if reports is not None else default_reports(profile=profile)
     summary = run_experiment(experiment, out, jobs=jobs, backend=backend, force_new=force_new,
                              progress=progress)
     report = build_report(out, reports)
-    return ReproduceResult(experiment=experiment, summary=summary, report=report, out=out,
+    fid = write_fidelity(fidelity(out), reports)
+    return ReproduceResult(experiment=experiment, summary=summary, report=report, fidelity=fid, out=out,
                            wall_time_s=time.perf_counter() - start)

@@ -35,12 +35,14 @@ its worker twice is recorded as ``crash`` for each of its repetitions.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import os
 import signal
 import threading
 import time
 import traceback
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator, Mapping
@@ -51,7 +53,7 @@ from joblib import Parallel, delayed, parallel_config
 from joblib.externals.loky.process_executor import BrokenProcessPool, ProcessPoolExecutor
 
 from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
-from faultlab.faults import resolve_variant
+from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, resolve_variant, slam_units
 from faultlab.metrics import map_errors
 from faultlab.runner.experiment import Experiment, load_experiment
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, batch_jobs, expand_jobs
@@ -65,6 +67,7 @@ from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.vocabulary import BACKENDS, JobStatus
 
 __all__ = [
+    "SKIPPED_VARIANTS_KEY",
     "JobResult",
     "CaseInfo",
     "RunSummary",
@@ -73,6 +76,12 @@ __all__ = [
     "prepare_cases",
     "run_experiment",
 ]
+
+#: Key of the store's metadata (:func:`faultlab.runner.load_metadata`) listing the variants skipped
+#: because their fault does not apply to the SLAM: one dict per variant with ``fault`` (the variant),
+#: ``step``, ``slam``, ``n_units`` and ``reason`` (one sentence).
+SKIPPED_VARIANTS_KEY = "skipped_variants"
+
 
 @dataclass(frozen=True)
 class JobResult:
@@ -361,7 +370,7 @@ def prepare_cases(experiment: Experiment, out: str | Path) -> list[CaseInfo]:
                 scenario = _saved_case(path, case, experiment)
                 if scenario is None:
                     scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
-                                             min_distance=experiment.min_distance)
+                                             min_distance=experiment.min_distance, fov_bug=experiment.fov_bug)
                     save_scenario(scenario, path)
                 infos.append(_case_info(case, path, scenario))
     return infos
@@ -378,6 +387,10 @@ def _saved_case(path: Path, case: SuiteCase, experiment: Experiment) -> Scenario
     if scenario.seed != case.seed or dict(scenario.case.values) != dict(case.spec.values):
         raise ResultsError(f"saved test case {path} does not match {experiment.source} "
                            f"(seed or parameter values differ); use --force-new")
+    saved_bug = bool(scenario.meta.get("config", {}).get("fov_bug", False))
+    if saved_bug != experiment.fov_bug:
+        raise ResultsError(f"saved test case {path} does not match {experiment.source} "
+                           f"(fov_bug = {saved_bug} there, {experiment.fov_bug} here); use --force-new")
     return scenario
 
 
@@ -390,10 +403,14 @@ def _case_info(case: SuiteCase, path: Path, scenario: Scenario) -> CaseInfo:
                     n_landmarks=n_lm, cost=cost)
 
 
-def _preflight(experiment: Experiment) -> SlamAdapter:
+def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable, ...]]:
     """Build the SUT and apply every fault once in the parent: configuration errors fail fast.
 
-    Returns the built SUT (without fault).
+    A fault that replaces a unit the SUT does not have (:func:`faultlab.faults.not_applicable`:
+    e.g. a resampling fault and EKF-SLAM, or any fault and dead reckoning) does not apply: its
+    variant is skipped with a :class:`~faultlab.faults.FaultNotApplicableWarning` naming fault,
+    unit and SLAM, and returned so that the caller drops its jobs and records it in the store.
+    Returns the built SUT (without fault) and the skipped variants.
     """
     try:
         slam = experiment.slam.build()
@@ -405,16 +422,25 @@ def _preflight(experiment: Experiment) -> SlamAdapter:
     if not isinstance(slam, SlamAdapter):
         raise ConfigError(f"{experiment.source}: [slam] {experiment.slam.name!r} built a "
                           f"{type(slam).__name__}, not a SlamAdapter")
+    units = slam_units(slam)
+    skipped: list[NotApplicable] = []
     for i, variant in enumerate(experiment.variants):
         fault = resolve_variant(variant)  # known: parse_experiment checked every name
         if fault is None:
+            continue
+        reason = not_applicable(fault, experiment.slam.name, units=units)
+        if reason is not None:
+            reason = dataclasses.replace(reason, fault=variant)  # as the experiment names it
+            warnings.warn(f"{experiment.source}: variants[{i}] skipped: {reason}", FaultNotApplicableWarning,
+                          stacklevel=3)
+            skipped.append(reason)
             continue
         try:
             fault.apply(slam)
         except FaultlabError as exc:
             raise ConfigError(f"{experiment.source}: variants[{i}] = {variant!r} cannot be applied to "
                               f"slam {experiment.slam.name!r}: {exc}") from exc
-    return slam
+    return slam, tuple(skipped)
 
 
 @contextlib.contextmanager
@@ -556,11 +582,15 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")
     t0 = time.perf_counter()
     out = Path(out)
-    sut = _preflight(experiment)
+    sut, skipped = _preflight(experiment)
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
+        store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
         cases = prepare_cases(experiment, out)
         info = {(c.run, c.suite, c.case): c for c in cases}
         specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases))
+        if skipped:  # variants whose fault does not apply to the SLAM have no jobs
+            names = {r.fault for r in skipped}
+            specs = [s for s in specs if s.key.variant not in names]
         done = store.done_keys()
         todo = [s for s in specs if s.key.astuple() not in done]
         # the missing repetitions of a (case, variant) run as one batched SLAM if the SUT can

@@ -44,9 +44,10 @@ from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.faults import resolve_variant
-from faultlab.metrics.detection import DetectionRule
+from faultlab.metrics.detection import FAMILIES, RULES, DetectionRule
 from faultlab.scenario.config import DEFAULT_MIN_DISTANCE, DEFAULT_N_STEPS, DEFAULT_SENSOR_RANGE
 from faultlab.slam.fastslam import FastSlamConfig
+from faultlab.slam.profiles import DEFAULT_PROFILE
 from faultlab.slam.protocol import SlamAdapter
 from faultlab.slam.registry import build_slam, get_slam_kind, normalise_options
 from faultlab.space import build_suite, space_from_mapping, table1_space
@@ -61,8 +62,8 @@ __all__ = [
 ]
 
 
-_TOP_KEYS = ("description", "seed", "runs", "suites", "n_steps", "sensor_range", "min_distance", "slam",
-             "variants", "repetitions", "metric", "timeout_s", "detection", "space")
+_TOP_KEYS = ("description", "seed", "runs", "suites", "n_steps", "sensor_range", "min_distance", "fov_bug",
+             "slam", "variants", "repetitions", "metric", "timeout_s", "detection", "space")
 
 
 @dataclass(frozen=True)
@@ -79,7 +80,8 @@ class SlamSpec:
 
     ``name`` is a built-in SLAM (:data:`faultlab.slam.registry.BUILTIN_SLAMS`: ``"fastslam"``,
     ``"dead_reckoning"``) whose options are its settings in the file's keys and units with every
-    default filled in, or an import path ``"package.module:factory"`` called with ``options``
+    default filled in (for ``"fastslam"`` a non-default ``profile`` among them, whose settings are
+    the defaults; see :mod:`faultlab.slam.registry`), or an import path ``"package.module:factory"`` called with ``options``
     as keyword arguments, which must return a :class:`~faultlab.slam.protocol.SlamAdapter`.
     """
 
@@ -90,7 +92,15 @@ class SlamSpec:
     def config(self):
         """The settings object of a built-in SLAM (e.g. :class:`FastSlamConfig`); None otherwise."""
         kind = get_slam_kind(self.name)
-        return None if kind is None or kind.config is None else kind.config.from_options(dict(self.options))
+        return None if kind is None else kind.settings(dict(self.options))
+
+    @property
+    def profile(self) -> str | None:
+        """The FastSLAM profile (:mod:`faultlab.slam.profiles`) of a built-in SLAM that takes one; else None."""
+        kind = get_slam_kind(self.name)
+        if kind is None or not kind.profiles:
+            return None
+        return str(dict(self.options).get("profile", DEFAULT_PROFILE))
 
     def build(self) -> SlamAdapter:
         """A fresh SLAM adapter instance."""
@@ -121,6 +131,10 @@ class Experiment:
         Suites in file order.
     n_steps, sensor_range, min_distance : int, float, float
         Scenario generation settings (steps, m, m).
+    fov_bug : bool
+        Generate the cases with the replication package's field-of-view *defect* (every right-side
+        bearing visible; :func:`faultlab.scenario.generate_scenario`), as the paper ran them.  Off by
+        default; when off it is left out of the hash, so older campaigns keep theirs.
     slam : SlamSpec
         The SLAM under test.
     variants : tuple of str
@@ -146,6 +160,7 @@ class Experiment:
     n_steps: int = DEFAULT_N_STEPS
     sensor_range: float = DEFAULT_SENSOR_RANGE
     min_distance: float = DEFAULT_MIN_DISTANCE
+    fov_bug: bool = False
     slam: SlamSpec = field(default_factory=SlamSpec)
     variants: tuple[str, ...] = (BASELINE,)
     repetitions: int = 1
@@ -166,6 +181,7 @@ class Experiment:
             "n_steps": self.n_steps,
             "sensor_range": self.sensor_range,
             "min_distance": self.min_distance,
+            "fov_bug": self.fov_bug,
             "slam": self.slam.to_dict(),
             "variants": list(self.variants),
             "repetitions": self.repetitions,
@@ -179,6 +195,8 @@ class Experiment:
         """Canonical text of everything that affects results (suite order kept, other keys sorted)."""
         d = self.to_dict()
         d.pop("description")
+        if not d["fov_bug"]:
+            d.pop("fov_bug")  # the default: hashes of campaigns from before the key existed stay valid
         d["suites"] = [[s.kind, s.n_cases] for s in self.suites]
         return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
@@ -250,6 +268,7 @@ def parse_experiment(data: Mapping, *, source: str = "<experiment>", text: str =
     n_steps = top.int("n_steps", DEFAULT_N_STEPS, minimum=1)
     sensor_range = top.float("sensor_range", DEFAULT_SENSOR_RANGE, positive=True)
     min_distance = top.float("min_distance", DEFAULT_MIN_DISTANCE, minimum=0.0)
+    fov_bug = top.bool("fov_bug", False)
     repetitions = top.int("repetitions", 1, minimum=1)
     metric = top.str("metric", "rms", choices=METRICS)
     timeout_s = top.float("timeout_s", 600.0, positive=True)
@@ -265,7 +284,7 @@ def parse_experiment(data: Mapping, *, source: str = "<experiment>", text: str =
     space = copy.deepcopy(dict(space))
 
     exp = Experiment(source=source, text=text, seed=seed, runs=runs, suites=suites, n_steps=n_steps,
-                     sensor_range=sensor_range, min_distance=min_distance, slam=slam, variants=variants,
+                     sensor_range=sensor_range, min_distance=min_distance, fov_bug=fov_bug, slam=slam, variants=variants,
                      repetitions=repetitions, metric=metric, timeout_s=timeout_s, detection=detection,
                      space=space, description=description)
     _check_suites(exp)
@@ -340,5 +359,14 @@ def _parse_detection(top: Table, source: str) -> DetectionRule:
         return DetectionRule()
     t = top.table("detection")
     d = DetectionRule()
-    t.check_unknown(tuple(d.to_dict()))
-    return DetectionRule(abs_mm=t.float("abs_mm", d.abs_mm, minimum=0.0), rel=t.float("rel", d.rel, minimum=0.0))
+    t.check_unknown(("abs_mm", "rel", "rule", "alpha", "family"))
+    choices = {}
+    for key, allowed in (("rule", RULES), ("family", FAMILIES)):
+        choices[key] = t.data.get(key, getattr(d, key))
+        if choices[key] not in allowed:
+            raise t.error(key, f"must be one of {', '.join(map(repr, allowed))}, got {choices[key]!r}")
+    alpha = t.float("alpha", d.alpha, positive=True)
+    if not alpha < 1:
+        raise t.error("alpha", f"must lie in (0, 1), got {alpha!r}")
+    return DetectionRule(abs_mm=t.float("abs_mm", d.abs_mm, minimum=0.0), rel=t.float("rel", d.rel, minimum=0.0),
+                         alpha=alpha, **choices)

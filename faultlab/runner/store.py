@@ -218,7 +218,7 @@ class ResultStore:
             "faultlab_version": __version__,
             "root_seed": experiment.seed,
             "metric": experiment.metric,
-            "detection": {"abs_mm": experiment.detection.abs_mm, "rel": experiment.detection.rel},
+            "detection": experiment.detection.to_dict(),
             "suites": list(experiment.suite_kinds),
             "variants": list(experiment.variants),
             "created": _now(),
@@ -253,6 +253,12 @@ class ResultStore:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    def set_meta(self, key: str, value) -> None:
+        """Set one metadata entry (JSON-serialisable ``value``; committed at once, replacing an older one)."""
+        with self.conn:
+            self.conn.execute("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", (key, json.dumps(value)))
+        self.meta[key] = value
 
     # ------------------------------------------------------------ sessions
     def begin_session(self, *, jobs: int, backend: str, n_todo: int) -> int:

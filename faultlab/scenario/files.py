@@ -61,7 +61,7 @@ def cases_frame(cases: list[CaseSpec]) -> pd.DataFrame:
 def write_suite(kind: str, *, seed: int, out: str | Path, run: int = 1, n_cases: int | None = None,
                 space: ParameterSpace | None = None, n_steps: int = DEFAULT_N_STEPS,
                 sensor_range: float = DEFAULT_SENSOR_RANGE,
-                min_distance: float = DEFAULT_MIN_DISTANCE) -> SuiteFiles:
+                min_distance: float = DEFAULT_MIN_DISTANCE, fov_bug: bool = False) -> SuiteFiles:
     """Draw a suite, generate every case and save it to ``out``.
 
     The cases are those of suite ``kind`` in evaluation run ``run`` of a campaign with root seed
@@ -83,6 +83,8 @@ def write_suite(kind: str, *, seed: int, out: str | Path, run: int = 1, n_cases:
         Table I when None.
     n_steps, sensor_range, min_distance : int, float, float
         Generation settings (active steps, m, m), as in an experiment file.
+    fov_bug : bool
+        Reproduce the replication package's field-of-view defect, as an experiment's ``fov_bug``.
 
     Returns
     -------
@@ -100,7 +102,8 @@ def write_suite(kind: str, *, seed: int, out: str | Path, run: int = 1, n_cases:
     out.mkdir(parents=True, exist_ok=True)
     scenarios, paths = [], []
     for case in drawn:
-        sc = generate_case(case, n_steps=n_steps, sensor_range=sensor_range, min_distance=min_distance)
+        sc = generate_case(case, n_steps=n_steps, sensor_range=sensor_range, min_distance=min_distance,
+                           fov_bug=fov_bug)
         scenarios.append(sc)
         paths.append(save_scenario(sc, out / f"case{case.case}"))
     cases = [c.spec for c in drawn]

@@ -70,7 +70,13 @@ def draw_suite(kind: str, space: ParameterSpace, *, root_seed: int, run: int = 1
 
 
 def generate_case(case: SuiteCase, *, n_steps: int = DEFAULT_N_STEPS, sensor_range: float = DEFAULT_SENSOR_RANGE,
-                  min_distance: float = DEFAULT_MIN_DISTANCE) -> Scenario:
-    """Generate the scenario of a drawn case from its own seed (Sec. VI)."""
+                  min_distance: float = DEFAULT_MIN_DISTANCE, fov_bug: bool = False) -> Scenario:
+    """Generate the scenario of a drawn case from its own seed (Sec. VI).
+
+    ``fov_bug`` reproduces the replication package's field-of-view defect (see
+    :func:`faultlab.scenario.generator.generate_scenario`); it is recorded in the scenario's
+    ``meta["config"]["fov_bug"]``.
+    """
     return generate_scenario(case.spec, rng=np.random.default_rng(case.seed), n_steps=n_steps,
-                             sensor_range=sensor_range, min_distance=min_distance, seed=case.seed)
+                             sensor_range=sensor_range, min_distance=min_distance, seed=case.seed,
+                             fov_bug=fov_bug)

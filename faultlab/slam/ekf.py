@@ -42,19 +42,17 @@ protocol and draws nothing from it.  Memory is O(L^2) (one (D, D) covariance) an
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Callable, ClassVar
+from typing import Callable
 
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from faultlab.config import Option, Settings
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam import units2 as _units2
 from faultlab.slam.bookkeeping import LandmarkIndex, UnitSlam, UnitTable
-from faultlab.slam.fastslam import FastSlamConfig
+from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.protocol import Estimate, Observations
 
 __all__ = ["EkfSlamConfig", "EkfSlamSteps", "REFERENCE_STEPS", "EkfSlam"]
@@ -76,39 +74,8 @@ def _one_blas_thread():
 
 
 @dataclass(frozen=True)
-class EkfSlamConfig(Settings):
-    """Noise settings of EKF-SLAM (defaults: those of the reference FastSLAM 1.0, Sec. VII-A).
-
-    Attributes
-    ----------
-    std_v : float
-        Control noise std on the forward motion v per step, m (>= 0).
-    std_omega : float
-        Control noise std on the turn omega per step, rad (>= 0).
-    std_range : float
-        Measurement noise std on range, m (> 0).
-    std_bearing : float
-        Measurement noise std on bearing, rad (> 0).
-    """
-
-    std_v: float = 0.1
-    std_omega: float = math.radians(20.0)
-    std_range: float = 0.3
-    std_bearing: float = math.radians(10.0)
-
-    #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
-    OPTIONS: ClassVar[dict[str, Option]] = {
-        name: FastSlamConfig.OPTIONS[name] for name in ("std_v", "std_omega", "std_range", "std_bearing")}
-
-    @property
-    def Q(self) -> np.ndarray:
-        """Measurement noise covariance diag(std_range^2, std_bearing^2), shape (2, 2)."""
-        return np.diag([self.std_range ** 2, self.std_bearing ** 2])
-
-    @property
-    def M(self) -> np.ndarray:
-        """Control noise covariance diag(std_v^2, std_omega^2), shape (2, 2)."""
-        return np.diag([self.std_v ** 2, self.std_omega ** 2])
+class EkfSlamConfig(NoiseConfig):
+    """Noise settings of EKF-SLAM: exactly :class:`~faultlab.slam.noise.NoiseConfig` (Sec. VII-A defaults)."""
 
 
 @dataclass(frozen=True)

@@ -161,10 +161,11 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
-from faultlab.config import Option, Settings
+from faultlab.config import Option
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam.bookkeeping import UnitSlam, UnitTable
+from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.sharing import correct_in_sharer_order
 from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations
@@ -175,46 +176,29 @@ __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Pa
 
 
 @dataclass(frozen=True)
-class FastSlamConfig(Settings):
+class FastSlamConfig(NoiseConfig):
     """Settings of the reference FastSLAM 1.0 (defaults: the paper's setup, Sec. VII-A).
+
+    The noise fields (``std_v``, ``std_omega``, ``std_range``, ``std_bearing``) are those of
+    :class:`~faultlab.slam.noise.NoiseConfig`.
 
     Attributes
     ----------
     n_particles : int
         Number of particles N (>= 1).
-    std_v : float
-        Control noise std on the forward motion v per step, m (>= 0).
-    std_omega : float
-        Control noise std on the turn omega per step, rad (>= 0).
-    std_range : float
-        Measurement noise std on range, m (> 0).
-    std_bearing : float
-        Measurement noise std on bearing, rad (> 0).
     resample_ratio : float
         Resample when ``N_eff < N / resample_ratio`` (>= 1).
     """
 
     n_particles: int = 200
-    std_v: float = 0.1
-    std_omega: float = math.radians(20.0)
-    std_range: float = 0.3
-    std_bearing: float = math.radians(10.0)
     resample_ratio: float = 1.5
 
     #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
     OPTIONS: ClassVar[dict[str, Option]] = {
         "n_particles": Option("particles", integer=True, bounds={"minimum": 1}),
-        "std_v": Option("std_v", bounds={"minimum": 0.0}),
-        "std_omega": Option("std_omega_deg", degrees=True, bounds={"minimum": 0.0}),
-        "std_range": Option("std_range", bounds={"positive": True}),
-        "std_bearing": Option("std_bearing_deg", degrees=True, bounds={"positive": True}),
+        **NoiseConfig.OPTIONS,
         "resample_ratio": Option("resample_ratio", bounds={"minimum": 1.0}),
     }
-
-    @property
-    def Q(self) -> np.ndarray:
-        """Measurement noise covariance diag(std_range^2, std_bearing^2), shape (2, 2)."""
-        return np.diag([self.std_range ** 2, self.std_bearing ** 2])
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ from faultlab.errors import ConfigError
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig, FastSlamSteps
 
-__all__ = ["Difference", "Profile", "PROFILES", "get_profile", "profile_names", "differences_markdown",
+__all__ = ["DEFAULT_PROFILE", "Difference", "Profile", "PROFILES", "get_profile", "profile_names", "differences_markdown",
            "PAPER_LENGTH_UNIT", "PAPER_CONFIG", "PAPER_STEPS", "PAPER_NO_ALIASING_STEPS"]
 
 
@@ -255,6 +255,9 @@ _REFERENCE_ROWS = _rows(
     _FIRST_STEP,
     _ODOMETRY,
 )
+
+#: The profile a ``[slam] name = "fastslam"`` table without ``profile`` gets.
+DEFAULT_PROFILE = "reference"
 
 #: The profiles by name.
 PROFILES: dict[str, Profile] = {

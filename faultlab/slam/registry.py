@@ -4,21 +4,31 @@ An experiment's ``[slam]`` table names a SLAM: a built-in name from :data:`BUILT
 import path ``"package.module:factory"`` whose factory is called with the table's ``options`` as
 keyword arguments.  A built-in SLAM with settings has a config class with
 ``from_options(mapping, *, where)`` and ``to_options()`` (the file's keys and units), which is
-the one place its keys, defaults and bounds are defined.
+the one place its keys, defaults and bounds are defined.  A built-in SLAM written as replaceable
+units names its steps table (:attr:`SlamKind.steps`), whose fields are the units a fault can
+replace (:func:`faultlab.faults.registry.applicable_faults`).
+
+``fastslam`` also takes ``profile`` (:mod:`faultlab.slam.profiles`: ``"reference"``, the default,
+``"paper"``, ``"paper_no_aliasing"``): the profile gives the units and the default settings, and the
+table's other keys override the profile's settings.  A non-default profile is kept in the options
+(and so in the experiment's hash); ``"reference"`` is dropped, so naming it changes nothing.
 """
 
 from __future__ import annotations
 
+import importlib.util
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 from faultlab.config import import_object
 from faultlab.errors import ConfigError
 from faultlab.slam.deadreckoning import DeadReckoning
-from faultlab.slam.ekf import EkfSlam, EkfSlamConfig
-from faultlab.slam.fastslam import FastSlam, FastSlamConfig
-from faultlab.slam.fastslam2 import FastSlam2
+from faultlab.slam.ekf import EkfSlam, EkfSlamConfig, EkfSlamSteps
+from faultlab.slam.fastslam import FastSlam, FastSlamConfig, FastSlamSteps
+from faultlab.slam.fastslam2 import FastSlam2, FastSlam2Steps
+from faultlab.slam.gtsam import GtsamSlam, GtsamSlamConfig
+from faultlab.slam.profiles import DEFAULT_PROFILE, get_profile
 from faultlab.slam.protocol import SlamAdapter
 
 __all__ = ["SlamKind", "BUILTIN_SLAMS", "get_slam_kind", "build_slam", "normalise_options"]
@@ -38,12 +48,46 @@ class SlamKind:
         ``adapter(config)`` (or ``adapter()`` when ``config`` is None) returns a fresh :class:`SlamAdapter`.
     config : type or None
         Its settings: a class with ``from_options(mapping, *, where)`` and ``to_options()``.
+    steps : type or None
+        Its steps table (a frozen dataclass whose fields are the replaceable units, e.g.
+        :class:`~faultlab.slam.FastSlamSteps`); None for a SLAM without replaceable units, to
+        which no fault applies.
+    requires : str or None
+        An optional dependency the SLAM needs, named as both its module and faultlab's extra
+        (``"gtsam"``: ``pip install "faultlab[gtsam]"``); building the SLAM without it raises
+        :class:`~faultlab.errors.ConfigError`.
+    profiles : bool
+        Whether it takes a ``profile`` option (:mod:`faultlab.slam.profiles`; FastSLAM 1.0 only).
     """
 
     name: str
     description: str
     adapter: Callable[..., SlamAdapter]
     config: type | None = None
+    steps: type | None = None
+    requires: str | None = None
+    profiles: bool = False
+
+    @property
+    def available(self) -> bool:
+        """True unless the optional dependency in :attr:`requires` is missing (checked without importing it)."""
+        return self.requires is None or importlib.util.find_spec(self.requires) is not None
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """Names of the replaceable units (the fields of :attr:`steps`), in algorithm order; () if none."""
+        return () if self.steps is None else tuple(f.name for f in fields(self.steps))
+
+    def _split(self, options: Mapping[str, Any], *, where: str = "slam"):
+        """(profile or None, the other options); the profile name is checked here."""
+        options = dict(options)
+        if not self.profiles or "profile" not in options:
+            return None, options
+        name = options.pop("profile")
+        try:
+            return get_profile(name), options
+        except ConfigError as exc:
+            raise ConfigError(f"{where}.profile: {exc}") from exc
 
     def options(self, options: Mapping[str, Any], *, where: str) -> dict[str, Any]:
         """``options`` validated, with every default filled in (file keys and units)."""
@@ -52,23 +96,39 @@ class SlamKind:
                 raise ConfigError(f"{where}.{next(iter(options))} is not accepted by {self.name!r} "
                                   f"(it has no settings)")
             return {}
-        self.config.from_options(options, where=where)  # validates
-        return {**self.config().to_options(), **dict(options)}
+        profile, rest = self._split(options, where=where)
+        self.config.from_options(rest, where=where)  # validates
+        defaults = (self.config() if profile is None else profile.config).to_options()
+        named = {} if profile is None or profile.name == DEFAULT_PROFILE else {"profile": profile.name}
+        return {**named, **defaults, **rest}
+
+    def settings(self, options: Mapping[str, Any]):
+        """The settings object of validated ``options`` (None for a SLAM without settings)."""
+        if self.config is None:
+            return None
+        return self.config.from_options(self._split(options)[1])
 
     def build(self, options: Mapping[str, Any]) -> SlamAdapter:
         if self.config is None:
             return self.adapter()
-        return self.adapter(self.config.from_options(options))
+        profile, rest = self._split(options)
+        if profile is None:
+            return self.adapter(self.config.from_options(rest))
+        return self.adapter(self.config.from_options(rest), steps=profile.steps)
 
 
 #: Built-in SLAMs by name.
 BUILTIN_SLAMS: dict[str, SlamKind] = {
     k.name: k for k in (
-        SlamKind("fastslam", "the reference FastSLAM 1.0 (known correspondences)", FastSlam, FastSlamConfig),
+        SlamKind("fastslam", "the reference FastSLAM 1.0 (known correspondences)", FastSlam, FastSlamConfig,
+                 FastSlamSteps, profiles=True),
         SlamKind("fastslam2", "FastSLAM 2.0: poses sampled from the proposal that includes the observations",
-                 FastSlam2, FastSlamConfig),
-        SlamKind("ekf", "EKF-SLAM: one joint Gaussian over the pose and every landmark", EkfSlam, EkfSlamConfig),
+                 FastSlam2, FastSlamConfig, FastSlam2Steps),
+        SlamKind("ekf", "EKF-SLAM: one joint Gaussian over the pose and every landmark", EkfSlam, EkfSlamConfig,
+                 EkfSlamSteps),
         SlamKind("dead_reckoning", "odometry only: the baseline any SLAM should beat", DeadReckoning),
+        SlamKind("gtsam", "GTSAM iSAM2: incremental smoothing over all poses with range-bearing factors",
+                 GtsamSlam, GtsamSlamConfig, requires="gtsam"),
     )
 }
 

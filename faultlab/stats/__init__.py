@@ -13,11 +13,17 @@ Each statistic that starts from the classified jobs also comes as a function of
 so :mod:`faultlab.analysis` classifies every job once and derives the rest.
 """
 
-import importlib
+from faultlab.lazy import lazy_exports
 
 #: Public name -> submodule that defines it.  Submodules load on first use
 #: (PEP 562), so importing faultlab.stats (e.g. by the CLI) stays cheap.
 _EXPORTS = {
+    "cases": ["CASE_VERDICT_COLUMNS", "CASE_RATE_COLUMNS", "CASE_COMPARISON_COLUMNS", "PAPER_COMPARISON_COLUMNS",
+              "REPLICA_FALSE_ALARM_COLUMNS", "rule_verdicts", "case_rates", "compare_suites_by_case",
+              "compare_with_paper", "replica_false_alarms", "holm_within", "gee_suite_test",
+              "detectable_difference"],
+    "class_effects": ["CLASS_EFFECT_COLUMNS", "MIN_EPV", "fit_class_effects"],
+    "verdict": ["Verdict", "case_verdicts", "clustered_rate", "min_pairs", "min_p_value"],
     "comparison": ["COMPARISON_COLUMNS", "compare_suite_rates", "compare_suites", "odds_ratio"],
     "detection": ["DetectionRule", "KEY_COLUMNS", "OUTCOME_COLUMNS", "classify", "detects", "outcomes",
                   "pair_with_baseline"],
@@ -31,19 +37,5 @@ _EXPORTS = {
               "false_alarm_rate", "find_identical_faults", "proportion_ci", "suspected_equivalent_faults",
               "tabulate_by_suite", "tabulate_rates"],
 }
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
 
-__all__ = [name for names in _EXPORTS.values() for name in names]
-
-
-def __getattr__(name: str):
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'faultlab.stats' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"faultlab.stats.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

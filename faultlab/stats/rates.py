@@ -29,6 +29,7 @@ from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError
 from faultlab.stats.detection import DetectionRule, _check_columns, detects, outcomes, pair_with_baseline
+from faultlab.stats.verdict import clustered_rate
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["proportion_ci", "detection_rates", "tabulate_rates", "by_suite", "tabulate_by_suite",
@@ -45,7 +46,8 @@ RATE_COLUMNS: tuple[str, ...] = (
 #: Columns of :func:`tabulate_by_suite` (and :func:`by_suite`).
 BY_SUITE_COLUMNS: tuple[str, ...] = ("suite", "n_pairs", "detected_pairs", "rate") + _INTERVALS + ("missed",)
 #: Columns of :func:`false_alarm_rate`.
-FALSE_ALARM_COLUMNS: tuple[str, ...] = ("suite", "n_cases", "n_pairs", "flagged", "rate") + _INTERVALS
+FALSE_ALARM_COLUMNS: tuple[str, ...] = ("suite", "n_cases", "n_pairs", "flagged", "rate", "low", "high",
+                                        "design_effect")
 
 
 def proportion_ci(k, n, *, alpha: float = 0.05, method: str = "wilson") -> tuple[np.ndarray, np.ndarray]:
@@ -317,7 +319,9 @@ def false_alarm_rate(results: pd.DataFrame, *, rule: DetectionRule = DetectionRu
     ordered pair of repetitions (k, k'), k != k', is one trial: rep k plays
     "faulty", rep k' the baseline.  The share flagged by ``rule`` estimates the
     rule's false-alarm rate (seed noise alone).  Ordered pairs of one case are
-    not independent; the intervals are therefore optimistic.
+    not independent, so the interval is clustered by case
+    (:func:`faultlab.stats.verdict.clustered_rate`: Clopper-Pearson on the
+    effective size from a cluster-robust variance).
 
     Parameters
     ----------
@@ -330,8 +334,9 @@ def false_alarm_rate(results: pd.DataFrame, *, rule: DetectionRule = DetectionRu
     -------
     DataFrame
         One row per suite plus a final ``"all"`` row: ``suite, n_cases``
-        (cases with >= 2 usable reps), ``n_pairs, flagged, rate`` and Wilson /
-        Clopper-Pearson bounds.  Rates are NaN where no case has two reps.
+        (cases with >= 2 usable reps), ``n_pairs, flagged, rate``, the clustered
+        interval ``low, high`` and the ``design_effect``.  Rates are NaN where no
+        case has two reps.
     """
     _check_columns(results, ("run", "suite", "case", "rep", "variant", "rms_mm", "status"),
                    where="false_alarm_rate")
@@ -346,12 +351,12 @@ def false_alarm_rate(results: pd.DataFrame, *, rule: DetectionRule = DetectionRu
     rows = []
     for suite in suites + ["all"]:
         c = cross if suite == "all" else cross[cross["suite"] == suite]
-        rows.append({"suite": suite, "n_cases": len(c[key].drop_duplicates()), "n_pairs_": len(c),
-                     "flagged": int(c["flag"].sum())})
+        cr = clustered_rate(c["flag"].to_numpy(bool),
+                            (c["run"].astype(str) + "/" + c["suite"].astype(str) + "/" + c["case"].astype(str))
+                            .to_numpy(), alpha=alpha)
+        rows.append({"suite": suite, "n_cases": len(c[key].drop_duplicates()), "n_pairs": len(c),
+                     "flagged": int(c["flag"].sum()), "rate": cr.rate, "low": cr.low, "high": cr.high,
+                     "design_effect": cr.design_effect})
     table = pd.DataFrame(rows)
-    rc = _rate_columns(table["flagged"], table["n_pairs_"], alpha=alpha)
-    table = table.rename(columns={"n_pairs_": "n_pairs"})
-    for name in ("rate",) + _INTERVALS:
-        table[name] = rc[name]
     return table[list(FALSE_ALARM_COLUMNS)]
 

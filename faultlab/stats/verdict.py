@@ -501,7 +501,7 @@ def clustered_rate(flags, clusters, *, alpha: float = 0.05) -> ClusteredRate:
     2. Design effect ``deff = var_cluster / (rate (1 - rate) / n)``; effective size
        ``n_eff = n / max(deff, 1)``.  When the rate is 0 or 1 there is no variance to estimate
        and the conservative ``n_eff = G`` is used (the design effect of perfectly correlated
-       clusters of equal size).
+       clusters of equal size); so it is with a single cluster, whose variance cannot be estimated.
     3. Degrees of freedom: ``n_eff`` is multiplied by ``(z_{1-alpha/2} / t_{1-alpha/2, G-1})^2``
        (the cluster-robust variance has about G - 1 degrees of freedom).
     4. Clopper-Pearson interval (statsmodels ``proportion_confint(method="beta")``) with
@@ -549,7 +549,7 @@ def clustered_rate(flags, clusters, *, alpha: float = 0.05) -> ClusteredRate:
     rate = k / n
     deff = math.nan
     n_eff = float(g)
-    if 0 < k < n:
+    if 0 < k < n and g > 1:  # one cluster: no between-cluster variance to estimate, n_eff = G = 1
         fit = OLS(y.astype(float), np.ones((n, 1))).fit(cov_type="cluster", cov_kwds={"groups": codes})
         deff = float(fit.bse[0] ** 2 / (rate * (1.0 - rate) / n))
         n_eff = n / max(deff, 1.0)

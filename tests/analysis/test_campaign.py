@@ -25,6 +25,9 @@ def test_expected_jobs_from_the_stored_experiment():
     assert count_expected_jobs({"experiment": {**exp, "suites": {"fixed": 2}}}) == 3 * 2 * 4 * 2
     assert count_expected_jobs({"experiment": {**exp, "suites": [["systematic", "auto"]]}}) is None
     assert count_expected_jobs({}) is None
+    # a variant whose fault does not apply to the SLAM was skipped: it has no jobs
+    skipped = [{"fault": "b", "step": "resample", "slam": "ekf", "n_units": 13, "reason": "..."}]
+    assert count_expected_jobs({"experiment": exp, "skipped_variants": skipped}) == 3 * 15 * 3 * 2
 
 
 def test_the_stored_space_overrides_table1():

@@ -61,3 +61,25 @@ def test_faults_lists_only_the_selected_faults(capsys):
     assert "missing_angle_wrap  (step: wrap_bearing; built-in)" in out
     assert "test/identity  (step: resample; import path)" in out
     assert "naive_resampling" not in out and "2 faults" in out
+
+
+def test_faults_slam_lists_only_the_applicable_faults_and_says_why_others_are_left_out(capsys):
+    assert main(["faults", "--no-plugins", "--slam", "ekf"]) == 0
+    out = capsys.readouterr().out
+    listed = {line.split()[0] for line in out.splitlines() if line and not line.startswith(" ")}
+    for f in all_faults(plugins=False):
+        applies = f.step in {"motion_model", "wrap_heading", "wrap_bearing", "init_landmarks",
+                             "predict_measurement", "innovation", "motion_jacobians", "predict_covariance",
+                             "pose_jacobian", "cross_covariance", "joint_innovation_covariance",
+                             "kalman_update", "augment_state"}  # EKF-SLAM's units, written out
+        assert (f.name in listed) == applies, f.name
+    n_out = sum(1 for f in all_faults(plugins=False) if f.name not in listed)
+    assert f"{n_out} of {len(all_faults(plugins=False))} faults do not apply to 'ekf'" in out
+    assert "resample (naive_resampling, inverted_resampling_threshold)" in out
+    assert main(["faults", "--no-plugins", "--slam", "fastslam"]) == 0
+    assert f"all {len(all_faults(plugins=False))} faults apply to 'fastslam'" in capsys.readouterr().out
+    assert main(["faults", "--no-plugins", "--slam", "dead_reckoning"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("0 faults") and "do not apply to 'dead_reckoning': it has no replaceable units" in out
+    assert main(["faults", "--slam", "nope"]) == 1
+    assert "slam must be one of" in capsys.readouterr().err

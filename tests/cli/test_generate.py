@@ -7,6 +7,8 @@ import pytest
 from faultlab.cli import main
 from faultlab.runner import parse_experiment, prepare_cases
 from faultlab.scenario import load_scenario
+from faultlab.scenario.suite import draw_suite, generate_case
+from faultlab.space import table1_space
 
 
 def test_generate_writes_cases_pictures_and_prints_coverage(tmp_path, capsys):
@@ -173,3 +175,17 @@ def test_generate_writes_the_pairwise_cases_a_campaign_with_constraints_runs(tmp
     assert sorted(campaign) == list(range(1, 9))
     for case, path in campaign.items():
         assert (out / f"case{case}.npz").read_bytes() == path.read_bytes()
+
+
+def test_generate_fov_bug_writes_the_defective_cases_a_campaign_would(tmp_path, capsys):
+    assert main(["generate", "--suite", "fixed", "--seed", "4", "--out", str(tmp_path / "bug"), "--cases", "1",
+                 "--steps", "20", "--fov-bug"]) == 0
+    assert main(["generate", "--suite", "fixed", "--seed", "4", "--out", str(tmp_path / "ok"), "--cases", "1",
+                 "--steps", "20"]) == 0
+    bug, ok = load_scenario(tmp_path / "bug" / "case1"), load_scenario(tmp_path / "ok" / "case1")
+    assert bug.meta["config"]["fov_bug"] is True and ok.meta["config"]["fov_bug"] is False
+    case = draw_suite("fixed", table1_space(), root_seed=4, n_cases=1)[0]
+    direct = generate_case(case, n_steps=20, fov_bug=True)
+    np.testing.assert_array_equal(bug.obs_bearing, direct.obs_bearing)
+    # fixed suite, opening pi: with the defect the whole right side is visible, more than without
+    assert bug.obs_bearing.size > ok.obs_bearing.size

@@ -80,3 +80,23 @@ def test_module_entry_point_with_a_slam_given_by_import_path(tmp_path):
                           capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "lin:constant:3" in done.stdout and "tests.mutation.toy:make_toy_slam:" in done.stdout
+
+
+def test_mutate_run_refuses_too_few_repetitions_for_the_per_case_level(tmp_path, capsys):
+    f = tmp_path / "m.toml"
+    f.write_text('seed = 1\nrepetitions = 7\n[suites]\nfixed = 5\n[slam]\nparticles = 5\n'
+                 '[mutation]\nids = ["motion_model:arithmetic:9"]\n')
+    assert main(["mutate", "run", str(f), "--out", str(tmp_path / "out"), "--repetitions", "6"]) == 1
+    err = capsys.readouterr().err
+    assert "repetitions = 6 is too few" in err and "K = 7" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_mutate_report_of_a_directory_without_a_mutation_campaign_is_one_clear_error(tmp_path, capsys):
+    assert main(["mutate", "report", str(tmp_path), "--reports", str(tmp_path / "rep")]) == 1
+    assert "not a mutation campaign" in capsys.readouterr().err
+
+
+def test_mutate_run_rejects_an_unknown_selector(tmp_path, capsys):
+    assert main(["mutate", "run", "mutation", "--out", str(tmp_path / "o"), "--mutants", "colour=red"]) == 1
+    assert "unknown selector 'colour'" in capsys.readouterr().err

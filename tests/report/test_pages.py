@@ -97,3 +97,35 @@ def test_title_and_metadata_pages_show_the_analysis(one_rep):
     rt = one_rep.runtimes.set_index("variant")
     assert f"median {rt.loc['(all)', 'median_s']:.2f} s" in meta and f"over {len(_results())} jobs" in meta
     assert np.isclose(rt.loc["(all)", "total_s"], 1.5 * len(_results()))
+
+
+def test_case_level_pages_state_test_alpha_family_and_what_could_not_be_judged():
+    from faultlab.vocabulary import REPLICA
+
+    res = make_results(lambda run, suite, case, variant, rep:
+                       50.0 + 7 * ((rep * 13 + case * 5) % 11) + (900.0 if variant == "motion_sign_error" else 0.0)
+                       + (3.0 * ((rep + case) % 3) if variant == REPLICA else 0.0),
+                       runs=2, cases=2, reps=5)
+    res = res[res["variant"].isin(["baseline", "motion_sign_error"])]
+    replica = res[res["variant"] == "baseline"].assign(variant=REPLICA)
+    replica = replica.assign(rms_mm=replica["rms_mm"] + 3.0 * ((replica["rep"] + replica["case"]) % 3))
+    meta = {"detection": {"rule": "statistical", "alpha": 0.05, "family": "suite_fault"}}
+    import pandas as pd
+
+    a = Analysis.from_frame(pd.concat([res, replica], ignore_index=True), meta, paper=False)
+    pages = beyond_pages(a)
+    titles = [page_title(p) for p in pages]
+    for title in ("Per-case verdicts (statistical rule)", "Detection rates over cases (the case is the unit)",
+                  "Suites compared per fault, cases as units",
+                  "A/A control: false alarms of both rules (baseline_replica vs baseline)"):
+        assert title in titles, title
+    text = _text(pages).replace("\n", " ")
+    assert "alpha = 0.05" in text and "family 'suite_fault'" in text and "cannot be judged" in text
+    # K = 5: every case's p is 2^-5, but Holm over a suite's 4 cases needs 2^-K <= 0.05 / 4: nothing survives
+    sign = a.case_verdicts.query("fault == 'motion_sign_error'")
+    assert np.allclose(sign["p"], 1 / 32) and np.allclose(sign["p_holm"], 4 / 32)
+    assert (sign["verdict"] == "not_detected").all()
+    # the class-effect page says why nothing is fitted instead of showing an empty table
+    assert "Which classes drive detection (logistic regression over cases)" in titles
+    why = a.class_effects.query("fault == 'motion_sign_error'")["note"].iloc[0]
+    assert why and why in text

@@ -8,8 +8,10 @@ import pytest
 
 import faultlab.report.reproduce as rp
 from faultlab.errors import ConfigError
-from faultlab.report.reproduce import default_out, quick_overrides, reproduce
-from faultlab.runner import load_experiment, load_results
+from faultlab.analysis.fidelity import FIDELITY
+from faultlab.report.reproduce import default_out, default_reports, profile_overrides, quick_overrides, reproduce
+from faultlab.runner import load_experiment, load_results, parse_experiment
+from faultlab.slam.profiles import get_profile
 
 from .conftest import REPO, write_tiny_experiment
 
@@ -31,8 +33,18 @@ def captured(monkeypatch):
         calls["build"] = (Path(results_dir), Path(reports_dir))
         return "report"
 
+    def fake_fidelity(results_dir):
+        calls["fidelity"] = Path(results_dir)
+        return "fidelity"
+
+    def fake_write_fidelity(fid, reports_dir):
+        calls["write_fidelity"] = (fid, Path(reports_dir))
+        return "fidelity files"
+
     monkeypatch.setattr(faultlab.runner, "run_experiment", fake_run)
     monkeypatch.setattr(rp, "build_report", fake_build)
+    monkeypatch.setattr(rp, "fidelity", fake_fidelity)
+    monkeypatch.setattr(rp, "write_fidelity", fake_write_fidelity)
     return calls
 
 
@@ -112,3 +124,55 @@ def test_reproduce_runs_then_resumes_without_rerunning(tmp_path):
     assert second.summary.n_new == 0 and second.summary.n_skipped == 18
     assert (tmp_path / "rep2" / "report.pdf").is_file()
     assert load_results(tmp_path / "out").equals(rows)
+
+
+def test_profile_paper_runs_the_papers_filter_with_fov_bug_beside_the_default(captured, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    reproduce(profile="paper", progress=False)
+    experiment, out, _ = captured["run"]
+    assert experiment.slam.profile == "paper" and experiment.fov_bug
+    assert experiment.slam.config == get_profile("paper").config
+    assert experiment.slam.build().steps == get_profile("paper").steps
+    assert out == Path("results/paper-profile-paper")
+    assert captured["build"] == (out, Path("reports/profile-paper"))
+    assert captured["fidelity"] == out and captured["write_fidelity"] == ("fidelity", Path("reports/profile-paper"))
+    reproduce(profile="paper", quick=True, progress=False)
+    experiment, out, _ = captured["run"]
+    assert experiment.slam.profile == "paper" and experiment.fov_bug and experiment.slam.config.n_particles == 60
+    assert out == Path("results/paper-profile-paper-quick")
+    assert default_reports() == Path("reports") and default_out("paper", profile="x") == Path("results/paper-profile-x")
+
+
+def test_profile_overrides_replace_the_files_slam_settings():
+    paper = load_experiment(PAPER_TOML)
+    custom = paper.replace(slam={"particles": 7, "std_v": 0.5})
+    run = custom.replace(**profile_overrides(custom, "paper"))
+    assert run.slam.config == get_profile("paper").config
+    ref = custom.replace(**profile_overrides(custom, "reference"))
+    assert not ref.fov_bug and ref.slam.profile == "reference" and ref.hash == paper.hash
+    with pytest.raises(ConfigError, match="unknown FastSLAM profile"):
+        profile_overrides(paper, "nope")
+    with pytest.raises(ConfigError, match="needs"):
+        profile_overrides(parse_experiment({**paper.to_dict(), "slam": {"name": "dead_reckoning"}}), "paper")
+
+
+@pytest.mark.slow
+def test_reproduce_profile_paper_quick_end_to_end(tmp_path, monkeypatch):
+    """The real pipeline on the paper profile, shrunk further: tiny cases, few steps and particles."""
+    monkeypatch.setattr(rp, "QUICK_STEPS", 15)
+    monkeypatch.setattr(rp, "QUICK_PARTICLES", 6)
+    exp = write_tiny_experiment(tmp_path)
+    result = reproduce(exp, profile="paper", quick=True, out=tmp_path / "out", reports=tmp_path / "rep", jobs=1,
+                       progress=False)
+    assert result.summary.complete and result.experiment.fov_bug and result.experiment.slam.profile == "paper"
+    rows = load_results(tmp_path / "out")
+    assert set(rows["variant"]) == {"baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error"}
+    table = FIDELITY.read_csv(tmp_path / "rep" / "fidelity.csv")
+    ok = rows[rows["status"] == "ok"]
+    assert len(table) == ok.groupby(["suite", "variant"]).ngroups
+    for r in table.itertuples():
+        cell = ok[(ok["suite"] == r.suite) & (ok["variant"] == r.variant)]["rms_mm"]
+        assert r.n == len(cell) and r.median_mm == pytest.approx(cell.median())
+    md = (tmp_path / "rep" / "fidelity.md").read_text()
+    assert "profile `paper`, fov_bug = true" in md and "REDUCED" in md
+    assert (tmp_path / "rep" / "report.pdf").is_file() and "fidelity" in str(result)

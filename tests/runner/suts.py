@@ -133,6 +133,10 @@ def _bias(original):
     return biased_move
 
 
+def _unbuildable(original):
+    raise ValueError("cannot wrap this unit")
+
+
 def _fault(name: str, replacement, description: str) -> Fault:
     return Fault(name=name, step="move", description=description, rationale="Test double for the runner.",
                  origin="tests/runner/suts.py", replacement=replacement)
@@ -145,6 +149,7 @@ STUBBORN = _fault("tiny_stubborn", _swallow_hang, "sleeps for a minute and swall
 SLOW = _fault("tiny_slow", _slow, "sleeps 50 ms per step")
 EXIT = _fault("tiny_exit", _exit, "kills its process with os._exit(3)")
 BIAS = _fault("tiny_bias", _bias, "adds 2 cm to every forward motion")
+UNBUILDABLE = _fault("tiny_unbuildable", _unbuildable, "its replacement factory fails")
 
 assert dataclasses.is_dataclass(TinySteps)
 

@@ -4,6 +4,7 @@ import math
 import signal
 import sqlite3
 import threading
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -19,7 +20,8 @@ from faultlab.runner import (
     prepare_cases,
     run_experiment,
 )
-from faultlab.runner.execute import _alarm, execute_batch, execute_job
+from faultlab.faults import FaultNotApplicableWarning
+from faultlab.runner.execute import SKIPPED_VARIANTS_KEY, _alarm, execute_batch, execute_job
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, expand_jobs
 from faultlab.seeds import case_seed, slam_seed, suite_seed_sequence
 from faultlab.scenario import generate_scenario, load_scenario
@@ -206,11 +208,10 @@ def test_malformed_experiment_refused_before_any_work(tmp_path):
     with pytest.raises(ConfigError, match="runs must be >= 1"):
         run_experiment(bad, tmp_path / "out")
     assert not (tmp_path / "out").exists()
-    # a fault that cannot be applied to the SUT is caught before the store is created
-    dr = write_experiment(tmp_path / "dr.toml", slam={"name": "dead_reckoning"},
-                          variants=["baseline", "naive_resampling"])
-    with pytest.raises(ConfigError, match=r"variants\[1\] = 'naive_resampling' cannot be applied"):
-        run_experiment(dr, tmp_path / "out2")
+    # a fault whose replacement cannot be built is caught before the store is created
+    broken = write_experiment(tmp_path / "broken.toml", variants=["baseline", f"{SUTS}:UNBUILDABLE"])
+    with pytest.raises(ConfigError, match=r"variants\[1\] = '.*UNBUILDABLE' cannot be applied"):
+        run_experiment(broken, tmp_path / "out2")
     assert not (tmp_path / "out2").exists()
     good = write_experiment(tmp_path / "good.toml")
     with pytest.raises(ConfigError, match="jobs"):
@@ -220,6 +221,37 @@ def test_malformed_experiment_refused_before_any_work(tmp_path):
     with pytest.raises(ConfigError, match="batch_size"):
         run_experiment(good, tmp_path / "out3", batch_size=0)
     assert not (tmp_path / "out3").exists()
+
+
+def test_variants_whose_fault_does_not_apply_are_skipped_and_recorded(tmp_path):
+    # EKF-SLAM has no resampling unit: naive_resampling is skipped, missing_angle_wrap runs
+    exp = write_experiment(tmp_path / "ekf.toml", **_one_case(
+        slam={"name": "ekf"}, variants=["baseline", "naive_resampling", "missing_angle_wrap"]))
+    with pytest.warns(FaultNotApplicableWarning,
+                      match=r"variants\[1\] skipped: fault 'naive_resampling' replaces unit 'resample', "
+                            r"which SLAM 'ekf' does not have"):
+        summary = run_experiment(exp, tmp_path / "out", jobs=1, progress=False)
+    df = load_results(tmp_path / "out")
+    assert sorted(df.variant) == ["baseline", "missing_angle_wrap"]
+    assert summary.n_jobs == 2 and summary.complete
+    skipped = load_metadata(tmp_path / "out")[SKIPPED_VARIANTS_KEY]
+    assert skipped == [{"fault": "naive_resampling", "step": "resample", "slam": "ekf", "n_units": 13,
+                        "reason": "fault 'naive_resampling' replaces unit 'resample', which SLAM 'ekf' does "
+                                  "not have (it has 13 other units)"}]
+    # dead reckoning has no units at all: every fault is skipped, the baseline still runs
+    dr = write_experiment(tmp_path / "dr.toml", **_one_case(
+        slam={"name": "dead_reckoning"}, variants=["baseline", "naive_resampling", "motion_sign_error"]))
+    with pytest.warns(FaultNotApplicableWarning, match="has no replaceable units"):
+        run_experiment(dr, tmp_path / "dr", jobs=1, progress=False)
+    assert list(load_results(tmp_path / "dr").variant) == ["baseline"]
+    assert [r["fault"] for r in load_metadata(tmp_path / "dr")[SKIPPED_VARIANTS_KEY]] == [
+        "naive_resampling", "motion_sign_error"]
+    # a campaign whose faults all apply records an empty list
+    ok = write_experiment(tmp_path / "ok.toml", **_one_case(variants=["baseline", f"{SUTS}:BIAS"]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FaultNotApplicableWarning)
+        run_experiment(ok, tmp_path / "ok", jobs=1, progress=False)
+    assert load_metadata(tmp_path / "ok")[SKIPPED_VARIANTS_KEY] == []
 
 
 def test_changed_experiment_refused_unless_force_new(tmp_path):
@@ -351,3 +383,16 @@ def test_a_batch_that_kills_its_worker_is_a_crash_of_each_repetition(tmp_path):
     died = df[df.variant == f"{SUTS}:FS_EXIT"]
     assert list(died.status) == ["crash", "crash"] and died.error.str.startswith("WorkerDied:").all()
     assert (df[df.variant == "baseline"].status == "ok").all() and summary.complete
+
+
+def test_prepare_cases_passes_fov_bug_and_notices_a_mismatch(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", fov_bug=True))
+    infos = prepare_cases(exp, tmp_path / "out")
+    saved = load_scenario(infos[0].path)
+    assert saved.meta["config"]["fov_bug"] is True
+    # the same case generated directly with the defect, from its documented seed
+    direct = generate_scenario(saved.case, rng=np.random.default_rng(saved.seed), n_steps=exp.n_steps,
+                               sensor_range=exp.sensor_range, min_distance=exp.min_distance, fov_bug=True)
+    np.testing.assert_array_equal(saved.obs_bearing, direct.obs_bearing)
+    with pytest.raises(ResultsError, match="fov_bug = True there, False here"):
+        prepare_cases(exp.replace(fov_bug=False), tmp_path / "out")

@@ -122,7 +122,10 @@ def test_replace_overrides_and_merges_tables(tmp_path):
         ({"slam": {"name": "fastslam", "colour": "red"}}, r"slam.colour is not a known key"),
         ({"slam": {"name": "tests.runner.suts:make_tiny", "particles": 3}}, r"slam.particles is not a known key"),
         ({"detection": {"abs_mm": -1.0}}, r"detection.abs_mm must be >= 0"),
-        ({"detection": {"rel": 0.2, "alpha": 1}}, r"detection.alpha is not a known key"),
+        ({"detection": {"rel": 0.2, "alpha": 1}}, r"detection.alpha must lie in \(0, 1\)"),
+            ({"detection": {"rule": "bayes"}}, r"detection.rule must be one of 'paper', 'statistical'"),
+            ({"detection": {"family": "all"}}, r"detection.family must be one of 'fault', 'suite_fault', 'case'"),
+            ({"detection": {"beta": 1}}, r"detection.beta is not a known key"),
         ({"space": 3}, r"space must be a table"),
         ({"space": {"no_such_parameter": {}}}, r"\[space\]"),
     ],
@@ -154,3 +157,29 @@ def test_dataclass_is_frozen():
     with pytest.raises(AttributeError):
         exp.runs = 2  # type: ignore[misc]
     assert isinstance(exp, Experiment)
+
+
+def test_fov_bug_is_validated_and_hashed_only_when_on(tmp_path):
+    a = load_experiment(write_experiment(tmp_path / "a.toml"))
+    off = load_experiment(write_experiment(tmp_path / "off.toml", fov_bug=False))
+    on = load_experiment(write_experiment(tmp_path / "on.toml", fov_bug=True))
+    assert not a.fov_bug and on.fov_bug
+    assert off.hash == a.hash  # the default: hashes of older campaigns stay valid
+    assert on.hash != a.hash and a.replace(fov_bug=True).hash == on.hash
+    assert on.to_dict()["fov_bug"] is True and pickle.loads(pickle.dumps(on)) == on
+    with pytest.raises(ConfigError, match="fov_bug"):
+        load_experiment(write_experiment(tmp_path / "bad.toml", fov_bug="yes"))
+
+
+def test_slam_profile_is_validated_and_hashed(tmp_path):
+    exp = load_experiment(ROOT / "experiments" / "paper.toml")
+    paper = exp.replace(slam={"profile": "paper"})
+    assert paper.slam.profile == "paper" and exp.slam.profile == "reference"
+    assert paper.hash != exp.hash
+    assert exp.replace(slam={"profile": "reference"}).hash == exp.hash  # naming the default changes nothing
+    assert paper.replace(slam={"particles": 30}).slam.config.n_particles == 30  # the table overrides the profile
+    assert paper.replace(slam={"particles": 30}).hash != paper.hash
+    assert parse_experiment(paper.to_dict(), source="again").hash == paper.hash  # round trip keeps the profile
+    assert paper.slam.build().steps.replaced()  # the paper's units, not the reference's
+    with pytest.raises(ConfigError, match=r"paper.toml \(with slam=.*slam.profile: unknown FastSLAM profile"):
+        exp.replace(slam={"profile": "nope"})

@@ -1,0 +1,66 @@
+"""Metamorphic relations by name: the built-ins and third-party plugins.
+
+A distribution adds relations by declaring an entry point in the group ``faultlab.metamorphic``::
+
+    [project.entry-points."faultlab.metamorphic"]
+    mylab = "mylab.relations:RELATIONS"
+
+The entry point loads to a :class:`~faultlab.metamorphic.relation.MetamorphicRelation` subclass
+(instantiated without arguments) or instance, or an iterable of them.  Names must be lower-case
+``snake_case`` and unique.  faultlab declares its own built-ins in this group too; loading them
+again from there is recognised and skipped.  A plugin that fails to load is reported (a warning)
+and the others still load.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from faultlab.errors import ConfigError
+from faultlab.metamorphic.relation import MetamorphicRelation
+from faultlab.metamorphic.builtin import BUILTIN_RELATIONS
+from faultlab.plugins import PluginCatalogue
+
+__all__ = [
+    "RELATION_ENTRY_POINT_GROUP",
+    "RelationPluginWarning",
+    "RelationPlugins",
+    "load_relation_plugins",
+    "all_relations",
+    "get_relation",
+]
+
+#: Entry-point group of third-party metamorphic relations.
+RELATION_ENTRY_POINT_GROUP = "faultlab.metamorphic"
+
+
+class RelationPluginWarning(UserWarning):
+    """Issued when a metamorphic relation plugin fails to load."""
+
+
+@dataclass(frozen=True)
+class RelationPlugins:
+    """Result of :func:`load_relation_plugins`: the metamorphic relations that loaded and the failures."""
+
+    relations: tuple[MetamorphicRelation, ...] = ()
+    errors: tuple[str, ...] = ()
+
+
+_CATALOGUE = PluginCatalogue(kind="metamorphic relation", group=RELATION_ENTRY_POINT_GROUP, base=MetamorphicRelation, builtins=tuple(BUILTIN_RELATIONS),
+                             error=ConfigError, warning=RelationPluginWarning)
+
+
+def load_relation_plugins(*, group: str = RELATION_ENTRY_POINT_GROUP, warn: bool = True) -> RelationPlugins:
+    """Discover third-party metamorphic relations through the entry-point group (in entry-point name order)."""
+    found = _CATALOGUE.load(group=group, warn=warn)
+    return RelationPlugins(relations=found.items, errors=found.errors)
+
+
+def all_relations(*, plugins: bool = True) -> list[MetamorphicRelation]:
+    """The built-in metamorphic relations, then the plugin metamorphic relations."""
+    return _CATALOGUE.all(plugins=plugins)
+
+
+def get_relation(name: str) -> MetamorphicRelation:
+    """The relation called ``name`` (built-in or plugin); ConfigError with close names otherwise."""
+    return _CATALOGUE.get(name)

@@ -1,0 +1,135 @@
+"""Named plugins discovered through an entry-point group: one catalogue for every kind.
+
+Mutation operators (``faultlab.mutation_operators``) and metamorphic relations
+(``faultlab.metamorphic``) are plugins of the same shape: a class whose instances have a
+lower-case ``snake_case`` ``name`` and a one-line ``description``, built-ins shipped with faultlab
+and third-party ones declared by an installed distribution::
+
+    [project.entry-points."faultlab.metamorphic"]
+    mylab = "mylab.relations:RELATIONS"
+
+An entry point loads to a subclass (instantiated without arguments), an instance, or an iterable
+of them.  faultlab declares its own built-ins in the group too; loading them again from there is
+recognised and skipped.  A plugin that fails to load is reported (a warning) and the others still
+load; names must be unique.  (Faults have their own registry, :mod:`faultlab.faults.registry`,
+because a fault is a record with provenance rather than a class.)
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib.metadata
+import re
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+__all__ = ["PluginLoad", "PluginCatalogue"]
+
+_NAME = re.compile(r"[a-z][a-z0-9_]*")
+
+
+@dataclass(frozen=True)
+class PluginLoad:
+    """What :meth:`PluginCatalogue.load` found: the plugins that loaded and the failures."""
+
+    items: tuple = ()
+    errors: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class PluginCatalogue:
+    """The built-in and third-party plugins of one kind.
+
+    Attributes
+    ----------
+    kind : str
+        What a plugin is, for messages (``"mutation operator"``).
+    group : str
+        The entry-point group.
+    base : type
+        The class every plugin instance must be an instance of.
+    builtins : sequence
+        The built-in instances, in order.
+    error : exception class
+        Raised by :meth:`get` for an unknown name.
+    warning : warning class
+        Issued by :meth:`load` for each plugin that fails.
+    """
+
+    kind: str
+    group: str
+    base: type
+    builtins: Sequence
+    error: type[Exception]
+    warning: type[Warning]
+
+    def _instances(self, obj) -> list:
+        base = self.base
+        if isinstance(obj, type) and issubclass(obj, base):
+            return [obj()]
+        if isinstance(obj, base):
+            return [obj]
+        if isinstance(obj, (str, bytes)) or not isinstance(obj, Iterable):
+            raise TypeError(f"must load to a {base.__name__} (class or instance) or an iterable of them, "
+                            f"got {type(obj).__name__}")
+        return [o() if isinstance(o, type) and issubclass(o, base) else o for o in obj]
+
+    def _problem(self, item, taken: dict[str, str]) -> str | None:
+        if not isinstance(item, self.base):
+            return f"yielded {type(item).__name__} {item!r}, not a {self.base.__name__}"
+        name = getattr(item, "name", None)
+        if not isinstance(name, str) or not _NAME.fullmatch(name):
+            return f"{self.kind.split()[-1]} name {name!r} is not lower-case snake_case"
+        description = getattr(item, "description", None)
+        if not isinstance(description, str) or not description.strip() or "\n" in description.strip():
+            return f"{self.kind.split()[-1]} {name!r} needs a one-line description"
+        if name in taken:
+            return f"duplicate {self.kind.split()[-1]} name {name!r} (already defined by {taken[name]})"
+        return None
+
+    def load(self, *, group: str | None = None, warn: bool = True) -> PluginLoad:
+        """Discover the third-party plugins (in entry-point name order)."""
+        builtin = {type(b) for b in self.builtins}
+        taken = {b.name: "faultlab (built-in)" for b in self.builtins}
+        items: list = []
+        errors: list[str] = []
+        label = self.kind.replace(" ", "-")
+        eps = importlib.metadata.entry_points(group=group or self.group)
+        for ep in sorted(eps, key=lambda e: (e.name, e.value)):
+            source = f"entry point {ep.name} = {ep.value}"
+            try:
+                loaded = self._instances(ep.load())
+            except Exception as exc:  # any import-time error of third-party code
+                errors.append(f"{label} plugin {ep.name!r} ({source}) failed to load: {type(exc).__name__}: {exc}")
+                continue
+            for item in loaded:
+                if type(item) in builtin:
+                    continue  # faultlab's own declaration of its built-ins
+                problem = self._problem(item, taken)
+                if problem:
+                    errors.append(f"{label} plugin {ep.name!r} ({source}): {problem}")
+                    continue
+                taken[item.name] = source
+                items.append(item)
+        if warn:
+            for e in errors:
+                warnings.warn(e, self.warning, stacklevel=3)
+        return PluginLoad(items=tuple(items), errors=tuple(errors))
+
+    def all(self, *, plugins: bool = True) -> list:
+        """The built-ins, then the plugins."""
+        return list(self.builtins) + (list(self.load().items) if plugins else [])
+
+    def get(self, name: str):
+        """The plugin called ``name`` (built-in or third-party); :attr:`error` with close names otherwise."""
+        for item in self.builtins:
+            if item.name == name:
+                return item
+        known = {item.name: item for item in self.all(plugins=True)}
+        if name in known:
+            return known[name]
+        close = difflib.get_close_matches(str(name), list(known), n=3, cutoff=0.6)
+        hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+        plural = self.kind.split()[-1] + "s"
+        raise self.error(f"unknown {self.kind} {name!r}{hint} Known {plural}: {', '.join(known)}")

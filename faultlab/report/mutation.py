@@ -1,0 +1,119 @@
+"""Report of a mutation campaign: score and comparison tables (CSV, Markdown), a mutant x suite
+matrix figure and a PDF, rendered from one :class:`~faultlab.analysis.mutation.MutationAnalysis`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.colors import ListedColormap
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+from faultlab.analysis.mutation import MutationAnalysis, analyse_mutation
+from faultlab.report.figures import PAGE_SIZE
+from faultlab.report.pdf import table_pages, text_pages, write_pdf
+from faultlab.vocabulary import SUITE_ORDER, ordered
+
+__all__ = ["MATRIX_CLASSES", "markdown_table", "score_table", "matrix_figure", "write_mutation_report"]
+
+#: Outcome classes of the matrix, in legend order, with their colours.
+MATRIX_CLASSES = {"killed": "#2b8cbe", "crash": "#e34a33", "timeout": "#fdbb84", "survived": "#f0f0f0",
+                  "cannot_judge": "#bdbdbd", "incomplete": "#ffffb2"}
+
+
+def markdown_table(frame: pd.DataFrame) -> str:
+    """A GitHub Markdown table of ``frame`` (cells as strings)."""
+    cols = [str(c) for c in frame.columns]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    for row in frame.astype(str).itertuples(index=False):
+        lines.append("| " + " | ".join(row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def score_table(analysis: MutationAnalysis, by: str = "all") -> pd.DataFrame:
+    """Scores as display strings: ``killed/judged``, score % and the 95 % Clopper-Pearson interval."""
+    s = analysis.scores[analysis.scores["by"] == by]
+    return pd.DataFrame({
+        "suite": s["suite"], "group": s["group"],
+        "killed / judged": [f"{k}/{n}" for k, n in zip(s["killed"], s["judged"])],
+        "crash / timeout": [f"{c}/{t}" for c, t in zip(s["crash"], s["timeout"])],
+        "incomplete": s["incomplete"],
+        "score": [f"{100 * v:.1f} %" for v in s["score"]],
+        "95 % CI": [f"{100 * lo:.1f}-{100 * hi:.1f} %" for lo, hi in zip(s["ci_low"], s["ci_high"])],
+    })
+
+
+def _mcnemar_table(analysis: MutationAnalysis) -> pd.DataFrame:
+    m = analysis.mcnemar
+    return pd.DataFrame({"suites": [f"{a} vs {b}" for a, b in zip(m["suite_a"], m["suite_b"])], "pairs": m["n"],
+                         "both": m["both"], "only first": m["a_only"], "only second": m["b_only"],
+                         "neither": m["neither"], "p (exact)": [f"{p:.3g}" for p in m["p"]],
+                         "p (Holm)": [f"{p:.3g}" for p in m["p_holm"]]})
+
+
+def matrix_figure(analysis: MutationAnalysis, *, figsize=PAGE_SIZE) -> Figure:
+    """Mutants (rows, grouped by unit) x suites (columns), coloured by outcome; run mutants only."""
+    o = analysis.outcomes[analysis.outcomes["outcome"].isin(MATRIX_CLASSES)]
+    suites = ordered(list(dict.fromkeys(o["suite"])), SUITE_ORDER)
+    o = o.assign(col=o["suite"] + np.where(o["run"].nunique() > 1, " r" + o["run"].astype(str), ""))
+    cols = [c for s in suites for c in sorted(set(o.loc[o["suite"] == s, "col"]))]
+    mutants = o.sort_values(["unit", "mutant"])["mutant"].drop_duplicates().tolist()
+    codes = {c: i for i, c in enumerate(MATRIX_CLASSES)}
+    grid = np.full((len(mutants), len(cols)), np.nan)
+    ri = {m: i for i, m in enumerate(mutants)}
+    ci = {c: j for j, c in enumerate(cols)}
+    for m, c, out in zip(o["mutant"], o["col"], o["outcome"]):
+        grid[ri[m], ci[c]] = codes[out]
+    fig = Figure(figsize=figsize)
+    ax = fig.add_axes([0.32, 0.06, 0.5, 0.88])
+    ax.imshow(grid, aspect="auto", interpolation="nearest", cmap=ListedColormap(list(MATRIX_CLASSES.values())),
+              vmin=-0.5, vmax=len(MATRIX_CLASSES) - 0.5)
+    ax.set_xticks(range(len(cols)), cols)
+    units = o.drop_duplicates("mutant").set_index("mutant").loc[mutants, "unit"].tolist()
+    starts = [i for i, u in enumerate(units) if i == 0 or units[i - 1] != u]
+    ax.set_yticks([s for s in starts], [units[s] for s in starts], fontsize=6)
+    for s in starts[1:]:
+        ax.axhline(s - 0.5, color="k", lw=0.4)
+    ax.set_title(f"{len(mutants)} mutants x suites (rows grouped by unit)", fontsize=10)
+    ax.legend(handles=[Patch(color=c, label=k) for k, c in MATRIX_CLASSES.items()], loc="upper left",
+              bbox_to_anchor=(1.02, 1), fontsize=7)
+    return fig
+
+
+def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path]:
+    """Analyse the campaign in ``results`` and write tables, Markdown and ``mutation.pdf`` to ``reports``."""
+    analysis = analyse_mutation(results)
+    out = Path(reports)
+    analysis.save(out)
+    meta = analysis.meta
+    all_scores, ops, units = score_table(analysis), score_table(analysis, "operator"), score_table(analysis, "unit")
+    counts = analysis.outcomes.drop_duplicates(["mutant", "run", "suite"]).groupby(["suite", "outcome"]).size()
+    counts = counts.unstack(fill_value=0).reset_index()
+    md = ["# Mutation analysis", "",
+          f"{meta['n_mutants_run']} mutants run, {meta['n_screened']} screened out before the campaign "
+          f"(stillborn, equivalent, duplicate); K = {meta['repetitions']} repetitions per case; a suite kills a "
+          f"mutant when one case's exact paired sign-flip test rejects at alpha / n_cases (alpha = {meta['alpha']}, "
+          f"Bonferroni over the suite's cases, valid under early stopping) or the mutant alone crashes or times out. "
+          f"{meta['n_jobs']} SLAM executions, {meta['runtime_s_sum']:.0f} s of SLAM time."
+          + (" The campaign is INCOMPLETE: 'incomplete' mutants were not killed by the cases run so far and count "
+             "as not killed, so every score is a lower bound." if (analysis.outcomes["outcome"] == "incomplete").any()
+             else ""), "",
+          "## Mutation score per suite (95 % Clopper-Pearson)", "", markdown_table(all_scores.drop(columns="group")),
+          "## Outcomes per suite", "", markdown_table(counts),
+          "## Suites compared on the same mutants (exact McNemar)", "", markdown_table(_mcnemar_table(analysis)),
+          "## Score per operator", "", markdown_table(ops), "## Score per unit", "", markdown_table(units)]
+    paths = [out / f"{n}.csv" for n in ("outcomes", "scores", "mcnemar")]
+    (out / "mutation.md").write_text("\n".join(md))
+    paths.append(out / "mutation.md")
+    pages = text_pages("Mutation analysis", [md[2]])
+    pages += table_pages("Mutation score per suite", all_scores)
+    pages += table_pages("Outcomes per suite", counts.astype(str))
+    pages += table_pages("Suites compared (exact McNemar)", _mcnemar_table(analysis))
+    pages.append(matrix_figure(analysis))
+    pages += table_pages("Score per operator", ops)
+    pages += table_pages("Score per unit", units)
+    write_pdf(out / "mutation.pdf", pages, title="faultlab mutation report")
+    paths.append(out / "mutation.pdf")
+    return paths

@@ -1,0 +1,53 @@
+"""The fidelity page renders a Fidelity result as it is: every cell, the rule, the verdicts in words."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from faultlab.analysis.fidelity import FIDELITY, Fidelity, compare_with_paper
+from faultlab.report.fidelity import fidelity_markdown, write_fidelity
+
+
+def _fidelity(n_steps: int = 1000) -> Fidelity:
+    rng = np.random.default_rng(1)
+    rows = []
+    for source in ("this", "paper"):
+        for suite in ("systematic", "fixed"):
+            for variant, scale in (("baseline", 60.0), ("missing_angle_wrap", 2000.0)):
+                factor = 10.0 if (source == "this" and suite == "fixed" and variant == "baseline") else 1.0
+                for i, x in enumerate(np.exp(rng.normal(np.log(scale * factor), 0.05, 15))):
+                    rows.append({"source": source, "run": 1 + i // 5, "suite": suite, "case": 1 + i % 5,
+                                 "variant": variant, "rep": 0, "rms_mm": x, "status": "ok"})
+    df = pd.DataFrame(rows)
+    meta = {"experiment": {"n_steps": n_steps, "runs": 3, "fov_bug": True,
+                           "slam": {"name": "fastslam", "profile": "paper", "particles": 200}}}
+    return compare_with_paper(df[df.source == "this"], df[df.source == "paper"], metadata=meta, n_boot=500)
+
+
+def test_markdown_names_what_ran_the_rule_and_every_verdict():
+    fid = _fidelity()
+    md = fidelity_markdown(fid)
+    assert "profile `paper`, fov_bug = true, 3 run(s), 1000 steps per case, 200 particles" in md
+    assert "REDUCED" not in md
+    assert "Mann-Whitney U" in md and "Holm" in md and "[1/2, 2]" in md
+    table_rows = [line for line in md.splitlines() if line.startswith("| ") and "---" not in line][1:]
+    assert len(table_rows) == len(fid.table) == 4
+    for row, verdict in zip(table_rows, fid.table["verdict"]):
+        assert row.rstrip(" |").endswith(verdict)
+    assert fid.table.loc[(fid.table.suite == "fixed") & (fid.table.variant == "baseline"), "verdict"].item() \
+        == "differs"
+    assert "Differs (1): Fixed / Nonfaulty Baseline." in md
+    assert "## Faulty rotation (`missing_angle_wrap`)" in md
+    rot = fid.table[fid.table.variant == "missing_angle_wrap"]
+    lo, hi, plo, phi = rot.min_mm.min(), rot.max_mm.max(), rot.paper_min_mm.min(), rot.paper_max_mm.max()
+    inside = plo <= lo and hi <= phi  # both samples ~2000 mm with 5 % spread: never far apart
+    assert ("within the paper's range." in md) == inside
+    assert inside or "the same range within a factor of 2 at both ends; the ranges overlap" in md
+
+
+def test_a_reduced_campaign_is_labelled_and_files_hold_the_table(tmp_path):
+    fid = _fidelity(n_steps=200)
+    files = write_fidelity(fid, tmp_path / "r")
+    assert "**REDUCED configuration**" in files.markdown.read_text()
+    pd.testing.assert_frame_equal(FIDELITY.read_csv(files.csv), fid.table)
