@@ -500,6 +500,7 @@ class FastSlam(UnitSlam):
         self._sorted_ids = np.empty(0, dtype=np.intp)  # lookup: sorted ids ...
         self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
         self._offsets = None  # storage offset of each particle's filter, (B N,), when B > 1
+        self._views = None  # per-slot views of the storage buffers (see _filter_state)
         self._t = 0
         self._started = True
 
@@ -540,10 +541,12 @@ class FastSlam(UnitSlam):
     def _filter_state(self, j: int) -> ParticleState:
         """The :class:`ParticleState` of the filter in slot ``j``: views of the batch's arrays."""
         sl = self._slice(j)
-        return ParticleState(poses=self._poses[sl], logw=self._logw[sl], ids=self._ids,
-                             mu=self._mu[:, :, sl].transpose(2, 1, 0), P=self._P[:, :, :, sl].transpose(3, 2, 0, 1),
-                             anc=self._anc[sl], lineage=self._lineage[j], owner=self._owner[j],
-                             sequential_sharers=self._sharers[j])
+        if self._views is None:  # storage views of every slot, until the buffers change
+            self._views = [(self._mu[:, :, s].transpose(2, 1, 0), self._P[:, :, :, s].transpose(3, 2, 0, 1),
+                            self._anc[s]) for s in map(self._slice, range(len(self._reps)))]
+        mu, P, anc = self._views[j]
+        return ParticleState(poses=self._poses[sl], logw=self._logw[sl], ids=self._ids, mu=mu, P=P, anc=anc,
+                             lineage=self._lineage[j], owner=self._owner[j], sequential_sharers=self._sharers[j])
 
     def _store(self, j: int, given: ParticleState, st: ParticleState) -> None:
         """Write the state a per-filter unit returned for slot ``j`` back into the batch's arrays."""
@@ -554,8 +557,6 @@ class FastSlam(UnitSlam):
             if np.shape(getattr(st, name)) != shape:
                 raise SlamOutputError(f"{self.name}: apply_resample returned {name} of shape "
                                       f"{np.shape(getattr(st, name))}, expected {shape}")
-        if st.ids is not given.ids and not np.array_equal(st.ids, given.ids):
-            raise SlamOutputError(f"{self.name}: apply_resample changed the landmark ids of the storage columns")
         if slots == 1:
             self._poses, self._logw = st.poses, st.logw
         else:
@@ -569,6 +570,10 @@ class FastSlam(UnitSlam):
         self._lineage[j] = st.lineage
         self._owner[j] = st.owner
         self._sharers[j] = bool(st.sequential_sharers)
+        if st.mu is given.mu and st.P is given.P and st.anc is given.anc and st.ids is given.ids:
+            return
+        if st.ids is not given.ids and not np.array_equal(st.ids, given.ids):
+            raise SlamOutputError(f"{self.name}: apply_resample changed the landmark ids of the storage columns")
         # landmark storage that the unit replaced (another layout, a deep copy) is copied back into the batch's
         cap = self._mu.shape[1]
         for name, shape in (("mu", (n, cap, 2)), ("P", (n, cap, 2, 2)), ("anc", (n, cap))):
@@ -600,6 +605,7 @@ class FastSlam(UnitSlam):
             setattr(self, name, [getattr(self, name)[j] for j in keep])
         self._dead = []
         self._offsets = None
+        self._views = None
 
     def _estimate(self, j: int) -> Estimate:
         st = self._filter_state(j)
@@ -665,6 +671,7 @@ class FastSlam(UnitSlam):
         P[:, :, :C] = self._P[:, :, :C]
         anc[:, :C] = self._anc[:, :C]
         self._mu, self._P, self._anc = mu, P, anc
+        self._views = None
 
     # -- internals: the correction -------------------------------------------------------------
 
