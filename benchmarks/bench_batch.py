@@ -9,7 +9,9 @@ K repetitions (``run_slam_batch``, default K = 10), and prints per repetition: C
 particle-observation updates per second per core (N x observations / CPU time) and the speed-up
 of the batch.  Then, in a fresh process, the peak memory (``resource.getrusage`` max RSS) of the
 largest case at K repetitions.  The load average is printed before and after; the figures are
-CPU times of this process, the best of ``--rounds`` alternations.
+CPU times of this process, the best of ``--rounds`` alternations.  Like the campaign's workers, the
+benchmark first tunes glibc's allocator (:func:`faultlab.runner.execute.tune_allocator`;
+``--no-tune`` measures with the default thresholds).
 
 Targets: K = 10 per-repetition speed-up >= 3x on the fixed case; peak memory of the largest case
 at K = 10 <= 4 GiB.  Not a test: nothing is asserted.
@@ -30,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from faultlab.runner.execute import tune_allocator  # noqa: E402
 from faultlab.scenario import generate_scenario  # noqa: E402
 from faultlab.slam import FastSlam, FastSlamConfig, run_slam, run_slam_batch  # noqa: E402
 from faultlab.space.case import FIXED_VALUES, CaseSpec  # noqa: E402
@@ -55,14 +58,15 @@ def cpu_per_rep(sc, k: int, seed: int) -> tuple[float, float]:
     return (time.process_time() - c0) / k, (time.perf_counter() - t0) / k
 
 
-def peak_memory(k: int, seed: int) -> float:
+def peak_memory(k: int, seed: int, tune: bool) -> float:
     """Peak RSS (GiB) of a fresh process that runs the largest case with ``k`` batched repetitions."""
     code = ("import resource, sys; sys.argv = ['x']; import numpy as np; "
-            "sys.path.insert(0, %r); import bench_batch as b; sc = b.scenario('largest', %d); "
+            "sys.path.insert(0, %r); import bench_batch as b; b.tune_allocator() if %r else None; "
+            "sc = b.scenario('largest', %d); "
             "base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss; "
             "b.run_slam_batch(b.FastSlam(), sc, rngs=[np.random.default_rng(%d + i) for i in range(%d)]); "
             "print(base, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
-            % (str(Path(__file__).resolve().parent), seed, seed, k))
+            % (str(Path(__file__).resolve().parent), tune, seed, seed, k))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
     base_kib, peak_kib = map(int, out.stdout.split())
@@ -79,11 +83,13 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=2, help="alternations of K = 1 and K; the best is kept")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--quick", action="store_true", help="skip the largest case and the memory measurement")
+    ap.add_argument("--no-tune", action="store_true", help="keep glibc's default allocator thresholds")
     args = ap.parse_args(argv)
+    tuned = False if args.no_tune else tune_allocator()
     n = FastSlamConfig().n_particles
     names = ["fixed", "small map"] + ([] if args.quick else ["largest"])
-    print(f"batched FastSLAM benchmark: N = {n}, K = {args.k}, {os.cpu_count()} CPUs, "
-          f"load average before: {load()}")
+    print(f"batched FastSLAM benchmark: N = {n}, K = {args.k}, {os.cpu_count()} CPUs, allocator "
+          f"{'tuned' if tuned else 'default'}, load average before: {load()}")
     rows = []
     for name in names:
         sc = scenario(name, args.seed)
@@ -106,7 +112,7 @@ def main(argv=None) -> int:
     print(f"\nper-repetition speed-up, fixed case, K = {args.k} over K = 1 (CPU): {ratio:.2f}x "
           f"({'met' if ratio >= SPEEDUP_TARGET else 'MISSED'}: target >= {SPEEDUP_TARGET:g}x)")
     if not args.quick:
-        peak, base = peak_memory(args.k, args.seed)
+        peak, base = peak_memory(args.k, args.seed, tuned)
         print(f"peak memory, largest case, K = {args.k}: {peak:.2f} GiB max RSS (process after generating "
               f"the case: {base:.2f} GiB) ({'met' if peak <= MEMORY_TARGET_GIB else 'MISSED'}: target <= "
               f"{MEMORY_TARGET_GIB:g} GiB)")

@@ -35,9 +35,11 @@ its worker twice is recorded as ``crash`` for each of its repetitions.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import dataclasses
 import math
 import os
+import platform
 import signal
 import threading
 import time
@@ -73,6 +75,7 @@ __all__ = [
     "RunSummary",
     "execute_job",
     "execute_batch",
+    "tune_allocator",
     "prepare_cases",
     "run_experiment",
 ]
@@ -223,6 +226,41 @@ def _alarm(seconds: float) -> Iterator[bool]:
             signal.signal(signal.SIGALRM, previous)
 
 
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
+_allocator_tuned: bool | None = None
+
+
+def tune_allocator() -> bool:
+    """Make glibc reuse freed memory instead of returning it to the system at every free (once per process).
+
+    A SLAM step allocates and frees dozens of numpy work arrays.  glibc maps arrays above its mmap
+    threshold (128 KiB, raised at run time up to what was freed) directly from the system and
+    trims the top of the heap when more than twice that threshold is free, so with arrays of a
+    few hundred kB and more every new array starts with page faults: the largest Table I case
+    took up to 5 million minor page faults and 1.8 times the CPU time with ten batched
+    repetitions, 20 % more with one.  Raising both thresholds (mmap: 32 MiB, the maximum; trim:
+    1 GiB) keeps the memory in the process for reuse; a worker's resident size then stays at its
+    peak.  Only the allocation strategy changes, never a result.  Called by the job executors;
+    does nothing off glibc.
+
+    Returns
+    -------
+    bool
+        Whether the thresholds are set (False off glibc or if ``mallopt`` refused).
+    """
+    global _allocator_tuned
+    if _allocator_tuned is None:
+        _allocator_tuned = False
+        if platform.system() == "Linux" and platform.libc_ver()[0] == "glibc":
+            try:
+                libc = ctypes.CDLL(None)
+                _allocator_tuned = bool(libc.mallopt(_M_MMAP_THRESHOLD, 32 << 20)
+                                        and libc.mallopt(_M_TRIM_THRESHOLD, 1 << 30))
+            except (OSError, AttributeError):
+                pass
+    return _allocator_tuned
+
+
 def _describe(exc: BaseException) -> str:
     """``"Type: message (at file.py:line in func)"`` with the innermost frame."""
     text = f"{type(exc).__name__}: {exc}"
@@ -257,6 +295,7 @@ def execute_job(spec: JobSpec) -> JobResult:
     SUT failures become ``crash``/``timeout`` results; only infrastructure
     errors (e.g. a missing case file) raise.
     """
+    tune_allocator()
     scenario = load_scenario(spec.case_path)
     t0 = time.perf_counter()
     try:
@@ -290,6 +329,7 @@ def execute_batch(batch: JobBatch) -> list[JobResult]:
     specs = batch.jobs
     if len(specs) == 1:
         return [execute_job(specs[0])]
+    tune_allocator()
     scenario = load_scenario(specs[0].case_path)
     t0 = time.perf_counter()
     try:

@@ -1,6 +1,7 @@
 import dataclasses
 import json
 import math
+import platform
 import signal
 import sqlite3
 import threading
@@ -21,7 +22,8 @@ from faultlab.runner import (
     run_experiment,
 )
 from faultlab.faults import FaultNotApplicableWarning
-from faultlab.runner.execute import SKIPPED_VARIANTS_KEY, _alarm, execute_batch, execute_job
+from faultlab.runner import execute as execute_module
+from faultlab.runner.execute import SKIPPED_VARIANTS_KEY, _alarm, execute_batch, execute_job, tune_allocator
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, expand_jobs
 from faultlab.seeds import case_seed, slam_seed, suite_seed_sequence
 from faultlab.scenario import generate_scenario, load_scenario
@@ -396,3 +398,12 @@ def test_prepare_cases_passes_fov_bug_and_notices_a_mismatch(tmp_path):
     np.testing.assert_array_equal(saved.obs_bearing, direct.obs_bearing)
     with pytest.raises(ResultsError, match="fov_bug = True there, False here"):
         prepare_cases(exp.replace(fov_bug=False), tmp_path / "out")
+
+
+@pytest.mark.skipif(platform.system() != "Linux" or platform.libc_ver()[0] != "glibc", reason="glibc only")
+def test_the_executors_tune_glibcs_allocator_once(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", **_one_case()))
+    (info,) = prepare_cases(exp, tmp_path)
+    execute_job(JobSpec(JobKey(1, "random", 1, "baseline", 0), str(info.path), exp.slam, seed=1, timeout_s=30.0))
+    assert execute_module._allocator_tuned is True  # set by the executor, in this (worker) process
+    assert tune_allocator() is True
