@@ -30,6 +30,9 @@ attribute to one repetition makes the worker rerun the batch's repetitions one a
 row is still the one a single run gives.  A batch's wall-clock limit is ``timeout_s`` times its
 number of repetitions; past it, every repetition is recorded as ``timeout``.  A batch that kills
 its worker twice is recorded as ``crash`` for each of its repetitions.
+
+The executors tune glibc's allocator once per worker process (:func:`tune_allocator`), so that the
+SLAM's large work arrays are reused instead of being mapped and unmapped at every allocation.
 """
 
 from __future__ import annotations
