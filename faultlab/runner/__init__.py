@@ -9,6 +9,7 @@ from faultlab.runner.execute import (
     CaseInfo,
     JobResult,
     RunSummary,
+    execute_batch,
     execute_job,
     prepare_cases,
     run_experiment,
@@ -20,7 +21,7 @@ from faultlab.runner.experiment import (
     load_experiment,
     parse_experiment,
 )
-from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
+from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, batch_jobs, expand_jobs
 from faultlab.runner.store import (
     RESULT_COLUMNS,
     ResultStore,
@@ -38,11 +39,14 @@ __all__ = [
     "parse_experiment",
     "JobKey",
     "JobSpec",
+    "JobBatch",
     "JobResult",
     "CaseInfo",
     "RunSummary",
     "expand_jobs",
+    "batch_jobs",
     "execute_job",
+    "execute_batch",
     "prepare_cases",
     "run_experiment",
     "RESULT_COLUMNS",

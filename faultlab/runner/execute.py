@@ -17,6 +17,19 @@ deadline check between SLAM steps is the fallback.  A loky worker that dies
 (segfault, ``os._exit``, out of memory) is detected, its in-flight jobs are
 rerun one by one in a fresh worker, and the job that kills its worker again is
 recorded as ``crash``.
+
+Batched repetitions: when the SLAM under test runs repetitions in a batch (``supports_batch``,
+e.g. the reference FastSLAM), the repetitions of one (case, variant) still missing from the store
+form one :class:`~faultlab.runner.jobs.JobBatch`, run by one worker as one batched SLAM
+(:func:`execute_batch`).  Each repetition keeps its seed and gets its own row, identical to the
+row it would get alone (only ``runtime_s`` differs: every row of a batch records the batch's SLAM
+time divided by the number of repetitions in it).  A resumed campaign batches only the missing
+repetitions.  A failure of one repetition (non-finite weights, an exception in a unit called for
+its filter alone) is recorded as that repetition's ``crash``; an exception the batched SLAM cannot
+attribute to one repetition makes the worker rerun the batch's repetitions one at a time, so every
+row is still the one a single run gives.  A batch's wall-clock limit is ``timeout_s`` times its
+number of repetitions; past it, every repetition is recorded as ``timeout``.  A batch that kills
+its worker twice is recorded as ``crash`` for each of its repetitions.
 """
 
 from __future__ import annotations
@@ -43,13 +56,13 @@ from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioEr
 from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, resolve_variant, slam_units
 from faultlab.metrics import map_errors
 from faultlab.runner.experiment import Experiment, load_experiment
-from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
+from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, batch_jobs, expand_jobs
 from faultlab.runner.progress import format_duration
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import ID_COLUMNS, ResultStore, case_path, store_lock
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
-from faultlab.slam.protocol import Estimate, SlamAdapter, run_slam
+from faultlab.slam.protocol import Estimate, SlamAdapter, run_slam, run_slam_batch
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.vocabulary import BACKENDS, JobStatus
 
@@ -59,6 +72,7 @@ __all__ = [
     "CaseInfo",
     "RunSummary",
     "execute_job",
+    "execute_batch",
     "prepare_cases",
     "run_experiment",
 ]
@@ -154,6 +168,7 @@ class _Guarded(SlamAdapter):
         self.inner = inner
         self.deadline = deadline
         self.name = getattr(inner, "name", type(inner).__name__)
+        self.supports_batch = bool(getattr(inner, "supports_batch", False))
 
     def _check(self) -> None:
         if time.monotonic() > self.deadline:
@@ -170,6 +185,14 @@ class _Guarded(SlamAdapter):
     def estimate(self) -> Estimate:
         self._check()
         return self.inner.estimate()
+
+    def reset_batch(self, pose, *, rngs):
+        self._check()
+        self.inner.reset_batch(pose, rngs=rngs)
+
+    def estimates(self) -> list:
+        self._check()
+        return self.inner.estimates()
 
 
 @contextlib.contextmanager
@@ -210,6 +233,24 @@ def _describe(exc: BaseException) -> str:
     return text
 
 
+def _build(spec: JobSpec) -> SlamAdapter:
+    """The SLAM under test of ``spec`` with its variant's fault applied."""
+    slam = spec.slam.build()
+    fault = resolve_variant(spec.key.variant)
+    return slam if fault is None else fault.apply(slam)
+
+
+def _score(key: JobKey, scenario: Scenario, estimate: Estimate, runtime: float) -> JobResult:
+    """The ``ok`` result of an estimate, or ``crash`` if the metrics cannot score it."""
+    try:
+        with np.errstate(all="ignore"):
+            err = map_errors(scenario, estimate)
+    except Exception as exc:  # e.g. an estimate the metrics cannot score
+        return JobResult(key, JobStatus.CRASH, runtime_s=runtime, error=f"metrics: {_describe(exc)}")
+    return JobResult(key, JobStatus.OK, rms_mm=float(err.rms_mm), emd_mm=float(err.emd_mm),
+                     n_mapped=int(err.n_mapped), n_unmapped=int(err.n_unmapped), runtime_s=runtime)
+
+
 def execute_job(spec: JobSpec) -> JobResult:
     """Run one job: load its case, build the SLAM (+ fault), drive it, score the map.
 
@@ -222,10 +263,7 @@ def execute_job(spec: JobSpec) -> JobResult:
         try:
             with _alarm(spec.timeout_s):
                 deadline = time.monotonic() + spec.timeout_s
-                slam = spec.slam.build()
-                fault = resolve_variant(spec.key.variant)
-                if fault is not None:
-                    slam = fault.apply(slam)
+                slam = _build(spec)
                 with np.errstate(all="ignore"):  # a NaN estimate is reported as a crash row, not as warnings
                     estimate = run_slam(_Guarded(slam, deadline), scenario,
                                         rng=np.random.default_rng(spec.seed))
@@ -236,13 +274,50 @@ def execute_job(spec: JobSpec) -> JobResult:
                          error=f"timeout: wall-clock limit of {spec.timeout_s:g} s exceeded")
     except (Exception, SystemExit) as exc:  # the SUT's fault, never the campaign's
         return JobResult(spec.key, JobStatus.CRASH, runtime_s=runtime, error=_describe(exc))
+    return _score(spec.key, scenario, estimate, runtime)
+
+
+def execute_batch(batch: JobBatch) -> list[JobResult]:
+    """Run the repetitions of a batch in one batched SLAM; one result per job, in the batch's order.
+
+    Each repetition's result is the one :func:`execute_job` gives for it, except ``runtime_s``
+    (the batch's SLAM time divided by its number of repetitions).  A repetition that fails on
+    its own is a ``crash`` with its own message; an exception the batched SLAM cannot attribute
+    to one repetition reruns every repetition alone with :func:`execute_job`.  Past the batch's
+    limit (:attr:`JobBatch.timeout_s`) every repetition is a ``timeout``.  A SLAM without
+    ``supports_batch``, or a batch of one, runs job by job.
+    """
+    specs = batch.jobs
+    if len(specs) == 1:
+        return [execute_job(specs[0])]
+    scenario = load_scenario(specs[0].case_path)
+    t0 = time.perf_counter()
     try:
-        with np.errstate(all="ignore"):
-            err = map_errors(scenario, estimate)
-    except Exception as exc:  # e.g. an estimate the metrics cannot score
-        return JobResult(spec.key, JobStatus.CRASH, runtime_s=runtime, error=f"metrics: {_describe(exc)}")
-    return JobResult(spec.key, JobStatus.OK, rms_mm=float(err.rms_mm), emd_mm=float(err.emd_mm),
-                     n_mapped=int(err.n_mapped), n_unmapped=int(err.n_unmapped), runtime_s=runtime)
+        try:
+            with _alarm(batch.timeout_s):
+                deadline = time.monotonic() + batch.timeout_s
+                slam = _build(specs[0])
+                if not getattr(slam, "supports_batch", False):
+                    outcomes = None
+                else:
+                    with np.errstate(all="ignore"):
+                        outcomes = run_slam_batch(_Guarded(slam, deadline), scenario,
+                                                  rngs=[np.random.default_rng(s.seed) for s in specs])
+        finally:
+            runtime = time.perf_counter() - t0
+    except _JobTimeout:
+        share = runtime / len(specs)
+        return [JobResult(s.key, JobStatus.TIMEOUT, runtime_s=share,
+                          error=f"timeout: wall-clock limit of {batch.timeout_s:g} s exceeded by a batch of "
+                                f"{len(specs)} repetitions ({s.timeout_s:g} s each)") for s in specs]
+    except (Exception, SystemExit):  # not attributable to one repetition: run each alone
+        outcomes = None
+    if outcomes is None:
+        return [execute_job(s) for s in specs]
+    share = runtime / len(specs)
+    return [JobResult(s.key, JobStatus.CRASH, runtime_s=share, error=_describe(out))
+            if isinstance(out, BaseException) else _score(s.key, scenario, out, share)
+            for s, out in zip(specs, outcomes)]
 
 
 def _worker_died(spec: JobSpec, exc: BaseException) -> JobResult:
@@ -251,20 +326,20 @@ def _worker_died(spec: JobSpec, exc: BaseException) -> JobResult:
                            f"(segfault, os._exit or out of memory): {type(exc).__name__}")
 
 
-def _find_killer(suspects: list[JobSpec]) -> tuple[list[JobResult], list[JobSpec]]:
+def _find_killer(suspects: list[JobBatch]) -> tuple[list[JobResult], list[JobBatch]]:
     """Run suspects one at a time in a private single-worker pool until one kills its worker.
 
-    Returns the results obtained (the killer recorded as ``crash``) and the
+    Returns the results obtained (every job of the killer recorded as ``crash``) and the
     suspects not run yet, which go back to the parallel pool.
     """
     results: list[JobResult] = []
     executor = ProcessPoolExecutor(max_workers=1)  # private: joblib's reusable executor stays untouched
     try:
-        for i, spec in enumerate(suspects):
+        for i, batch in enumerate(suspects):
             try:
-                results.append(executor.submit(execute_job, spec).result())
+                results.extend(executor.submit(execute_batch, batch).result())
             except BrokenProcessPool as exc:
-                results.append(_worker_died(spec, exc))
+                results.extend(_worker_died(spec, exc) for spec in batch.jobs)
                 return results, suspects[i + 1:]
     finally:
         executor.shutdown(wait=True)
@@ -328,13 +403,14 @@ def _case_info(case: SuiteCase, path: Path, scenario: Scenario) -> CaseInfo:
                     n_landmarks=n_lm, cost=cost)
 
 
-def _preflight(experiment: Experiment) -> tuple[NotApplicable, ...]:
+def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable, ...]]:
     """Build the SUT and apply every fault once in the parent: configuration errors fail fast.
 
     A fault that replaces a unit the SUT does not have (:func:`faultlab.faults.not_applicable`:
     e.g. a resampling fault and EKF-SLAM, or any fault and dead reckoning) does not apply: its
     variant is skipped with a :class:`~faultlab.faults.FaultNotApplicableWarning` naming fault,
     unit and SLAM, and returned so that the caller drops its jobs and records it in the store.
+    Returns the built SUT (without fault) and the skipped variants.
     """
     try:
         slam = experiment.slam.build()
@@ -364,7 +440,7 @@ def _preflight(experiment: Experiment) -> tuple[NotApplicable, ...]:
         except FaultlabError as exc:
             raise ConfigError(f"{experiment.source}: variants[{i}] = {variant!r} cannot be applied to "
                               f"slam {experiment.slam.name!r}: {exc}") from exc
-    return tuple(skipped)
+    return slam, tuple(skipped)
 
 
 @contextlib.contextmanager
@@ -407,33 +483,33 @@ def _backend(name: str, jobs: int) -> Iterator[tuple[str, int]]:
         raise ConfigError(f"unknown backend {name!r}; use one of {', '.join(BACKENDS)}")
 
 
-def _stream(todo: list[JobSpec], *, jobs: int, backend: str) -> Iterator[JobResult]:
-    """Execute ``todo`` and yield results as they finish (any order)."""
+def _stream(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator[JobResult]:
+    """Execute the batches of ``todo`` and yield their jobs' results as they finish (any order)."""
     pending = list(todo)
     while pending:
-        dispatched: set[JobKey] = set()
-        returned: set[JobKey] = set()
+        dispatched: set[tuple[JobKey, ...]] = set()
+        returned: set[tuple[JobKey, ...]] = set()
 
-        def tasks(specs: list[JobSpec]):
-            for s in specs:
-                dispatched.add(s.key)
-                yield delayed(execute_job)(s)
+        def tasks(batches: list[JobBatch]):
+            for b in batches:
+                dispatched.add(b.keys)
+                yield delayed(execute_batch)(b)
 
         try:
             with _backend(backend, jobs) as (name, n_jobs), parallel_config(backend=name, n_jobs=n_jobs):
                 parallel = Parallel(return_as="generator_unordered", batch_size=1)
-                for result in parallel(tasks(pending)):
-                    returned.add(result.key)
-                    yield result
+                for results in parallel(tasks(pending)):
+                    returned.add(tuple(r.key for r in results))
+                    yield from results
             return
         except BrokenProcessPool:
             if backend != "loky":
                 raise
-            # A worker died. Jobs in flight are suspects: rerun each alone; a repeat kill is a crash.
-            suspects = [s for s in pending if s.key in dispatched and s.key not in returned]
+            # A worker died. Batches in flight are suspects: rerun each alone; a repeat kill is a crash.
+            suspects = [b for b in pending if b.keys in dispatched and b.keys not in returned]
             results, innocent = _find_killer(suspects)
             yield from results
-            pending = innocent + [s for s in pending if s.key not in dispatched]
+            pending = innocent + [b for b in pending if b.keys not in dispatched]
 
 
 def _row(case: CaseInfo, res: JobResult) -> dict:
@@ -452,7 +528,8 @@ def _row(case: CaseInfo, res: JobResult) -> dict:
 
 
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
-                   backend: str = "loky", force_new: bool = False, progress: bool = True) -> RunSummary:
+                   backend: str = "loky", force_new: bool = False, progress: bool = True,
+                   batch_size: int | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
 
     Parameters
@@ -477,6 +554,11 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         Show progress on stderr (:func:`faultlab.runner.progress.progress`): a tqdm bar on a
         terminal, otherwise a log line every 10 % of the jobs (done/total, crashes and
         timeouts so far, elapsed time, ETA).
+    batch_size : int, optional
+        For a SLAM that runs repetitions in a batch (``supports_batch``): at most this many
+        repetitions of a (case, variant) per job (default: all that are missing from the store;
+        1: one repetition per job).  The results are the same whatever the batch size, except
+        ``runtime_s``.
 
     Returns
     -------
@@ -495,9 +577,12 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         raise ConfigError(f"jobs must be an integer >= 1, got {jobs!r}")
     if backend not in BACKENDS:
         raise ConfigError(f"unknown backend {backend!r}; use one of {', '.join(BACKENDS)}")
+    if batch_size is not None and (isinstance(batch_size, bool) or not isinstance(batch_size, int)
+                                   or batch_size < 1):
+        raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")
     t0 = time.perf_counter()
     out = Path(out)
-    skipped = _preflight(experiment)
+    sut, skipped = _preflight(experiment)
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
         store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
         cases = prepare_cases(experiment, out)
@@ -508,7 +593,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
             specs = [s for s in specs if s.key.variant not in names]
         done = store.done_keys()
         todo = [s for s in specs if s.key.astuple() not in done]
-        todo.sort(key=lambda s: (-s.cost, s.key))  # longest first: shorter tail on few workers
+        # the missing repetitions of a (case, variant) run as one batched SLAM if the SUT can
+        batches = batch_jobs(todo, size=batch_size if getattr(sut, "supports_batch", False) else 1)
+        batches.sort(key=lambda b: (-b.cost, b.keys))  # longest first: shorter tail on few workers
         counts = {s.value: 0 for s in JobStatus} | store.status_counts()
         session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
         n_new, state = 0, "interrupted"
@@ -516,7 +603,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
             with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
                                enabled=progress,
                                counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
-                for res in _stream(todo, jobs=jobs, backend=backend):
+                for res in _stream(batches, jobs=jobs, backend=backend):
                     k = res.key
                     store.write(_row(info[(k.run, k.suite, k.case)], res), session=session)
                     n_new += 1

@@ -2,18 +2,24 @@
 
 Seeds follow the scheme of :mod:`faultlab.seeds`: repetition ``rep`` of a case uses the same SLAM
 seed for every variant (common random numbers), except the A/A control ``baseline_replica``.
+
+When the SLAM under test runs repetitions in a batch (``supports_batch``, e.g. the reference
+FastSLAM), the repetitions of one (case, variant) still to be run are grouped into one
+:class:`JobBatch` (:func:`batch_jobs`), executed by one worker in one batched SLAM; every
+repetition keeps its own job identity, seed and result row.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Iterable, Sequence
 
+from faultlab.errors import ConfigError
 from faultlab.runner.experiment import Experiment, SlamSpec
 from faultlab.seeds import slam_seed
 from faultlab.vocabulary import REPLICA
 
-__all__ = ["JobKey", "JobSpec", "expand_jobs"]
+__all__ = ["JobKey", "JobSpec", "JobBatch", "expand_jobs", "batch_jobs"]
 
 
 @dataclass(frozen=True, order=True)
@@ -78,3 +84,80 @@ def expand_jobs(experiment: Experiment, cases: Iterable[tuple[int, str, int, str
                                                    replica=variant == REPLICA),
                                     timeout_s=experiment.timeout_s, cost=float(cost)))
     return jobs
+
+
+@dataclass(frozen=True)
+class JobBatch:
+    """Jobs executed together by one worker: repetitions of one (run, suite, case, variant).
+
+    A batch of one job is an ordinary job.  Several jobs run as one batched SLAM
+    (:func:`faultlab.slam.protocol.run_slam_batch`), each with its own seed; their results are
+    recorded as separate rows, exactly as if each had run alone.
+
+    Attributes
+    ----------
+    jobs : tuple of JobSpec
+        Same case, variant and SLAM; distinct repetitions.
+    """
+
+    jobs: tuple[JobSpec, ...]
+
+    def __post_init__(self) -> None:
+        if not self.jobs:
+            raise ConfigError("a JobBatch needs at least one job")
+        first = self.jobs[0].key
+        for spec in self.jobs[1:]:
+            k = spec.key
+            if (k.run, k.suite, k.case, k.variant) != (first.run, first.suite, first.case, first.variant):
+                raise ConfigError(f"a JobBatch holds repetitions of one case and variant, got {first} and {k}")
+
+    def __len__(self) -> int:
+        return len(self.jobs)
+
+    @property
+    def keys(self) -> tuple[JobKey, ...]:
+        return tuple(s.key for s in self.jobs)
+
+    @property
+    def cost(self) -> float:
+        """Sum of the jobs' cost estimates (used only to dispatch long batches first)."""
+        return float(sum(s.cost for s in self.jobs))
+
+    @property
+    def timeout_s(self) -> float:
+        """Wall-clock limit of the batch: each job's limit times the number of jobs."""
+        return float(sum(s.timeout_s for s in self.jobs))
+
+    def __str__(self) -> str:
+        k = self.jobs[0].key
+        reps = ",".join(str(s.key.rep) for s in self.jobs)
+        return f"run {k.run} {k.suite} case {k.case} {k.variant} reps {reps}"
+
+
+def batch_jobs(specs: Sequence[JobSpec], *, size: int | None = None) -> list[JobBatch]:
+    """Group jobs into batches of repetitions of one (run, suite, case, variant).
+
+    Parameters
+    ----------
+    specs : sequence of JobSpec
+        The jobs to run (e.g. those missing from the store); their order is kept within a batch.
+    size : int, optional
+        At most this many jobs per batch (None: all repetitions of a case and variant together;
+        1: one job per batch, i.e. no batching).
+
+    Returns
+    -------
+    list of JobBatch
+        In order of the first job of each group.
+    """
+    if size is not None and (isinstance(size, bool) or not isinstance(size, int) or size < 1):
+        raise ConfigError(f"batch size must be an integer >= 1 or None, got {size!r}")
+    groups: dict[tuple, list[JobSpec]] = {}
+    for spec in specs:
+        k = spec.key
+        groups.setdefault((k.run, k.suite, k.case, k.variant), []).append(spec)
+    batches = []
+    for group in groups.values():
+        step = len(group) if size is None else size
+        batches += [JobBatch(tuple(group[i:i + step])) for i in range(0, len(group), step)]
+    return batches

@@ -14,13 +14,14 @@ from faultlab.slam.fastslam import (
 )
 from faultlab.slam.fastslam2 import REFERENCE_STEPS as FASTSLAM2_REFERENCE_STEPS
 from faultlab.slam.fastslam2 import FastSlam2, FastSlam2Steps
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_control, run_slam
+from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_control, run_slam, run_slam_batch
 
 __all__ = [
     "Observations",
     "Estimate",
     "SlamAdapter",
     "run_slam",
+    "run_slam_batch",
     "as_control",
     "FastSlamConfig",
     "FastSlamSteps",

@@ -113,12 +113,48 @@ The estimate is the highest-weight particle: its pose and its map
 the lowest particle index.  This follows the "best particle" convention; since
 resampling soon gives all particles a common ancestor, their maps are nearly
 identical in practice (their map errors typically agree to a fraction of a mm).
+
+Batched repetitions
+-------------------
+:meth:`FastSlam.reset_batch` starts ``K`` independent filters (repetitions), one
+per generator, and every :meth:`~FastSlam.update` advances all of them;
+:meth:`FastSlam.estimates` returns one estimate per repetition
+(:func:`faultlab.slam.protocol.run_slam_batch` drives a whole scenario).  All
+repetitions of a test case see the same controls and observations, so the
+``K`` filters are stored as one particle set of ``K N`` particles whose
+landmark columns align: filter ``b`` is rows ``b N .. (b + 1) N - 1`` of the
+poses and weights and particles ``b N ..`` of the storage buffers, with its own
+ancestry rows (numbered from 0 within the filter), lineage and owner.  The
+particle units (:data:`faultlab.slam.units.PARTICLE_UNITS`) run once per step
+on all ``K N`` particles (in blocks of at most :attr:`FastSlam.block_pairs`
+particle-observation pairs), which removes the per-call overhead of ``K``
+small calls; the per-filter units
+(:data:`faultlab.slam.units.FILTER_UNITS`: ``sample_controls``,
+``combine_weights``, ``effective_sample_size``, ``resample``,
+``apply_resample``, ``extract_map``) and the weight normalisation run once per
+filter, each filter with its own streams derived from its own generator.  Every
+elementwise result is computed by the same operations on the same values as in
+a single filter, so repetition ``b`` is bit-identical to a filter reset with
+the same generator (tested for the reference and every built-in fault).
+:meth:`FastSlam.reset` is the batch of one: the single-filter path is this
+same code.  Which units see which particles, and the :func:`~faultlab.slam.units.filter_wise`
+fallback for a particle unit that looks across particles, are documented in
+:mod:`faultlab.slam.units`.
+
+A failure that belongs to one filter -- non-finite weights, or an exception in
+a unit called for that filter alone -- ends that repetition only (its entry of
+:meth:`~FastSlam.estimates` is the exception a single run would raise) and its
+particles leave the batch.  An exception in a unit that sees several filters
+propagates: the caller reruns the repetitions one at a time
+(:class:`BatchUnsupported` is raised when a replaced per-filter unit returns
+an output that cannot be stacked).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Callable, ClassVar
@@ -136,7 +172,7 @@ from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
-           "landmark_rows"]
+           "landmark_rows", "BatchUnsupported"]
 
 
 @dataclass(frozen=True)
@@ -223,8 +259,57 @@ class Particles:
     covariances: np.ndarray
 
 
+#: Positions of the per-particle arguments (leading axis = particles) of each particle unit; the
+#: batched filter slices these when a replacement is marked :func:`~faultlab.slam.units.filter_wise`.
+_PARTICLE_ARGS: dict[str, tuple[int, ...]] = {
+    "motion_model": (0, 1),
+    "init_landmarks": (0,),
+    "classify_new": (1,),
+    "predict_measurement": (0, 1),
+    "innovation": (1,),
+    "innovation_covariance": (0, 1),
+    "log_likelihood": (0, 1),
+    "ekf_update": (0, 1, 2, 3, 4),
+}
+
+_FAILED = object()  # a per-filter call that raised (the filter is dropped at the end of the step)
+
+
+def _looped(unit: Callable, positions: tuple[int, ...], n: int) -> Callable:
+    """``unit`` called once per filter on its ``n`` particles, outputs stacked along the particle axis."""
+
+    def per_filter(*args, **kwargs):
+        n_filters = len(args[positions[0]]) // n
+        if n_filters == 1:
+            return unit(*args, **kwargs)
+        outs = []
+        for j in range(n_filters):
+            part = list(args)
+            for p in positions:
+                part[p] = args[p][j * n:(j + 1) * n]
+            outs.append(unit(*part, **kwargs))
+        if isinstance(outs[0], tuple):
+            return tuple(np.concatenate([np.asarray(o[i]) for o in outs]) for i in range(len(outs[0])))
+        return np.concatenate([np.asarray(o) for o in outs])
+
+    per_filter.filter_wise = True
+    return per_filter
+
+
+class BatchUnsupported(SlamOutputError):
+    """A replaced unit did something the batched filter cannot reproduce filter by filter.
+
+    Raised only with several filters in one batch; the repetitions must then be run one at a
+    time (what :func:`faultlab.slam.protocol.run_slam_batch`'s callers do with any exception
+    that escapes a batch).
+    """
+
+
 class FastSlam(UnitSlam):
     """Reference FastSLAM 1.0 (known correspondences) as a :class:`SlamAdapter`.
+
+    Runs one filter (:meth:`reset`) or several independent repetitions in one vectorised filter
+    (:meth:`reset_batch`, :meth:`estimates`; see "Batched repetitions" in the module docstring).
 
     Parameters
     ----------
@@ -234,6 +319,12 @@ class FastSlam(UnitSlam):
     """
 
     name = "fastslam1"
+    supports_batch: ClassVar[bool] = True
+    #: Particle-observation pairs per call of a particle unit: the particles of a step (of one filter
+    #: or of a batch) are corrected in blocks of at most about this many pairs, which bounds the
+    #: units' work arrays (2 MiB each).  Smaller blocks do not pay: on the benchmark machine the
+    #: per-call overhead they add outweighs what the smaller arrays gain in cache.
+    block_pairs: ClassVar[int] = 1 << 18
     config_type = FastSlamConfig
     steps_type = FastSlamSteps
     reference_steps = REFERENCE_STEPS
@@ -241,94 +332,309 @@ class FastSlam(UnitSlam):
     def __init__(self, config: FastSlamConfig | None = None, *, steps: FastSlamSteps | None = None):
         super().__init__(config, steps=steps)
         self._Q = self._config.Q
-        self._state: ParticleState | None = None
-        self._streams: dict[str, np.random.Generator] = {}
+        self._started = False
+        self._batched_steps: FastSlamSteps | None = None
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        p = self._start_pose(pose, rng)
-        self._streams = unit_streams(rng, self._steps.stream_units)
-        self._state = ParticleState.initial(p, self._config.n_particles)
-        self._sorted_ids = np.empty(0, dtype=np.int64)  # lookup: sorted ids ...
-        self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
-        self._t = 0
-        self._n_resamples = 0
-        self._ident = self._state.owner  # the identity map arange(N); lineage starts as the same object
+        self._start(self._start_pose(pose, rng), [rng], isolate=False)
+
+    def reset_batch(self, pose: np.ndarray, *, rngs: Sequence[np.random.Generator]) -> None:
+        """Start one independent filter per generator (repetition ``i`` uses ``rngs[i]``).
+
+        Each filter derives its unit streams from its own generator exactly as :meth:`reset`
+        does, so repetition ``i`` gives bit for bit what a separate filter reset with
+        ``rngs[i]`` gives.  A failure that belongs to one filter (non-finite weights, an
+        exception in a unit called for that filter alone) ends that repetition only; see
+        :meth:`estimates`.
+        """
+        try:
+            rngs = list(rngs)
+        except TypeError:
+            raise SlamInputError(f"{self.name}: rngs must be a sequence of numpy.random.Generator, "
+                                 f"got {type(rngs).__name__}") from None
+        if not rngs:
+            raise SlamInputError(f"{self.name}: rngs is empty: a batch needs at least one repetition")
+        for i, rng in enumerate(rngs):
+            if not isinstance(rng, np.random.Generator):
+                raise SlamInputError(f"{self.name}: rngs[{i}] must be a numpy.random.Generator, "
+                                     f"got {type(rng).__name__}")
+        self._start(self._start_pose(pose, rngs[0]), rngs, isolate=True)
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
-        if self._state is None:
+        if not self._started:
             raise SlamInputError(f"{self.name}: update() called before reset()")
-        steps, cfg, streams = self._steps, self._config, self._streams
-        st = self._state
-        n = st.n_particles
+        slots = len(self._reps)
+        if slots == 0:  # every repetition of the batch has failed
+            self._t += 1
+            return
+        steps, cfg, n = self._units(slots), self._config, self._n
         k = len(observations)
         u = np.asarray(control, dtype=float)
         empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
         # prediction (Table 13.1, line 4); an empty update adds no control noise
-        u_i = np.broadcast_to(u, (n, 2)) if empty else steps.sample_controls(u, n, streams["sample_controls"], cfg)
-        poses = steps.motion_model(st.poses, u_i, wrap=steps.wrap_heading)
-        logw = st.logw
+        if empty:
+            u_i = np.broadcast_to(u, (slots * n, 2))
+        elif slots == 1:
+            u_i = self._call(0, steps.sample_controls, u, n, self._streams[0]["sample_controls"], cfg)
+            if u_i is _FAILED:
+                u_i = np.broadcast_to(u, (n, 2))
+        else:
+            parts = []
+            for j in range(slots):
+                part = self._call(j, steps.sample_controls, u, n, self._streams[j]["sample_controls"], cfg)
+                part = np.broadcast_to(u, (n, 2)) if part is _FAILED else np.asarray(part)
+                if part.shape != (n, 2):
+                    raise BatchUnsupported(f"{self.name}: sample_controls returned shape {part.shape}, "
+                                           f"expected ({n}, 2); run the repetitions one at a time")
+                parts.append(part)
+            u_i = np.concatenate(parts)
+        poses = steps.motion_model(self._poses, u_i, wrap=steps.wrap_heading)
         if k:
-            st, cols, seen = self._columns(st, observations.ids)
-            st, logw = self._correct(st, poses, cols, seen, observations)
-        st = st.replace(poses=poses, logw=logw)
-        # resampling (Table 13.1, lines 24-28)
-        w = np.exp(logw)
-        n_eff = steps.effective_sample_size(w)
-        idx = steps.resample(w, n_eff, empty, streams["resample"], cfg)
-        if idx is not None:
-            st = steps.apply_resample(st, np.asarray(idx))
-            self._n_resamples += 1
-        self._state = st
+            cols, seen = self._columns(observations.ids)
+            logw = self._correct(steps, poses, cols, seen, observations)
+        else:
+            logw = self._logw
+        self._poses, self._logw = poses, logw
+        # resampling (Table 13.1, lines 24-28), filter by filter
+        for j in range(slots):
+            self._call(j, self._resample, j, empty)
+        if self._dead:
+            self._drop_failed()
         self._t += 1
 
     def estimate(self) -> Estimate:
-        st = self._require_state()
-        ids, xy = self._steps.extract_map(st)
-        i = int(np.argmax(st.logw))
-        return Estimate(st.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+        self._require_started()
+        if self._n_reps != 1:
+            raise SlamInputError(f"{self.name}: estimate() of a batch of {self._n_reps} repetitions; "
+                                 f"use estimates()")
+        if self._failures:
+            raise self._failures[0]
+        return self._estimate(0)
+
+    def estimates(self) -> list[Estimate | BaseException]:
+        """Per repetition (in the order of the generators), its estimate or the exception that ended it."""
+        self._require_started()
+        out: list[Estimate | BaseException | None] = [None] * self._n_reps
+        for rep, exc in self._failures.items():
+            out[rep] = exc
+        for j, rep in enumerate(self._reps):
+            try:
+                out[rep] = self._estimate(j)
+            except (Exception, SystemExit) as exc:
+                out[rep] = exc
+        return out  # type: ignore[return-value]
 
     # -- diagnostics -----------------------------------------------------------------------------
 
     @property
     def n_resamples(self) -> int:
-        """How many updates since :meth:`reset` resampled."""
-        self._require_state()
-        return self._n_resamples
+        """How many updates since :meth:`reset` resampled (the first repetition of a batch)."""
+        self._require_started()
+        return self._n_resampled[0]
 
     @property
     def streams(self) -> Mapping[str, np.random.Generator]:
         """The random stream of each unit in :attr:`FastSlamSteps.stream_units` (read-only mapping).
 
-        The generators are the filter's own: drawing from them changes the run.
+        The generators are the filter's own (the first repetition's in a batch): drawing from
+        them changes the run.
         """
-        self._require_state()
-        return MappingProxyType(self._streams)
+        self._require_started()
+        return MappingProxyType(self._all_streams[0])
 
     @property
     def state(self) -> ParticleState:
-        """The current particle state (read-only use: its arrays are the filter's own)."""
-        return self._require_state()
+        """The current particle state of the first repetition (its arrays are the filter's own)."""
+        return self.filter_state(0)
 
-    def particles(self) -> Particles:
-        """A materialised copy of all particles (means and covariances in column order)."""
-        st = self._require_state()
+    def filter_state(self, rep: int) -> ParticleState:
+        """The particle state of repetition ``rep`` (read-only use: its arrays are views of the batch's)."""
+        self._require_started()
+        if rep in self._failures:
+            raise SlamInputError(f"{self.name}: repetition {rep} failed: {self._failures[rep]!r}")
+        if rep not in self._reps:
+            raise SlamInputError(f"{self.name}: no repetition {rep} (batch of {self._n_reps})")
+        return self._filter_state(self._reps.index(rep))
+
+    def particles(self, rep: int = 0) -> Particles:
+        """A materialised copy of the particles of repetition ``rep`` (means and covariances in column order)."""
+        st = self.filter_state(rep)
         C = st.n_landmarks
         rows = landmark_rows(st, np.arange(C))
         cols = np.arange(C)[None, :]
         return Particles(st.poses.copy(), np.exp(st.logw), st.ids.copy(), st.mu[rows, cols].copy(),
                          st.P[rows, cols].copy())
 
-    # -- internals -------------------------------------------------------------------------------
+    # -- internals: set-up and bookkeeping ---------------------------------------------------------
 
-    def _require_state(self) -> ParticleState:
-        if self._state is None:
+    def _unit_streams(self, rng: np.random.Generator) -> dict[str, np.random.Generator]:
+        """One stream per random unit, keyed by name (common random numbers that survive a fault)."""
+        return unit_streams(rng, self._steps.stream_units)
+
+    def _start(self, p: np.ndarray, rngs: list[np.random.Generator], *, isolate: bool) -> None:
+        """Set up ``len(rngs)`` filters at the validated start pose ``p``."""
+        n, b = self._config.n_particles, len(rngs)
+        cap = 16
+        self._n = n
+        self._n_reps = b
+        self._isolate = isolate
+        self._all_streams = [self._unit_streams(rng) for rng in rngs]
+        self._streams = list(self._all_streams)  # streams of the active filters, by slot
+        self._reps = list(range(b))  # repetition of each active filter (slot)
+        self._failures: dict[int, BaseException] = {}
+        self._dead: list[int] = []  # slots that failed during the current step
+        self._n_resampled = [0] * b
+        self._ident = np.arange(n, dtype=np.intp)  # identity lineage / owner of every filter
+        self._ident.flags.writeable = False
+        self._poses = np.tile(p, (b * n, 1))
+        self._logw = np.full(b * n, -math.log(n))
+        self._ids = np.empty(0, dtype=np.int64)
+        self._mu = np.zeros((2, cap, b * n))  # storage buffers (see "Storage and resampling")
+        self._P = np.zeros((2, 2, cap, b * n))
+        self._anc = self._local_ancestry(b, cap)
+        self._lineage = [self._ident] * b
+        self._owner = [self._ident] * b
+        self._sharers = [False] * b  # ParticleState.sequential_sharers of each filter
+        self._sorted_ids = np.empty(0, dtype=np.intp)  # lookup: sorted ids ...
+        self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
+        self._offsets = None  # storage offset of each particle's filter, (B N,), when B > 1
+        self._views = None  # per-slot views of the storage buffers (see _filter_state)
+        self._t = 0
+        self._started = True
+
+    def _local_ancestry(self, b: int, cap: int) -> np.ndarray:
+        """Identity ancestry (B N, cap), int32, with each filter's rows numbered from 0 (its own storage)."""
+        rows = np.tile(np.arange(self._n, dtype=np.int32), b)
+        return np.ascontiguousarray(np.broadcast_to(rows[:, None], (b * self._n, cap)))
+
+    def _require_started(self) -> None:
+        if not self._started:
             raise SlamInputError(f"{self.name}: reset() must be called first")
-        return self._state
 
-    def _columns(self, st: ParticleState, ids: np.ndarray) -> tuple[ParticleState, np.ndarray, np.ndarray]:
-        """Columns of ``ids`` (k,), adding columns for unseen ids; returns (state, cols, seen)."""
+    def _units(self, slots: int) -> FastSlamSteps:
+        """The units for ``slots`` filters: particle units marked filter-wise are looped per filter."""
+        if slots == 1:
+            return self._steps
+        if self._batched_steps is None:
+            looped = {name: _looped(getattr(self._steps, name), pos, self._n)
+                      for name, pos in _PARTICLE_ARGS.items()
+                      if getattr(getattr(self._steps, name), "filter_wise", False)}
+            self._batched_steps = dataclasses.replace(self._steps, **looped) if looped else self._steps
+        return self._batched_steps
+
+    def _call(self, j: int, fn: Callable, *args, **kwargs):
+        """Call ``fn`` on behalf of the filter in slot ``j``; in a batch, its failure ends only that filter."""
+        if not self._isolate:
+            return fn(*args, **kwargs)
+        try:
+            return fn(*args, **kwargs)
+        except (Exception, SystemExit) as exc:
+            self._failures[self._reps[j]] = exc
+            self._dead.append(j)
+            return _FAILED
+
+    def _slice(self, j: int) -> slice:
+        return slice(j * self._n, (j + 1) * self._n)
+
+    def _filter_state(self, j: int) -> ParticleState:
+        """The :class:`ParticleState` of the filter in slot ``j``: views of the batch's arrays."""
+        sl = self._slice(j)
+        if self._views is None:  # storage views of every slot, until the buffers change
+            self._views = [(self._mu[:, :, s].transpose(2, 1, 0), self._P[:, :, :, s].transpose(3, 2, 0, 1),
+                            self._anc[s]) for s in map(self._slice, range(len(self._reps)))]
+        mu, P, anc = self._views[j]
+        return ParticleState(poses=self._poses[sl], logw=self._logw[sl], ids=self._ids, mu=mu, P=P, anc=anc,
+                             lineage=self._lineage[j], owner=self._owner[j], sequential_sharers=self._sharers[j])
+
+    def _store(self, j: int, given: ParticleState, st: ParticleState) -> None:
+        """Write the state a per-filter unit returned for slot ``j`` back into the batch's arrays."""
+        n, slots = self._n, len(self._reps)
+        if not isinstance(st, ParticleState):
+            raise SlamOutputError(f"{self.name}: apply_resample returned {type(st).__name__}, not a ParticleState")
+        for name, shape in (("poses", (n, 3)), ("logw", (n,)), ("lineage", (n,)), ("owner", (n,))):
+            if np.shape(getattr(st, name)) != shape:
+                raise SlamOutputError(f"{self.name}: apply_resample returned {name} of shape "
+                                      f"{np.shape(getattr(st, name))}, expected {shape}")
+        if slots == 1:
+            self._poses, self._logw = st.poses, st.logw
+        else:
+            sl = self._slice(j)
+            if not self._poses.flags.writeable:
+                self._poses = self._poses.copy()
+            if st.poses is not given.poses:
+                self._poses[sl] = st.poses
+            if st.logw is not given.logw:
+                self._logw[sl] = st.logw
+        self._lineage[j] = st.lineage
+        self._owner[j] = st.owner
+        self._sharers[j] = bool(st.sequential_sharers)
+        if st.mu is given.mu and st.P is given.P and st.anc is given.anc and st.ids is given.ids:
+            return
+        if st.ids is not given.ids and not np.array_equal(st.ids, given.ids):
+            raise SlamOutputError(f"{self.name}: apply_resample changed the landmark ids of the storage columns")
+        # landmark storage that the unit replaced (another layout, a deep copy) is copied back into the batch's
+        cap = self._mu.shape[1]
+        for name, shape in (("mu", (n, cap, 2)), ("P", (n, cap, 2, 2)), ("anc", (n, cap))):
+            new = getattr(st, name)
+            if new is getattr(given, name):
+                continue
+            if np.shape(new) != shape:
+                raise SlamOutputError(f"{self.name}: apply_resample returned landmark storage {name} of shape "
+                                      f"{np.shape(new)}, expected {shape}")
+            sl = self._slice(j)
+            if name == "mu":
+                self._mu[:, :, sl] = np.asarray(new, dtype=float).transpose(2, 1, 0)
+            elif name == "P":
+                self._P[:, :, :, sl] = np.asarray(new, dtype=float).transpose(2, 3, 1, 0)
+            else:
+                self._anc[sl] = new
+
+    def _drop_failed(self) -> None:
+        """Remove the filters that failed in this step from the batch (their rows of every array)."""
+        keep = [j for j in range(len(self._reps)) if j not in set(self._dead)]
+        n = self._n
+        rows = np.concatenate([np.arange(j * n, (j + 1) * n) for j in keep]) if keep else np.empty(0, np.intp)
+        self._poses = np.asarray(self._poses)[rows]
+        self._logw = np.asarray(self._logw)[rows]
+        self._mu = self._mu[:, :, rows]
+        self._P = self._P[:, :, :, rows]
+        self._anc = self._anc[rows]
+        for name in ("_reps", "_streams", "_lineage", "_owner", "_sharers"):
+            setattr(self, name, [getattr(self, name)[j] for j in keep])
+        self._dead = []
+        self._offsets = None
+        self._views = None
+
+    def _estimate(self, j: int) -> Estimate:
+        st = self._filter_state(j)
+        ids, xy = self._steps.extract_map(st)
+        i = int(np.argmax(st.logw))
+        return Estimate(st.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+
+    def _resample(self, j: int, empty: bool) -> None:
+        """Effective sample size, resampling decision and resampling of the filter in slot ``j``."""
+        steps = self._steps
+        w = np.exp(self._logw[self._slice(j)])
+        n_eff = steps.effective_sample_size(w)
+        idx = steps.resample(w, n_eff, empty, self._streams[j]["resample"], self._config)
+        if idx is not None:
+            given = self._filter_state(j)
+            self._store(j, given, steps.apply_resample(given, np.asarray(idx)))
+            self._n_resampled[self._reps[j]] += 1
+
+    def _normalise(self, logw: np.ndarray) -> np.ndarray:
+        """Normalised log weights (log-sum-exp) of one filter."""
+        top = logw.max()
+        if not math.isfinite(top):
+            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
+        logw = logw - top
+        logw -= math.log(np.exp(logw).sum())
+        return logw
+
+    def _columns(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Columns of ``ids`` (k,), adding columns for unseen ids; returns (cols, seen)."""
         sid, scol = self._sorted_ids, self._sorted_cols
         if sid.size:
             pos = np.searchsorted(sid, ids)
@@ -340,110 +646,198 @@ class FastSlam(UnitSlam):
             cols = np.empty(ids.size, dtype=np.intp)
         if not seen.all():
             new_ids = ids[~seen]
-            C = st.n_landmarks
+            C = self._ids.size
             new_cols = np.arange(C, C + new_ids.size, dtype=np.intp)
             cols[~seen] = new_cols
-            st = self._grow(st, C + new_ids.size)
-            st = st.replace(ids=np.concatenate([st.ids, new_ids]))
+            self._grow(C + new_ids.size)
+            self._ids = np.concatenate([self._ids, new_ids])
             allid = np.concatenate([sid, new_ids])
             allcol = np.concatenate([scol, new_cols])
             order = np.argsort(allid, kind="stable")
             self._sorted_ids, self._sorted_cols = allid[order], allcol[order]
-        return st, cols, seen
+        return cols, seen
 
-    @staticmethod
-    def _grow(st: ParticleState, needed: int) -> ParticleState:
-        cap = st.mu.shape[1]
+    def _grow(self, needed: int) -> None:
+        cap = self._mu.shape[1]
         if needed <= cap:
-            return st
+            return
         new_cap = max(2 * cap, needed)
-        n = st.n_particles
-        C = st.n_landmarks
-        mu = _units.empty_means(n, new_cap)
-        P = _units.empty_covariances(n, new_cap)
-        anc = _units.initial_ancestry(n, new_cap)
-        mu[:, :C] = st.mu[:, :C]
-        P[:, :C] = st.P[:, :C]
-        anc[:, :C] = st.anc[:, :C]
-        return st.replace(mu=mu, P=P, anc=anc)
+        C = self._ids.size
+        bn = self._mu.shape[2]
+        mu = np.zeros((2, new_cap, bn))
+        P = np.zeros((2, 2, new_cap, bn))
+        anc = self._local_ancestry(bn // self._n, new_cap)
+        mu[:, :C] = self._mu[:, :C]
+        P[:, :, :C] = self._P[:, :, :C]
+        anc[:, :C] = self._anc[:, :C]
+        self._mu, self._P, self._anc = mu, P, anc
+        self._views = None
 
-    @staticmethod
-    def _storage(st: ParticleState) -> tuple[ParticleState, np.ndarray, np.ndarray, np.ndarray]:
-        """Views of the storage: (state, mu (2, cap, N), P (2, 2, cap, N), anc (N, cap)).
+    # -- internals: the correction -------------------------------------------------------------
 
-        The reference keeps this layout (see :func:`faultlab.slam.units.empty_means`);
-        storage that a replaced unit re-allocated in another layout is copied into it once.
-        """
-        n, cap = st.mu.shape[:2]
-        mb = st.mu.transpose(2, 1, 0)
-        pb = st.P.transpose(2, 3, 1, 0)
-        ab = st.anc
-        if not (mb.flags.c_contiguous and pb.flags.c_contiguous and ab.flags.c_contiguous
-                and st.mu.dtype == np.float64 and st.P.dtype == np.float64 and st.anc.dtype == np.int32):
-            mu = _units.empty_means(n, cap)
-            P = _units.empty_covariances(n, cap)
-            anc = _units.initial_ancestry(n, cap)
-            mu[...] = st.mu
-            P[...] = st.P
-            anc[...] = st.anc
-            st = st.replace(mu=mu, P=P, anc=anc)
-            mb = st.mu.transpose(2, 1, 0)
-            pb = st.P.transpose(2, 3, 1, 0)
-            ab = st.anc
-        return st, mb, pb, ab
-
-    def _correct(self, st: ParticleState, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
-                 obs: Observations) -> tuple[ParticleState, np.ndarray]:
+    def _correct(self, steps: FastSlamSteps, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                 obs: Observations) -> np.ndarray:
         """Correction for the step's observations; updates the storage in place.
 
-        Returns the state (storage possibly re-laid out) and the normalised log weights.
-        Internally the (particle, observation) arrays are handled as (k, N) blocks
-        (the transpose of the units' (N, k) views), matching the storage layout.
+        Returns the normalised log weights of all filters (B N,).  Consecutive filters are
+        corrected together (:meth:`_correct_filters`); a filter whose particles share rows that
+        they update in turn is corrected on its own (:meth:`_correct_in_sharer_order`).
         """
-        steps, Q = self._steps, self._Q
-        st, mu_store, P_store, anc = self._storage(st)
-        n, cap = st.mu.shape[:2]
+        n = self._n
+        slots = len(self._reps)
+        anc = self._anc
         k = cols.size
+        C = self._ids.size
         # materialise pending resamplings (lineage -> identity), O(N C) ints, only after a resampling
-        if st.lineage is not self._ident:
-            C = st.n_landmarks
-            anc[:, :C] = anc[st.lineage, :C]
-            st = st.replace(lineage=self._ident)
+        for j in range(slots):
+            lineage = self._lineage[j]
+            if lineage is not self._ident:
+                a = anc[self._slice(j)]
+                a[:, :C] = a[lineage, :C]
+                self._lineage[j] = self._ident
         z = np.empty((k, 2))
         z[:, 0] = obs.ranges
         z[:, 1] = obs.bearings
-        base = (cols * n)[:, None]
-        flat = anc[:, cols].T + base  # (k, N) positions in the flattened storage
-        mb = np.take(mu_store.reshape(2, cap * n), flat, axis=1)  # (2, k, N), a fresh copy
-        pb = np.take(P_store.reshape(4, cap * n), flat, axis=1).reshape(2, 2, k, n)
-        mu = mb.transpose(2, 1, 0)  # (N, k, 2) view
-        P = pb.transpose(3, 2, 0, 1)  # (N, k, 2, 2) view
-        if st.sequential_sharers and np.unique(st.owner).size < n:
-            return self._correct_in_sharer_order(st, poses, cols, seen, z, mu, P, mu_store, P_store, anc)
+        sharers = {j for j in range(slots) if self._sharers[j] and np.unique(self._owner[j]).size < n}
+        logw = np.array(self._logw)
+        start = 0
+        while start < slots:
+            if start in sharers:
+                self._call(start, self._correct_in_sharer_order, start, poses, cols, seen, z, logw)
+                start += 1
+                continue
+            stop = start + 1
+            while stop < slots and stop not in sharers:
+                stop += 1
+            self._correct_filters(steps, start, stop, poses, cols, seen, z, logw)
+            start = stop
+        return logw
+
+    def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The stored landmarks of ``cols`` for the particles of slots ``start .. stop - 1``.
+
+        Returns ``(mb (2, k, M), pb (2, 2, k, M), base (k, M) or (k, 1))``, ``M`` the filters'
+        particles: fresh copies of the means and covariances, and the storage offset of each
+        (column, particle's filter) in the flattened (component, column x particle) storage.
+        """
+        n = self._n
+        bn = self._mu.shape[2]
+        cap = self._mu.shape[1]
+        p0, p1 = start * n, stop * n
+        base = (cols * bn)[:, None]
+        if bn > n:  # each filter's rows of the storage start at its slot's offset
+            if self._offsets is None:
+                self._offsets = np.repeat(np.arange(bn // n, dtype=np.intp) * n, n)
+            base = base + self._offsets[p0:p1]
+        flat = self._anc[p0:p1, cols].T + base  # (k, M) positions in the flattened storage
+        mb = np.take(self._mu.reshape(2, cap * bn), flat, axis=1)  # (2, k, M), a fresh copy
+        pb = np.take(self._P.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, cols.size, p1 - p0)
+        return mb, pb, base
+
+    def _blocks(self, m_rows: int, k: int) -> list[tuple[int, int]]:
+        """Row ranges that split ``m_rows`` particles into blocks of about :attr:`block_pairs` pairs.
+
+        Blocks hold whole filters if a particle unit is declared filter-wise.
+        """
+        count = max(1, -(-m_rows * k // self.block_pairs))
+        if count == 1:
+            return [(0, m_rows)]
+        size = -(-m_rows // count)
+        if any(getattr(getattr(self._steps, name), "filter_wise", False) for name in _PARTICLE_ARGS):
+            size = -(-size // self._n) * self._n
+        return [(b, min(b + size, m_rows)) for b in range(0, m_rows, size)]
+
+    def _correct_filters(self, steps: FastSlamSteps, start: int, stop: int, poses: np.ndarray, cols: np.ndarray,
+                         seen: np.ndarray, z: np.ndarray, logw: np.ndarray) -> None:
+        """The reference correction of the particles of slots ``start .. stop - 1``.
+
+        Every particle is corrected from the values stored before the step (all are gathered
+        first) and writes its own row (sharers of a row: the last particle's values win).  The
+        particle units run on blocks of at most about :attr:`block_pairs` particle-observation
+        pairs (:meth:`_correct_rows`); then ``combine_weights`` and the normalisation run filter
+        by filter, writing each filter's
+        weights into ``logw`` (a filter that fails keeps its old ones and leaves the batch after
+        the step).  Internally the (particle, observation) arrays are handled as (k, M) blocks
+        (the transpose of the units' (M, k) views), matching the storage layout.
+        """
+        n = self._n
+        mu_store, P_store = self._mu, self._P
+        bn = mu_store.shape[2]
+        cap = mu_store.shape[1]
+        k = cols.size
+        p0, p1 = start * n, stop * n
+        m_rows = p1 - p0
+        mb, pb, base = self._gather(start, stop, cols)
+        x = poses if m_rows == poses.shape[0] else poses[p0:p1]
+        blocks = self._blocks(m_rows, k)
+        if len(blocks) == 1:
+            loglik, known, mu_new, P_new = self._correct_rows(steps, x, mb, pb, seen, z)
+        else:
+            loglik = np.empty((k, m_rows)).T
+            known = np.empty((k, m_rows), dtype=bool).T
+            mu_new = np.empty((2, k, m_rows))
+            P_new = np.empty((2, 2, k, m_rows))
+            for b0, b1 in blocks:
+                ll, kn, mn, pn = self._correct_rows(steps, x[b0:b1], mb[:, :, b0:b1], pb[:, :, :, b0:b1], seen, z)
+                loglik[b0:b1] = ll
+                known[b0:b1] = kn
+                mu_new[:, :, b0:b1] = mn
+                P_new[:, :, :, b0:b1] = pn
+        # weights, filter by filter: combine_weights, then normalise (log-sum-exp)
+        for j in range(start, stop):
+            sl = self._slice(j)
+            local = slice(sl.start - p0, sl.stop - p0)
+            lw = self._call(j, self._weights, self._logw[sl], loglik[local], known[local])
+            if lw is _FAILED:
+                continue
+            if bn > n and np.shape(lw) != (n,):
+                raise BatchUnsupported(f"{self.name}: combine_weights returned shape {np.shape(lw)}, expected "
+                                       f"({n},); run the repetitions one at a time")
+            logw[sl] = lw
+        # write every particle's estimate of the observed columns into its own storage row
+        owners = self._owner[start:stop]
+        if all(o is self._ident or np.array_equal(o, self._ident) for o in owners):
+            # rows of the (component, column) x particle views of the storage: contiguous row copies
+            rows = cols + (cap * np.arange(4))[:, None]
+            mu_store.reshape(2 * cap, bn)[rows[:2].ravel(), p0:p1] = mu_new.reshape(2 * k, m_rows)
+            P_store.reshape(4 * cap, bn)[rows.ravel(), p0:p1] = P_new.reshape(4 * k, m_rows)
+            owner = owners[0] if len(owners) == 1 else np.tile(self._ident, len(owners))
+        else:
+            owner = np.asarray(owners[0]) if len(owners) == 1 else np.concatenate(owners)
+            wflat = owner[None, :] + base  # sharers of a row: the last particle's values win
+            mu_store.reshape(2, cap * bn)[:, wflat] = mu_new
+            P_store.reshape(4, cap * bn)[:, wflat] = P_new.reshape(4, k, m_rows)
+        self._anc[p0:p1, cols] = owner[:, None]
+
+    def _correct_rows(self, steps: FastSlamSteps, x: np.ndarray, mb: np.ndarray, pb: np.ndarray,
+                      seen: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The particle units on one block of particles (M' rows).
+
+        ``x`` (M', 3) are the predicted poses, ``mb`` (2, k, M') and ``pb`` (2, 2, k, M') the
+        gathered landmarks (new pairs are initialised in place).  Returns the log likelihoods
+        (M', k), which pairs are known (M', k), and the new means (2, k, M') and covariances
+        (2, 2, k, M') (the initial values where new).
+        """
+        Q = self._Q
+        mu = mb.transpose(2, 1, 0)  # (M', k, 2) view
+        P = pb.transpose(3, 2, 0, 1)  # (M', k, 2, 2) view
         new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
         new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
         if new_cols is not None:
             # initialise where new (only the observations with at least one new pair)
-            mu_i, P_i = steps.init_landmarks(poses, z[new_cols], Q, wrap=steps.wrap_bearing)
+            mu_i, P_i = steps.init_landmarks(x, z[new_cols], Q, wrap=steps.wrap_bearing)
             mi = np.asarray(mu_i, dtype=float).transpose(2, 1, 0)
             pi = np.asarray(P_i, dtype=float).transpose(2, 3, 1, 0)
             m = new[:, new_cols].T
             mb[:, new_cols] = np.where(m, mi, mb[:, new_cols])
             pb[:, :, new_cols] = np.where(m, pi, pb[:, :, new_cols])
-        zhat, H = steps.predict_measurement(poses, mu)
+        zhat, H = steps.predict_measurement(x, mu)
         nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
         S = steps.innovation_covariance(H, P, Q)
         loglik = steps.log_likelihood(nu, S)
-        logw = np.asarray(steps.combine_weights(st.logw, loglik, ~new), dtype=float)
-        # normalise (log-sum-exp)
-        top = logw.max()
-        if not math.isfinite(top):
-            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
-        logw = logw - top
-        logw -= math.log(np.exp(logw).sum())
         mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
-        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, N)
-        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, N)
+        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, M')
+        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, M')
         if new_cols is not None:
             # new pairs keep their initial values
             mu_new = mu_new.copy()
@@ -451,40 +845,32 @@ class FastSlam(UnitSlam):
             m = new[:, new_cols].T
             mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
             P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
-        # write every particle's estimate of the observed columns into its own storage row
-        owner = st.owner
-        if owner is self._ident or np.array_equal(owner, self._ident):
-            # rows of the (component, column) x particle views of the storage: contiguous row copies
-            rows = cols + (cap * np.arange(4))[:, None]
-            mu_store.reshape(2 * cap, n)[rows[:2].ravel()] = mu_new.reshape(2 * k, n)
-            P_store.reshape(4 * cap, n)[rows.ravel()] = P_new.reshape(4 * k, n)
-        else:
-            wflat = owner[None, :] + base
-            mu_store.reshape(2, cap * n)[:, wflat] = mu_new
-            P_store.reshape(4, cap * n)[:, wflat] = P_new.reshape(4, k, n)
-        anc[:, cols] = owner[:, None]
-        return st, logw
+        return loglik, ~new, mu_new, P_new
 
-    def _correct_in_sharer_order(self, st: ParticleState, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
-                                 z: np.ndarray, mu: np.ndarray, P: np.ndarray, mu_store: np.ndarray,
-                                 P_store: np.ndarray, anc: np.ndarray) -> tuple[ParticleState, np.ndarray]:
-        """Correction when particles share storage rows and update them one after another.
+    def _correct_in_sharer_order(self, j: int, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                                 z: np.ndarray, logw: np.ndarray) -> None:
+        """Correction of the filter in slot ``j``, whose particles share rows and update them in turn.
 
-        Only reached with ``state.sequential_sharers`` (shallow-copy resampling) and at least
-        two particles on one row; see :mod:`faultlab.slam.sharing`.
+        Only reached with ``sequential_sharers`` (shallow-copy resampling) and at least two
+        particles on one row; see :mod:`faultlab.slam.sharing`.  Writes the filter's normalised
+        log weights into ``logw`` and its landmarks into the storage.
         """
-        n, cap = st.mu.shape[:2]
+        n = self._n
+        sl = self._slice(j)
+        mu_store, P_store = self._mu, self._P
+        bn = mu_store.shape[2]
+        cap = mu_store.shape[1]
         k = cols.size
-        logw, mu_new, P_new = correct_in_sharer_order(self._steps, st.logw, st.owner, poses, z, seen, mu, P,
-                                                      self._Q)
-        top = logw.max()
-        if not math.isfinite(top):
-            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
-        logw = logw - top
-        logw -= math.log(np.exp(logw).sum())
-        owner = np.asarray(st.owner)
-        wflat = owner[None, :] + (cols * n)[:, None]  # sharers write equal values to their common row
-        mu_store.reshape(2, cap * n)[:, wflat] = mu_new.transpose(2, 1, 0)
-        P_store.reshape(4, cap * n)[:, wflat] = P_new.transpose(2, 3, 1, 0).reshape(4, k, n)
-        anc[:, cols] = owner[:, None]
-        return st, logw
+        mb, pb, base = self._gather(j, j + 1, cols)
+        owner = np.asarray(self._owner[j])
+        lw, mu_new, P_new = correct_in_sharer_order(self._steps, self._logw[sl], owner, poses[sl], z, seen,
+                                                    mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
+        logw[sl] = self._normalise(np.asarray(lw, dtype=float))
+        wflat = owner[None, :] + base  # sharers write equal values to their common row
+        mu_store.reshape(2, cap * bn)[:, wflat] = np.asarray(mu_new).transpose(2, 1, 0)
+        P_store.reshape(4, cap * bn)[:, wflat] = np.asarray(P_new).transpose(2, 3, 1, 0).reshape(4, k, n)
+        self._anc[sl, cols] = owner[:, None]
+
+    def _weights(self, logw: np.ndarray, loglik: np.ndarray, known: np.ndarray) -> np.ndarray:
+        """One filter's new normalised log weights: ``combine_weights``, then log-sum-exp."""
+        return self._normalise(np.asarray(self._steps.combine_weights(logw, loglik, known), dtype=float))

@@ -17,13 +17,15 @@ the estimate.
 from __future__ import annotations
 
 import abc
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from faultlab.errors import SlamInputError, SlamOutputError
 
-__all__ = ["Observations", "Estimate", "SlamAdapter", "run_slam", "as_control"]
+__all__ = ["Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,6 +146,10 @@ class SlamAdapter(abc.ABC):
     #: Short name used in results tables.
     name: str = "slam"
 
+    #: Whether :meth:`reset_batch` and :meth:`estimates` run several repetitions at once
+    #: (:func:`run_slam_batch`); a SLAM without it is run one repetition at a time.
+    supports_batch: ClassVar[bool] = False
+
     @abc.abstractmethod
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
         """Start from the known pose (x, y, theta), forgetting any map.
@@ -158,6 +164,18 @@ class SlamAdapter(abc.ABC):
     @abc.abstractmethod
     def estimate(self) -> Estimate:
         """The current pose and landmark map."""
+
+    def reset_batch(self, pose: np.ndarray, *, rngs: Sequence[np.random.Generator]) -> None:
+        """Start ``len(rngs)`` independent repetitions from the same pose, one per generator.
+
+        Only for SLAMs with :attr:`supports_batch`.  Repetition ``i`` must behave exactly as
+        :meth:`reset` with ``rng=rngs[i]`` followed by the same steps: same seed, same estimate.
+        """
+        raise NotImplementedError(f"{type(self).__name__} does not run repetitions in a batch")
+
+    def estimates(self) -> list:
+        """After :meth:`reset_batch`: per repetition, its :class:`Estimate` or the exception that stopped it."""
+        raise NotImplementedError(f"{type(self).__name__} does not run repetitions in a batch")
 
     def step(self, control, observations: Observations | None = None) -> None:
         """Validate ``control`` and ``observations`` and call :meth:`update`."""
@@ -192,3 +210,46 @@ def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estima
         slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
                                             scenario.obs_ids[a:b]))
     return slam.estimate().validate(where=f"{getattr(slam, 'name', type(slam).__name__)} estimate")
+
+
+def run_slam_batch(slam: SlamAdapter, scenario, *, rngs: Sequence[np.random.Generator]) -> list:
+    """Run several repetitions of ``scenario`` in one batched SLAM (:attr:`SlamAdapter.supports_batch`).
+
+    Repetition ``i`` gives exactly what ``run_slam(fresh_slam, scenario, rng=rngs[i])`` gives:
+    the same validated estimate, or the same exception.
+
+    Parameters
+    ----------
+    slam : SlamAdapter
+        A SLAM whose ``supports_batch`` is true.
+    scenario : faultlab.scenario.model.Scenario
+    rngs : sequence of numpy.random.Generator
+        One generator per repetition.
+
+    Returns
+    -------
+    list
+        Per repetition, its validated :class:`Estimate` or the exception that ended it (a
+        failure in one repetition leaves the others running).  An exception that the SLAM
+        cannot attribute to one repetition propagates: rerun the repetitions one at a time.
+    """
+    if not getattr(slam, "supports_batch", False):
+        raise SlamInputError(f"{getattr(slam, 'name', type(slam).__name__)} does not run repetitions in a "
+                             f"batch; use run_slam for each repetition")
+    slam.reset_batch(scenario.start_pose, rngs=rngs)
+    offsets = scenario.obs_offsets
+    controls = scenario.controls
+    for t in range(scenario.n_steps):
+        a, b = offsets[t], offsets[t + 1]
+        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
+                                            scenario.obs_ids[a:b]))
+    where = f"{getattr(slam, 'name', type(slam).__name__)} estimate"
+    out = []
+    for est in slam.estimates():
+        if not isinstance(est, BaseException):
+            try:
+                est = est.validate(where=where)
+            except SlamOutputError as exc:
+                est = exc
+        out.append(est)
+    return out

@@ -164,6 +164,56 @@ def _identity(original):
 IDENTITY = _fault("tiny_identity", _identity, "calls the original unit unchanged")
 
 
+# ------------------------------------------------------------------ faults of the reference FastSLAM
+# FastSlam runs the repetitions of a (case, variant) as one batched job; these faults make some of
+# the repetitions fail in ways the batch can or cannot attribute to one repetition.
+
+def _unlucky_resample(original):
+    def resample(w, n_eff, empty, rng, config):
+        idx = original(w, n_eff, empty, rng, config)
+        if idx is not None and rng.random() < 0.02:  # depends on the repetition's own stream
+            raise RuntimeError("unlucky draw")
+        return idx
+    return resample
+
+
+def _raise_if_far(original):
+    def predict_measurement(poses, mu):
+        # sees the particles of every repetition of a batch at once: a batch cannot tell whose
+        if np.any(np.abs(np.asarray(poses)[:, :2]) > 0.9):
+            raise FloatingPointError("far from the start")
+        return original(poses, mu)
+    return predict_measurement
+
+
+def _hang_motion(original):
+    def motion_model(poses, u, *, wrap):
+        end = time.monotonic() + HANG_LIMIT_S
+        while time.monotonic() < end:
+            pass
+        return original(poses, u, wrap=wrap)
+    return motion_model
+
+
+def _exit_controls(original):
+    def sample_controls(u, n, rng, config):
+        os._exit(3)
+    return sample_controls
+
+
+def _fs_fault(name: str, step: str, replacement, description: str) -> Fault:
+    return Fault(name=name, step=step, description=description, rationale="Test double for the runner.",
+                 origin="tests/runner/suts.py", replacement=replacement)
+
+
+FS_UNLUCKY = _fs_fault("fs_unlucky", "resample", _unlucky_resample,
+                       "raises in some repetitions, from the repetition's resampling stream")
+FS_FAR = _fs_fault("fs_far", "predict_measurement", _raise_if_far,
+                   "raises once a particle is 0.9 m from the origin (a unit that sees the whole batch)")
+FS_HANG = _fs_fault("fs_hang", "motion_model", _hang_motion, "busy-loops for a minute")
+FS_EXIT = _fs_fault("fs_exit", "sample_controls", _exit_controls, "kills its process with os._exit(3)")
+
+
 # ------------------------------------------------------------------ experiment files
 def _toml_value(v) -> str:
     if isinstance(v, bool):

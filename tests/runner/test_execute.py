@@ -1,3 +1,4 @@
+import dataclasses
 import json
 import math
 import signal
@@ -20,8 +21,8 @@ from faultlab.runner import (
     run_experiment,
 )
 from faultlab.faults import FaultNotApplicableWarning
-from faultlab.runner.execute import SKIPPED_VARIANTS_KEY, _alarm, execute_job
-from faultlab.runner.jobs import JobKey, JobSpec, expand_jobs
+from faultlab.runner.execute import SKIPPED_VARIANTS_KEY, _alarm, execute_batch, execute_job
+from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, expand_jobs
 from faultlab.seeds import case_seed, slam_seed, suite_seed_sequence
 from faultlab.scenario import generate_scenario, load_scenario
 from faultlab.space import build_suite
@@ -217,6 +218,8 @@ def test_malformed_experiment_refused_before_any_work(tmp_path):
         run_experiment(good, tmp_path / "out3", jobs=0)
     with pytest.raises(ConfigError, match="backend"):
         run_experiment(good, tmp_path / "out3", backend="spark")
+    with pytest.raises(ConfigError, match="batch_size"):
+        run_experiment(good, tmp_path / "out3", batch_size=0)
     assert not (tmp_path / "out3").exists()
 
 
@@ -288,6 +291,98 @@ def test_expand_matches_store_identities(tmp_path):
     assert sorted(j.key.astuple() for j in jobs) == sorted(
         df[["run", "suite", "case", "variant", "rep"]].itertuples(index=False, name=None))
     assert all(j.seed == slam_seed(exp.seed, j.key.run, j.key.suite, j.key.case, j.key.rep) for j in jobs)
+
+
+# ------------------------------------------------------------------ batched repetitions
+
+def _fastslam_batches(tmp_path, **overrides):
+    data = dict(runs=1, n_steps=40, repetitions=3, timeout_s=300.0, suites={"random": 1, "fixed": 1},
+                variants=["baseline", "missing_angle_wrap", f"{SUTS}:FS_UNLUCKY", f"{SUTS}:FS_FAR"],
+                slam={"name": "fastslam", "particles": 12})
+    data.update(overrides)
+    return write_experiment(tmp_path / "batches.toml", **data)
+
+
+def _batch(exp, infos, variant, reps) -> JobBatch:
+    specs = [s for s in expand_jobs(exp, ((i.run, i.suite, i.case, i.path, i.cost) for i in infos))
+             if s.key.variant == variant and s.key.rep in reps and s.key.case == 1 and s.key.suite == "random"]
+    return JobBatch(tuple(specs))
+
+
+def test_execute_batch_gives_each_repetition_its_single_job_result(tmp_path):
+    exp = load_experiment(_fastslam_batches(tmp_path, repetitions=4))
+    infos = prepare_cases(exp, tmp_path)
+    for variant in exp.variants:
+        batch = _batch(exp, infos, variant, range(4))
+        got = execute_batch(batch)
+        alone = [execute_job(s) for s in batch.jobs]
+        assert [r.key for r in got] == list(batch.keys)
+        for a, b in zip(alone, got):
+            assert dataclasses.replace(a, runtime_s=0.0) == dataclasses.replace(b, runtime_s=0.0), variant
+        if variant == f"{SUTS}:FS_FAR":  # not attributable to one repetition: every one ran alone
+            assert len({r.runtime_s for r in got}) == len(got)
+        else:  # one batched SLAM: every row records the batch's time / its size
+            assert len({r.runtime_s for r in got}) == 1
+    statuses = {v: [r.status for r in execute_batch(_batch(exp, infos, v, range(4)))] for v in exp.variants}
+    assert set(statuses[f"{SUTS}:FS_UNLUCKY"]) == {JobStatus.OK, JobStatus.CRASH}  # one repetition's failure
+    assert set(statuses[f"{SUTS}:FS_FAR"]) == {JobStatus.CRASH}
+    assert set(statuses["baseline"]) == {JobStatus.OK}
+
+
+def test_a_batch_past_its_limit_records_every_repetition_as_timeout(tmp_path):
+    exp = load_experiment(_fastslam_batches(tmp_path, timeout_s=0.4, variants=["baseline", f"{SUTS}:FS_HANG"]))
+    infos = prepare_cases(exp, tmp_path)
+    batch = _batch(exp, infos, f"{SUTS}:FS_HANG", range(3))
+    assert batch.timeout_s == pytest.approx(1.2)
+    results = execute_batch(batch)
+    assert [r.status for r in results] == [JobStatus.TIMEOUT] * 3
+    assert results[0].error == "timeout: wall-clock limit of 1.2 s exceeded by a batch of 3 repetitions (0.4 s each)"
+    assert 1.0 < 3 * results[0].runtime_s < 30  # stopped near the batch's limit, not after a minute
+
+
+def test_batched_and_single_repetition_campaigns_store_the_same_rows(tmp_path):
+    exp = _fastslam_batches(tmp_path)
+    single = run_experiment(exp, tmp_path / "single", jobs=2, progress=False, batch_size=1)
+    batched = run_experiment(exp, tmp_path / "batched", jobs=2, progress=False)
+    assert single.n_jobs == batched.n_jobs == batched.n_new == 2 * 4 * 3
+    a, b = load_results(tmp_path / "single"), load_results(tmp_path / "batched")
+    pd.testing.assert_frame_equal(_without_runtime(a), _without_runtime(b), check_exact=True)
+    assert set(a.status) == {"ok", "crash"} and (a[a.variant == "baseline"].status == "ok").all()
+    # batched rows of a (case, variant) share one runtime (the batch's); single-job rows do not
+    ok = b[b.variant == "baseline"].groupby(["suite", "case"]).runtime_s.nunique()
+    assert (ok == 1).all()
+    assert (a[a.variant == "baseline"].groupby(["suite", "case"]).runtime_s.nunique() == 3).all()
+
+
+@pytest.mark.slow
+def test_a_resumed_batched_campaign_runs_only_the_missing_repetitions(tmp_path):
+    exp = _fastslam_batches(tmp_path, variants=["baseline", "motion_sign_error"])
+    run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
+    full = load_results(tmp_path / "out")
+    conn = sqlite3.connect(tmp_path / "out" / "results.sqlite")
+    with conn:
+        conn.execute("DELETE FROM results WHERE rep = 1 OR (rep = 2 AND variant = 'baseline')")
+    conn.close()
+    kept = load_results(tmp_path / "out")
+    again = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
+    assert again.n_new == len(full) - len(kept) == 2 * (2 + 1)
+    after = load_results(tmp_path / "out")
+    pd.testing.assert_frame_equal(_without_runtime(after), _without_runtime(full), check_exact=True)
+    merged = kept.merge(after, on=["run", "suite", "case", "variant", "rep"], suffixes=("", "_after"))
+    np.testing.assert_array_equal(merged.runtime_s.to_numpy(), merged.runtime_s_after.to_numpy())
+    # the missing repetitions of a (case, variant) ran as one batch: reps 1 and 2 of the baseline share a runtime
+    redo = after[(after.variant == "baseline") & (after.rep > 0)].groupby(["suite", "case"]).runtime_s.nunique()
+    assert (redo == 1).all()
+
+
+def test_a_batch_that_kills_its_worker_is_a_crash_of_each_repetition(tmp_path):
+    exp = _fastslam_batches(tmp_path, variants=["baseline", f"{SUTS}:FS_EXIT"], suites={"random": 1},
+                            repetitions=2)
+    summary = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
+    df = load_results(tmp_path / "out")
+    died = df[df.variant == f"{SUTS}:FS_EXIT"]
+    assert list(died.status) == ["crash", "crash"] and died.error.str.startswith("WorkerDied:").all()
+    assert (df[df.variant == "baseline"].status == "ok").all() and summary.complete
 
 
 def test_prepare_cases_passes_fov_bug_and_notices_a_mismatch(tmp_path):

@@ -1,5 +1,8 @@
+import pytest
+
+from faultlab.errors import ConfigError
 from faultlab.runner.experiment import parse_experiment
-from faultlab.runner.jobs import JobKey, expand_jobs
+from faultlab.runner.jobs import JobBatch, JobKey, batch_jobs, expand_jobs
 from faultlab.seeds import slam_seed
 from tests.runner.suts import tiny_experiment
 
@@ -33,3 +36,37 @@ def test_the_replica_variant_gets_its_own_seeds():
     seeds = {(j.key.variant, j.key.rep): j.seed for j in jobs}
     assert seeds[("baseline_replica", 0)] == slam_seed(exp.seed, 1, "random", 1, 0, replica=True)
     assert len(set(seeds.values())) == 4
+
+
+def _jobs(repetitions=3):
+    exp = parse_experiment(tiny_experiment(variants=["baseline", "tests.runner.suts:BIAS"], repetitions=repetitions))
+    return expand_jobs(exp, [(1, "random", 1, "a.npz", 1.0), (1, "random", 2, "b.npz", 2.5)])
+
+
+def test_batch_jobs_groups_the_repetitions_of_a_case_and_variant():
+    jobs = _jobs(repetitions=3)
+    batches = batch_jobs(jobs)
+    assert [len(b) for b in batches] == [3, 3, 3, 3]
+    assert [b.jobs for b in batches] == [tuple(jobs[i:i + 3]) for i in range(0, 12, 3)]  # order kept
+    for b in batches:
+        assert len({(k.run, k.suite, k.case, k.variant) for k in b.keys}) == 1
+        assert [k.rep for k in b.keys] == [0, 1, 2]
+        assert b.cost == pytest.approx(3 * b.jobs[0].cost) and b.timeout_s == pytest.approx(3 * b.jobs[0].timeout_s)
+    assert str(batches[1]) == "run 1 random case 1 tests.runner.suts:BIAS reps 0,1,2"
+    # size limits, and one job per batch
+    assert [len(b) for b in batch_jobs(jobs, size=2)] == [2, 1] * 4
+    assert [b.jobs for b in batch_jobs(jobs, size=1)] == [(j,) for j in jobs]
+    # only the jobs given (e.g. those missing from a store) are batched
+    missing = [j for j in jobs if j.key.rep != 1]
+    assert [[k.rep for k in b.keys] for b in batch_jobs(missing)] == [[0, 2]] * 4
+
+
+def test_batch_jobs_refuses_bad_sizes_and_mixed_batches():
+    jobs = _jobs()
+    for size in (0, -1, 1.5, True):
+        with pytest.raises(ConfigError, match="batch size"):
+            batch_jobs(jobs, size=size)
+    with pytest.raises(ConfigError, match="one case and variant"):
+        JobBatch((jobs[0], jobs[3]))
+    with pytest.raises(ConfigError, match="at least one job"):
+        JobBatch(())

@@ -231,9 +231,8 @@ EXTRA_CONTROL_DRAWS = Fault(name="test/extra_control_draws", step="sample_contro
 class SharedStreamSlam(FastSlam):
     """The design CRN by unit replaces: every unit draws from the one generator the SLAM was reset with."""
 
-    def reset(self, pose, *, rng):
-        super().reset(pose, rng=rng)
-        self._streams = {name: rng for name in self.steps.stream_units}
+    def _unit_streams(self, rng):
+        return {name: rng for name in self.steps.stream_units}
 
 
 def test_extra_draws_in_resample_leave_the_control_noise_identical(scenario):
