@@ -58,7 +58,7 @@ from faultlab.mutation.campaign import MutantSelection, mutant_variant, select_m
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.runner.execute import _row, _stream, prepare_cases
 from faultlab.runner.experiment import Experiment, parse_experiment
-from faultlab.runner.jobs import expand_jobs
+from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import ResultStore, load_results, store_lock
 from faultlab.stats.verdict import case_verdicts, min_pairs
@@ -231,7 +231,8 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
             try:
                 with show_progress(len(round_specs), done=len(round_specs) - len(todo),
                                    desc=f"faultlab mutate case {r}", unit="job", enabled=progress) as bar:
-                    for res in _stream(todo, jobs=jobs, backend=backend):
+                    # one job per batch: a mutant may couple the filters of a batch through a unit
+                    for res in _stream(batch_jobs(todo, size=1), jobs=jobs, backend=backend):
                         k = res.key
                         store.write(_row(info[(k.run, k.suite, k.case)], res), session=session)
                         n_round += 1
