@@ -36,6 +36,13 @@ def register(subparsers) -> None:
     p.add_argument("--quick", action="store_true",
                    help="smoke version: 1 run, systematic 5 + random 2 + fixed 2 cases, baseline + the "
                         "3 paper faults, 200 steps, 60 particles")
+    p.add_argument("--ablation", action="store_true",
+                   help="with --profile paper: also run each of the paper profile's differences on its own "
+                        "(paper against paper_no_aliasing, linear against log weights, ...; same cases and "
+                        "seeds, results in <out>-ablation/, resumable) and add the paired effects to the report "
+                        "(ablation.md/.csv, pages of report.pdf)")
+    p.add_argument("--ablation-runs", type=positive_int, default=1,
+                   help="evaluation runs of the ablation's arms other than the main run (default: 1)")
     p.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default: 2)")
     add_execution_options(p)
     p.set_defaults(func=reproduce_handler)
@@ -62,7 +69,8 @@ def reproduce_handler(args: argparse.Namespace) -> int:
     experiment = DEFAULT_EXPERIMENT if args.experiment is None else args.experiment
     result = reproduce(experiment, out=args.out, reports=args.reports, runs=args.runs,
                        quick=args.quick, profile=args.profile, jobs=args.jobs, backend=args.backend,
-                       force_new=args.force_new, progress=not args.no_progress)
+                       force_new=args.force_new, progress=not args.no_progress, ablation=args.ablation,
+                       ablation_runs=args.ablation_runs)
     print(result)
     return 0
 

@@ -3,7 +3,10 @@
 :func:`build_report` analyses a results store once (:func:`faultlab.analysis.analyse`) and
 renders the Analysis (:func:`render_report`): the tables, the comparison with the paper and
 ``report.pdf``.  It never runs a SLAM, never generates a case and never writes to the results
-store: ``python -m faultlab report RESULTS`` rebuilds a report at any time.
+store: ``python -m faultlab report RESULTS`` rebuilds a report at any time.  Given the comparison
+with the paper's raw data (:func:`faultlab.analysis.fidelity.fidelity`) and the ablation of the paper
+profile's differences (:func:`faultlab.analysis.ablation.ablation`), computed once by the caller,
+``report.pdf`` also gets their pages after the comparison with the paper.
 """
 
 from __future__ import annotations
@@ -15,7 +18,11 @@ from matplotlib.figure import Figure
 
 from faultlab import __version__
 from faultlab.analysis import BEYOND_THE_PAPER, Analysis, analyse
+from faultlab.analysis.ablation import AblationResult
+from faultlab.analysis.fidelity import Fidelity
+from faultlab.report.ablation import ablation_pages
 from faultlab.report.comparison import Comparison, compare_with_paper
+from faultlab.report.fidelity import fidelity_pages
 from faultlab.report.pages import (
     MAX_PICTURED_RUNS,
     REPORT_TITLE,
@@ -86,7 +93,8 @@ class ReportFiles:
 
 def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: float = 0.05,
                  range_factor: float = 2.0, paper_raw: str | Path | None = None,
-                 paper_reported: str | Path | None = None) -> ReportFiles:
+                 paper_reported: str | Path | None = None, fidelity: Fidelity | None = None,
+                 ablation: AblationResult | None = None) -> ReportFiles:
     """Write Table II, detection rates, the comparison and ``report.pdf`` from saved results.
 
     Parameters
@@ -103,6 +111,10 @@ def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: flo
         (:func:`faultlab.report.comparison.compare_with_paper`).
     paper_raw, paper_reported : path, optional
         The paper's data; default ``paper_repro/`` (see :func:`faultlab.stats.resolve_data_path`).
+    fidelity : Fidelity, optional
+        The map errors against the paper's raw data: rendered as pages of ``report.pdf``.
+    ablation : AblationResult, optional
+        The effects of the paper profile's differences: rendered as pages of ``report.pdf``.
 
     Returns
     -------
@@ -114,11 +126,13 @@ def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: flo
         No results store at ``results_dir``, or it holds no rows.
     """
     analysis = analyse(results_dir, alpha=alpha, paper_raw=paper_raw, paper_reported=paper_reported)
-    return render_report(analysis, reports_dir, store_dir=results_dir, range_factor=range_factor)
+    return render_report(analysis, reports_dir, store_dir=results_dir, range_factor=range_factor,
+                         fidelity=fidelity, ablation=ablation)
 
 
 def render_report(analysis: Analysis, reports_dir: str | Path, *, store_dir: str | Path | None = None,
-                  range_factor: float = 2.0) -> ReportFiles:
+                  range_factor: float = 2.0, fidelity: Fidelity | None = None,
+                  ablation: AblationResult | None = None) -> ReportFiles:
     """Write the report of an Analysis (e.g. one loaded with :meth:`Analysis.load`).
 
     Parameters
@@ -129,7 +143,7 @@ def render_report(analysis: Analysis, reports_dir: str | Path, *, store_dir: str
     store_dir : path, optional
         The results store whose saved test cases are pictured; default the store the analysis
         was made from (its metadata's ``path``).  Cases that cannot be read are noted.
-    range_factor : float
+    range_factor, fidelity, ablation
         As for :func:`build_report`.
     """
     reports_dir = Path(reports_dir)
@@ -140,7 +154,9 @@ def render_report(analysis: Analysis, reports_dir: str | Path, *, store_dir: str
     general = [n.text for n in analysis.notes if n.topic not in BEYOND_THE_PAPER]
     pictures, seeds, picture_notes = case_pages(_store_dir(analysis, store_dir), analysis)
     notes = general + picture_notes
-    pages = (title_pages(analysis, comparison, notes) + _body_pages(analysis, comparison, pictures)
+    extra = ((fidelity_pages(fidelity, ablation) if fidelity is not None else [])
+             + (ablation_pages(ablation) if ablation is not None else []))
+    pages = (title_pages(analysis, comparison, notes) + _body_pages(analysis, comparison, pictures, extra)
              + metadata_pages(analysis, seeds))
     pdf = _write_pdf(analysis, reports_dir, pages)
     return ReportFiles(
@@ -156,9 +172,11 @@ def _store_dir(analysis: Analysis, store_dir: str | Path | None) -> Path:
     return Path(analysis.metadata.get("path", ".")).parent
 
 
-def _body_pages(analysis: Analysis, comparison: Comparison, pictures: list[Figure]) -> list[Figure]:
-    """Every page between the title and the metadata, in reading order."""
-    return (table2_pages(analysis) + rates_pages(analysis) + comparison_pages(comparison)
+def _body_pages(analysis: Analysis, comparison: Comparison, pictures: list[Figure],
+                fidelity: list[Figure]) -> list[Figure]:
+    """Every page between the title and the metadata, in reading order (``fidelity``: the pages on the
+    paper's raw data and the ablation, after the comparison with the paper)."""
+    return (table2_pages(analysis) + rates_pages(analysis) + comparison_pages(comparison) + fidelity
             + figure_pages(analysis) + pictures + coverage_pages(analysis) + beyond_pages(analysis))
 
 

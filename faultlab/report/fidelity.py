@@ -1,8 +1,11 @@
 """The fidelity page: this run's RMS distributions against the paper's raw data, per suite and variant.
 
 Renders a :class:`faultlab.analysis.fidelity.Fidelity` (nothing is computed here): ``fidelity.csv``
-(the table as computed) and ``fidelity.md`` (what ran, the rule, the table in mm, and in words which
-figures are reproduced, which differ and where the faulty-rotation errors lie against the paper's).
+(the table as computed), ``fidelity.md`` (what ran, the rule, the table in mm, and in words which
+figures are reproduced, which differ and where the faulty-rotation errors lie against the paper's)
+and the same as pages of ``report.pdf`` (:func:`fidelity_pages`).  Given the ablation of the paper
+profile's differences (:class:`faultlab.analysis.ablation.AblationResult`), the faulty-rotation
+statement quotes the effect of every difference that acts on that fault.
 """
 
 from __future__ import annotations
@@ -11,13 +14,21 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
+from matplotlib.figure import Figure
 
+from faultlab.analysis.ablation import AblationResult
 from faultlab.analysis.fidelity import FIDELITY, FIDELITY_CSV, Fidelity, Verdict
+from faultlab.report.pdf import table_pages, text_pages
 from faultlab.report.tables import format_mm, suite_label, variant_label
 
-__all__ = ["FidelityFiles", "fidelity_markdown", "write_fidelity", "FIDELITY_MD"]
+__all__ = ["FidelityFiles", "fidelity_markdown", "fidelity_pages", "write_fidelity", "FIDELITY_MD", "FIDELITY_TITLE"]
 
 FIDELITY_MD = "fidelity.md"
+#: Title of the page (Markdown heading and PDF page).
+FIDELITY_TITLE = "Map errors against the paper's raw data"
+#: The differences from the paper's filter that act on the faulty rotation's errors (rows of
+#: :data:`faultlab.slam.profiles.ABLATIONS`).
+_ROTATION_POINTS = ("predicted bearing", "innovation wraps", "field of view (scenario)", "resampling copies")
 #: The fault whose magnitude the paper profile exists to compare (Table II's "faulty rotation").
 _ROTATION = "missing_angle_wrap"
 
@@ -48,9 +59,17 @@ def _campaign_text(fid: Fidelity) -> list[str]:
               f"{c.get('n_steps')} steps per case, {c.get('particles')} particles")
     lines = [f"This run: {what}."]
     if c.get("reduced"):
-        lines += ["", "**REDUCED configuration**: fewer steps, particles or runs than the paper's protocol "
-                      "(1000 steps, 200 particles, 3 runs). Map errors grow with the length of a trace, so "
-                      "sizes are compared with the paper's full-length runs only as an indication."]
+        paper = {"n_steps": (1000, "steps"), "particles": (200, "particles"), "runs": (3, "runs")}
+        short = [f"{c[k]} {what} instead of {n}" for k, (n, what) in paper.items()
+                 if isinstance(c.get(k), int) and c[k] < n]
+        lines += ["", f"**REDUCED configuration** ({', '.join(short)}): fewer steps, particles or runs than the "
+                      "paper's protocol (1000 steps, 200 particles, 3 runs)."]
+        if any(isinstance(c.get(k), int) and c[k] < paper[k][0] for k in ("n_steps", "particles")):
+            lines[-1] += (" Map errors grow with the length of a trace, so sizes are compared with the paper's "
+                          "full-length runs only as an indication.")
+        else:
+            lines[-1] += (" Each case is run as the paper ran it; with fewer runs each cell has fewer values, so "
+                          "the tests have less power and the intervals are wider.")
     return lines
 
 
@@ -96,7 +115,27 @@ def _cells(frame: pd.DataFrame) -> str:
     return "; ".join(f"{suite_label(r.suite)} / {variant_label(r.variant)}" for r in frame.itertuples())
 
 
-def _rotation_text(fid: Fidelity) -> list[str]:
+def _rotation_evidence(ablation: AblationResult | None) -> list[str]:
+    """The ablation's effects on the faulty rotation, one bullet per difference that acts on it."""
+    if ablation is None:
+        return []
+    lines = []
+    for point in _ROTATION_POINTS:
+        r = ablation.row(point, _ROTATION)
+        if r is None:
+            continue
+        sig = "significant" if r.p_holm < ablation.alpha else "not significant"
+        lines.append(f"- {point}: with the paper's choice the faulty rotation's median error is "
+                     f"{format_mm(r.paper_median_mm)} mm, with faultlab's alternative {format_mm(r.alternative_median_mm)} "
+                     f"mm (paired median difference {r.diff_median_mm:.0f} mm [{r.diff_low_mm:.0f}, "
+                     f"{r.diff_high_mm:.0f}], ratio {r.ratio_median:.2f}, p_Holm {r.p_holm:.2g}: {sig}).")
+    if lines:
+        lines = ["Evidence from the ablation (ablation.md; same cases and seeds, one difference at a time):",
+                 *lines]
+    return lines
+
+
+def _rotation_text(fid: Fidelity, ablation: AblationResult | None = None) -> list[str]:
     t = fid.table[fid.table["variant"] == _ROTATION]
     if t.empty:
         return []
@@ -117,28 +156,64 @@ def _rotation_text(fid: Fidelity) -> list[str]:
             + " Per suite: " + "; ".join(
                 f"{suite_label(r.suite)} {format_mm(r.min_mm)}-{format_mm(r.max_mm)} mm (paper "
                 f"{format_mm(r.paper_min_mm)}-{format_mm(r.paper_max_mm)} mm, {r.verdict})"
-                for r in t.itertuples()) + ".", ""]
+                for r in t.itertuples()) + ".",
+            _per_suite_test_text(fid, t), *_rotation_evidence(ablation)]
 
 
-def fidelity_markdown(fid: Fidelity) -> str:
-    """The page as Markdown."""
+def _per_suite_test_text(fid: Fidelity, t: pd.DataFrame) -> str:
+    """The two-sample test of the faulty rotation per suite, in words."""
+    return "Two-sample test per suite (Mann-Whitney U, Holm over the table): " + "; ".join(
+        f"{suite_label(r.suite)}: p = {_p_text(r.p)}, adjusted {_p_text(r.p_holm)}, ratio of medians "
+        f"{_ratio_text(r)}, {r.verdict}" for r in t.itertuples()) + "."
+
+
+def _summary_blocks(fid: Fidelity) -> list[str]:
     reproduced = fid.cells(Verdict.REPRODUCED)
     differs = fid.cells(Verdict.DIFFERS)
     in_ci = fid.table[fid.table["paper_median_in_ci"]]
-    parts = ["# Map errors against the paper's raw data", "", *_campaign_text(fid), "", _rule_text(fid), "",
-             _md_table(_display(fid)), "",
-             f"Reproduced ({len(reproduced)} of {len(fid.table)}): {_cells(reproduced)}.", "",
-             f"Differs ({len(differs)}): {_cells(differs)}.", "",
-             f"The paper's median lies within this run's interval ({len(in_ci)} of {len(fid.table)}): "
-             f"{_cells(in_ci)}.", "", *_rotation_text(fid)]
+    return [f"Reproduced ({len(reproduced)} of {len(fid.table)}): {_cells(reproduced)}.",
+            f"Differs ({len(differs)}): {_cells(differs)}.",
+            f"The paper's median lies within this run's interval ({len(in_ci)} of {len(fid.table)}): "
+            f"{_cells(in_ci)}."]
+
+
+def fidelity_markdown(fid: Fidelity, ablation: AblationResult | None = None) -> str:
+    """The page as Markdown (with the ablation's evidence on the faulty rotation if given)."""
+    rotation = _rotation_text(fid, ablation)
+    if rotation:
+        head, body = rotation[:2], rotation[2:]
+        rotation = head + _md_blocks(body)
+    parts = ["# " + FIDELITY_TITLE, "", *_campaign_text(fid), "", _rule_text(fid), "",
+             _md_table(_display(fid)), "", *_md_blocks(_summary_blocks(fid)), *rotation]
     return "\n".join(parts).rstrip() + "\n"
 
 
-def write_fidelity(fid: Fidelity, reports_dir: str | Path) -> FidelityFiles:
+def _md_blocks(blocks: list[str]) -> list[str]:
+    """Paragraphs separated by blank lines; consecutive bullets stay one list."""
+    out: list[str] = []
+    for i, b in enumerate(blocks):
+        out.append(b)
+        nxt = blocks[i + 1] if i + 1 < len(blocks) else ""
+        if not (b.startswith("- ") and nxt.startswith("- ")) and not (nxt.startswith("- ") and b.endswith(":")):
+            out.append("")
+    return out
+
+
+def fidelity_pages(fid: Fidelity, ablation: AblationResult | None = None) -> list[Figure]:
+    """The page(s) of ``report.pdf``: the table, then what ran, the rule and the statements."""
+    rotation = _rotation_text(fid, ablation)
+    blocks = [*[b for b in _campaign_text(fid) if b], _rule_text(fid), *_summary_blocks(fid)]
+    if rotation:
+        blocks += ["## " + rotation[0].removeprefix("## ")] + [b for b in rotation[1:] if b]
+    return (table_pages(FIDELITY_TITLE, _display(fid), max_rows=16)
+            + text_pages(FIDELITY_TITLE + ": what it says", blocks))
+
+
+def write_fidelity(fid: Fidelity, reports_dir: str | Path, ablation: AblationResult | None = None) -> FidelityFiles:
     """Write ``fidelity.csv`` and ``fidelity.md`` to ``reports_dir`` (created)."""
     d = Path(reports_dir)
     d.mkdir(parents=True, exist_ok=True)
     csv = FIDELITY.to_csv(fid.table, d / FIDELITY_CSV)
     md = d / FIDELITY_MD
-    md.write_text(fidelity_markdown(fid))
+    md.write_text(fidelity_markdown(fid, ablation))
     return FidelityFiles(csv=csv, markdown=md)

@@ -9,6 +9,12 @@ the tables and the PDF with :func:`faultlab.report.build.build_report` from the 
 paper's own filter, run as the paper ran it, so with ``fov_bug`` on.  Its results and reports go beside
 the default ones (``results/<experiment>-profile-<name>``, ``reports/profile-<name>``) and its report also
 gets the comparison with the paper's raw RMS data (:mod:`faultlab.report.fidelity`).
+
+``ablation`` (profile ``"paper"`` only) also runs the arms of
+:data:`faultlab.slam.profiles.ABLATIONS` on the same cases and seeds (the profile ``paper`` with the
+field-of-view defect is the main run itself; every other arm goes to ``<out>-ablation/<arm>``, with at most
+``ablation_runs`` evaluation runs and the variants :data:`ABLATION_VARIANTS`, resumable like the main run) and adds the effect of each of the
+paper's choices (:mod:`faultlab.analysis.ablation`, :mod:`faultlab.report.ablation`) to the report.
 """
 
 from __future__ import annotations
@@ -17,14 +23,17 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from faultlab.analysis.ablation import AblationResult, ablation as compute_ablation
 from faultlab.analysis.fidelity import fidelity
 from faultlab.errors import ConfigError
+from faultlab.report.ablation import AblationFiles, write_ablation
 from faultlab.report.build import ReportFiles, build_report
 from faultlab.report.fidelity import FidelityFiles, write_fidelity
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
 __all__ = ["ReproduceResult", "reproduce", "quick_overrides", "profile_overrides", "default_out",
-           "default_reports", "DEFAULT_EXPERIMENT", "QUICK_PARTICLES", "QUICK_STEPS"]
+           "default_reports", "ablation_dir", "run_ablation", "DEFAULT_EXPERIMENT", "QUICK_PARTICLES", "QUICK_STEPS",
+           "ABLATION_PROFILE", "DEFAULT_ABLATION_RUNS", "ABLATION_VARIANTS"]
 
 #: The paper's protocol: the shipped experiment ``paper`` (``experiments/paper.toml``, see
 #: :mod:`faultlab.data`), found wherever faultlab is installed.
@@ -35,6 +44,12 @@ QUICK_STEPS = 200
 #: ``--quick``: cases of the random and fixed suites (the systematic suite keeps the fewest cases
 #: that cover every class of Table I, i.e. 5).
 QUICK_CASES = 2
+#: The profile whose differences the ablation isolates.
+ABLATION_PROFILE = "paper"
+#: Evaluation runs of the ablation's arms (the main run keeps its own).
+DEFAULT_ABLATION_RUNS = 1
+#: Variants of the ablation's arms: the baseline and the fault the paper profile exists to compare.
+ABLATION_VARIANTS = (BASELINE, "missing_angle_wrap")
 
 
 @dataclass(frozen=True)
@@ -51,6 +66,8 @@ class ReproduceResult:
         The tables and the PDF.
     fidelity : FidelityFiles
         The comparison of the map errors with the paper's raw data (:mod:`faultlab.report.fidelity`).
+    ablation : AblationFiles or None
+        The effects of the paper profile's differences, if ``ablation`` was asked for.
     out : Path
         The results directory.
     wall_time_s : float
@@ -63,12 +80,14 @@ class ReproduceResult:
     fidelity: FidelityFiles
     out: Path
     wall_time_s: float
+    ablation: AblationFiles | None = None
 
     def __str__(self) -> str:
         return "\n".join([
             f"results: {self.out} ({self.summary})",
             str(self.report),
             str(self.fidelity),
+            *([str(self.ablation)] if self.ablation is not None else []),
             f"reproduce took {self.wall_time_s:.1f} s",
         ])
 
@@ -128,10 +147,61 @@ def default_reports(*, profile: str | None = None) -> Path:
     return Path("reports") if profile is None else Path("reports") / f"profile-{profile}"
 
 
+def ablation_dir(out: str | Path) -> Path:
+    """Where the ablation's arms of the main run stored in ``out`` go: ``<out>-ablation``."""
+    out = Path(out)
+    return out.with_name(out.name + "-ablation")
+
+
+def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RUNS, jobs: int = 2,
+                 backend: str = "loky", progress: bool = True) -> AblationResult:
+    """Run (or resume) every arm of :data:`faultlab.slam.profiles.ABLATIONS` and compute the effects.
+
+    Parameters
+    ----------
+    experiment : faultlab.runner.Experiment
+        The main run's experiment, on the profile ``"paper"`` (its results are in ``out``).
+    out : path
+        The main run's results directory.  The arm that equals the main run (its profile and field of
+        view) is read from there; every other arm is ``experiment`` on the arm's profile and field of
+        view with at most ``runs`` evaluation runs and the variants of :data:`ABLATION_VARIANTS` that
+        ``experiment`` has, stored in ``ablation_dir(out) / arm.name``.
+    runs : int
+        Evaluation runs of the other arms.
+    jobs, backend, progress
+        Passed to :func:`faultlab.runner.run_experiment`.
+
+    Raises
+    ------
+    ConfigError
+        The experiment is not on the profile ``"paper"``, or ``runs`` is not a positive integer.
+    """
+    from faultlab.runner import run_experiment
+    from faultlab.slam.profiles import ablation_arms
+
+    if experiment.slam.profile != ABLATION_PROFILE:
+        raise ConfigError(f"the ablation isolates the differences of the profile {ABLATION_PROFILE!r}; "
+                          f"{experiment.source} runs {experiment.slam.profile!r}")
+    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
+        raise ConfigError(f"ablation runs must be a positive integer, got {runs!r}")
+    dirs: dict[str, Path] = {}
+    for arm in ablation_arms():
+        if arm.profile == experiment.slam.profile and arm.fov_bug == experiment.fov_bug:
+            dirs[arm.name] = Path(out)
+            continue
+        arm_experiment = experiment.replace(slam={"profile": arm.profile}, fov_bug=arm.fov_bug,
+                                            runs=min(runs, experiment.runs),
+                                            variants=[v for v in experiment.variants if v in ABLATION_VARIANTS])
+        dirs[arm.name] = ablation_dir(out) / arm.name
+        run_experiment(arm_experiment, dirs[arm.name], jobs=jobs, backend=backend, progress=progress)
+    return compute_ablation(dirs)
+
+
 def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Path | None = None,
               reports: str | Path | None = None, runs: int | None = None, quick: bool = False,
               profile: str | None = None, jobs: int = 2, backend: str = "loky", force_new: bool = False,
-              progress: bool = True) -> ReproduceResult:
+              progress: bool = True, ablation: bool = False,
+              ablation_runs: int = DEFAULT_ABLATION_RUNS) -> ReproduceResult:
     """Run an experiment (resuming if its results exist) and write the report.
 
     Parameters
@@ -153,6 +223,12 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
         ``fov_bug`` on).
     jobs, backend, force_new, progress
         Passed to :func:`faultlab.runner.run_experiment`.
+    ablation : bool
+        Also run the ablation of the profile ``"paper"``'s differences (:func:`run_ablation`) and put it
+        in the report (``ablation.csv``/``.md``, pages of ``report.pdf``, the evidence on the faulty
+        rotation in ``fidelity.md``).  Needs ``profile="paper"``.
+    ablation_runs : int
+        Evaluation runs of the ablation's arms other than the main run.
 
     Returns
     -------
@@ -161,7 +237,7 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
     Raises
     ------
     ConfigError
-        Malformed experiment or options (before anything runs).
+        Malformed experiment or options (before anything runs); ``ablation`` without ``profile="paper"``.
     ResultsError
         ``out`` holds another experiment's results and ``force_new`` is False.
     """
@@ -179,11 +255,20 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
         experiment = experiment.replace(**quick_overrides(experiment))
     if runs is not None:
         experiment = experiment.replace(runs=runs)
+    if ablation and profile != ABLATION_PROFILE:
+        raise ConfigError(f"ablation needs profile={ABLATION_PROFILE!r} (it isolates that profile's differences), "
+                          f"got {profile!r}")
+    if isinstance(ablation_runs, bool) or not isinstance(ablation_runs, int) or ablation_runs < 1:
+        raise ConfigError(f"ablation_runs must be a positive integer, got {ablation_runs!r}")
     out = Path(out) if out is not None else default_out(experiment_path, quick=quick, runs=runs, profile=profile)
     reports = Path(reports) if reports is not None else default_reports(profile=profile)
     summary = run_experiment(experiment, out, jobs=jobs, backend=backend, force_new=force_new,
                              progress=progress)
-    report = build_report(out, reports)
-    fid = write_fidelity(fidelity(out), reports)
-    return ReproduceResult(experiment=experiment, summary=summary, report=report, fidelity=fid, out=out,
-                           wall_time_s=time.perf_counter() - start)
+    abl = (run_ablation(experiment, out, runs=ablation_runs, jobs=jobs, backend=backend, progress=progress)
+           if ablation else None)
+    fid = fidelity(out)  # computed once, rendered as fidelity.md and as pages of report.pdf
+    report = build_report(out, reports, fidelity=fid, ablation=abl)
+    fid_files = write_fidelity(fid, reports, abl)
+    abl_files = write_ablation(abl, reports) if abl is not None else None
+    return ReproduceResult(experiment=experiment, summary=summary, report=report, fidelity=fid_files, out=out,
+                           wall_time_s=time.perf_counter() - start, ablation=abl_files)

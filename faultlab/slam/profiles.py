@@ -22,7 +22,7 @@ point (the table in the README is generated from them with :func:`differences_ma
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import NamedTuple
 
@@ -31,7 +31,8 @@ from faultlab.slam import units as U
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig, FastSlamSteps
 
 __all__ = ["DEFAULT_PROFILE", "Difference", "Profile", "PROFILES", "get_profile", "profile_names", "differences_markdown",
-           "PAPER_LENGTH_UNIT", "PAPER_CONFIG", "PAPER_STEPS", "PAPER_NO_ALIASING_STEPS"]
+           "PAPER_LENGTH_UNIT", "PAPER_CONFIG", "PAPER_STEPS", "PAPER_NO_ALIASING_STEPS", "Ablation", "Arm",
+           "ABLATIONS", "ABLATION_PROFILES", "ablation_arms"]
 
 
 class Difference(NamedTuple):
@@ -277,6 +278,109 @@ PROFILES: dict[str, Profile] = {
 }
 
 
+def _one_change(name: str, description: str, **units) -> Profile:
+    """``paper_no_aliasing`` with some units replaced (an arm of :data:`ABLATIONS`)."""
+    base = PROFILES["paper_no_aliasing"]
+    return Profile(name=name, config=base.config, steps=replace(base.steps, **units), description=description,
+                   differences=base.differences)
+
+
+#: Profiles that differ from ``paper_no_aliasing`` in one point only, for :data:`ABLATIONS`.  They are
+#: resolved by :func:`get_profile` (so an experiment can name them) but are not listed by
+#: :func:`profile_names`: they exist to isolate one row of the paper profile's differences.
+ABLATION_PROFILES: dict[str, Profile] = {p.name: p for p in (
+    _one_change("paper_no_aliasing_log_weights",
+                "paper_no_aliasing with the reference's normalised log weights (no underflow, no reset)",
+                combine_weights=U.combine_weights),
+    _one_change("paper_no_aliasing_low_variance",
+                "paper_no_aliasing with the reference's low-variance resampling (one uniform)",
+                resample=U.resample),
+    _one_change("paper_no_aliasing_best_particle_map",
+                "paper_no_aliasing returning the highest-weight particle's map, not rounded",
+                extract_map=U.extract_map),
+    _one_change("paper_no_aliasing_new_by_id",
+                "paper_no_aliasing classifying a landmark as new only at its first sighting",
+                classify_new=U.classify_new),
+    _one_change("paper_no_aliasing_unwrapped_prediction",
+                "paper_no_aliasing without the wrap of the predicted bearing",
+                predict_measurement=U.predict_measurement),
+    _one_change("paper_no_aliasing_single_wrap",
+                "paper_no_aliasing whose weights use the (fault-replaceable) innovation wrap only",
+                log_likelihood=U.log_likelihood),
+)}
+
+
+class Arm(NamedTuple):
+    """One configuration an ablation runs: a profile and the scenarios' field-of-view defect."""
+
+    profile: str
+    fov_bug: bool = True
+
+    @property
+    def name(self) -> str:
+        """A name for files and tables: the profile, ``-fov-off`` appended without the defect."""
+        return self.profile + ("" if self.fov_bug else "-fov-off")
+
+
+@dataclass(frozen=True)
+class Ablation:
+    """One row of the paper profile's differences isolated: the paper's choice against one alternative.
+
+    Both arms run the same cases with the same seeds; they differ in ``point`` only.
+
+    Attributes
+    ----------
+    point : str
+        The :class:`Difference` row (its ``point``) whose effect is shown.
+    paper : Arm
+        The arm with the paper's choice.
+    alternative : Arm
+        The arm with faultlab's reference choice instead.
+    change : str
+        What the alternative changes, one line.
+    """
+
+    point: str
+    paper: Arm
+    alternative: Arm
+    change: str
+
+
+_BASE = Arm("paper_no_aliasing")
+
+#: The rows of the ``paper`` profile's differences whose effect one change can isolate.  Every other row
+#: is either not reproduced, not a choice of the filter (units, algebra, random streams) or part of the
+#: scenario generator with no switch.
+ABLATIONS: tuple[Ablation, ...] = (
+    Ablation("resampling copies", Arm("paper"), _BASE,
+             "deep copies at resampling (paper_no_aliasing) instead of the shallow-copy aliasing"),
+    Ablation("weights", _BASE, Arm("paper_no_aliasing_log_weights"),
+             "normalised log weights instead of the linear product with its reset to uniform"),
+    Ablation("resampling draws", _BASE, Arm("paper_no_aliasing_low_variance"),
+             "low-variance (one uniform) instead of stratified resampling"),
+    Ablation("map output", _BASE, Arm("paper_no_aliasing_best_particle_map"),
+             "the highest-weight particle's map, unrounded, instead of the particle closest to the mean "
+             "rounded to mm"),
+    Ablation("new landmark", _BASE, Arm("paper_no_aliasing_new_by_id"),
+             "new at the first sighting only instead of while |x| <= 1 mm"),
+    Ablation("predicted bearing", _BASE, Arm("paper_no_aliasing_unwrapped_prediction"),
+             "the predicted bearing left unwrapped"),
+    Ablation("innovation wraps", _BASE, Arm("paper_no_aliasing_single_wrap"),
+             "one innovation wrap shared by the EKF update and the weights (missing_angle_wrap removes both)"),
+    Ablation("field of view (scenario)", _BASE, Arm("paper_no_aliasing", fov_bug=False),
+             "scenarios without the field-of-view defect (|bearing| <= opening / 2)"),
+)
+
+
+def ablation_arms(ablations: tuple[Ablation, ...] = ABLATIONS) -> tuple[Arm, ...]:
+    """Every arm the ablations need, once each, in order of first use."""
+    arms: dict[Arm, None] = {}
+    for a in ablations:
+        arms.setdefault(a.paper)
+        arms.setdefault(a.alternative)
+    return tuple(arms)
+
+
 def profile_names() -> tuple[str, ...]:
     """The names of the profiles, in registration order."""
     return tuple(PROFILES)
@@ -292,6 +396,8 @@ def get_profile(name: str) -> Profile:
     """
     if isinstance(name, str) and name in PROFILES:
         return PROFILES[name]
+    if isinstance(name, str) and name in ABLATION_PROFILES:
+        return ABLATION_PROFILES[name]
     raise ConfigError(f"unknown FastSLAM profile {name!r}; known profiles: {', '.join(PROFILES)}")
 
 

@@ -230,3 +230,30 @@ def test_a_saved_analysis_renders_the_same_report(built, tiny_store, tmp_path):
                  "comparison.md"):
         assert (tmp_path / "rep" / name).read_bytes() == (files.reports_dir / name).read_bytes(), name
     assert again.page_titles == files.page_titles and again.notes == files.notes
+
+
+def test_the_fidelity_and_ablation_pages_are_in_the_pdf(built, tiny_store, tmp_path, monkeypatch):
+    from faultlab.analysis.ablation import compare_arms
+    from faultlab.analysis.fidelity import fidelity
+    from faultlab.report.fidelity import FIDELITY_TITLE
+
+    files, _ = built
+    fid = fidelity(tiny_store, n_boot=200)
+    rows = load_results(tiny_store)
+    abl = compare_arms({"paper": rows, "paper_no_aliasing": rows.assign(rms_mm=rows["rms_mm"] * 0.5)}, n_boot=200)
+    _forbid_running(monkeypatch)
+    with_pages = build_report(tiny_store, tmp_path / "r", fidelity=fid, ablation=abl)
+    titles = list(with_pages.page_titles)
+    new = [FIDELITY_TITLE, FIDELITY_TITLE + ": what it says", "Differences from the paper's filter, one at a time",
+           "Differences from the paper's filter, one at a time: effects"]
+    assert with_pages.n_pages == files.n_pages + len(new)
+    i = titles.index(FIDELITY_TITLE)
+    assert titles[i:i + len(new)] == new and titles[:i] == list(files.page_titles[:i])
+    assert titles[i - 1].startswith("Comparison with the paper, row by row")
+    text = _pdf_text(with_pages.pdf)
+    assert "Faulty rotation" in text[i + 1] and "Mann-Whitney" in text[i + 1]
+    fixed_rot = fid.table[(fid.table.suite == "fixed") & (fid.table.variant == "missing_angle_wrap")].iloc[0]
+    assert f"{round_mm(fixed_rot.median_mm)} [" in text[i]
+    assert "resampling copies" in text[i + 3] and "Wilcoxon" in text[i + 2]
+    keywords = pypdf.PdfReader(str(with_pages.pdf)).metadata["/Keywords"]
+    assert FIDELITY_TITLE in keywords

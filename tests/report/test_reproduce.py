@@ -29,15 +29,16 @@ def captured(monkeypatch):
         calls["run"] = (experiment, Path(out), kwargs)
         return "summary"
 
-    def fake_build(results_dir, reports_dir):
+    def fake_build(results_dir, reports_dir, *, fidelity=None, ablation=None):
         calls["build"] = (Path(results_dir), Path(reports_dir))
+        calls["build_pages"] = (fidelity, ablation)
         return "report"
 
     def fake_fidelity(results_dir):
         calls["fidelity"] = Path(results_dir)
         return "fidelity"
 
-    def fake_write_fidelity(fid, reports_dir):
+    def fake_write_fidelity(fid, reports_dir, ablation=None):
         calls["write_fidelity"] = (fid, Path(reports_dir))
         return "fidelity files"
 
@@ -136,6 +137,7 @@ def test_profile_paper_runs_the_papers_filter_with_fov_bug_beside_the_default(ca
     assert out == Path("results/paper-profile-paper")
     assert captured["build"] == (out, Path("reports/profile-paper"))
     assert captured["fidelity"] == out and captured["write_fidelity"] == ("fidelity", Path("reports/profile-paper"))
+    assert captured["build_pages"] == ("fidelity", None)  # the fidelity computed once goes into report.pdf
     reproduce(profile="paper", quick=True, progress=False)
     experiment, out, _ = captured["run"]
     assert experiment.slam.profile == "paper" and experiment.fov_bug and experiment.slam.config.n_particles == 60
@@ -176,3 +178,37 @@ def test_reproduce_profile_paper_quick_end_to_end(tmp_path, monkeypatch):
     md = (tmp_path / "rep" / "fidelity.md").read_text()
     assert "profile `paper`, fov_bug = true" in md and "REDUCED" in md
     assert (tmp_path / "rep" / "report.pdf").is_file() and "fidelity" in str(result)
+
+
+def test_ablation_needs_the_paper_profile(captured, tmp_path):
+    with pytest.raises(ConfigError, match="ablation needs profile='paper'"):
+        reproduce(PAPER_TOML, out=tmp_path / "o", reports=tmp_path / "r", ablation=True)
+    with pytest.raises(ConfigError, match="ablation_runs"):
+        reproduce(PAPER_TOML, profile="paper", out=tmp_path / "o", reports=tmp_path / "r", ablation=True,
+                  ablation_runs=0)
+    assert captured == {}
+
+
+def test_run_ablation_reuses_the_main_run_and_runs_every_other_arm(monkeypatch, tmp_path):
+    import faultlab.runner
+    from faultlab.slam.profiles import ablation_arms
+
+    runs, computed = [], {}
+    monkeypatch.setattr(faultlab.runner, "run_experiment", lambda exp, out, **kw: runs.append((exp, Path(out), kw)))
+    monkeypatch.setattr(rp, "compute_ablation", lambda dirs: computed.update(dirs) or "ablation")
+    paper = load_experiment(PAPER_TOML)
+    main = paper.replace(**profile_overrides(paper, "paper"))
+    assert rp.run_ablation(main, tmp_path / "main", runs=2, jobs=1, progress=False) == "ablation"
+    arms = ablation_arms()
+    assert list(computed) == [a.name for a in arms] and computed["paper"] == tmp_path / "main"
+    assert len(runs) == len(arms) - 1  # the main run is not run again
+    for exp, out, kw in runs:
+        name = out.name
+        arm = next(a for a in arms if a.name == name)
+        assert out.parent == tmp_path / "main-ablation" and computed[name] == out
+        assert exp.slam.profile == arm.profile and exp.fov_bug == arm.fov_bug
+        assert exp.runs == 2 and exp.variants == ("baseline", "missing_angle_wrap")
+        assert exp.n_steps == main.n_steps and exp.seed == main.seed and exp.suites == main.suites
+        assert exp.slam.config == main.slam.config and kw == {"jobs": 1, "backend": "loky", "progress": False}
+    with pytest.raises(ConfigError, match="isolates the differences of the profile 'paper'"):
+        rp.run_ablation(paper, tmp_path / "x")

@@ -174,3 +174,27 @@ def test_paper_profile_runs_a_fixed_suite_case_end_to_end():
     assert np.unique(results["paper"][1].state.owner).size < 200  # resampled particles share maps
     np.testing.assert_array_equal(results["paper_no_aliasing"][1].state.owner, np.arange(200))
     assert not np.array_equal(results["paper"][0].landmarks, results["paper_no_aliasing"][0].landmarks)
+
+
+def test_each_ablation_changes_one_point_of_the_paper_profile():
+    from faultlab.slam.profiles import ABLATION_PROFILES, ABLATIONS, Arm, ablation_arms
+
+    base = get_profile("paper_no_aliasing")
+    points = {d.point for d in get_profile("paper").differences}
+    for ab in ABLATIONS:
+        assert ab.point in points and ab.change
+        paper, alt = get_profile(ab.paper.profile), get_profile(ab.alternative.profile)
+        assert paper.config == alt.config == PAPER_CONFIG
+        changed = {n for n in type(base.steps).unit_names()
+                   if getattr(paper.steps, n) is not getattr(alt.steps, n)}
+        # exactly one unit differs between the arms, or none and the scenarios' field of view does
+        assert len(changed) + (ab.paper.fov_bug != ab.alternative.fov_bug) == 1, ab.point
+        if changed:
+            (unit,) = changed
+            assert getattr(alt.steps, unit) is getattr(REFERENCE_STEPS, unit)  # the alternative is faultlab's
+    assert {a.point for a in ABLATIONS if a.paper.profile == "paper"} == {"resampling copies"}
+    arms = ablation_arms()
+    assert len(arms) == len(set(arms)) and Arm("paper") in arms and Arm("paper_no_aliasing", False) in arms
+    assert Arm("paper_no_aliasing", False).name == "paper_no_aliasing-fov-off"
+    for name, p in ABLATION_PROFILES.items():
+        assert get_profile(name) is p and name not in profile_names()
