@@ -43,6 +43,9 @@ def register(subparsers) -> None:
                         "(ablation.md/.csv, pages of report.pdf)")
     p.add_argument("--ablation-runs", type=positive_int, default=1,
                    help="evaluation runs of the ablation's arms other than the main run (default: 1)")
+    p.add_argument("--ablation-fixed", type=positive_int, default=None, metavar="CASES",
+                   help="run the ablation's arms that are not compared with the main run itself on the fixed "
+                        "suite only, with this many cases (the cheapest cases; default: the main run's suites)")
     p.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default: 2)")
     add_execution_options(p)
     p.set_defaults(func=reproduce_handler)
@@ -70,7 +73,8 @@ def reproduce_handler(args: argparse.Namespace) -> int:
     result = reproduce(experiment, out=args.out, reports=args.reports, runs=args.runs,
                        quick=args.quick, profile=args.profile, jobs=args.jobs, backend=args.backend,
                        force_new=args.force_new, progress=not args.no_progress, ablation=args.ablation,
-                       ablation_runs=args.ablation_runs)
+                       ablation_runs=args.ablation_runs,
+                       ablation_suites=None if args.ablation_fixed is None else {"fixed": args.ablation_fixed})
     print(result)
     return 0
 

@@ -153,8 +153,9 @@ def ablation_dir(out: str | Path) -> Path:
     return out.with_name(out.name + "-ablation")
 
 
-def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RUNS, jobs: int = 2,
-                 backend: str = "loky", progress: bool = True) -> AblationResult:
+def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RUNS,
+                 suites: dict[str, int] | None = None, jobs: int = 2, backend: str = "loky",
+                 progress: bool = True) -> AblationResult:
     """Run (or resume) every arm of :data:`faultlab.slam.profiles.ABLATIONS` and compute the effects.
 
     Parameters
@@ -168,6 +169,11 @@ def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RU
         ``experiment`` has, stored in ``ablation_dir(out) / arm.name``.
     runs : int
         Evaluation runs of the other arms.
+    suites : dict of str to int, optional
+        Suites (kind -> cases) of the arms that are not compared with the main run itself (default: the
+        main run's suites).  An arm compared with the main run keeps its suites; rows pair by (run, suite,
+        case, rep), so the other arms pair with it on the cases they share (the same seeds give the same
+        cases and SLAM seeds whatever the other suites).
     jobs, backend, progress
         Passed to :func:`faultlab.runner.run_experiment`.
 
@@ -176,22 +182,29 @@ def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RU
     ConfigError
         The experiment is not on the profile ``"paper"``, or ``runs`` is not a positive integer.
     """
-    from faultlab.runner import run_experiment
-    from faultlab.slam.profiles import ablation_arms
+    from faultlab.runner import parse_experiment, run_experiment
+    from faultlab.slam.profiles import ABLATIONS, Arm, ablation_arms
 
     if experiment.slam.profile != ABLATION_PROFILE:
         raise ConfigError(f"the ablation isolates the differences of the profile {ABLATION_PROFILE!r}; "
                           f"{experiment.source} runs {experiment.slam.profile!r}")
     if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
         raise ConfigError(f"ablation runs must be a positive integer, got {runs!r}")
+    main = Arm(experiment.slam.profile, experiment.fov_bug)
+    with_main = {a.alternative for a in ABLATIONS if a.paper == main} | {a.paper for a in ABLATIONS
+                                                                           if a.alternative == main}
     dirs: dict[str, Path] = {}
     for arm in ablation_arms():
-        if arm.profile == experiment.slam.profile and arm.fov_bug == experiment.fov_bug:
+        if arm == main:
             dirs[arm.name] = Path(out)
             continue
         arm_experiment = experiment.replace(slam={"profile": arm.profile}, fov_bug=arm.fov_bug,
                                             runs=min(runs, experiment.runs),
                                             variants=[v for v in experiment.variants if v in ABLATION_VARIANTS])
+        if suites is not None and arm not in with_main:  # replace() merges tables: the suites are swapped here
+            arm_experiment = parse_experiment({**arm_experiment.to_dict(), "suites": dict(suites)},
+                                              source=f"{arm_experiment.source} (with suites={dict(suites)!r})",
+                                              text=arm_experiment.text)
         dirs[arm.name] = ablation_dir(out) / arm.name
         run_experiment(arm_experiment, dirs[arm.name], jobs=jobs, backend=backend, progress=progress)
     return compute_ablation(dirs)
@@ -200,8 +213,8 @@ def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RU
 def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Path | None = None,
               reports: str | Path | None = None, runs: int | None = None, quick: bool = False,
               profile: str | None = None, jobs: int = 2, backend: str = "loky", force_new: bool = False,
-              progress: bool = True, ablation: bool = False,
-              ablation_runs: int = DEFAULT_ABLATION_RUNS) -> ReproduceResult:
+              progress: bool = True, ablation: bool = False, ablation_runs: int = DEFAULT_ABLATION_RUNS,
+              ablation_suites: dict[str, int] | None = None) -> ReproduceResult:
     """Run an experiment (resuming if its results exist) and write the report.
 
     Parameters
@@ -229,6 +242,8 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
         rotation in ``fidelity.md``).  Needs ``profile="paper"``.
     ablation_runs : int
         Evaluation runs of the ablation's arms other than the main run.
+    ablation_suites : dict of str to int, optional
+        Suites of the ablation's arms not compared with the main run itself (:func:`run_ablation`).
 
     Returns
     -------
@@ -264,8 +279,8 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
     reports = Path(reports) if reports is not None else default_reports(profile=profile)
     summary = run_experiment(experiment, out, jobs=jobs, backend=backend, force_new=force_new,
                              progress=progress)
-    abl = (run_ablation(experiment, out, runs=ablation_runs, jobs=jobs, backend=backend, progress=progress)
-           if ablation else None)
+    abl = (run_ablation(experiment, out, runs=ablation_runs, suites=ablation_suites, jobs=jobs, backend=backend,
+                        progress=progress) if ablation else None)
     fid = fidelity(out)  # computed once, rendered as fidelity.md and as pages of report.pdf
     report = build_report(out, reports, fidelity=fid, ablation=abl)
     fid_files = write_fidelity(fid, reports, abl)

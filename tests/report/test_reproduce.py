@@ -212,3 +212,9 @@ def test_run_ablation_reuses_the_main_run_and_runs_every_other_arm(monkeypatch, 
         assert exp.slam.config == main.slam.config and kw == {"jobs": 1, "backend": "loky", "progress": False}
     with pytest.raises(ConfigError, match="isolates the differences of the profile 'paper'"):
         rp.run_ablation(paper, tmp_path / "x")
+    runs.clear()
+    rp.run_ablation(main, tmp_path / "main", suites={"fixed": 3}, progress=False)
+    shapes = {out.name: {s.kind: s.n_cases for s in exp.suites} for exp, out, _ in runs}
+    # paper_no_aliasing is compared with the main run (the aliasing row): it keeps the main run's suites
+    assert shapes.pop("paper_no_aliasing") == {"systematic": 5, "random": 5, "fixed": 5}
+    assert shapes and all(v == {"fixed": 3} for v in shapes.values())
