@@ -60,8 +60,8 @@ def _campaign_text(fid: Fidelity) -> list[str]:
     lines = [f"This run: {what}."]
     if c.get("reduced"):
         paper = {"n_steps": (1000, "steps"), "particles": (200, "particles"), "runs": (3, "runs")}
-        short = [f"{c[k]} {what} instead of {n}" for k, (n, what) in paper.items()
-                 if isinstance(c.get(k), int) and c[k] < n]
+        short = [f"{c[k]} {what.removesuffix('s') if c[k] == 1 else what} instead of {n}"
+                 for k, (n, what) in paper.items() if isinstance(c.get(k), int) and c[k] < n]
         lines += ["", f"**REDUCED configuration** ({', '.join(short)}): fewer steps, particles or runs than the "
                       "paper's protocol (1000 steps, 200 particles, 3 runs)."]
         if any(isinstance(c.get(k), int) and c[k] < paper[k][0] for k in ("n_steps", "particles")):
@@ -205,8 +205,9 @@ def fidelity_pages(fid: Fidelity, ablation: AblationResult | None = None) -> lis
     blocks = [*[b for b in _campaign_text(fid) if b], _rule_text(fid), *_summary_blocks(fid)]
     if rotation:
         blocks += ["## " + rotation[0].removeprefix("## ")] + [b for b in rotation[1:] if b]
+    plain = [b.replace("**", "").replace("`", "") for b in blocks]  # Markdown emphasis is not rendered
     return (table_pages(FIDELITY_TITLE, _display(fid), max_rows=16)
-            + text_pages(FIDELITY_TITLE + ": what it says", blocks))
+            + text_pages(FIDELITY_TITLE + ": what it says", plain))
 
 
 def write_fidelity(fid: Fidelity, reports_dir: str | Path, ablation: AblationResult | None = None) -> FidelityFiles:
