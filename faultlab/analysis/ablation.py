@@ -67,8 +67,8 @@ class AblationResult:
     seed : int
         Seed of the bootstrap generator.
     campaign : dict
-        What ran: ``n_steps``, ``particles``, ``runs`` (the runs every arm has), ``cases`` (per
-        suite), ``variants`` (those every arm has).
+        What ran: ``n_steps``, ``particles``, ``runs`` (the runs every arm has), ``arm_cases`` (arm
+        name -> cases per suite), ``variants`` (those every arm has).
     table : DataFrame
         :data:`ABLATION` columns.
     """
@@ -214,7 +214,7 @@ def ablation(arm_dirs: Mapping[str, str | Path], *, ablations: Sequence[Ablation
         runs = sorted({int(r) for r in arms[name]["run"]})
         campaign.setdefault("n_steps", exp.get("n_steps"))
         campaign.setdefault("particles", slam.get("particles"))
-        campaign.setdefault("cases", dict(exp.get("suites") or {}))
+        campaign.setdefault("arm_cases", {})[name] = dict(exp.get("suites") or {})
         campaign["runs"] = min(campaign.get("runs", len(runs)), len(runs))
         have = set(arms[name]["variant"])
         campaign["variants"] = [v for v in campaign.get("variants", exp.get("variants") or []) if v in have]

@@ -43,10 +43,14 @@ def _mm1(value: float) -> str:
 
 def _campaign_text(result: AblationResult) -> str:
     c = result.campaign
-    cases = c.get("cases") or {}
-    per_suite = ", ".join(f"{k} {v}" for k, v in cases.items())
-    return (f"Both arms of every row run the same cases with the same SLAM seeds: {c.get('runs')} evaluation "
-            f"run(s) of the paper's protocol ({per_suite} cases), {c.get('n_steps')} steps per case, "
+    shapes: dict[str, list[str]] = {}
+    for arm, cases in (c.get("arm_cases") or {}).items():
+        shapes.setdefault(", ".join(f"{k} {v}" for k, v in cases.items()), []).append(f"`{arm}`")
+    per_suite = "; ".join(f"{' '.join(arms) if len(shapes) > 1 else 'every arm'}: {shape} cases"
+                          for shape, arms in shapes.items())
+    return (f"Both arms of every row run the same cases with the same SLAM seeds, and a row pairs the cases "
+            f"both of its arms ran (column pairs): {c.get('runs')} evaluation run(s) of the paper's protocol "
+            f"({per_suite}), {c.get('n_steps')} steps per case, "
             f"{c.get('particles')} particles; variants: {', '.join(variant_label(v) for v in c.get('variants', []))}. "
             f"REDUCED against the paper's three runs: a difference is shown on these cases only.")
 

@@ -19,7 +19,7 @@ def _result():
     df = pd.DataFrame(rows)
     arms = {a: g.drop(columns="arm") for a, g in df.groupby("arm")}
     return compare_arms(arms, n_boot=200, campaign={"runs": 1, "n_steps": 1000, "particles": 200,
-                                                    "cases": {"fixed": 5}, "variants": ["baseline"]})
+                                                    "arm_cases": {"paper": {"fixed": 5}}, "variants": ["baseline"]})
 
 
 def test_markdown_has_one_table_per_difference_and_every_row(tmp_path):
@@ -28,6 +28,7 @@ def test_markdown_has_one_table_per_difference_and_every_row(tmp_path):
     assert [a.point for a in ABLATIONS[:2]] == ["resampling copies", "weights"]
     assert "## resampling copies" in md and "## weights" in md and "## map output" not in md
     assert "REDUCED" in md and "Wilcoxon" in md and "1000 steps per case, 200 particles" in md
+    assert "(every arm: fixed 5 cases)" in md
     rows = [line for line in md.splitlines() if line.startswith("| ") and "---" not in line and "variant" not in line]
     assert len(rows) == len(res.table) == 4
     assert "| Nonfaulty Baseline | 5 | 153 / 103 | 50.0 [50.0, 50.0] |" in md  # paper - paper_no_aliasing
