@@ -248,7 +248,8 @@ def table2_csv_frame(analysis: Analysis) -> pd.DataFrame:
 def table2_caption(analysis: Analysis) -> str:
     n_reps = analysis.n_reps
     rep = "" if n_reps == 1 else (
-        f" RMS cells show SLAM repetition {analysis.rep} of {n_reps}; rates count all repetitions.")
+        f" RMS cells and rates show SLAM repetition {analysis.rep} of {n_reps} (one pair per case, as the paper);"
+        " the case-level verdicts use every repetition.")
     conf = round_mm(100 * (1 - analysis.alpha))
     return ("RMS map errors (rounded to mm); cells whose case detects the fault are marked "
             "(the paper's green cells). Detected %: share of cases detecting the fault, with its "

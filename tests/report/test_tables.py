@@ -143,19 +143,20 @@ def test_crash_and_timeout_cells_and_their_counts():
     assert f.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == ""
 
 
-def test_cells_show_one_repetition_and_rates_count_all():
-    # rep 0 detects nothing, rep 1 detects every fault: the grid shows rep 0, the rate is 50 %
+def test_cells_and_rates_show_one_repetition():
+    # rep 0 detects nothing, rep 1 detects every fault: grid and rate show rep 0 (one pair per case, as the paper)
     res = make_results(lambda run, suite, case, variant, rep:
                        50.0 if variant == "baseline" else (60.0 if rep == 0 else 900.0),
                        suites=("fixed",), variants=("baseline", "motion_sign_error"), reps=2)
     t = analysed(res)
     f = table2_csv_frame(t).set_index(["Suite", "Algorithm", "Source"])
     assert f.loc[("Fixed", "Sign Error", THIS_RUN)][["R1C1", "R1C2"]].tolist() == ["60", "60"]
-    assert f.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == "50"
+    assert f.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == "0"
     assert "repetition 0 of 2" in table2_markdown(t)
     t1 = analysed(res, rep=1)
     f1 = table2_csv_frame(t1).set_index(["Suite", "Algorithm", "Source"])
     assert f1.loc[("Fixed", "Sign Error", THIS_RUN)][["R1C1", "R1C2"]].tolist() == ["900*", "900*"]
+    assert f1.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == "100"
     with pytest.raises(ResultsError, match="repetition 5"):
         analysed(res, rep=5)
 
