@@ -187,6 +187,21 @@ class SlamAdapter(abc.ABC):
         self.update(u, observations)
 
 
+def _label(slam) -> str:
+    """The SLAM's name for messages (its class name if it has none)."""
+    return getattr(slam, "name", type(slam).__name__)
+
+
+def _feed(slam: SlamAdapter, scenario) -> None:
+    """Step ``slam`` through the scenario: each step's control and the observations made after it."""
+    offsets = scenario.obs_offsets
+    controls = scenario.controls
+    for t in range(scenario.n_steps):
+        a, b = offsets[t], offsets[t + 1]
+        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
+                                            scenario.obs_ids[a:b]))
+
+
 def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estimate:
     """Drive ``slam`` through every step of ``scenario`` and return its validated final estimate.
 
@@ -203,13 +218,8 @@ def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estima
         If the final estimate is malformed or not finite.
     """
     slam.reset(scenario.start_pose, rng=rng)
-    offsets = scenario.obs_offsets
-    controls = scenario.controls
-    for t in range(scenario.n_steps):
-        a, b = offsets[t], offsets[t + 1]
-        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
-                                            scenario.obs_ids[a:b]))
-    return slam.estimate().validate(where=f"{getattr(slam, 'name', type(slam).__name__)} estimate")
+    _feed(slam, scenario)
+    return slam.estimate().validate(where=f"{_label(slam)} estimate")
 
 
 def run_slam_batch(slam: SlamAdapter, scenario, *, rngs: Sequence[np.random.Generator]) -> list:
@@ -234,16 +244,11 @@ def run_slam_batch(slam: SlamAdapter, scenario, *, rngs: Sequence[np.random.Gene
         cannot attribute to one repetition propagates: rerun the repetitions one at a time.
     """
     if not getattr(slam, "supports_batch", False):
-        raise SlamInputError(f"{getattr(slam, 'name', type(slam).__name__)} does not run repetitions in a "
-                             f"batch; use run_slam for each repetition")
+        raise SlamInputError(f"{_label(slam)} does not run repetitions in a batch; use run_slam for each "
+                             "repetition")
     slam.reset_batch(scenario.start_pose, rngs=rngs)
-    offsets = scenario.obs_offsets
-    controls = scenario.controls
-    for t in range(scenario.n_steps):
-        a, b = offsets[t], offsets[t + 1]
-        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
-                                            scenario.obs_ids[a:b]))
-    where = f"{getattr(slam, 'name', type(slam).__name__)} estimate"
+    _feed(slam, scenario)
+    where = f"{_label(slam)} estimate"
     out = []
     for est in slam.estimates():
         if not isinstance(est, BaseException):
