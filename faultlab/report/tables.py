@@ -31,6 +31,7 @@ __all__ = [
     "round_mm",
     "format_mm",
     "format_pct",
+    "format_pct_interval",
     "suite_label",
     "variant_label",
     "order_variants",
@@ -116,6 +117,11 @@ def format_pct(rate: float, digits: int = 0) -> str:
     if digits == 0:
         return str(round_mm(pct))
     return f"{pct:.{digits}f}"
+
+
+def format_pct_interval(low: float, high: float, digits: int = 0) -> str:
+    """An interval of rates as percentages, ``low-high`` (each as :func:`format_pct`)."""
+    return f"{format_pct(low, digits)}-{format_pct(high, digits)}"
 
 
 # --------------------------------------------------------------------------- Table II layout
@@ -208,7 +214,7 @@ def _percent_text(figure: _Rate | None, *, empty: str) -> str:
 def _ci_text(figure: _Rate | None) -> str:
     if figure is None or pd.isna(figure.low):
         return ""
-    return f"{format_pct(figure.low)}-{format_pct(figure.high)}"
+    return format_pct_interval(figure.low, figure.high)
 
 
 def table2_frame(analysis: Analysis, *, style: str = "csv", runs: Sequence[int] | None = None) -> pd.DataFrame:
@@ -352,8 +358,8 @@ def detection_records(analysis: Analysis, *, compact: bool = False) -> pd.DataFr
             "Fault": variant_label(r.variant),
             "k/n": f"{r.k}/{r.n}",
             "Rate %": format_pct(r.rate, 1),
-            f"Wilson {conf} %": f"{format_pct(r.wilson_low, 1)}-{format_pct(r.wilson_high, 1)}",
-            f"{cp} {conf} %": f"{format_pct(r.cp_low, 1)}-{format_pct(r.cp_high, 1)}",
+            f"Wilson {conf} %": format_pct_interval(r.wilson_low, r.wilson_high, 1),
+            f"{cp} {conf} %": format_pct_interval(r.cp_low, r.cp_high, 1),
             "crash": str(r.crash),
             "timeout": str(r.timeout),
             "baseline failed": str(r.baseline_failed),
