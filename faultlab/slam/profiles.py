@@ -162,6 +162,10 @@ _ROTATION_FAULT = ("faulty rotation fault", "removes the innovation wrap in upda
                    "the weight unit wraps on its own) and yaw + bearing at initialisation",
                    "the initialisation wrap changes nothing (sin and cos are periodic)")
 
+#: The last rows of every profile's table: differences that do not depend on the profile's units.
+_COMMON_TAIL = (_ALGEBRA, _RANDOMNESS, _MOTION_INPUT, _ROTATION_FAULT, _FOV, _BEARING_NOISE, _RANGE_NOISE,
+                _FIRST_STEP, _ODOMETRY)
+
 
 _PAPER_ROWS = _rows(
     ("particles, resampling threshold", "N_PARTICLE = 200; resample when n_eff < N / 1.5",
@@ -196,15 +200,7 @@ _PAPER_ROWS = _rows(
     _UNOBSERVED,
     ("estimated pose", "the weighted mean of the particles (not used by the metric)",
      "the highest-weight particle's pose (FastSlam.estimate)", "none for map errors"),
-    _ALGEBRA,
-    _RANDOMNESS,
-    _MOTION_INPUT,
-    _ROTATION_FAULT,
-    _FOV,
-    _BEARING_NOISE,
-    _RANGE_NOISE,
-    _FIRST_STEP,
-    _ODOMETRY,
+    *_COMMON_TAIL,
 )
 
 
@@ -245,15 +241,7 @@ _REFERENCE_ROWS = _rows(
     ("map output", "the particle minimising distance_to_mean * weight, rounded to whole mm",
      "the highest-weight particle, not rounded (extract_map)", "another particle's map"),
     _UNOBSERVED,
-    _ALGEBRA,
-    _RANDOMNESS,
-    _MOTION_INPUT,
-    _ROTATION_FAULT,
-    _FOV,
-    _BEARING_NOISE,
-    _RANGE_NOISE,
-    _FIRST_STEP,
-    _ODOMETRY,
+    *_COMMON_TAIL,
 )
 
 #: The profile a ``[slam] name = "fastslam"`` table without ``profile`` gets.
