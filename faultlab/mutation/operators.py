@@ -67,6 +67,12 @@ def _same_spacing(new_cls: type, op: cst.CSTNode) -> cst.CSTNode:
     return new_cls(whitespace_before=op.whitespace_before, whitespace_after=op.whitespace_after)
 
 
+def _swap_operator(node: cst.CSTNode, new_cls: type) -> tuple[cst.CSTNode, str]:
+    """``node`` with its ``operator`` replaced by a ``new_cls`` (same spacing), and the description."""
+    return (node.with_changes(operator=_same_spacing(new_cls, node.operator)),
+            f"`{_token(node.operator)}` -> `{_token(new_cls())}`")
+
+
 def _rename(node: cst.Attribute, attr: str) -> cst.Attribute:
     return node.with_changes(attr=node.attr.with_changes(value=attr))
 
@@ -167,12 +173,11 @@ class ArithmeticOperator(NodeOperator):
     def mutations(self, node, parent) -> Mutations:
         if isinstance(node, cst.BinaryOperation) and type(node.operator) in self._BINARY:
             for new in self._BINARY[type(node.operator)]:
-                changed = node.with_changes(operator=_same_spacing(new, node.operator))
-                yield fix_operands(changed), f"`{_token(node.operator)}` -> `{_token(new())}`"
+                changed, description = _swap_operator(node, new)
+                yield fix_operands(changed), description
         elif isinstance(node, cst.AugAssign) and type(node.operator) in self._AUGMENTED:
             for new in self._AUGMENTED[type(node.operator)]:
-                yield (node.with_changes(operator=_same_spacing(new, node.operator)),
-                       f"`{_token(node.operator)}` -> `{_token(new())}`")
+                yield _swap_operator(node, new)
         else:
             f = module_function(node)
             for new in self._UFUNCS.get(f, ()):
@@ -215,10 +220,9 @@ class ComparisonOperator(NodeOperator):
         for i, target in enumerate(node.comparisons):
             op = target.operator
             for new in self._TABLE.get(type(op), ()):
-                new_op = new(whitespace_before=op.whitespace_before, whitespace_after=op.whitespace_after)
                 targets = list(node.comparisons)
-                targets[i] = target.with_changes(operator=new_op)
-                yield node.with_changes(comparisons=targets), f"`{_token(op)}` -> `{_token(new())}`"
+                targets[i], description = _swap_operator(target, new)
+                yield node.with_changes(comparisons=targets), description
 
 
 class BooleanOperator(NodeOperator):
@@ -245,13 +249,12 @@ class BooleanOperator(NodeOperator):
 
     def mutations(self, node, parent) -> Mutations:
         if isinstance(node, cst.BooleanOperation):
-            new = cst.Or if isinstance(node.operator, cst.And) else cst.And
-            changed = node.with_changes(operator=_same_spacing(new, node.operator))
-            yield fix_operands(changed), f"`{_token(node.operator)}` -> `{_token(new())}`"
+            changed, description = _swap_operator(node, cst.Or if isinstance(node.operator, cst.And) else cst.And)
+            yield fix_operands(changed), description
         elif isinstance(node, cst.BinaryOperation) and isinstance(node.operator, (cst.BitAnd, cst.BitOr)):
-            new = cst.BitOr if isinstance(node.operator, cst.BitAnd) else cst.BitAnd
-            changed = node.with_changes(operator=_same_spacing(new, node.operator))
-            yield fix_operands(changed), f"`{_token(node.operator)}` -> `{_token(new())}`"
+            changed, description = _swap_operator(
+                node, cst.BitOr if isinstance(node.operator, cst.BitAnd) else cst.BitAnd)
+            yield fix_operands(changed), description
         elif isinstance(node, cst.UnaryOperation) and isinstance(node.operator, (cst.Not, cst.BitInvert)):
             yield node.expression, f"`{_token(node.operator)}` removed"
         elif isinstance(node, cst.Call) and module_function(node.func) == "logical_not":
@@ -375,15 +378,15 @@ class MatmulOperator(NodeOperator):
     def mutations(self, node, parent) -> Mutations:
         if isinstance(node, cst.BinaryOperation):
             if isinstance(node.operator, cst.MatrixMultiply):
-                yield node.with_changes(operator=_same_spacing(cst.Multiply, node.operator)), "`@` -> `*`"
+                yield _swap_operator(node, cst.Multiply)
             elif (isinstance(node.operator, cst.Multiply)
                   and not _is_number(node.left) and not _is_number(node.right)):
-                yield node.with_changes(operator=_same_spacing(cst.MatrixMultiply, node.operator)), "`*` -> `@`"
+                yield _swap_operator(node, cst.MatrixMultiply)
         elif isinstance(node, cst.AugAssign):
             if isinstance(node.operator, cst.MatrixMultiplyAssign):
-                yield node.with_changes(operator=_same_spacing(cst.MultiplyAssign, node.operator)), "`@=` -> `*=`"
+                yield _swap_operator(node, cst.MultiplyAssign)
             elif isinstance(node.operator, cst.MultiplyAssign) and not _is_number(node.value):
-                yield node.with_changes(operator=_same_spacing(cst.MatrixMultiplyAssign, node.operator)), "`*=` -> `@=`"
+                yield _swap_operator(node, cst.MatrixMultiplyAssign)
         elif module_function(node) in ("dot", "matmul"):
             yield _rename(node, "multiply"), f"`np.{node.attr.value}` -> `np.multiply`"
 
