@@ -104,13 +104,15 @@ def _keywords(call: cst.Call) -> list[str]:
     return [a.keyword.value for a in call.args if a.keyword is not None]
 
 
-def _called_attribute(node: cst.CSTNode, parent: cst.CSTNode | None, names: dict[str, str]) -> str | None:
-    """The new name for ``np.<f>`` / ``math.<f>`` or a method ``x.<f>(...)`` in ``names``, else None."""
+def _called_attribute(node: cst.CSTNode, parent: cst.CSTNode | None, names: dict[str, str], *,
+                      methods: bool = True) -> str | None:
+    """The new name for ``np.<f>`` / ``math.<f>`` or (with ``methods``) a method ``x.<f>(...)`` in ``names``,
+    else None."""
     if not isinstance(node, cst.Attribute) or node.attr.value not in names:
         return None
     if module_function(node, NUMPY_NAMES | MATH_NAMES) is not None:
         return names[node.attr.value]
-    if isinstance(parent, cst.Call) and parent.func is node:  # a method call on an array
+    if methods and isinstance(parent, cst.Call) and parent.func is node:  # a method call on an array
         return names[node.attr.value]
     return None
 
@@ -544,12 +546,14 @@ class Arctan2Operator(NodeOperator):
 
 
 class _RenameOperator(NodeOperator):
-    """Swap function names of numpy/math and array methods according to a table."""
+    """Swap function names of numpy/math (and, with :attr:`_METHODS`, array methods) according to a table."""
 
     _TABLE: dict[str, str] = {}
+    #: Also rename array methods (``x.sum()``), not only ``np.`` / ``math.`` functions.
+    _METHODS: bool = True
 
     def mutations(self, node, parent) -> Mutations:
-        new = _called_attribute(node, parent, self._TABLE)
+        new = _called_attribute(node, parent, self._TABLE, methods=self._METHODS)
         if new is not None:
             old = node.attr.value
             prefix = "." if module_function(node, NUMPY_NAMES | MATH_NAMES) is None else f"{node.value.value}."
@@ -562,15 +566,12 @@ class TrigOperator(_RenameOperator):
     name = "trig"
     description = "swap sin and cos"
     _TABLE = _swap_names([("sin", "cos")])
+    _METHODS = False
     examples = (
         OperatorExample("def f(v, th):\n    return v * np.cos(th), v * math.sin(th)\n",
                         ("def f(v, th):\n    return v * np.sin(th), v * math.sin(th)\n",
                          "def f(v, th):\n    return v * np.cos(th), v * math.cos(th)\n")),
     )
-
-    def mutations(self, node, parent) -> Mutations:
-        if module_function(node, NUMPY_NAMES | MATH_NAMES) is not None:  # functions only, no methods
-            yield from super().mutations(node, parent)
 
 
 class SumMeanOperator(_RenameOperator):
@@ -620,14 +621,11 @@ class RoundingOperator(_RenameOperator):
     name = "rounding"
     description = "swap floor and ceil"
     _TABLE = _swap_names([("floor", "ceil")])
+    _METHODS = False
     examples = (
         OperatorExample("def f(t):\n    return np.floor(t, out=t)\n",
                         ("def f(t):\n    return np.ceil(t, out=t)\n",)),
     )
-
-    def mutations(self, node, parent) -> Mutations:
-        if module_function(node, NUMPY_NAMES | MATH_NAMES) is not None:
-            yield from super().mutations(node, parent)
 
 
 class FunctionRemovalOperator(NodeOperator):
