@@ -218,14 +218,25 @@ MOTION_SIGN_ERROR = Fault(
 in_place_ancestors = shallow_copy_ancestors
 
 
-def _shallow_copy_resampling(original):
+def _shared_storage_resampling(original, *, sequential: bool):
+    """Resampling as an in-place loop over a shallow list copy: copies share their ancestor's storage.
+
+    With ``sequential`` the sharers then update their common landmarks one after another
+    (``ParticleState.sequential_sharers``); otherwise in parallel, the last write winning.
+    """
+
     def apply_resample(state, indices):
         eff = in_place_ancestors(indices)
         out = original(state, eff)
         # duplicates keep writing into the storage row of their ancestor: shared landmark arrays
-        return dataclasses.replace(out, owner=np.asarray(state.owner)[eff])
+        sharing = {"sequential_sharers": True} if sequential else {}
+        return dataclasses.replace(out, owner=np.asarray(state.owner)[eff], **sharing)
 
     return apply_resample
+
+
+def _shallow_copy_resampling(original):
+    return _shared_storage_resampling(original, sequential=False)
 
 
 def _gain_from_wrong_covariance(original):
@@ -560,15 +571,7 @@ RESAMPLE_KEEPS_WEIGHTS = Fault(
 
 def _paper_aliasing(original):
     """Shallow-copy resampling whose sharers then update their common landmarks one after another."""
-
-    def apply_resample(state, indices):
-        from faultlab.slam.units import shallow_copy_ancestors
-
-        eff = shallow_copy_ancestors(indices)
-        out = original(state, eff)
-        return dataclasses.replace(out, owner=np.asarray(state.owner)[eff], sequential_sharers=True)
-
-    return apply_resample
+    return _shared_storage_resampling(original, sequential=True)
 
 
 def _ex_apply_resample_aliased():
