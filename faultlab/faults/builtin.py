@@ -61,19 +61,21 @@ def _ekf_inputs():
     return mu, P, H, S, nu
 
 
+def _resample_inputs(w: np.ndarray, *, empty: bool = False):
+    """``resample`` arguments for normalised weights ``w``: their N_eff = 1 / sum(w^2), a fixed rng."""
+    return (w, float(1.0 / np.dot(w, w)), empty, np.random.default_rng(0), _config()), {}
+
+
 def _ex_resample_empty():
-    w = np.full(4, 0.25)
-    return (w, 4.0, True, np.random.default_rng(0), _config()), {}
+    return _resample_inputs(np.full(4, 0.25), empty=True)
 
 
 def _ex_resample_degenerate():
-    w = np.array([0.97, 0.01, 0.01, 0.01])
-    return (w, float(1.0 / np.dot(w, w)), False, np.random.default_rng(0), _config()), {}
+    return _resample_inputs(np.array([0.97, 0.01, 0.01, 0.01]))
 
 
 def _ex_resample_balanced():
-    w = np.array([0.3, 0.3, 0.2, 0.2])
-    return (w, float(1.0 / np.dot(w, w)), False, np.random.default_rng(0), _config()), {}
+    return _resample_inputs(np.array([0.3, 0.3, 0.2, 0.2]))
 
 
 def _ex_wrap():
