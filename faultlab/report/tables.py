@@ -32,6 +32,7 @@ __all__ = [
     "format_mm",
     "format_pct",
     "format_pct_interval",
+    "md_table",
     "suite_label",
     "variant_label",
     "order_variants",
@@ -263,7 +264,8 @@ def table2_caption(analysis: Analysis) -> str:
             "pairs detected by at least one case." + rep)
 
 
-def _md_table(frame: pd.DataFrame) -> str:
+def md_table(frame: pd.DataFrame) -> str:
+    """A Markdown table of ``frame``: header, separator, one line per row (cells as ``str``)."""
     header = "| " + " | ".join(frame.columns) + " |"
     sep = "| " + " | ".join("---" for _ in frame.columns) + " |"
     body = ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(index=False)]
@@ -277,7 +279,7 @@ def table2_markdown(analysis: Analysis) -> str:
     for block in blocks:
         if len(blocks) > 1:
             parts += [f"## Evaluation runs {block[0]}-{block[-1]}", ""]
-        parts += [_md_table(table2_frame(analysis, style="md", runs=block)), ""]
+        parts += [md_table(table2_frame(analysis, style="md", runs=block)), ""]
     return "\n".join(parts)
 
 
@@ -377,7 +379,7 @@ def detection_markdown(analysis: Analysis) -> str:
     """Markdown of the detection rates: k/n, rate, Wilson and Clopper-Pearson intervals."""
     conf = round_mm(100 * (1 - analysis.alpha))
     records = detection_records(analysis)
-    body = _md_table(records) if len(records) else "(no faulty variants)"
+    body = md_table(records) if len(records) else "(no faulty variants)"
     return "\n".join(["# Detection rates per suite and fault", "",
                       f"Confidence level {conf} %. k/n counts the faulty jobs detected among those "
                       "where both the faulty and the baseline SLAM produced a map; crashes and "
