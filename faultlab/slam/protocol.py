@@ -25,7 +25,8 @@ import numpy as np
 
 from faultlab.errors import SlamInputError, SlamOutputError
 
-__all__ = ["Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control"]
+__all__ = ["Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control", "as_start_pose",
+           "check_generator"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,6 +135,26 @@ def as_control(control) -> np.ndarray:
     if not np.all(np.isfinite(u)):
         raise SlamInputError(f"control is not finite: {u}")
     return u
+
+
+def as_start_pose(pose, *, where: str) -> np.ndarray:
+    """Validate a start pose ``(x, y, theta)`` given to ``where``; return it as a new float array (3,).
+
+    Raises
+    ------
+    SlamInputError
+        Not 3 finite numbers.
+    """
+    p = np.array(pose, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise SlamInputError(f"{where}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+    return p
+
+
+def check_generator(rng, *, where: str) -> None:
+    """Raise :class:`SlamInputError` (naming ``where``) unless ``rng`` is a :class:`numpy.random.Generator`."""
+    if not isinstance(rng, np.random.Generator):
+        raise SlamInputError(f"{where}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
 
 
 class SlamAdapter(abc.ABC):
