@@ -100,6 +100,12 @@ def _positional(call: cst.Call) -> list[cst.Arg]:
     return [a for a in call.args if a.keyword is None and not a.star]
 
 
+def _sole_argument(call: cst.Call) -> cst.BaseExpression | None:
+    """The argument of ``call`` if it has exactly one and that is positional (removing the call leaves it)."""
+    args = _positional(call)
+    return args[0].value if len(args) == 1 and len(call.args) == 1 else None
+
+
 def _keywords(call: cst.Call) -> list[str]:
     return [a.keyword.value for a in call.args if a.keyword is not None]
 
@@ -260,9 +266,9 @@ class BooleanOperator(NodeOperator):
         elif isinstance(node, cst.UnaryOperation) and isinstance(node.operator, (cst.Not, cst.BitInvert)):
             yield node.expression, f"`{_token(node.operator)}` removed"
         elif isinstance(node, cst.Call) and module_function(node.func) == "logical_not":
-            args = _positional(node)
-            if len(args) == 1 and len(node.args) == 1:
-                yield args[0].value, "`np.logical_not` removed"
+            only = _sole_argument(node)
+            if only is not None:
+                yield only, "`np.logical_not` removed"
         elif module_function(node) in ("logical_and", "logical_or"):
             new = "logical_or" if node.attr.value == "logical_and" else "logical_and"
             yield _rename(node, new), f"`np.{node.attr.value}` -> `np.{new}`"
@@ -653,10 +659,10 @@ class FunctionRemovalOperator(NodeOperator):
         f = module_function(node.func, NUMPY_NAMES | MATH_NAMES)
         if f not in self._FUNCS:
             return
-        args = _positional(node)
-        if len(args) == 1 and len(node.args) == 1:
-            yield args[0].value, f"`{node.func.value.value}.{f}` removed"
-        elif module_function(node.func) is not None and args:
+        only = _sole_argument(node)
+        if only is not None:
+            yield only, f"`{node.func.value.value}.{f}` removed"
+        elif module_function(node.func) is not None and _positional(node):
             yield (node.with_changes(func=_rename(node.func, "positive")),
                    f"`np.{f}` -> `np.positive` (removed, output still written)")
 
@@ -686,10 +692,10 @@ class UnaryMinusOperator(NodeOperator):
                 and not _is_number(node)):
             yield node.expression, "unary `-` removed"
         elif isinstance(node, cst.Call) and module_function(node.func) == "negative":
-            args = _positional(node)
-            if len(args) == 1 and len(node.args) == 1:
-                yield args[0].value, "`np.negative` removed"
-            elif args:
+            only = _sole_argument(node)
+            if only is not None:
+                yield only, "`np.negative` removed"
+            elif _positional(node):
                 yield node.with_changes(func=_rename(node.func, "positive")), "`np.negative` -> `np.positive`"
         elif isinstance(parent, cst.Assign) and parent.value is node:
             if all(isinstance(t.target, cst.Name | cst.Subscript | cst.Attribute) for t in parent.targets):
