@@ -21,6 +21,8 @@ from faultlab.report.tables import (
     cell_text,
     detection_markdown,
     format_mm,
+    format_pct_interval,
+    md_table,
     round_mm,
     table2_csv_frame,
     table2_frame,
@@ -54,6 +56,17 @@ def test_round_mm_rounds_halves_up_not_to_even():
     assert format_mm(float("nan")) == ""
     with pytest.raises(ValueError, match="non-finite"):
         round_mm(float("inf"))
+
+
+def test_format_pct_interval_writes_both_bounds_as_percentages():
+    assert format_pct_interval(0.125, 0.4567) == "13-46"  # 12.5 rounds half up
+    assert format_pct_interval(0.0123, 0.5, 1) == "1.2-50.0"
+    assert format_pct_interval(float("nan"), 0.5) == "-50"
+
+
+def test_md_table_writes_header_separator_and_rows():
+    frame = pd.DataFrame({"suite": ["random", "fixed"], "rate %": [27, 100]})
+    assert md_table(frame) == "| suite | rate % |\n| --- | --- |\n| random | 27 |\n| fixed | 100 |"
 
 
 @given(st.floats(min_value=-1e7, max_value=1e7, allow_nan=False, allow_infinity=False))
