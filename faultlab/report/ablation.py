@@ -16,7 +16,7 @@ from matplotlib.figure import Figure
 
 from faultlab.analysis.ablation import ABLATION, ABLATION_CSV, AblationResult
 from faultlab.report.pdf import table_pages, text_pages
-from faultlab.report.tables import format_mm, variant_label
+from faultlab.report.tables import format_mm, md_table, variant_label
 from faultlab.slam.profiles import ABLATIONS
 
 __all__ = ["AblationFiles", "ablation_markdown", "ablation_pages", "effect_sentence", "write_ablation", "ABLATION_MD"]
@@ -103,17 +103,11 @@ def _sections(result: AblationResult):
         yield point, change, arms, rows
 
 
-def _md_table(frame: pd.DataFrame) -> str:
-    lines = ["| " + " | ".join(frame.columns) + " |", "| " + " | ".join("---" for _ in frame.columns) + " |"]
-    lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(index=False)]
-    return "\n".join(lines)
-
-
 def ablation_markdown(result: AblationResult) -> str:
     """The page as Markdown."""
     parts = ["# " + _TITLE, "", _campaign_text(result), "", _rule_text(result), ""]
     for point, change, arms, rows in _sections(result):
-        parts += [f"## {point}", "", f"Alternative: {change}. Arms: {arms}.", "", _md_table(_display(rows)), ""]
+        parts += [f"## {point}", "", f"Alternative: {change}. Arms: {arms}.", "", md_table(_display(rows)), ""]
     return "\n".join(parts).rstrip() + "\n"
 
 

@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from faultlab.analysis.ablation import AblationResult
 from faultlab.analysis.fidelity import FIDELITY, FIDELITY_CSV, Fidelity, Verdict
 from faultlab.report.pdf import table_pages, text_pages
-from faultlab.report.tables import format_mm, suite_label, variant_label
+from faultlab.report.tables import format_mm, md_table, suite_label, variant_label
 
 __all__ = ["FidelityFiles", "fidelity_markdown", "fidelity_pages", "write_fidelity", "FIDELITY_MD", "FIDELITY_TITLE"]
 
@@ -102,13 +102,6 @@ def _display(fid: Fidelity) -> pd.DataFrame:
     })
 
 
-def _md_table(frame: pd.DataFrame) -> str:
-    header = "| " + " | ".join(frame.columns) + " |"
-    sep = "| " + " | ".join("---" for _ in frame.columns) + " |"
-    body = ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(index=False)]
-    return "\n".join([header, sep, *body])
-
-
 def _cells(frame: pd.DataFrame) -> str:
     if frame.empty:
         return "none"
@@ -184,7 +177,7 @@ def fidelity_markdown(fid: Fidelity, ablation: AblationResult | None = None) -> 
         head, body = rotation[:2], rotation[2:]
         rotation = head + _md_blocks(body)
     parts = ["# " + FIDELITY_TITLE, "", *_campaign_text(fid), "", _rule_text(fid), "",
-             _md_table(_display(fid)), "", *_md_blocks(_summary_blocks(fid)), *rotation]
+             md_table(_display(fid)), "", *_md_blocks(_summary_blocks(fid)), *rotation]
     return "\n".join(parts).rstrip() + "\n"
 
 
