@@ -139,3 +139,12 @@ def test_reproduce_with_a_malformed_experiment_fails_before_running(tmp_path):
                          "--reports", str(tmp_path / "r"), "--no-progress"])
     assert code == 1 and "runz" in err
     assert not (tmp_path / "o").exists() and not (tmp_path / "r").exists()
+
+
+def test_ablation_options_are_checked_before_anything_runs(tmp_path):
+    code, _, err = _run(["reproduce", "--ablation", "--experiment", str(PAPER_TOML), "--out", str(tmp_path / "o"),
+                         "--reports", str(tmp_path / "r"), "--no-progress"])
+    assert code != 0 and "ablation needs profile='paper'" in err
+    assert not (tmp_path / "o").exists()
+    with pytest.raises(SystemExit):
+        _run(["reproduce", "--profile", "paper", "--ablation", "--ablation-fixed", "0"])
