@@ -3,20 +3,25 @@
 :class:`UnitTable` is the base of their ``...Steps`` tables (a frozen dataclass whose fields are
 the units), :class:`UnitSlam` the base of the adapters (settings, units, ``with_steps``, the start
 pose), :class:`LandmarkIndex` maps landmark ids to storage columns in order of first observation.
+The particle filters share the weight normalisation (:func:`normalise_log_weights`), the
+resampling tail of a step (:func:`resample_tail`) and the best-particle estimate
+(:func:`best_estimate`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
-from typing import Any, ClassVar
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from faultlab.errors import ConfigError, SlamInputError
-from faultlab.slam.protocol import SlamAdapter
+from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
+from faultlab.slam.protocol import Estimate, SlamAdapter
 from faultlab.slam.units import wrap_heading
+from faultlab.vocabulary import KNOWN_ASSOCIATION
 
-__all__ = ["UnitTable", "UnitSlam", "LandmarkIndex"]
+__all__ = ["UnitTable", "UnitSlam", "LandmarkIndex", "normalise_log_weights", "resample_tail", "best_estimate"]
 
 
 @dataclass(frozen=True)
@@ -71,6 +76,10 @@ class UnitSlam(SlamAdapter):
             raise ConfigError(f"{name}: config must be a {self.config_type.__name__}, got {type(config).__name__}")
         if not isinstance(steps, self.steps_type):
             raise ConfigError(f"{name}: steps must be a {self.steps_type.__name__}, got {type(steps).__name__}")
+        if getattr(config, "association", KNOWN_ASSOCIATION) != self.association:
+            raise ConfigError(f"{name}: config.association is {config.association!r} but {name} works with "
+                              f"{self.association!r} data association (build SLAMs by name: "
+                              f"faultlab.slam.registry.build_slam)")
         self._config = config
         self._steps = steps
 
@@ -149,3 +158,58 @@ class LandmarkIndex:
         order = np.argsort(allid, kind="stable")
         self._sorted_ids, self._sorted_cols = allid[order], allcol[order]
         return cols
+
+
+def normalise_log_weights(logw: np.ndarray, *, name: str, step: int) -> np.ndarray:
+    """Normalised log weights (log-sum-exp) of one particle filter.
+
+    Parameters
+    ----------
+    logw : ndarray, shape (N,)
+        Unnormalised log weights.
+    name, step : str, int
+        The SLAM and the step, for the message.
+
+    Raises
+    ------
+    SlamOutputError
+        If no weight is finite.
+    """
+    top = logw.max()
+    if not math.isfinite(top):
+        raise SlamOutputError(f"{name}: particle weights are not finite at step {step}")
+    logw = logw - top
+    logw -= math.log(np.exp(logw).sum())
+    return logw
+
+
+def resample_tail(steps, state, empty: bool, rng: np.random.Generator, config, *,
+                  apply: Callable) -> tuple[Any, int]:
+    """The end of a particle filter's step (Table 13.1, lines 24-28): N_eff, the decision, the copies.
+
+    Calls ``steps.effective_sample_size`` on the weights ``exp(state.logw)``, then
+    ``steps.resample(w, n_eff, empty, rng, config)`` and, if it returned indices, ``apply(state, indices)``.
+
+    Returns
+    -------
+    state
+        The state after resampling (``state`` itself if there was none).
+    resampled : int
+        1 if the particles were resampled, else 0.
+    """
+    w = np.exp(state.logw)
+    n_eff = steps.effective_sample_size(w)
+    idx = steps.resample(w, n_eff, empty, rng, config)
+    if idx is None:
+        return state, 0
+    return apply(state, np.asarray(idx)), 1
+
+
+def best_estimate(extract_map: Callable, state) -> Estimate:
+    """The estimate of a particle filter: the map ``extract_map(state)`` and the highest-weight particle's pose.
+
+    Ties (uniform weights right after a resampling) go to the lowest particle index.
+    """
+    ids, xy = extract_map(state)
+    i = int(np.argmax(state.logw))
+    return Estimate(state.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))

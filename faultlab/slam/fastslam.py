@@ -170,6 +170,7 @@ from faultlab.slam.sharing import correct_in_sharer_order
 from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
+from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
            "landmark_rows", "BatchUnsupported"]
@@ -188,17 +189,35 @@ class FastSlamConfig(NoiseConfig):
         Number of particles N (>= 1).
     resample_ratio : float
         Resample when ``N_eff < N / resample_ratio`` (>= 1).
+    association : {"known", "unknown"}
+        ``"known"``: observations carry landmark ids (this module's filter); ``"unknown"``: the ids
+        are hidden and every particle associates observations by maximum likelihood
+        (:mod:`faultlab.slam.association`).  Left out of the options while ``"known"``.
+    new_landmark_sigmas : float
+        Unknown association only: an observation starts a new landmark when its best landmark's
+        likelihood is below that of an innovation this many standard deviations long under the
+        measurement noise (:func:`faultlab.slam.units.new_landmark_log_likelihood`), >= 0.
+        Left out of the options while at its default.
     """
 
     n_particles: int = 200
     resample_ratio: float = 1.5
+    association: str = KNOWN_ASSOCIATION
+    new_landmark_sigmas: float = 3.0
 
     #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
     OPTIONS: ClassVar[dict[str, Option]] = {
         "n_particles": Option("particles", integer=True, bounds={"minimum": 1}),
         **NoiseConfig.OPTIONS,
         "resample_ratio": Option("resample_ratio", bounds={"minimum": 1.0}),
+        "association": Option("association", choices=ASSOCIATIONS, omit_default=True),
+        "new_landmark_sigmas": Option("new_landmark_sigmas", bounds={"minimum": 0.0}, omit_default=True),
     }
+
+    @property
+    def log_p0(self) -> float:
+        """The new-landmark log likelihood of unknown association (:func:`~faultlab.slam.units.new_landmark_log_likelihood`)."""
+        return _units.new_landmark_log_likelihood(self.Q, self.new_landmark_sigmas)
 
 
 @dataclass(frozen=True)
