@@ -53,18 +53,16 @@ landmark columns that align across repetitions, which per-particle maps do not.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields, make_dataclass
 from typing import Callable, ClassVar
 
 import numpy as np
 
-from faultlab.errors import SlamInputError
 from faultlab.slam import units as _units
-from faultlab.slam import units2 as _units2
-from faultlab.slam.bookkeeping import UnitSlam, UnitTable, best_estimate, normalise_log_weights, resample_tail
-from faultlab.slam.fastslam import FastSlamConfig
-from faultlab.slam.protocol import Estimate, Observations
-from faultlab.slam.streams import unit_streams
+from faultlab.slam.bookkeeping import ParticleFilterSlam, UnitTable, grown_capacity, linearise, normalise_log_weights
+from faultlab.slam.fastslam import FastSlamConfig, FastSlamSteps
+from faultlab.slam.fastslam2 import RANDOM_UNITS, FastSlam2Steps
+from faultlab.slam.protocol import Observations
 from faultlab.slam.units import NEW_LANDMARK, AssociationState
 from faultlab.vocabulary import UNKNOWN_ASSOCIATION
 
@@ -72,53 +70,37 @@ __all__ = ["FastSlamUnknownSteps", "FastSlam2UnknownSteps", "REFERENCE_STEPS", "
            "FastSlamUnknown", "FastSlam2Unknown"]
 
 
-@dataclass(frozen=True)
-class FastSlamUnknownSteps(UnitTable):
-    """The replaceable units of FastSLAM 1.0 with unknown data association (call order: module docstring)."""
+def _without_ids(known: type, name: str) -> type:
+    """The units of the unknown-association variant of the steps table ``known``, as a new table ``name``.
 
-    sample_controls: Callable = _units.sample_controls
-    motion_model: Callable = _units.motion_model
-    wrap_heading: Callable = _units.wrap_heading
-    wrap_bearing: Callable = _units.wrap_bearing
-    predict_measurement: Callable = _units.predict_measurement
-    innovation: Callable = _units.innovation
-    innovation_covariance: Callable = _units.innovation_covariance
-    log_likelihood: Callable = _units.log_likelihood
-    associate: Callable = _units.associate
-    init_landmarks: Callable = _units.init_landmarks
-    combine_weights: Callable = _units.combine_weights
-    ekf_update: Callable = _units.ekf_update
-    effective_sample_size: Callable = _units.effective_sample_size
-    resample: Callable = _units.resample
-    resample_maps: Callable = _units.resample_maps
-    extract_unlabelled_map: Callable = _units.extract_unlabelled_map
+    They are ``known``'s, in its order, except the three that need landmark ids: ``classify_new``
+    goes (the association decides what is new), ``associate`` comes after ``log_likelihood``, and
+    ``apply_resample`` and ``extract_map`` (the id-aligned :class:`~faultlab.slam.units.ParticleState`)
+    become ``resample_maps`` and ``extract_unlabelled_map`` (:class:`~faultlab.slam.units.AssociationState`).
+    """
+    units = []
+    for f in fields(known):
+        if f.name == "classify_new":
+            continue
+        unit = _ID_UNITS.get(f.name, (f.name, f.default))
+        units.append((unit[0], Callable, field(default=unit[1])))
+        if f.name == "log_likelihood":
+            units.append(("associate", Callable, field(default=_units.associate)))
+    doc = (f"The replaceable units of {known.__name__} with unknown data association: the same units without "
+           f"``classify_new``, with ``associate``, ``resample_maps`` and ``extract_unlabelled_map`` (call order: "
+           f"the module docstring).")
+    return make_dataclass(name, units, bases=(UnitTable,), frozen=True, namespace={"__doc__": doc,
+                                                                                  "__module__": __name__})
 
 
-@dataclass(frozen=True)
-class FastSlam2UnknownSteps(UnitTable):
-    """The replaceable units of FastSLAM 2.0 with unknown data association (call order: module docstring)."""
+#: The units of the known-association tables that the unknown-association ones replace.
+_ID_UNITS = {"apply_resample": ("resample_maps", _units.resample_maps),
+             "extract_map": ("extract_unlabelled_map", _units.extract_unlabelled_map)}
 
-    motion_model: Callable = _units.motion_model
-    wrap_heading: Callable = _units.wrap_heading
-    wrap_bearing: Callable = _units.wrap_bearing
-    motion_jacobians: Callable = _units2.motion_jacobians
-    predict_measurement: Callable = _units.predict_measurement
-    pose_jacobian: Callable = _units2.pose_jacobian
-    innovation: Callable = _units.innovation
-    innovation_covariance: Callable = _units.innovation_covariance
-    log_likelihood: Callable = _units.log_likelihood
-    associate: Callable = _units.associate
-    proposal_information: Callable = _units2.proposal_information
-    proposal: Callable = _units2.proposal
-    sample_proposal: Callable = _units2.sample_proposal
-    init_landmarks: Callable = _units.init_landmarks
-    combine_weights: Callable = _units.combine_weights
-    proposal_correction: Callable = _units2.proposal_correction
-    ekf_update: Callable = _units.ekf_update
-    effective_sample_size: Callable = _units.effective_sample_size
-    resample: Callable = _units.resample
-    resample_maps: Callable = _units.resample_maps
-    extract_unlabelled_map: Callable = _units.extract_unlabelled_map
+#: The units of FastSLAM 1.0 with unknown data association.
+FastSlamUnknownSteps = _without_ids(FastSlamSteps, "FastSlamUnknownSteps")
+#: The units of FastSLAM 2.0 with unknown data association.
+FastSlam2UnknownSteps = _without_ids(FastSlam2Steps, "FastSlam2UnknownSteps")
 
 
 #: The reference units of :class:`FastSlamUnknown` and :class:`FastSlam2Unknown`.
@@ -150,14 +132,14 @@ class Association:
         return self.assoc != NEW_LANDMARK
 
 
-class _UnknownAssociationSlam(UnitSlam):
+class _UnknownAssociationSlam(ParticleFilterSlam):
     """What both unknown-association filters share: storage, association, map update, resampling."""
 
     association: ClassVar[str] = UNKNOWN_ASSOCIATION
     supports_batch: ClassVar[bool] = False
     config_type = FastSlamConfig
-    #: Units that draw random numbers, each from its own stream.
-    random_units: ClassVar[tuple[str, ...]]
+    map_unit = "extract_unlabelled_map"
+    apply_unit = "resample_maps"
 
     def __init__(self, config: FastSlamConfig | None = None, *, steps=None):
         if config is None:
@@ -165,40 +147,9 @@ class _UnknownAssociationSlam(UnitSlam):
         super().__init__(config, steps=steps)
         self._Q = self._config.Q
         self._log_p0 = self._config.log_p0
-        self._state: AssociationState | None = None
-
-    # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        p = self._start_pose(pose, rng)
-        self._streams = unit_streams(rng, self.random_units)
-        self._state = AssociationState.initial(p, self._config.n_particles)
-        self._t = 0
-        self._n_resamples = 0
-
-    def estimate(self) -> Estimate:
-        st = self._require_state()
-        return best_estimate(self._steps.extract_unlabelled_map, st)
-
-    # -- diagnostics -----------------------------------------------------------------------------
-
-    @property
-    def n_resamples(self) -> int:
-        """How many updates since :meth:`reset` resampled."""
-        self._require_state()
-        return self._n_resamples
-
-    @property
-    def state(self) -> AssociationState:
-        """The current particle state (read-only use: its arrays are the filter's own)."""
-        return self._require_state()
-
-    # -- internals -------------------------------------------------------------------------------
-
-    def _require_state(self) -> AssociationState:
-        if self._state is None:
-            raise SlamInputError(f"{self.name}: reset() must be called first")
-        return self._state
+        self._begin(AssociationState.initial(self._start_pose(pose, rng), self._config.n_particles), rng)
 
     def _associate(self, poses: np.ndarray, z: np.ndarray) -> Association:
         """Every particle's maximum-likelihood association of the observations ``z`` (k, 2) from ``poses``.
@@ -296,22 +247,13 @@ class _UnknownAssociationSlam(UnitSlam):
     def _grow(st: AssociationState, needed: int) -> AssociationState:
         """``st`` with room for ``needed`` landmarks per particle (capacity doubles)."""
         cap = st.mu.shape[1]
-        if needed <= cap:
+        new_cap = grown_capacity(cap, needed)
+        if new_cap is None:
             return st
-        new_cap = max(2 * cap, needed)
         n = st.n_particles
         mu, P = np.zeros((n, new_cap, 2)), np.zeros((n, new_cap, 2, 2))
         mu[:, :cap], P[:, :cap] = st.mu, st.P
         return st.replace(mu=mu, P=P)
-
-    def _finish(self, poses: np.ndarray, logw: np.ndarray, empty: bool) -> None:
-        """Store the step's poses and weights, then the resampling tail (Table 13.1, lines 24-28)."""
-        st = self._state.replace(poses=np.asarray(poses, dtype=float), logw=logw)
-        st, resampled = resample_tail(self._steps, st, empty, self._streams["resample"], self._config,
-                                      apply=self._steps.resample_maps)
-        self._n_resamples += resampled
-        self._state = st
-        self._t += 1
 
     @staticmethod
     def _observations(observations: Observations) -> np.ndarray:
@@ -319,14 +261,9 @@ class _UnknownAssociationSlam(UnitSlam):
 
 
 class FastSlamUnknown(_UnknownAssociationSlam):
-    """FastSLAM 1.0 with unknown data association as a :class:`~faultlab.slam.SlamAdapter`.
-
-    Parameters
-    ----------
-    config : FastSlamConfig
-        With ``association = "unknown"`` (the default here).
-    steps : FastSlamUnknownSteps
-    """
+    """FastSLAM 1.0 with unknown data association: ``FastSlamUnknown(config, steps=...)`` with a
+    :class:`FastSlamConfig` whose ``association`` is ``"unknown"`` (the default here) and a
+    :class:`FastSlamUnknownSteps` table."""
 
     name = "fastslam1_unknown"
     steps_type = FastSlamUnknownSteps
@@ -334,13 +271,9 @@ class FastSlamUnknown(_UnknownAssociationSlam):
     random_units = _units.STREAM_UNITS
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
-        st = self._require_state()
-        steps, cfg = self._steps, self._config
-        n, k = st.n_particles, len(observations)
-        u = np.asarray(control, dtype=float)
-        empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
-        u_i = (np.broadcast_to(u, (n, 2)) if empty
-               else steps.sample_controls(u, n, self._streams["sample_controls"], cfg))
+        st, u, u_n, k, empty = self._begin_step(control, observations)
+        steps = self._steps
+        u_i = u_n if empty else steps.sample_controls(u, st.n_particles, self._streams["sample_controls"], self._config)
         poses = np.asarray(steps.motion_model(st.poses, u_i, wrap=steps.wrap_heading), dtype=float)
         logw = st.logw
         if k:
@@ -348,38 +281,29 @@ class FastSlamUnknown(_UnknownAssociationSlam):
             a = self._associate(poses, z)
             logw = normalise_log_weights(self._weights(logw, a), name=self.name, step=self._t)
             self._update_maps(poses, z, a.known, a.assoc, a.mu, a.P, a.H, a.S, a.nu)
-        self._finish(poses, logw, empty)
+        self._finish(self._state, poses, logw, empty)
 
 
 class FastSlam2Unknown(_UnknownAssociationSlam):
-    """FastSLAM 2.0 with unknown data association as a :class:`~faultlab.slam.SlamAdapter`.
-
-    Parameters
-    ----------
-    config : FastSlamConfig
-        With ``association = "unknown"`` (the default here).
-    steps : FastSlam2UnknownSteps
-    """
+    """FastSLAM 2.0 with unknown data association, set up like :class:`FastSlamUnknown` (units:
+    :class:`FastSlam2UnknownSteps`; random streams: those of :class:`~faultlab.slam.FastSlam2`)."""
 
     name = "fastslam2_unknown"
     steps_type = FastSlam2UnknownSteps
     reference_steps = REFERENCE_STEPS_2
-    random_units = ("sample_proposal", "resample")
+    random_units = RANDOM_UNITS
 
     def __init__(self, config: FastSlamConfig | None = None, *, steps: FastSlam2UnknownSteps | None = None):
         super().__init__(config, steps=steps)
         self._M = self._config.M
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
-        st = self._require_state()
+        st, _, u_n, k, empty = self._begin_step(control, observations)
         steps, Q, M = self._steps, self._Q, self._M
-        n, k = st.n_particles, len(observations)
-        u = np.asarray(control, dtype=float)
-        empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
-        u_n = np.broadcast_to(u, (n, 2))
+        n = st.n_particles
         logw = st.logw
         if empty:
-            self._finish(steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading), logw, empty)
+            self._finish(st, steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading), logw, empty)
             return
         x_hat = np.asarray(steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading), dtype=float)
         if k:
@@ -399,11 +323,9 @@ class FastSlam2Unknown(_UnknownAssociationSlam):
             logw = normalise_log_weights(logw, name=self.name, step=self._t)
             # the associated landmarks are updated from the sampled pose
             with np.errstate(invalid="ignore", divide="ignore"):  # a landmark on top of a particle
-                zhat, H = steps.predict_measurement(poses, a.mu)
-                nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
-                S = steps.innovation_covariance(H, a.P, Q)
+                H, nu, S = linearise(steps, poses, a.mu, a.P, z, Q)
             self._update_maps(poses, z, known, a.assoc, a.mu, a.P, H, S, nu)
-        self._finish(poses, logw, empty)
+        self._finish(self._state, poses, logw, empty)
 
 
 def _nearest_gap(x: np.ndarray, values: np.ndarray, *, circular: bool) -> np.ndarray:

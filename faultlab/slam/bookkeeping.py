@@ -4,8 +4,9 @@
 the units), :class:`UnitSlam` the base of the adapters (settings, units, ``with_steps``, the start
 pose), :class:`LandmarkIndex` maps landmark ids to storage columns in order of first observation.
 The particle filters share the weight normalisation (:func:`normalise_log_weights`), the
-resampling tail of a step (:func:`resample_tail`) and the best-particle estimate
-(:func:`best_estimate`).
+resampling tail of a step (:func:`resample_tail`), the best-particle estimate
+(:func:`best_estimate`), the linearisation of the measurement model (:func:`linearise`) and, for
+the ones that run one filter at a time, their bookkeeping (:class:`ParticleFilterSlam`).
 """
 
 from __future__ import annotations
@@ -18,10 +19,12 @@ import numpy as np
 
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam.protocol import Estimate, SlamAdapter
+from faultlab.slam.streams import unit_streams
 from faultlab.slam.units import wrap_heading
 from faultlab.vocabulary import KNOWN_ASSOCIATION
 
-__all__ = ["UnitTable", "UnitSlam", "LandmarkIndex", "normalise_log_weights", "resample_tail", "best_estimate"]
+__all__ = ["UnitTable", "UnitSlam", "ParticleFilterSlam", "LandmarkIndex", "checked_start_pose", "step_kind", "grown_capacity",
+           "normalise_log_weights", "resample_tail", "best_estimate", "linearise"]
 
 
 @dataclass(frozen=True)
@@ -102,14 +105,97 @@ class UnitSlam(SlamAdapter):
 
     def _start_pose(self, pose, rng) -> np.ndarray:
         """The validated start pose (3,) with its heading wrapped; checks ``rng`` too."""
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        if not isinstance(rng, np.random.Generator):
-            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        p = p.copy()
+        p = checked_start_pose(self.name, pose, rng).copy()
         p[2] = float(wrap_heading(p[2]))
         return p
+
+
+class ParticleFilterSlam(UnitSlam):
+    """Base of a particle-filter SLAM that runs one filter at a time on a state object.
+
+    The state (``self._state``) has ``poses`` (N, 3) and normalised log weights ``logw`` (N,) and
+    a ``replace(**fields)`` method.  A subclass names the units of its table that give the map
+    (:attr:`map_unit`) and apply a resampling (:attr:`apply_unit`), and the units that draw random
+    numbers (:attr:`random_units`), each of which gets its own stream in :meth:`_begin`.
+    """
+
+    #: Units that draw random numbers, each from its own stream.
+    random_units: ClassVar[tuple[str, ...]]
+    #: The unit ``(state) -> (ids (M,), xy (M, 2))`` of the map estimate.
+    map_unit: ClassVar[str]
+    #: The unit ``(state, indices (N,)) -> state`` that applies a resampling.
+    apply_unit: ClassVar[str]
+
+    def __init__(self, config=None, *, steps=None):
+        super().__init__(config, steps=steps)
+        self._state = None
+
+    def _begin(self, state, rng: np.random.Generator) -> None:
+        """Start from ``state`` with the unit streams derived from ``rng``."""
+        self._streams = unit_streams(rng, self.random_units)
+        self._state = state
+        self._t = 0
+        self._n_resamples = 0
+
+    def estimate(self) -> Estimate:
+        return best_estimate(getattr(self._steps, self.map_unit), self._require_state())
+
+    @property
+    def n_resamples(self) -> int:
+        """How many updates since :meth:`reset` resampled."""
+        self._require_state()
+        return self._n_resamples
+
+    @property
+    def state(self):
+        """The current particle state (read-only use: its arrays are the filter's own)."""
+        return self._require_state()
+
+    def _require_state(self):
+        if self._state is None:
+            raise SlamInputError(f"{self.name}: reset() must be called first")
+        return self._state
+
+    def _begin_step(self, control: np.ndarray, observations):
+        """``(state, u (2,), u_n (N, 2), k, empty)`` at the start of an update (see :func:`step_kind`)."""
+        st = self._require_state()
+        u, k, empty = step_kind(control, observations)
+        return st, u, np.broadcast_to(u, (st.n_particles, 2)), k, empty
+
+    def _finish(self, state, poses: np.ndarray, logw: np.ndarray, empty: bool) -> None:
+        """Store the step's poses and weights in ``state``, then the resampling tail; the step is over."""
+        st = state.replace(poses=np.asarray(poses, dtype=float), logw=logw)
+        st, resampled = resample_tail(self._steps, st, empty, self._streams["resample"], self._config,
+                                      apply=getattr(self._steps, self.apply_unit))
+        self._n_resamples += resampled
+        self._state = st
+        self._t += 1
+
+
+def checked_start_pose(name: str, pose, rng) -> np.ndarray:
+    """``pose`` as a float array (3,) of finite numbers, and ``rng`` a Generator, or :class:`SlamInputError`."""
+    p = np.asarray(pose, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise SlamInputError(f"{name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+    if not isinstance(rng, np.random.Generator):
+        raise SlamInputError(f"{name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    return p
+
+
+def grown_capacity(capacity: int, needed: int) -> int | None:
+    """The new capacity of a landmark store that must hold ``needed`` landmarks: None if ``capacity``
+    suffices, else twice it (or ``needed`` if that is more), so that growing costs O(1) amortised."""
+    if needed <= capacity:
+        return None
+    return max(2 * capacity, needed)
+
+
+def step_kind(control: np.ndarray, observations) -> tuple[np.ndarray, int, bool]:
+    """``(u, k, empty)`` of one step: the control as floats (2,), the number of observations and
+    whether it is an *empty update* (control exactly (0, 0) and no observation)."""
+    k = len(observations)
+    u = np.asarray(control, dtype=float)
+    return u, k, k == 0 and u[0] == 0.0 and u[1] == 0.0
 
 
 class LandmarkIndex:
@@ -213,3 +299,16 @@ def best_estimate(extract_map: Callable, state) -> Estimate:
     ids, xy = extract_map(state)
     i = int(np.argmax(state.logw))
     return Estimate(state.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+
+
+def linearise(steps, poses: np.ndarray, mu: np.ndarray, P: np.ndarray, z: np.ndarray,
+              Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The measurement model at ``poses``: ``(H, nu, S)`` from the units ``predict_measurement``,
+    ``innovation`` (with ``wrap_bearing``) and ``innovation_covariance``, called in that order.
+
+    Shapes: poses (N, 3), mu (N, k, 2), P (N, k, 2, 2), z (k, 2) -> H (N, k, 2, 2), nu (N, k, 2), S (N, k, 2, 2).
+    """
+    zhat, H = steps.predict_measurement(poses, mu)
+    nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+    S = steps.innovation_covariance(H, P, Q)
+    return H, nu, S

@@ -20,8 +20,7 @@ import math
 
 import numpy as np
 
-from faultlab.slam.streams import unit_streams
-from tests.slam.oracle import measurement, wrap
+from tests.slam.oracle import OracleFastSlam, landmark_ekf, measurement, new_landmark, wrap
 
 
 def log_p0(Q: np.ndarray, sigmas: float) -> float:
@@ -67,20 +66,19 @@ class Particle:
         return p
 
 
-class OracleFastSlamUnknown:
-    """Per-particle loop FastSLAM 1.0 with unknown association and :class:`~faultlab.slam.FastSlamConfig`'s settings."""
+class OracleFastSlamUnknown(OracleFastSlam):
+    """Per-particle loop FastSLAM 1.0 with unknown association and :class:`~faultlab.slam.FastSlamConfig`'s settings.
 
-    def __init__(self, n_particles=200, std_v=0.1, std_omega=math.radians(20.0), std_range=0.3,
-                 std_bearing=math.radians(10.0), resample_ratio=1.5, new_landmark_sigmas=3.0):
-        self.n = n_particles
-        self.std_v, self.std_omega = std_v, std_omega
-        self.Q = np.array([[std_range ** 2, 0.0], [0.0, std_bearing ** 2]])
-        self.ratio = resample_ratio
+    The prediction's draws, the weight normalisation and the low-variance resampling are those
+    of :class:`tests.slam.oracle.OracleFastSlam`; the particles hold lists of landmarks.
+    """
+
+    def __init__(self, new_landmark_sigmas=3.0, **settings):
+        super().__init__(**settings)
         self.lp0 = log_p0(self.Q, new_landmark_sigmas)
 
     def reset(self, pose, *, rng):
-        streams = unit_streams(rng, ["sample_controls", "resample"])
-        self.control_rng, self.resample_rng = streams["sample_controls"], streams["resample"]
+        super().reset(pose, rng=rng)
         self.particles = [Particle(pose) for _ in range(self.n)]
         for p in self.particles:
             p.w = 1.0 / self.n
@@ -102,42 +100,10 @@ class OracleFastSlamUnknown:
             for m, j in enumerate(assoc):
                 r, b = z[m]
                 if j < 0:
-                    a = p.pose[2] + b
-                    mu = np.array([p.pose[0] + r * math.cos(a), p.pose[1] + r * math.sin(a)])
-                    _, H = measurement(p.pose, mu)
-                    Hi = np.linalg.inv(H)
-                    p.lm.append((mu, Hi @ self.Q @ Hi.T))
+                    p.lm.append(new_landmark(p.pose, r, b, self.Q))
                     p.w *= math.exp(self.lp0)
                 else:
-                    mu, P = p.lm[j]
-                    zhat, H = measurement(p.pose, mu)
-                    S = H @ P @ H.T + self.Q
-                    Si = np.linalg.inv(S)
-                    K = P @ H.T @ Si
-                    nu = np.array([r - zhat[0], wrap(b - zhat[1])])
-                    p.w *= math.exp(-0.5 * nu @ Si @ nu) / math.sqrt(np.linalg.det(2.0 * math.pi * S))
-                    p.lm[j] = (mu + K @ nu, (np.eye(2) - K @ H) @ P)
-        if len(z):
-            total = sum(p.w for p in self.particles)
-            for p in self.particles:
-                p.w /= total
-        n_eff = 1.0 / sum(p.w ** 2 for p in self.particles)
-        if not empty and n_eff < self.n / self.ratio:
-            self.resample()
-
-    def resample(self):
-        """Low-variance sampler, Table 4.4."""
-        M = self.n
-        r = self.resample_rng.uniform(0.0, 1.0 / M)
-        c = self.particles[0].w
-        i = 0
-        chosen = []
-        for m in range(M):
-            U = r + m / M
-            while U > c and i < M - 1:
-                i += 1
-                c += self.particles[i].w
-            chosen.append(self.particles[i].copy())
-        for p in chosen:
-            p.w = 1.0 / M
-        self.particles = chosen
+                    mu, P, likelihood = landmark_ekf(p.pose, *p.lm[j], r, b, self.Q)
+                    p.w *= likelihood
+                    p.lm[j] = (mu, P)
+        self.finish_step(empty)
