@@ -59,7 +59,8 @@ from typing import Callable, ClassVar
 import numpy as np
 
 from faultlab.slam import units as _units
-from faultlab.slam.bookkeeping import ParticleFilterSlam, UnitTable, grown_capacity, linearise, normalise_log_weights
+from faultlab.slam.bookkeeping import (ParticleFilterSlam, UnitTable, grown_capacity, linearise, normalise_log_weights,
+                                       sample_pose)
 from faultlab.slam.fastslam import FastSlamConfig, FastSlamSteps
 from faultlab.slam.fastslam2 import RANDOM_UNITS, FastSlam2Steps
 from faultlab.slam.protocol import Observations
@@ -299,13 +300,12 @@ class FastSlam2Unknown(_UnknownAssociationSlam):
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
         st, _, u_n, k, empty = self._begin_step(control, observations)
-        steps, Q, M = self._steps, self._Q, self._M
-        n = st.n_particles
-        logw = st.logw
-        if empty:
-            self._finish(st, steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading), logw, empty)
-            return
+        steps = self._steps
         x_hat = np.asarray(steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading), dtype=float)
+        if empty:  # the noise-free prediction is the pose
+            self._finish(st, x_hat, st.logw, empty)
+            return
+        Q, M, n, logw = self._Q, self._M, st.n_particles, st.logw
         if k:
             # association and proposal at the noise-free prediction (Table 13.3)
             z = self._observations(observations)
@@ -315,9 +315,8 @@ class FastSlam2Unknown(_UnknownAssociationSlam):
             lam, eta = steps.proposal_information(steps.pose_jacobian(a.H), V, a.S, a.nu, known)
         else:
             lam, eta = np.zeros((n, 2, 2)), np.zeros((n, 2))
-        mean, cov = steps.proposal(lam, eta, M)
-        du = np.asarray(steps.sample_proposal(mean, cov, self._streams["sample_proposal"]), dtype=float)
-        poses = np.asarray(steps.motion_model(st.poses, u_n + du, wrap=steps.wrap_heading), dtype=float)
+        poses, cov = sample_pose(steps, st.poses, u_n, lam, eta, M, self._streams["sample_proposal"])
+        poses = np.asarray(poses, dtype=float)
         if k:
             logw = self._weights(logw, a) + np.asarray(steps.proposal_correction(lam, eta, cov, M), dtype=float)
             logw = normalise_log_weights(logw, name=self.name, step=self._t)

@@ -24,7 +24,7 @@ from faultlab.slam.units import wrap_heading
 from faultlab.vocabulary import KNOWN_ASSOCIATION
 
 __all__ = ["UnitTable", "UnitSlam", "ParticleFilterSlam", "LandmarkIndex", "checked_start_pose", "step_kind", "grown_capacity",
-           "normalise_log_weights", "resample_tail", "best_estimate", "linearise"]
+           "normalise_log_weights", "resample_tail", "best_estimate", "linearise", "sample_pose"]
 
 
 @dataclass(frozen=True)
@@ -312,3 +312,14 @@ def linearise(steps, poses: np.ndarray, mu: np.ndarray, P: np.ndarray, z: np.nda
     nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
     S = steps.innovation_covariance(H, P, Q)
     return H, nu, S
+
+
+def sample_pose(steps, poses: np.ndarray, u_n: np.ndarray, lam: np.ndarray, eta: np.ndarray, M: np.ndarray,
+                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """FastSLAM 2.0's pose draw (Table 13.2, lines 12-16): ``proposal``, ``sample_proposal``, ``motion_model``.
+
+    Returns the sampled poses (N, 3) and the proposal covariance (N, 2, 2) (for the weight).
+    """
+    mean, cov = steps.proposal(lam, eta, M)
+    du = np.asarray(steps.sample_proposal(mean, cov, rng), dtype=float)
+    return steps.motion_model(poses, u_n + du, wrap=steps.wrap_heading), cov

@@ -63,7 +63,7 @@ import numpy as np
 from faultlab.slam import units as _units
 from faultlab.slam import units2 as _units2
 from faultlab.slam.bookkeeping import (LandmarkIndex, ParticleFilterSlam, UnitTable, grown_capacity, linearise,
-                                       normalise_log_weights)
+                                       normalise_log_weights, sample_pose)
 from faultlab.slam.fastslam import FastSlamConfig, Particles, materialise_particles
 from faultlab.slam.protocol import Observations
 from faultlab.slam.units import ParticleState
@@ -163,9 +163,7 @@ class FastSlam2(ParticleFilterSlam):
                 lam, eta = steps.proposal_information(steps.pose_jacobian(H), V, Z, nu, known)
             else:
                 lam, eta = np.zeros((n, 2, 2)), np.zeros((n, 2))
-            mean, cov = steps.proposal(lam, eta, M)
-            du = np.asarray(steps.sample_proposal(mean, cov, self._streams["sample_proposal"]), dtype=float)
-            poses = steps.motion_model(st.poses, u_n + du, wrap=steps.wrap_heading)
+            poses, cov = sample_pose(steps, st.poses, u_n, lam, eta, M, self._streams["sample_proposal"])
             if k:
                 # importance weight: the proposal's normaliser (Table 13.2, lines 21-22)
                 logw = np.asarray(steps.combine_weights(st.logw, loglik, known), dtype=float)
