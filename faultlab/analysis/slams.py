@@ -59,7 +59,7 @@ class SlamComparison:
         1 - confidence level of every interval.
     protocol : dict
         Per SLAM label: the experiment's description, hash, metric, rule (JSON-shaped), K, suites,
-        steps and the ``[slam]`` table.
+        steps, the ``[slam]`` table and the campaign's wall time (s, as the store recorded it).
     accuracy, sensitivity, not_judged : DataFrame
         :data:`ACCURACY`, :data:`SENSITIVITY`, :data:`NOT_JUDGED`.
     """
@@ -104,7 +104,8 @@ def compare_slams(stores: Mapping[str, str | Path], *, alpha: float = 0.05,
         association = str(slam.get("association", "known"))
         protocol[label] = {"description": md.get("description", ""), "hash": md.get("experiment_hash"),
                            "metric": metric, "rule": md.get("detection"), "repetitions": exp.get("repetitions"),
-                           "suites": exp.get("suites"), "n_steps": exp.get("n_steps"), "slam": slam}
+                           "suites": exp.get("suites"), "n_steps": exp.get("n_steps"), "slam": slam,
+                           "wall_time_s": md.get("wall_time_s")}
         value = f"{metric}_mm"
         jobs = a.jobs
         base = jobs[jobs["variant"] == BASELINE]

@@ -23,6 +23,12 @@ def _mm(x: float) -> str:
     return "–" if x is None or not math.isfinite(x) else f"{x:,.0f}"
 
 
+def _minutes(seconds) -> str:
+    if seconds is None or not math.isfinite(float(seconds)):
+        return "–"
+    return f"{float(seconds) / 60:.1f} min"
+
+
 def _interval_pct(low: float, high: float) -> str:
     if not (math.isfinite(low) and math.isfinite(high)):
         return "–"
@@ -76,7 +82,8 @@ def slam_markdown(c: SlamComparison, *, figure: str = "slams.png") -> str:
              f"Protocol: {first.get('description', '')}.  Every SLAM ran the same cases (suites "
              f"{', '.join(f'{k} {n}' for k, n in first.get('suites') or [])}, {first.get('n_steps')} active "
              f"steps), the same SLAM seeds per repetition (K = {first.get('repetitions')}) and the same faults; "
-             f"only the `[slam]` table differs (`protocol.json`).  Intervals are {conf}.", "",
+             f"only the `[slam]` table differs (`protocol.json`).  Intervals are {conf}.  Campaign wall time: "
+             + ", ".join(f"{label} {_minutes(p.get('wall_time_s'))}" for label, p in c.protocol.items()) + ".", "",
              f"![baseline error and detection rates]({figure})", "",
              "## Baseline accuracy", "",
              "Map error of the fault-free SLAM: each case contributes the mean of its K repetitions; mean and "
