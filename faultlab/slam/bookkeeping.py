@@ -18,12 +18,12 @@ from typing import Any, Callable, ClassVar
 import numpy as np
 
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
-from faultlab.slam.protocol import Estimate, SlamAdapter
+from faultlab.slam.protocol import Estimate, SlamAdapter, as_start_pose, check_generator
 from faultlab.slam.streams import unit_streams
 from faultlab.slam.units import wrap_heading
 from faultlab.vocabulary import KNOWN_ASSOCIATION
 
-__all__ = ["UnitTable", "UnitSlam", "ParticleFilterSlam", "LandmarkIndex", "checked_start_pose", "step_kind", "grown_capacity",
+__all__ = ["UnitTable", "UnitSlam", "ParticleFilterSlam", "LandmarkIndex", "step_kind", "grown_capacity",
            "normalise_log_weights", "resample_tail", "best_estimate", "linearise", "sample_pose"]
 
 
@@ -105,7 +105,8 @@ class UnitSlam(SlamAdapter):
 
     def _start_pose(self, pose, rng) -> np.ndarray:
         """The validated start pose (3,) with its heading wrapped; checks ``rng`` too."""
-        p = checked_start_pose(self.name, pose, rng).copy()
+        p = as_start_pose(pose, where=self.name)
+        check_generator(rng, where=self.name)
         p[2] = float(wrap_heading(p[2]))
         return p
 
@@ -170,16 +171,6 @@ class ParticleFilterSlam(UnitSlam):
         self._n_resamples += resampled
         self._state = st
         self._t += 1
-
-
-def checked_start_pose(name: str, pose, rng) -> np.ndarray:
-    """``pose`` as a float array (3,) of finite numbers, and ``rng`` a Generator, or :class:`SlamInputError`."""
-    p = np.asarray(pose, dtype=float)
-    if p.shape != (3,) or not np.all(np.isfinite(p)):
-        raise SlamInputError(f"{name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-    if not isinstance(rng, np.random.Generator):
-        raise SlamInputError(f"{name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    return p
 
 
 def grown_capacity(capacity: int, needed: int) -> int | None:

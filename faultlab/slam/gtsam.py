@@ -58,9 +58,8 @@ import numpy as np
 
 from faultlab.config import Option
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
-from faultlab.slam.bookkeeping import checked_start_pose
 from faultlab.slam.noise import NoiseConfig
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_start_pose, check_generator
 
 __all__ = ["GTSAM_EXTRA", "PRIOR_STD", "REGULARISER", "MIN_RANGE", "GtsamSlamConfig", "GtsamSlam", "gtsam_available",
            "gtsam_version"]
@@ -168,7 +167,8 @@ class GtsamSlam(SlamAdapter):
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        p = checked_start_pose(self.name, pose, rng)
+        p = as_start_pose(pose, where=self.name)
+        check_generator(rng, where=self.name)
         g = self._gtsam
         params = g.ISAM2Params()
         self._isam = g.ISAM2(params)

@@ -41,7 +41,7 @@ from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION
 
 __all__ = ["HIDDEN_ID", "Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control",
-           "association_of"]
+           "as_start_pose", "check_generator", "association_of"]
 
 #: The id every observation carries when the driver hides the ids (unknown data association).
 HIDDEN_ID = -1
@@ -168,6 +168,26 @@ def as_control(control) -> np.ndarray:
     return u
 
 
+def as_start_pose(pose, *, where: str) -> np.ndarray:
+    """Validate a start pose ``(x, y, theta)`` given to ``where``; return it as a new float array (3,).
+
+    Raises
+    ------
+    SlamInputError
+        Not 3 finite numbers.
+    """
+    p = np.array(pose, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise SlamInputError(f"{where}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+    return p
+
+
+def check_generator(rng, *, where: str) -> None:
+    """Raise :class:`SlamInputError` (naming ``where``) unless ``rng`` is a :class:`numpy.random.Generator`."""
+    if not isinstance(rng, np.random.Generator):
+        raise SlamInputError(f"{where}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+
+
 class SlamAdapter(abc.ABC):
     """Base class of every SLAM under test.
 
@@ -221,7 +241,7 @@ class SlamAdapter(abc.ABC):
         elif not isinstance(observations, Observations):
             observations = Observations(*observations)
         if observations.hidden and len(observations) and association_of(self) != UNKNOWN_ASSOCIATION:
-            raise SlamInputError(f"{getattr(self, 'name', type(self).__name__)} needs landmark ids "
+            raise SlamInputError(f"{_label(self)} needs landmark ids "
                                  f"(association {association_of(self)!r}) but the observations hide them")
         self.update(u, observations)
 
@@ -230,13 +250,19 @@ def association_of(slam) -> str:
     """The data association a SLAM declares (:attr:`SlamAdapter.association`; ``"known"`` if it declares none)."""
     value = getattr(slam, "association", KNOWN_ASSOCIATION)
     if value not in ASSOCIATIONS:
-        raise SlamInputError(f"{getattr(slam, 'name', type(slam).__name__)}: association must be one of "
-                             f"{', '.join(map(repr, ASSOCIATIONS))}, got {value!r}")
+        raise SlamInputError(f"{_label(slam)}: association must be one of {', '.join(map(repr, ASSOCIATIONS))}, "
+                             f"got {value!r}")
     return value
 
 
-def _drive(slam: SlamAdapter, scenario) -> None:
-    """Feed every step of ``scenario`` to ``slam`` (after its reset), with the ids hidden if it associates itself."""
+def _label(slam) -> str:
+    """The SLAM's name for messages (its class name if it has none)."""
+    return getattr(slam, "name", type(slam).__name__)
+
+
+def _feed(slam: SlamAdapter, scenario) -> None:
+    """Step ``slam`` through the scenario: each step's control and the observations made after it, with
+    the ids hidden if the SLAM associates observations itself."""
     offsets = scenario.obs_offsets
     controls = scenario.controls
     hide = association_of(slam) == UNKNOWN_ASSOCIATION
@@ -265,8 +291,8 @@ def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estima
         If the final estimate is malformed or not finite.
     """
     slam.reset(scenario.start_pose, rng=rng)
-    _drive(slam, scenario)
-    return slam.estimate().validate(where=f"{getattr(slam, 'name', type(slam).__name__)} estimate")
+    _feed(slam, scenario)
+    return slam.estimate().validate(where=f"{_label(slam)} estimate")
 
 
 def run_slam_batch(slam: SlamAdapter, scenario, *, rngs: Sequence[np.random.Generator]) -> list:
@@ -291,11 +317,11 @@ def run_slam_batch(slam: SlamAdapter, scenario, *, rngs: Sequence[np.random.Gene
         cannot attribute to one repetition propagates: rerun the repetitions one at a time.
     """
     if not getattr(slam, "supports_batch", False):
-        raise SlamInputError(f"{getattr(slam, 'name', type(slam).__name__)} does not run repetitions in a "
-                             f"batch; use run_slam for each repetition")
+        raise SlamInputError(f"{_label(slam)} does not run repetitions in a batch; use run_slam for each "
+                             "repetition")
     slam.reset_batch(scenario.start_pose, rngs=rngs)
-    _drive(slam, scenario)
-    where = f"{getattr(slam, 'name', type(slam).__name__)} estimate"
+    _feed(slam, scenario)
+    where = f"{_label(slam)} estimate"
     out = []
     for est in slam.estimates():
         if not isinstance(est, BaseException):
