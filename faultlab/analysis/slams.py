@@ -128,20 +128,18 @@ def compare_slams(stores: Mapping[str, str | Path], *, alpha: float = 0.05,
 def _sensitivity(label: str, a, metric: str, alpha: float, store) -> list[dict]:
     """Per fault: pooled case rates of the campaign's rule and the per-repetition rate of the paper's rule.
 
-    Both in the campaign's primary metric: the Analysis's per-repetition rates are Table II's (RMS),
-    so for another metric they are tabulated here from the same classification applied to it.
+    Both in the campaign's primary metric.  The per-repetition rates count every repetition (the
+    Analysis's Table II rates judge one repetition per case, in RMS), classified by the campaign's
+    rule applied to that metric (:func:`faultlab.stats.detection.outcomes`).
     """
     verdicts = a.case_verdicts
     verdicts = verdicts[verdicts["fault"] != "baseline_replica"]
     if verdicts.empty:
         return []
     pooled = case_rates(verdicts.assign(suite="all"), alpha=alpha)
-    if metric == "rms":
-        reps = a.detection_rates
-    else:
-        results = load_results(store)
-        reps = tabulate_rates(outcomes(results.assign(rms_mm=results[f"{metric}_mm"]), rule=a.rule),
-                              alpha=alpha).rename(columns={"fault": "variant"})
+    results = load_results(store)
+    reps = tabulate_rates(outcomes(results.assign(rms_mm=results[f"{metric}_mm"]), rule=a.rule),
+                          alpha=alpha).rename(columns={"fault": "variant"})
     rows = []
     for r in pooled.itertuples(index=False):
         rep = reps[reps["variant"] == r.fault]
