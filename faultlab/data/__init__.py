@@ -4,8 +4,9 @@ The package carries the one canonical copy of
 
 * the shipped experiment files (``experiments/<name>.toml``): ``paper`` (the paper's
   protocol, Sec. VII), ``paper-k10`` (the same with K = 10 repetitions, the statistical
-  detection rule and the A/A replica), ``smoke`` (a campaign of seconds) and ``space_table1``
-  (Table I written out in the parameter-space override format);
+  detection rule and the A/A replica), ``smoke`` (a campaign of seconds), ``slams`` (the
+  cross-SLAM protocol at reduced scale, run once per SLAM by ``reports/slams/run.py``) and
+  ``space_table1`` (Table I written out in the parameter-space override format);
 * the paper's replication data (``paper/``): the raw RMS errors behind Table II
   (``paper_table2_rms.csv``) and its printed "Detected Faults" percentages
   (``paper_table2_reported.csv``).
