@@ -65,7 +65,7 @@ from faultlab.stats.verdict import case_verdicts, min_pairs
 from faultlab.vocabulary import BASELINE, JobStatus
 
 __all__ = ["MUTATION_FILE", "MUTATION_TABLES", "MutationExperiment", "MutationAnalysis", "MutationRun",
-           "load_mutation_experiment", "parse_selector", "run_mutation", "analyse_mutation", "suite_kills"]
+           "load_mutation_experiment", "parse_selector", "selection_from_table", "run_mutation", "analyse_mutation", "suite_kills"]
 
 #: File in the output directory recording the selection and the level of a mutation campaign.
 MUTATION_FILE = "mutation.json"
@@ -129,10 +129,7 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
     alpha = float(table.get("alpha", 0.05))
     if not 0 < alpha < 1:
         raise ConfigError(f"{path}: [mutation].alpha must lie in (0, 1), got {alpha}")
-    selection = select_mutants(units=table.get("units"), operators=table.get("operators"), ids=table.get("ids"),
-                               sample=table.get("sample"), seed=int(table.get("seed", 0)))
-    if not selection.run:
-        raise ConfigError(f"{path}: [mutation] selects no live mutant")
+    selection = selection_from_table(table, source=str(path))
     if "variants" in data:
         raise ConfigError(f"{path}: variants: a mutation experiment's variants come from [mutation]")
     data["variants"] = [BASELINE, *map(mutant_variant, selection.run)]
@@ -145,6 +142,19 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
                               f"{n} cases of suite {s.kind!r} a case is judged at {alpha / n:.4g}, which the exact "
                               f"sign-flip test reaches only from K = {min_pairs(alpha / n)}")
     return mexp
+
+
+def selection_from_table(table: dict, *, source: str) -> MutantSelection:
+    """The mutants a ``[mutation]`` table selects (``units``, ``operators``, ``ids``, ``sample``,
+    ``seed``; see :func:`~faultlab.mutation.campaign.select_mutants`); ConfigError if none is live."""
+    unknown = set(table) - set(_MUTATION_KEYS)
+    if unknown:
+        raise ConfigError(f"{source}: [mutation]: unknown key(s) {sorted(unknown)}; known: {', '.join(_MUTATION_KEYS)}")
+    selection = select_mutants(units=table.get("units"), operators=table.get("operators"), ids=table.get("ids"),
+                               sample=table.get("sample"), seed=int(table.get("seed", 0)))
+    if not selection.run:
+        raise ConfigError(f"{source}: [mutation] selects no live mutant")
+    return selection
 
 
 @dataclass(frozen=True)
