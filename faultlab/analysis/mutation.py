@@ -51,6 +51,7 @@ from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.contingency_tables import mcnemar
 from statsmodels.stats.proportion import proportion_confint
 
+from faultlab.analysis.bundle import TableBundle
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
@@ -282,7 +283,7 @@ def clopper_pearson(k: int, n: int, alpha: float = 0.05) -> tuple[float, float]:
 
 
 @dataclass(frozen=True, eq=False)
-class MutationAnalysis:
+class MutationAnalysis(TableBundle):
     """Outcomes, scores and suite comparisons of a mutation campaign (frozen; save/load as CSV + JSON).
 
     Attributes
@@ -301,28 +302,9 @@ class MutationAnalysis:
     mcnemar: pd.DataFrame
     meta: dict = field(default_factory=dict)
 
-    def table(self, name: str) -> pd.DataFrame:
-        if name not in MUTATION_TABLES:
-            raise ResultsError(f"unknown mutation table {name!r}; known: {', '.join(MUTATION_TABLES)}")
-        return getattr(self, name)
-
-    def save(self, directory: str | Path) -> Path:
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        for name in MUTATION_TABLES:
-            self.table(name).to_csv(d / f"{name}.csv", index=False)
-        (d / "mutation_meta.json").write_text(json.dumps(self.meta, indent=1, sort_keys=True, default=str))
-        return d
-
-    @classmethod
-    def load(cls, directory: str | Path) -> "MutationAnalysis":
-        d = Path(directory)
-        try:
-            tables = {n: pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""]) for n in MUTATION_TABLES}
-            meta = json.loads((d / "mutation_meta.json").read_text())
-        except (OSError, ValueError) as exc:
-            raise ResultsError(f"{d}: not a saved mutation analysis ({exc})") from exc
-        return cls(**tables, meta=meta)
+    TABLES = MUTATION_TABLES
+    META_FILE = "mutation_meta.json"
+    WHAT = "mutation analysis"
 
 
 def _outcomes(results: pd.DataFrame, sel: dict, metric: str, suites: dict | None = None) -> pd.DataFrame:

@@ -55,6 +55,7 @@ from faultlab.stats.killmatrix import (MULTIPLICITY, KillMatrix, compare_scores,
                                        kill_matrix, score_table)
 from faultlab.stats.verdict import min_pairs
 from faultlab.analysis.campaign import count_expected_jobs, read_rule
+from faultlab.analysis.bundle import TableBundle
 from faultlab.analysis.mutation import selection_from_table
 from faultlab.vocabulary import PAPER_FAULTS
 
@@ -273,7 +274,7 @@ _META_FILE = "study_meta.json"
 
 
 @dataclass(frozen=True, eq=False)
-class StudyAnalysis:
+class StudyAnalysis(TableBundle):
     """Everything the study's report shows, computed once (frozen; save/load as CSV + JSON).
 
     Attributes
@@ -302,28 +303,9 @@ class StudyAnalysis:
     power: pd.DataFrame
     meta: dict = field(default_factory=dict)
 
-    def table(self, name: str) -> pd.DataFrame:
-        if name not in STUDY_TABLES:
-            raise ResultsError(f"unknown study table {name!r}; known: {', '.join(STUDY_TABLES)}")
-        return getattr(self, name)
-
-    def save(self, directory: str | Path) -> Path:
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        for name in STUDY_TABLES:
-            self.table(name).to_csv(d / f"{name}.csv", index=False)
-        (d / _META_FILE).write_text(json.dumps(self.meta, indent=1, sort_keys=True, default=str))
-        return d
-
-    @classmethod
-    def load(cls, directory: str | Path) -> "StudyAnalysis":
-        d = Path(directory)
-        try:
-            tables = {n: pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""]) for n in STUDY_TABLES}
-            meta = json.loads((d / _META_FILE).read_text())
-        except (OSError, ValueError) as exc:
-            raise ResultsError(f"{d}: not a saved study analysis ({exc})") from exc
-        return cls(**tables, meta=meta)
+    TABLES = STUDY_TABLES
+    META_FILE = _META_FILE
+    WHAT = "study analysis"
 
 
 def _power(pool_sizes: dict, spec: StudySpec) -> pd.DataFrame:

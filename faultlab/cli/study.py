@@ -5,19 +5,17 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from faultlab.cli.options import add_execution_options, positive_int
+from faultlab.cli.options import add_execution_options, add_verb_group, positive_int, print_paths
 
 __all__ = ["register"]
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "study", help="test-design strategies study: case pools, kill matrix, suites drawn from the pools",
+    sub = add_verb_group(
+        subparsers, "study", help="test-design strategies study: case pools, kill matrix, suites drawn from the pools",
         description="Run a pool of cases of every strategy once per fault and sampled mutant (K repetitions, "
                     "common random numbers), keep every case's exact p value (the kill matrix), then evaluate "
                     "suites of each size drawn from the pools at no further SLAM cost.")
-    sub = p.add_subparsers(dest="study_command", metavar="VERB")
-    p.set_defaults(func=lambda args: _usage(p))
 
     run = sub.add_parser("run", help="run (or resume) a study's case pools",
                          description="Run every pool case against the baseline, the file's faults and its "
@@ -39,11 +37,6 @@ def register(subparsers) -> None:
     rep.set_defaults(func=_report)
 
 
-def _usage(p: argparse.ArgumentParser) -> int:
-    p.print_help()
-    return 2
-
-
 def _run(args: argparse.Namespace) -> int:
     from faultlab.analysis.study import load_study_experiment, run_study
 
@@ -58,6 +51,4 @@ def _run(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from faultlab.report.study import write_study_report
 
-    for path in write_study_report(args.results, args.reports):
-        print(path)
-    return 0
+    return print_paths(write_study_report(args.results, args.reports))

@@ -130,6 +130,16 @@ def _run_text(meta: dict) -> str:
     return text
 
 
+def _failures_text(meta: dict) -> str:
+    def listing(counts: dict) -> str:
+        return ", ".join(f"{v} ({n})" for v, n in counts.items()) or "none"
+
+    return (f"Pool cases the baseline itself failed on (cannot be judged for any variant): "
+            f"{meta.get('cannot_judge_cases', 0)}. Variants that alone crashed, with the number of pool cases "
+            f"(detections): {listing(meta.get('crash_cases', {}))}. Variants that alone ran out of time "
+            f"(untested cases, not detections): {listing(meta.get('timeout_cases', {}))}.")
+
+
 def study_markdown(analysis: StudyAnalysis) -> str:
     """The study's Markdown report."""
     m = analysis.meta
@@ -148,6 +158,7 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         f"Variants: {len(m['faults'])} built-in faults ({', '.join(m['faults'])}) and {len(m['mutants'])} live "
         f"mutants sampled from the screened catalogue of the reference FastSLAM 1.0.", "",
         _run_text(m), "",
+        _failures_text(m), "",
         "## Method", "",
         f"Every pool case ran once per variant; per (case, variant) the kill matrix (`kill_matrix.csv`) keeps the exact "
         f"one-sided paired sign-flip p value over the K repetitions, whether the variant alone crashed or timed out, "
