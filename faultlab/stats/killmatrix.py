@@ -86,6 +86,7 @@ from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects",
+           "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "score_table", "compare_scores", "detectable_score_difference",
            "COMPARISON_POWER"]
@@ -257,6 +258,26 @@ def suite_detects(p, crash, *, alpha: float = 0.05, method: str = "holm") -> np.
     ``p``, ``crash``: shape (..., n), the suite's cases along the last axis.  Returns shape (...,).
     """
     return np.asarray(crash, dtype=bool).any(axis=-1) | suite_rejections(p, alpha=alpha, method=method).any(axis=-1)
+
+
+def judge_suite(km: KillMatrix, rows, *, alpha: float = 0.05, method: str = "holm",
+                timeouts_detect: bool = False) -> pd.DataFrame:
+    """Judge one suite, any set of pool cases (row indices of ``km``), for every variant.
+
+    Returns one row per variant: ``detected`` (the suite rule), ``rejecting`` (cases the
+    multiplicity rule rejects), ``crashed`` (cases where the variant alone failed, counted as
+    detections) and ``paper`` (the paper rule: some case's flag).
+    """
+    rows = np.asarray(rows, dtype=np.int64)
+    if rows.size == 0 or len(set(rows.tolist())) != rows.size:
+        raise ConfigError("judge_suite: a suite is a non-empty set of distinct pool cases")
+    p = km.p[rows].T                                          # (V, n)
+    failed = _failures(km, timeouts_detect)[rows].T
+    rejecting = suite_rejections(p, alpha=alpha, method=method)
+    return pd.DataFrame({"variant": list(km.variants),
+                         "detected": failed.any(axis=1) | rejecting.any(axis=1),
+                         "rejecting": rejecting.sum(axis=1), "crashed": failed.sum(axis=1),
+                         "paper": km.paper[rows].T.any(axis=1)})
 
 
 def strong_cases(km: KillMatrix, n: int, *, alpha: float = 0.05, paper: bool = False,

@@ -15,7 +15,8 @@ from statsmodels.stats.multitest import multipletests
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.metrics.detection import DetectionRule
 from faultlab.stats.killmatrix import (KillMatrix, bootstrap_probabilities, compare_scores, detection_probability,
-                                       detection_table, draw_suites, evaluate_suites, kill_matrix, score_table,
+                                       detection_table, draw_suites, evaluate_suites, judge_suite, kill_matrix,
+                                       score_table,
                                        strong_cases, suite_detects, suite_rejections)
 
 ALPHA = 0.05
@@ -92,6 +93,19 @@ def test_every_drawn_suite_is_judged_as_brute_force_judges_it():
     for d, suite in enumerate(idx):
         for j in range(3):
             assert det[d, j] == brute_force_detects(km.p[rows][suite, j], km.crash[rows][suite, j], ALPHA)
+
+
+def test_any_suite_of_pool_cases_is_judged_as_brute_force_judges_it():
+    km = hand_matrix()
+    for suite in ([0], [2, 5], [0, 2, 3, 5], [6, 8, 9], list(range(11))):
+        table = judge_suite(km, suite)
+        for j, v in enumerate(km.variants):
+            row = table[table["variant"] == v].iloc[0]
+            assert row["detected"] == brute_force_detects(km.p[suite, j], km.crash[suite, j], ALPHA)
+            assert row["rejecting"] == sum(textbook_holm(km.p[suite, j], ALPHA))
+            assert row["paper"] == km.paper[suite, j].any()
+    with pytest.raises(ConfigError, match="distinct"):
+        judge_suite(km, [1, 1])
 
 
 @settings(max_examples=150, deadline=None)
