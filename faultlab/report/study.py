@@ -106,7 +106,7 @@ def _comparisons_md(analysis: StudyAnalysis) -> pd.DataFrame:
         "score a - b (95 % CI)": [f"{100 * d:+.0f} pp ({100 * lo:+.0f} to {100 * hi:+.0f})"
                                   for d, lo, hi in zip(c["diff"], c["ci_low"], c["ci_high"])],
         "p (bootstrap)": [_p(p) for p in c["p_boot"]], "p (Holm)": [_p(p) for p in c["p_holm"]],
-        "detectable at 80 %": [f"{100 * d:.0f} pp" for d in c["mdd80"]],
+        "detectable at 80 %": [f"{100 * d:.0f} pp" if np.isfinite(d) else "n/a (no spread)" for d in c["mdd80"]],
         "only a / only b (mean)": [f"{a:.1f} / {b:.1f}" for a, b in zip(c["only_a"], c["only_b"])],
         "McNemar p (median)": [_p(p) for p in c["mcnemar_p_median"]],
         "drawn pairs with McNemar p <= 0.05": [_pct(x) for x in c["mcnemar_share_sig"]]})
@@ -140,6 +140,15 @@ def _failures_text(meta: dict) -> str:
             f"(untested cases, not detections): {listing(meta.get('timeout_cases', {}))}.")
 
 
+def _mdd_text(comparisons: pd.DataFrame) -> str:
+    mdd = comparisons["mdd80"].dropna() if not comparisons.empty else pd.Series(dtype=float)
+    if mdd.empty:
+        return ""
+    return (f"For mutation scores the smallest difference detectable with 80 % power ranges from "
+            f"{100 * mdd.min():.0f} to {100 * mdd.max():.0f} pp over the comparisons with any bootstrap spread "
+            f"(`comparisons.csv`, `mdd80`).")
+
+
 def study_markdown(analysis: StudyAnalysis) -> str:
     """The study's Markdown report."""
     m = analysis.meta
@@ -167,7 +176,10 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         f"family-wise alpha = {st['alpha']} (for 'some case rejects', Holm and Bonferroni coincide: min p <= alpha/n; "
         f"untestable cases count as p = 1). For every strategy and size {st['draws']} suites were drawn from the pool "
         f"without replacement (Monte Carlo error at most {100 * 0.5 / math.sqrt(st['draws']):.1f} pp; the exact "
-        f"hypergeometric value is in `detection.csv`, `rate_exact`).", "",
+        f"hypergeometric value is in `detection.csv`, `rate_exact`). Because every case of a suite of n is judged "
+        f"at alpha / n, and K = {m['repetitions']} repetitions give p values no smaller than 2^-K = "
+        f"{2.0 ** -m['repetitions']:.4f}, a variant that only some repetitions reveal can become *less* likely to "
+        f"be detected as the suite grows: the price of controlling the suite's false alarms.", "",
         "**What the intervals mean.** Drawn suites share pool cases, so their number is not the sample size: the "
         "unit of evidence is the pool case. Every interval is a 95 % percentile bootstrap over the strategy's pool "
         f"cases ({st['bootstrap']} replicates): how much the probability could move had the generator drawn another "
@@ -194,9 +206,7 @@ def study_markdown(analysis: StudyAnalysis) -> str:
            f"A size-1 detection probability is the share of a pool's cases that detect; with these pools a two-sample "
            f"test at 0.05 detects with 80 % power a difference between two strategies of about "
            f"{100 * p['mdd80_at_0.5'].max():.0f} pp around 50 % and {100 * p['mdd80_at_0.1'].max():.0f} pp around 10 %. "
-           + (f"For mutation scores the smallest detectable difference (80 %) ranges from "
-              f"{100 * analysis.comparisons['mdd80'].min():.0f} to {100 * analysis.comparisons['mdd80'].max():.0f} pp "
-              f"(`comparisons.csv`, `mdd80`)." if not analysis.comparisons.empty else ""), "",
+           + _mdd_text(analysis.comparisons), "",
            markdown_table(p.round(3)),
            "Files: `kill_matrix.csv` (per pool case and variant), `detection.csv` (every variant, strategy and size; "
            "`rate_paper` = the same under the paper's rule without correction), `scores.csv`, `comparisons.csv`, "

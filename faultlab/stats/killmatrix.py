@@ -479,7 +479,13 @@ def score_table(ev: SuiteDraws) -> pd.DataFrame:
 
 
 def detectable_score_difference(se: float, *, alpha: float = 0.05, power: float = COMPARISON_POWER) -> float:
-    """Smallest difference a two-sided level-``alpha`` test with standard error ``se`` detects with ``power``."""
+    """Smallest difference a two-sided level-``alpha`` test with standard error ``se`` detects with ``power``.
+
+    NaN when ``se`` is 0 or NaN: without any spread the bootstrap says nothing about power (every
+    replicate gives the same difference, e.g. when every case kills every mutant).
+    """
+    if not se > 0:
+        return math.nan
     return float((norm.ppf(1 - alpha / 2) + norm.ppf(power)) * se)
 
 
