@@ -46,7 +46,7 @@ import pandas as pd
 from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.mutation.campaign import MutantSelection, is_mutant_variant, mutant_variant
+from faultlab.mutation.campaign import MutantSelection, is_mutant_variant, mutant_id_of, mutant_variant
 from faultlab.runner.execute import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
 from faultlab.runner.store import load_metadata, load_results
@@ -136,8 +136,8 @@ class StudyExperiment:
         sel = self.selection
         return {"study": self.study.to_dict(), "quick": self.quick,
                 "mutants": [] if sel is None else list(sel.run),
-                "mutant_unit": {} if sel is None else dict(sel.unit),
-                "mutant_operator": {} if sel is None else dict(sel.operator),
+                "mutant_unit": {} if sel is None else {m: sel.unit[m] for m in sel.run},
+                "mutant_operator": {} if sel is None else {m: sel.operator[m] for m in sel.run},
                 "pool": {s.kind: s.n_cases for s in self.experiment.suites}, "runs": self.experiment.runs}
 
 
@@ -328,6 +328,11 @@ def _load_summary(sessions: list) -> dict:
             "load1_min": min(one)}
 
 
+def _of_run(by_id: dict, variants) -> dict:
+    """``by_id`` (mutant id -> value) restricted to the mutant variants that ran, keyed by variant."""
+    return {v: by_id[mutant_id_of(v)] for v in variants if mutant_id_of(v) in by_id}
+
+
 def analyse_study(out: str | Path) -> StudyAnalysis:
     """The study's analysis from its output directory (runs nothing).
 
@@ -358,7 +363,8 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "runs": exp["runs"], "repetitions": exp["repetitions"], "n_steps": exp["n_steps"], "slam": exp["slam"],
         "timeout_s": exp["timeout_s"], "seed": exp["seed"], "rule": rule.to_dict(), "faults": [v for v in km.variants if v not in mutants],
         "paper_faults": [f for f in PAPER_FAULTS if f in km.variants], "mutants": list(mutants),
-        "mutant_unit": info.get("mutant_unit", {}), "mutant_operator": info.get("mutant_operator", {}),
+        "mutant_unit": _of_run(info.get("mutant_unit", {}), mutants),
+        "mutant_operator": _of_run(info.get("mutant_operator", {}), mutants),
         "n_jobs": int(len(results)), "status_counts": {str(k): int(v) for k, v in status.items()},
         "slam_time_s": float(results["runtime_s"].sum()), "store_wall_time_s": float(meta["wall_time_s"]),
         "sessions": [{k: v for k, v in s.items() if k != "load"} for s in sessions],

@@ -27,6 +27,9 @@ __all__ = ["FIGURE_FILE", "REPORT_FILE", "detection_figure", "study_markdown", "
 #: File names written by :func:`write_study_report`.
 FIGURE_FILE = "detection_vs_size.png"
 REPORT_FILE = "study.md"
+# strategies differ by marker and line style too, not by colour alone
+_MARKERS = ("o", "s", "^", "D", "v", "P")
+_LINES = ("-", "--", "-.", ":")
 
 
 def _pct(x: float) -> str:
@@ -56,9 +59,10 @@ def detection_figure(analysis: StudyAnalysis, *, figsize=PAGE_SIZE) -> Figure:
     for ax, panel in zip(axes, panels):
         frame = analysis.scores.rename(columns={"score": "rate"}) if panel == "mutation score" else \
             det[det["variant"] == panel]
-        for s in strategies:
+        for k, s in enumerate(strategies):
             rows = frame[frame["strategy"] == s].sort_values("size")
-            ax.plot(rows["size"], rows["rate"], marker="o", ms=3, color=palette[s], label=s)
+            ax.plot(rows["size"], rows["rate"], marker=_MARKERS[k % len(_MARKERS)], ms=4,
+                    ls=_LINES[k % len(_LINES)], color=palette[s], label=s)
             ax.fill_between(rows["size"], rows["ci_low"], rows["ci_high"], color=palette[s], alpha=0.15, lw=0)
         ax.set_title(panel, fontsize=9)
         ax.set_ylim(-0.02, 1.02)

@@ -493,7 +493,9 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = 0.05) -> pd.DataFrame:
     """Strategies compared at equal size on the same mutants.
 
     Per (size, strategy_a, strategy_b): ``diff`` (score a - score b), its 95 % bootstrap interval
-    and two-sided bootstrap p value ``p_boot`` (Holm over the pairs of a size: ``p_holm``),
+    and two-sided bootstrap p value ``p_boot`` = 2 min(share of replicates <= 0, share >= 0), where
+    replicates with no difference count on both sides (conservative: strategies that kill the same
+    mutants in most replicates get p near 1) (Holm over the pairs of a size: ``p_holm``),
     ``mdd80`` (smallest difference detectable with 80 % power from the bootstrap SE), and the
     exact McNemar test over mutants for the suites drawn with the same index: mean discordant
     counts ``only_a``, ``only_b``, ``mcnemar_p_median`` and ``mcnemar_share_sig`` (share of
