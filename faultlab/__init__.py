@@ -11,25 +11,7 @@ try:
 except PackageNotFoundError:  # running from a source tree without install
     __version__ = "0.0.0+unknown"
 
-from faultlab.errors import (  # noqa: E402
-    ConfigError,
-    FaultError,
-    FaultlabError,
-    PluginError,
-    ResultsError,
-    ScenarioError,
-    SlamInputError,
-    SlamOutputError,
-)
+from faultlab import errors  # noqa: E402
+from faultlab.errors import *  # noqa: E402, F403 -- the exception hierarchy is part of the top-level API
 
-__all__ = [
-    "__version__",
-    "FaultlabError",
-    "ConfigError",
-    "ScenarioError",
-    "SlamInputError",
-    "SlamOutputError",
-    "FaultError",
-    "PluginError",
-    "ResultsError",
-]
+__all__ = ["__version__", *errors.__all__]

@@ -31,7 +31,10 @@ _NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 @dataclass(frozen=True)
 class PluginLoad:
-    """What :meth:`PluginCatalogue.load` found: the plugins that loaded and the failures."""
+    """What :meth:`PluginCatalogue.load` found: the plugins that loaded and the failures.
+
+    A kind of plugin may subclass it to name its items (``operators``, ``relations``).
+    """
 
     items: tuple = ()
     errors: tuple[str, ...] = ()
@@ -55,6 +58,8 @@ class PluginCatalogue:
         Raised by :meth:`get` for an unknown name.
     warning : warning class
         Issued by :meth:`load` for each plugin that fails.
+    result : PluginLoad subclass
+        What :meth:`load` returns (default :class:`PluginLoad`).
     """
 
     kind: str
@@ -63,6 +68,7 @@ class PluginCatalogue:
     builtins: Sequence
     error: type[Exception]
     warning: type[Warning]
+    result: type[PluginLoad] = PluginLoad
 
     def _instances(self, obj) -> list:
         base = self.base
@@ -89,7 +95,20 @@ class PluginCatalogue:
         return None
 
     def load(self, *, group: str | None = None, warn: bool = True) -> PluginLoad:
-        """Discover the third-party plugins (in entry-point name order)."""
+        """Discover the third-party plugins (in entry-point name order).
+
+        Parameters
+        ----------
+        group : str, optional
+            Entry-point group to read instead of :attr:`group`.
+        warn : bool
+            Issue :attr:`warning` for each plugin that fails (the failures are returned either way).
+
+        Returns
+        -------
+        PluginLoad
+            An instance of :attr:`result`.
+        """
         builtin = {type(b) for b in self.builtins}
         taken = {b.name: "faultlab (built-in)" for b in self.builtins}
         items: list = []
@@ -114,8 +133,8 @@ class PluginCatalogue:
                 items.append(item)
         if warn:
             for e in errors:
-                warnings.warn(e, self.warning, stacklevel=3)
-        return PluginLoad(items=tuple(items), errors=tuple(errors))
+                warnings.warn(e, self.warning, stacklevel=2)
+        return self.result(items=tuple(items), errors=tuple(errors))
 
     def all(self, *, plugins: bool = True) -> list:
         """The built-ins, then the plugins."""

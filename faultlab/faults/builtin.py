@@ -61,19 +61,21 @@ def _ekf_inputs():
     return mu, P, H, S, nu
 
 
+def _resample_inputs(w: np.ndarray, *, empty: bool = False):
+    """``resample`` arguments for normalised weights ``w``: their N_eff = 1 / sum(w^2), a fixed rng."""
+    return (w, float(1.0 / np.dot(w, w)), empty, np.random.default_rng(0), _config()), {}
+
+
 def _ex_resample_empty():
-    w = np.full(4, 0.25)
-    return (w, 4.0, True, np.random.default_rng(0), _config()), {}
+    return _resample_inputs(np.full(4, 0.25), empty=True)
 
 
 def _ex_resample_degenerate():
-    w = np.array([0.97, 0.01, 0.01, 0.01])
-    return (w, float(1.0 / np.dot(w, w)), False, np.random.default_rng(0), _config()), {}
+    return _resample_inputs(np.array([0.97, 0.01, 0.01, 0.01]))
 
 
 def _ex_resample_balanced():
-    w = np.array([0.3, 0.3, 0.2, 0.2])
-    return (w, float(1.0 / np.dot(w, w)), False, np.random.default_rng(0), _config()), {}
+    return _resample_inputs(np.array([0.3, 0.3, 0.2, 0.2]))
 
 
 def _ex_wrap():
@@ -218,14 +220,25 @@ MOTION_SIGN_ERROR = Fault(
 in_place_ancestors = shallow_copy_ancestors
 
 
-def _shallow_copy_resampling(original):
+def _shared_storage_resampling(original, *, sequential: bool):
+    """Resampling as an in-place loop over a shallow list copy: copies share their ancestor's storage.
+
+    With ``sequential`` the sharers then update their common landmarks one after another
+    (``ParticleState.sequential_sharers``); otherwise in parallel, the last write winning.
+    """
+
     def apply_resample(state, indices):
         eff = in_place_ancestors(indices)
         out = original(state, eff)
         # duplicates keep writing into the storage row of their ancestor: shared landmark arrays
-        return dataclasses.replace(out, owner=np.asarray(state.owner)[eff])
+        sharing = {"sequential_sharers": True} if sequential else {}
+        return dataclasses.replace(out, owner=np.asarray(state.owner)[eff], **sharing)
 
     return apply_resample
+
+
+def _shallow_copy_resampling(original):
+    return _shared_storage_resampling(original, sequential=False)
 
 
 def _gain_from_wrong_covariance(original):
@@ -560,15 +573,7 @@ RESAMPLE_KEEPS_WEIGHTS = Fault(
 
 def _paper_aliasing(original):
     """Shallow-copy resampling whose sharers then update their common landmarks one after another."""
-
-    def apply_resample(state, indices):
-        from faultlab.slam.units import shallow_copy_ancestors
-
-        eff = shallow_copy_ancestors(indices)
-        out = original(state, eff)
-        return dataclasses.replace(out, owner=np.asarray(state.owner)[eff], sequential_sharers=True)
-
-    return apply_resample
+    return _shared_storage_resampling(original, sequential=True)
 
 
 def _ex_apply_resample_aliased():

@@ -34,10 +34,9 @@ from faultlab.errors import FaultError
 from faultlab.faults.fault import Fault, UnitExample
 from faultlab.faults.registry import all_faults, load_plugins, resolve_fault
 from faultlab.metrics import map_errors
-from faultlab.scenario import generate_scenario
+from faultlab.scenario import fixed_case_scenario
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig
 from faultlab.slam.protocol import run_slam
-from faultlab.space.case import FIXED_VALUES, CaseSpec
 
 __all__ = [
     "CheckStatus",
@@ -228,9 +227,7 @@ def check_scenario(*, seed: int = 0, n_steps: int = CHECK_N_STEPS):
     -------
     faultlab.scenario.model.Scenario
     """
-    case = CaseSpec(values={**FIXED_VALUES, **CHECK_CASE_OVERRIDES})
-    rng = np.random.default_rng(np.random.SeedSequence(seed))
-    return generate_scenario(case, rng=rng, n_steps=n_steps, seed=seed)
+    return fixed_case_scenario(CHECK_CASE_OVERRIDES, seed=seed, n_steps=n_steps)
 
 
 def estimates_identical(a, b) -> bool:

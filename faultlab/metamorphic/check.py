@@ -61,10 +61,9 @@ import numpy as np
 
 from faultlab.errors import ConfigError, SlamOutputError
 from faultlab.metamorphic.relation import MetamorphicRelation
-from faultlab.scenario.generator import generate_scenario
+from faultlab.scenario.generator import fixed_case_scenario
 from faultlab.scenario.model import Scenario
 from faultlab.slam.protocol import Estimate, SlamAdapter, run_slam
-from faultlab.space.case import FIXED_VALUES, CaseSpec
 from faultlab.vocabulary import BASELINE
 
 __all__ = [
@@ -440,6 +439,4 @@ def metamorphic_scenario(*, seed: int = 0, n_steps: int = 150) -> Scenario:
     n_steps : int
         Active steps.
     """
-    case = CaseSpec(values={**FIXED_VALUES, **SCENARIO_OVERRIDES})
-    return generate_scenario(case, rng=np.random.default_rng(np.random.SeedSequence(seed)), n_steps=n_steps,
-                             seed=seed)
+    return fixed_case_scenario(SCENARIO_OVERRIDES, seed=seed, n_steps=n_steps)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from faultlab.errors import ConfigError
 from faultlab.metamorphic.relation import MetamorphicRelation
 from faultlab.metamorphic.builtin import BUILTIN_RELATIONS
-from faultlab.plugins import PluginCatalogue
+from faultlab.plugins import PluginCatalogue, PluginLoad
 
 __all__ = [
     "RELATION_ENTRY_POINT_GROUP",
@@ -39,28 +39,24 @@ class RelationPluginWarning(UserWarning):
 
 
 @dataclass(frozen=True)
-class RelationPlugins:
+class RelationPlugins(PluginLoad):
     """Result of :func:`load_relation_plugins`: the metamorphic relations that loaded and the failures."""
 
-    relations: tuple[MetamorphicRelation, ...] = ()
-    errors: tuple[str, ...] = ()
+    @property
+    def relations(self) -> tuple[MetamorphicRelation, ...]:
+        """The metamorphic relations that loaded (:attr:`items`)."""
+        return self.items
 
 
-_CATALOGUE = PluginCatalogue(kind="metamorphic relation", group=RELATION_ENTRY_POINT_GROUP, base=MetamorphicRelation, builtins=tuple(BUILTIN_RELATIONS),
-                             error=ConfigError, warning=RelationPluginWarning)
+_CATALOGUE = PluginCatalogue(kind="metamorphic relation", group=RELATION_ENTRY_POINT_GROUP,
+                             base=MetamorphicRelation, builtins=tuple(BUILTIN_RELATIONS), error=ConfigError,
+                             warning=RelationPluginWarning, result=RelationPlugins)
 
-
-def load_relation_plugins(*, group: str = RELATION_ENTRY_POINT_GROUP, warn: bool = True) -> RelationPlugins:
-    """Discover third-party metamorphic relations through the entry-point group (in entry-point name order)."""
-    found = _CATALOGUE.load(group=group, warn=warn)
-    return RelationPlugins(relations=found.items, errors=found.errors)
-
-
-def all_relations(*, plugins: bool = True) -> list[MetamorphicRelation]:
-    """The built-in metamorphic relations, then the plugin metamorphic relations."""
-    return _CATALOGUE.all(plugins=plugins)
-
-
-def get_relation(name: str) -> MetamorphicRelation:
-    """The relation called ``name`` (built-in or plugin); ConfigError with close names otherwise."""
-    return _CATALOGUE.get(name)
+#: ``load_relation_plugins(*, group=None, warn=True)``: discover the third-party metamorphic
+#: relations (in entry-point name order); a :class:`RelationPlugins`.
+load_relation_plugins = _CATALOGUE.load
+#: ``all_relations(*, plugins=True)``: the built-in metamorphic relations, then the plugin ones.
+all_relations = _CATALOGUE.all
+#: ``get_relation(name)``: the relation called ``name`` (built-in or plugin); ConfigError with close
+#: names otherwise.
+get_relation = _CATALOGUE.get

@@ -67,6 +67,12 @@ def _same_spacing(new_cls: type, op: cst.CSTNode) -> cst.CSTNode:
     return new_cls(whitespace_before=op.whitespace_before, whitespace_after=op.whitespace_after)
 
 
+def _swap_operator(node: cst.CSTNode, new_cls: type) -> tuple[cst.CSTNode, str]:
+    """``node`` with its ``operator`` replaced by a ``new_cls`` (same spacing), and the description."""
+    return (node.with_changes(operator=_same_spacing(new_cls, node.operator)),
+            f"`{_token(node.operator)}` -> `{_token(new_cls())}`")
+
+
 def _rename(node: cst.Attribute, attr: str) -> cst.Attribute:
     return node.with_changes(attr=node.attr.with_changes(value=attr))
 
@@ -94,17 +100,25 @@ def _positional(call: cst.Call) -> list[cst.Arg]:
     return [a for a in call.args if a.keyword is None and not a.star]
 
 
+def _sole_argument(call: cst.Call) -> cst.BaseExpression | None:
+    """The argument of ``call`` if it has exactly one and that is positional (removing the call leaves it)."""
+    args = _positional(call)
+    return args[0].value if len(args) == 1 and len(call.args) == 1 else None
+
+
 def _keywords(call: cst.Call) -> list[str]:
     return [a.keyword.value for a in call.args if a.keyword is not None]
 
 
-def _called_attribute(node: cst.CSTNode, parent: cst.CSTNode | None, names: dict[str, str]) -> str | None:
-    """The new name for ``np.<f>`` / ``math.<f>`` or a method ``x.<f>(...)`` in ``names``, else None."""
+def _called_attribute(node: cst.CSTNode, parent: cst.CSTNode | None, names: dict[str, str], *,
+                      methods: bool = True) -> str | None:
+    """The new name for ``np.<f>`` / ``math.<f>`` or (with ``methods``) a method ``x.<f>(...)`` in ``names``,
+    else None."""
     if not isinstance(node, cst.Attribute) or node.attr.value not in names:
         return None
     if module_function(node, NUMPY_NAMES | MATH_NAMES) is not None:
         return names[node.attr.value]
-    if isinstance(parent, cst.Call) and parent.func is node:  # a method call on an array
+    if methods and isinstance(parent, cst.Call) and parent.func is node:  # a method call on an array
         return names[node.attr.value]
     return None
 
@@ -167,12 +181,11 @@ class ArithmeticOperator(NodeOperator):
     def mutations(self, node, parent) -> Mutations:
         if isinstance(node, cst.BinaryOperation) and type(node.operator) in self._BINARY:
             for new in self._BINARY[type(node.operator)]:
-                changed = node.with_changes(operator=_same_spacing(new, node.operator))
-                yield fix_operands(changed), f"`{_token(node.operator)}` -> `{_token(new())}`"
+                changed, description = _swap_operator(node, new)
+                yield fix_operands(changed), description
         elif isinstance(node, cst.AugAssign) and type(node.operator) in self._AUGMENTED:
             for new in self._AUGMENTED[type(node.operator)]:
-                yield (node.with_changes(operator=_same_spacing(new, node.operator)),
-                       f"`{_token(node.operator)}` -> `{_token(new())}`")
+                yield _swap_operator(node, new)
         else:
             f = module_function(node)
             for new in self._UFUNCS.get(f, ()):
@@ -215,10 +228,9 @@ class ComparisonOperator(NodeOperator):
         for i, target in enumerate(node.comparisons):
             op = target.operator
             for new in self._TABLE.get(type(op), ()):
-                new_op = new(whitespace_before=op.whitespace_before, whitespace_after=op.whitespace_after)
                 targets = list(node.comparisons)
-                targets[i] = target.with_changes(operator=new_op)
-                yield node.with_changes(comparisons=targets), f"`{_token(op)}` -> `{_token(new())}`"
+                targets[i], description = _swap_operator(target, new)
+                yield node.with_changes(comparisons=targets), description
 
 
 class BooleanOperator(NodeOperator):
@@ -245,19 +257,18 @@ class BooleanOperator(NodeOperator):
 
     def mutations(self, node, parent) -> Mutations:
         if isinstance(node, cst.BooleanOperation):
-            new = cst.Or if isinstance(node.operator, cst.And) else cst.And
-            changed = node.with_changes(operator=_same_spacing(new, node.operator))
-            yield fix_operands(changed), f"`{_token(node.operator)}` -> `{_token(new())}`"
+            changed, description = _swap_operator(node, cst.Or if isinstance(node.operator, cst.And) else cst.And)
+            yield fix_operands(changed), description
         elif isinstance(node, cst.BinaryOperation) and isinstance(node.operator, (cst.BitAnd, cst.BitOr)):
-            new = cst.BitOr if isinstance(node.operator, cst.BitAnd) else cst.BitAnd
-            changed = node.with_changes(operator=_same_spacing(new, node.operator))
-            yield fix_operands(changed), f"`{_token(node.operator)}` -> `{_token(new())}`"
+            changed, description = _swap_operator(
+                node, cst.BitOr if isinstance(node.operator, cst.BitAnd) else cst.BitAnd)
+            yield fix_operands(changed), description
         elif isinstance(node, cst.UnaryOperation) and isinstance(node.operator, (cst.Not, cst.BitInvert)):
             yield node.expression, f"`{_token(node.operator)}` removed"
         elif isinstance(node, cst.Call) and module_function(node.func) == "logical_not":
-            args = _positional(node)
-            if len(args) == 1 and len(node.args) == 1:
-                yield args[0].value, "`np.logical_not` removed"
+            only = _sole_argument(node)
+            if only is not None:
+                yield only, "`np.logical_not` removed"
         elif module_function(node) in ("logical_and", "logical_or"):
             new = "logical_or" if node.attr.value == "logical_and" else "logical_and"
             yield _rename(node, new), f"`np.{node.attr.value}` -> `np.{new}`"
@@ -375,15 +386,15 @@ class MatmulOperator(NodeOperator):
     def mutations(self, node, parent) -> Mutations:
         if isinstance(node, cst.BinaryOperation):
             if isinstance(node.operator, cst.MatrixMultiply):
-                yield node.with_changes(operator=_same_spacing(cst.Multiply, node.operator)), "`@` -> `*`"
+                yield _swap_operator(node, cst.Multiply)
             elif (isinstance(node.operator, cst.Multiply)
                   and not _is_number(node.left) and not _is_number(node.right)):
-                yield node.with_changes(operator=_same_spacing(cst.MatrixMultiply, node.operator)), "`*` -> `@`"
+                yield _swap_operator(node, cst.MatrixMultiply)
         elif isinstance(node, cst.AugAssign):
             if isinstance(node.operator, cst.MatrixMultiplyAssign):
-                yield node.with_changes(operator=_same_spacing(cst.MultiplyAssign, node.operator)), "`@=` -> `*=`"
+                yield _swap_operator(node, cst.MultiplyAssign)
             elif isinstance(node.operator, cst.MultiplyAssign) and not _is_number(node.value):
-                yield node.with_changes(operator=_same_spacing(cst.MatrixMultiplyAssign, node.operator)), "`*=` -> `@=`"
+                yield _swap_operator(node, cst.MatrixMultiplyAssign)
         elif module_function(node) in ("dot", "matmul"):
             yield _rename(node, "multiply"), f"`np.{node.attr.value}` -> `np.multiply`"
 
@@ -541,12 +552,14 @@ class Arctan2Operator(NodeOperator):
 
 
 class _RenameOperator(NodeOperator):
-    """Swap function names of numpy/math and array methods according to a table."""
+    """Swap function names of numpy/math (and, with :attr:`_METHODS`, array methods) according to a table."""
 
     _TABLE: dict[str, str] = {}
+    #: Also rename array methods (``x.sum()``), not only ``np.`` / ``math.`` functions.
+    _METHODS: bool = True
 
     def mutations(self, node, parent) -> Mutations:
-        new = _called_attribute(node, parent, self._TABLE)
+        new = _called_attribute(node, parent, self._TABLE, methods=self._METHODS)
         if new is not None:
             old = node.attr.value
             prefix = "." if module_function(node, NUMPY_NAMES | MATH_NAMES) is None else f"{node.value.value}."
@@ -559,15 +572,12 @@ class TrigOperator(_RenameOperator):
     name = "trig"
     description = "swap sin and cos"
     _TABLE = _swap_names([("sin", "cos")])
+    _METHODS = False
     examples = (
         OperatorExample("def f(v, th):\n    return v * np.cos(th), v * math.sin(th)\n",
                         ("def f(v, th):\n    return v * np.sin(th), v * math.sin(th)\n",
                          "def f(v, th):\n    return v * np.cos(th), v * math.cos(th)\n")),
     )
-
-    def mutations(self, node, parent) -> Mutations:
-        if module_function(node, NUMPY_NAMES | MATH_NAMES) is not None:  # functions only, no methods
-            yield from super().mutations(node, parent)
 
 
 class SumMeanOperator(_RenameOperator):
@@ -617,14 +627,11 @@ class RoundingOperator(_RenameOperator):
     name = "rounding"
     description = "swap floor and ceil"
     _TABLE = _swap_names([("floor", "ceil")])
+    _METHODS = False
     examples = (
         OperatorExample("def f(t):\n    return np.floor(t, out=t)\n",
                         ("def f(t):\n    return np.ceil(t, out=t)\n",)),
     )
-
-    def mutations(self, node, parent) -> Mutations:
-        if module_function(node, NUMPY_NAMES | MATH_NAMES) is not None:
-            yield from super().mutations(node, parent)
 
 
 class FunctionRemovalOperator(NodeOperator):
@@ -652,10 +659,10 @@ class FunctionRemovalOperator(NodeOperator):
         f = module_function(node.func, NUMPY_NAMES | MATH_NAMES)
         if f not in self._FUNCS:
             return
-        args = _positional(node)
-        if len(args) == 1 and len(node.args) == 1:
-            yield args[0].value, f"`{node.func.value.value}.{f}` removed"
-        elif module_function(node.func) is not None and args:
+        only = _sole_argument(node)
+        if only is not None:
+            yield only, f"`{node.func.value.value}.{f}` removed"
+        elif module_function(node.func) is not None and _positional(node):
             yield (node.with_changes(func=_rename(node.func, "positive")),
                    f"`np.{f}` -> `np.positive` (removed, output still written)")
 
@@ -685,10 +692,10 @@ class UnaryMinusOperator(NodeOperator):
                 and not _is_number(node)):
             yield node.expression, "unary `-` removed"
         elif isinstance(node, cst.Call) and module_function(node.func) == "negative":
-            args = _positional(node)
-            if len(args) == 1 and len(node.args) == 1:
-                yield args[0].value, "`np.negative` removed"
-            elif args:
+            only = _sole_argument(node)
+            if only is not None:
+                yield only, "`np.negative` removed"
+            elif _positional(node):
                 yield node.with_changes(func=_rename(node.func, "positive")), "`np.negative` -> `np.positive`"
         elif isinstance(parent, cst.Assign) and parent.value is node:
             if all(isinstance(t.target, cst.Name | cst.Subscript | cst.Attribute) for t in parent.targets):

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from faultlab.errors import FaultError
 from faultlab.mutation.operator import MutationOperator
 from faultlab.mutation.operators import BUILTIN_OPERATORS
-from faultlab.plugins import PluginCatalogue
+from faultlab.plugins import PluginCatalogue, PluginLoad
 
 __all__ = [
     "OPERATOR_ENTRY_POINT_GROUP",
@@ -40,28 +40,24 @@ class OperatorPluginWarning(UserWarning):
 
 
 @dataclass(frozen=True)
-class OperatorPlugins:
+class OperatorPlugins(PluginLoad):
     """Result of :func:`load_operator_plugins`: the mutation operators that loaded and the failures."""
 
-    operators: tuple[MutationOperator, ...] = ()
-    errors: tuple[str, ...] = ()
+    @property
+    def operators(self) -> tuple[MutationOperator, ...]:
+        """The mutation operators that loaded (:attr:`items`)."""
+        return self.items
 
 
-_CATALOGUE = PluginCatalogue(kind="mutation operator", group=OPERATOR_ENTRY_POINT_GROUP, base=MutationOperator, builtins=tuple(BUILTIN_OPERATORS),
-                             error=FaultError, warning=OperatorPluginWarning)
+_CATALOGUE = PluginCatalogue(kind="mutation operator", group=OPERATOR_ENTRY_POINT_GROUP, base=MutationOperator,
+                             builtins=tuple(BUILTIN_OPERATORS), error=FaultError, warning=OperatorPluginWarning,
+                             result=OperatorPlugins)
 
-
-def load_operator_plugins(*, group: str = OPERATOR_ENTRY_POINT_GROUP, warn: bool = True) -> OperatorPlugins:
-    """Discover third-party mutation operators through the entry-point group (in entry-point name order)."""
-    found = _CATALOGUE.load(group=group, warn=warn)
-    return OperatorPlugins(operators=found.items, errors=found.errors)
-
-
-def all_operators(*, plugins: bool = True) -> list[MutationOperator]:
-    """The built-in mutation operators, then the plugin mutation operators."""
-    return _CATALOGUE.all(plugins=plugins)
-
-
-def get_operator(name: str) -> MutationOperator:
-    """The operator called ``name`` (built-in or plugin); FaultError with close names otherwise."""
-    return _CATALOGUE.get(name)
+#: ``load_operator_plugins(*, group=None, warn=True)``: discover the third-party mutation operators
+#: (in entry-point name order); an :class:`OperatorPlugins`.
+load_operator_plugins = _CATALOGUE.load
+#: ``all_operators(*, plugins=True)``: the built-in mutation operators, then the plugin ones.
+all_operators = _CATALOGUE.all
+#: ``get_operator(name)``: the operator called ``name`` (built-in or plugin); FaultError with close
+#: names otherwise.
+get_operator = _CATALOGUE.get

@@ -37,7 +37,15 @@ import pandas as pd
 
 from faultlab.analysis import Analysis
 from faultlab.analysis.schema import PAPER, THIS_RUN
-from faultlab.report.tables import format_pct, order_suites, order_variants, round_mm, suite_label, variant_label
+from faultlab.report.tables import (
+    format_pct,
+    format_pct_interval,
+    order_suites,
+    order_variants,
+    round_mm,
+    suite_label,
+    variant_label,
+)
 from faultlab.vocabulary import BASELINE
 
 __all__ = ["Verdict", "Statement", "Comparison", "compare_with_paper"]
@@ -170,7 +178,7 @@ def _rate_figure(fig: _Figure) -> str:
 
 
 def _ci_figure(low: float, high: float) -> str:
-    return f"{format_pct(low)}-{format_pct(high)} %"
+    return f"{format_pct_interval(low, high)} %"
 
 
 def _inside(value: float, low: float, high: float) -> bool:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from faultlab.analysis.fidelity import FIDELITY, FIDELITY_CSV, Fidelity, Verdict
-from faultlab.report.tables import format_mm, suite_label, variant_label
+from faultlab.report.tables import format_mm, md_table, suite_label, variant_label
 
 __all__ = ["FidelityFiles", "fidelity_markdown", "write_fidelity", "FIDELITY_MD"]
 
@@ -83,13 +83,6 @@ def _display(fid: Fidelity) -> pd.DataFrame:
     })
 
 
-def _md_table(frame: pd.DataFrame) -> str:
-    header = "| " + " | ".join(frame.columns) + " |"
-    sep = "| " + " | ".join("---" for _ in frame.columns) + " |"
-    body = ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(index=False)]
-    return "\n".join([header, sep, *body])
-
-
 def _cells(frame: pd.DataFrame) -> str:
     if frame.empty:
         return "none"
@@ -126,7 +119,7 @@ def fidelity_markdown(fid: Fidelity) -> str:
     differs = fid.cells(Verdict.DIFFERS)
     in_ci = fid.table[fid.table["paper_median_in_ci"]]
     parts = ["# Map errors against the paper's raw data", "", *_campaign_text(fid), "", _rule_text(fid), "",
-             _md_table(_display(fid)), "",
+             md_table(_display(fid)), "",
              f"Reproduced ({len(reproduced)} of {len(fid.table)}): {_cells(reproduced)}.", "",
              f"Differs ({len(differs)}): {_cells(differs)}.", "",
              f"The paper's median lies within this run's interval ({len(in_ci)} of {len(fid.table)}): "

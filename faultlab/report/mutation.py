@@ -82,6 +82,19 @@ def matrix_figure(analysis: MutationAnalysis, *, figsize=PAGE_SIZE) -> Figure:
     return fig
 
 
+def survivor_table(analysis: MutationAnalysis) -> pd.DataFrame:
+    """Each survived (mutant, suite): its smallest per-case p value and detectable shift (80 % power).
+
+    A survived mutant is not shown equivalent: its suite could only have detected a mean shift of the
+    map error of at least ``mde_mm`` on its most sensitive case (:mod:`faultlab.analysis.mutation`).
+    """
+    rows = analysis.outcomes[analysis.outcomes["outcome"] == "survived"]
+    table = rows[["mutant", "unit", "operator", "run", "suite", "min_p", "min_mde_mm"]].copy()
+    table["min_p"] = table["min_p"].map(lambda v: f"{v:.3g}")
+    table["min_mde_mm"] = table["min_mde_mm"].map(lambda v: f"{v:.0f}")
+    return table.rename(columns={"min_p": "smallest p", "min_mde_mm": "detectable shift mm"}).reset_index(drop=True)
+
+
 def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path]:
     """Analyse the campaign in ``results`` and write tables, Markdown and ``mutation.pdf`` to ``reports``."""
     analysis = analyse_mutation(results)
@@ -91,6 +104,7 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
     all_scores, ops, units = score_table(analysis), score_table(analysis, "operator"), score_table(analysis, "unit")
     counts = analysis.outcomes.drop_duplicates(["mutant", "run", "suite"]).groupby(["suite", "outcome"]).size()
     counts = counts.unstack(fill_value=0).reset_index()
+    survivors = survivor_table(analysis)
     md = ["# Mutation analysis", "",
           f"{meta['n_mutants_run']} mutants run, {meta['n_screened']} screened out before the campaign "
           f"(stillborn, equivalent, duplicate); K = {meta['repetitions']} repetitions per case; a suite kills a "
@@ -103,7 +117,12 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
           "## Mutation score per suite (95 % Clopper-Pearson)", "", markdown_table(all_scores.drop(columns="group")),
           "## Outcomes per suite", "", markdown_table(counts),
           "## Suites compared on the same mutants (exact McNemar)", "", markdown_table(_mcnemar_table(analysis)),
-          "## Score per operator", "", markdown_table(ops), "## Score per unit", "", markdown_table(units)]
+          "## Score per operator", "", markdown_table(ops), "## Score per unit", "", markdown_table(units),
+          "## Survived mutants: the smallest shift each suite could have detected", "",
+          "Per survived (mutant, suite), the smallest per-case p value and the smallest mean shift of the map "
+          "error (mm) its most sensitive case could have detected with 80 % power at the case's alpha: a "
+          "survivor is a change below that size or one the suite's cases do not exercise, not shown equivalent.",
+          "", markdown_table(survivors)]
     paths = [out / f"{n}.csv" for n in ("outcomes", "scores", "mcnemar")]
     (out / "mutation.md").write_text("\n".join(md))
     paths.append(out / "mutation.md")
@@ -114,6 +133,7 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
     pages.append(matrix_figure(analysis))
     pages += table_pages("Score per operator", ops)
     pages += table_pages("Score per unit", units)
+    pages += table_pages("Survived mutants: smallest detectable shift (80 % power)", survivors)
     write_pdf(out / "mutation.pdf", pages, title="faultlab mutation report")
     paths.append(out / "mutation.pdf")
     return paths

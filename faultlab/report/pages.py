@@ -27,6 +27,7 @@ from faultlab.report.tables import (
     RUNS_PER_BLOCK,
     detection_records,
     format_pct,
+    format_pct_interval,
     order_suites,
     round_mm,
     suite_label,
@@ -203,7 +204,7 @@ def _by_suite_records(analysis: Analysis) -> pd.DataFrame:
         if s in mine.index:
             m = mine.loc[s]
             rec["this run"] = f"{format_pct(m['rate'])} % ({m['detected_pairs']}/{m['n_pairs']})"
-            rec[f"Wilson {conf} %"] = f"{format_pct(m['wilson_low'])}-{format_pct(m['wilson_high'])}"
+            rec[f"Wilson {conf} %"] = format_pct_interval(m["wilson_low"], m["wilson_high"])
         if s in paper.index:
             p = paper.loc[s]
             rec["paper (rule)"] = f"{format_pct(p['rate'])} % ({p['detected_pairs']}/{p['n_pairs']})"
@@ -378,8 +379,7 @@ def _false_alarm_pages(analysis: Analysis) -> list[Figure]:
         "baseline pairs": fa["n_pairs"].astype(str),
         "flagged": fa["flagged"].astype(str),
         "false-alarm rate %": [format_pct(v, 1) for v in fa["rate"]],
-        f"{conf} % CI (clustered by case)": [f"{format_pct(lo, 1)}-{format_pct(hi, 1)}"
-                                            for lo, hi in zip(fa["low"], fa["high"])],
+        f"{conf} % CI (clustered by case)": [format_pct_interval(lo, hi, 1) for lo, hi in zip(fa["low"], fa["high"])],
     })
     return table_pages("Beyond the paper: false alarms of the detection rule", show,
                        note="Every ordered pair of baseline repetitions of one case (another "
@@ -425,8 +425,8 @@ def _case_rate_pages(analysis: Analysis) -> list[Figure]:
         "suite": r["suite"].map(suite_label), "fault": r["fault"].map(variant_label),
         "detected/judged cases": [f"{k}/{n}" for k, n in zip(r["k"], r["n"])],
         "cannot judge": r["n_cannot_judge"], "rate %": [format_pct(x) for x in r["rate"]],
-        f"Clopper-Pearson {conf} %": [f"{format_pct(lo)}-{format_pct(hi)}" for lo, hi in zip(r["cp_low"], r["cp_high"])],
-        f"Wilson {conf} %": [f"{format_pct(lo)}-{format_pct(hi)}" for lo, hi in zip(r["wilson_low"], r["wilson_high"])],
+        f"Clopper-Pearson {conf} %": [format_pct_interval(lo, hi) for lo, hi in zip(r["cp_low"], r["cp_high"])],
+        f"Wilson {conf} %": [format_pct_interval(lo, hi) for lo, hi in zip(r["wilson_low"], r["wilson_high"])],
     })
     return table_pages("Detection rates over cases (the case is the unit)", show,
                        note=f"{_verdict_test(analysis)} Rates are shares of judged cases, whatever K; "
@@ -458,8 +458,7 @@ def _replica_false_alarm_pages(analysis: Analysis) -> list[Figure]:
         "rule": fa["rule"], "suite": fa["suite"], "cases": fa["n_cases"],
         "trials": [f"{n} {'rep. pairs' if r == 'paper' else 'cases'}" for n, r in zip(fa["n_pairs"], fa["rule"])],
         "flagged": fa["flagged"], "false-alarm rate %": [format_pct(x, 1) for x in fa["rate"]],
-        f"{conf} % CI (clustered by case)": [f"{format_pct(lo, 1)}-{format_pct(hi, 1)}"
-                                            for lo, hi in zip(fa["low"], fa["high"])],
+        f"{conf} % CI (clustered by case)": [format_pct_interval(lo, hi, 1) for lo, hi in zip(fa["low"], fa["high"])],
     })
     return table_pages("A/A control: false alarms of both rules (baseline_replica vs baseline)", show,
                        note=f"The replica is the unmodified SLAM with independent SLAM seeds: every detection "

@@ -31,6 +31,8 @@ __all__ = [
     "round_mm",
     "format_mm",
     "format_pct",
+    "format_pct_interval",
+    "md_table",
     "suite_label",
     "variant_label",
     "order_variants",
@@ -116,6 +118,11 @@ def format_pct(rate: float, digits: int = 0) -> str:
     if digits == 0:
         return str(round_mm(pct))
     return f"{pct:.{digits}f}"
+
+
+def format_pct_interval(low: float, high: float, digits: int = 0) -> str:
+    """An interval of rates as percentages, ``low-high`` (each as :func:`format_pct`)."""
+    return f"{format_pct(low, digits)}-{format_pct(high, digits)}"
 
 
 # --------------------------------------------------------------------------- Table II layout
@@ -208,7 +215,7 @@ def _percent_text(figure: _Rate | None, *, empty: str) -> str:
 def _ci_text(figure: _Rate | None) -> str:
     if figure is None or pd.isna(figure.low):
         return ""
-    return f"{format_pct(figure.low)}-{format_pct(figure.high)}"
+    return format_pct_interval(figure.low, figure.high)
 
 
 def table2_frame(analysis: Analysis, *, style: str = "csv", runs: Sequence[int] | None = None) -> pd.DataFrame:
@@ -248,7 +255,8 @@ def table2_csv_frame(analysis: Analysis) -> pd.DataFrame:
 def table2_caption(analysis: Analysis) -> str:
     n_reps = analysis.n_reps
     rep = "" if n_reps == 1 else (
-        f" RMS cells show SLAM repetition {analysis.rep} of {n_reps}; rates count all repetitions.")
+        f" RMS cells and rates show SLAM repetition {analysis.rep} of {n_reps} (one pair per case, as the paper);"
+        " the case-level verdicts use every repetition.")
     conf = round_mm(100 * (1 - analysis.alpha))
     return ("RMS map errors (rounded to mm); cells whose case detects the fault are marked "
             "(the paper's green cells). Detected %: share of cases detecting the fault, with its "
@@ -257,7 +265,8 @@ def table2_caption(analysis: Analysis) -> str:
             "pairs detected by at least one case." + rep)
 
 
-def _md_table(frame: pd.DataFrame) -> str:
+def md_table(frame: pd.DataFrame) -> str:
+    """A Markdown table of ``frame``: header, separator, one line per row (cells as ``str``)."""
     header = "| " + " | ".join(frame.columns) + " |"
     sep = "| " + " | ".join("---" for _ in frame.columns) + " |"
     body = ["| " + " | ".join(str(v) for v in row) + " |" for row in frame.itertuples(index=False)]
@@ -271,7 +280,7 @@ def table2_markdown(analysis: Analysis) -> str:
     for block in blocks:
         if len(blocks) > 1:
             parts += [f"## Evaluation runs {block[0]}-{block[-1]}", ""]
-        parts += [_md_table(table2_frame(analysis, style="md", runs=block)), ""]
+        parts += [md_table(table2_frame(analysis, style="md", runs=block)), ""]
     return "\n".join(parts)
 
 
@@ -352,8 +361,8 @@ def detection_records(analysis: Analysis, *, compact: bool = False) -> pd.DataFr
             "Fault": variant_label(r.variant),
             "k/n": f"{r.k}/{r.n}",
             "Rate %": format_pct(r.rate, 1),
-            f"Wilson {conf} %": f"{format_pct(r.wilson_low, 1)}-{format_pct(r.wilson_high, 1)}",
-            f"{cp} {conf} %": f"{format_pct(r.cp_low, 1)}-{format_pct(r.cp_high, 1)}",
+            f"Wilson {conf} %": format_pct_interval(r.wilson_low, r.wilson_high, 1),
+            f"{cp} {conf} %": format_pct_interval(r.cp_low, r.cp_high, 1),
             "crash": str(r.crash),
             "timeout": str(r.timeout),
             "baseline failed": str(r.baseline_failed),
@@ -371,7 +380,7 @@ def detection_markdown(analysis: Analysis) -> str:
     """Markdown of the detection rates: k/n, rate, Wilson and Clopper-Pearson intervals."""
     conf = round_mm(100 * (1 - analysis.alpha))
     records = detection_records(analysis)
-    body = _md_table(records) if len(records) else "(no faulty variants)"
+    body = md_table(records) if len(records) else "(no faulty variants)"
     return "\n".join(["# Detection rates per suite and fault", "",
                       f"Confidence level {conf} %. k/n counts the faulty jobs detected among those "
                       "where both the faulty and the baseline SLAM produced a map; crashes and "

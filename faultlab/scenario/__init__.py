@@ -7,7 +7,7 @@ from faultlab.scenario.config import (
     ScenarioConfig,
 )
 from faultlab.scenario.files import SuiteFiles, cases_frame, write_suite
-from faultlab.scenario.generator import GENERATOR_VERSION, generate_scenario
+from faultlab.scenario.generator import GENERATOR_VERSION, fixed_case_scenario, generate_scenario
 from faultlab.scenario.maps import generate_landmarks, n_symmetric_pairs
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
@@ -32,6 +32,7 @@ __all__ = [
     "DEFAULT_PATH_TURN_STD",
     "GENERATOR_VERSION",
     "generate_scenario",
+    "fixed_case_scenario",
     "generate_landmarks",
     "n_symmetric_pairs",
     "Drive",

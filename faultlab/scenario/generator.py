@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import asdict
 
 import numpy as np
@@ -16,9 +17,9 @@ from faultlab.scenario.config import (
 from faultlab.scenario.maps import generate_landmarks, n_symmetric_pairs
 from faultlab.scenario.model import Scenario
 from faultlab.scenario.trace import DEFAULT_PATH_TURN_STD, drive, measure_controls, measure_observations
-from faultlab.space.case import CaseSpec
+from faultlab.space.case import FIXED_VALUES, CaseSpec
 
-__all__ = ["generate_scenario", "GENERATOR_VERSION"]
+__all__ = ["generate_scenario", "fixed_case_scenario", "GENERATOR_VERSION"]
 
 #: Bumped whenever the same seed would produce a different scenario.
 GENERATOR_VERSION = 1
@@ -98,3 +99,27 @@ def generate_scenario(case: CaseSpec, *, rng: np.random.Generator, n_steps: int 
                   obs_bearing=obs.bearing, obs_ids=obs.ids, meta=meta)
     sc.validate()
     return sc
+
+
+def fixed_case_scenario(overrides: Mapping[str, float | str], *, seed: int, n_steps: int) -> Scenario:
+    """A small scenario for checks: the fixed suite's values with ``overrides``, from one seed.
+
+    The case is :data:`faultlab.space.case.FIXED_VALUES` updated by ``overrides`` (e.g. a small
+    map); the generator is ``default_rng(SeedSequence(seed))`` and ``seed`` is recorded.
+
+    Parameters
+    ----------
+    overrides : mapping
+        Parameter values (Table I units) that replace the fixed suite's.
+    seed : int
+        Entropy of the scenario's SeedSequence.
+    n_steps : int
+        Active steps (the inactivity steps come on top).
+
+    Returns
+    -------
+    Scenario
+    """
+    case = CaseSpec(values={**FIXED_VALUES, **overrides})
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    return generate_scenario(case, rng=rng, n_steps=n_steps, seed=seed)

@@ -12,8 +12,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from faultlab.errors import ConfigError, SlamInputError
-from faultlab.slam.protocol import SlamAdapter
+from faultlab.errors import ConfigError
+from faultlab.slam.protocol import SlamAdapter, as_start_pose, check_generator
 from faultlab.slam.units import wrap_heading
 
 __all__ = ["UnitTable", "UnitSlam", "LandmarkIndex"]
@@ -93,12 +93,8 @@ class UnitSlam(SlamAdapter):
 
     def _start_pose(self, pose, rng) -> np.ndarray:
         """The validated start pose (3,) with its heading wrapped; checks ``rng`` too."""
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        if not isinstance(rng, np.random.Generator):
-            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        p = p.copy()
+        p = as_start_pose(pose, where=self.name)
+        check_generator(rng, where=self.name)
         p[2] = float(wrap_heading(p[2]))
         return p
 

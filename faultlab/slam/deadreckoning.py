@@ -11,7 +11,7 @@ import numpy as np
 
 from faultlab.errors import SlamInputError
 from faultlab.slam import units as _units
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_start_pose
 
 __all__ = ["DeadReckoning"]
 
@@ -22,10 +22,7 @@ class DeadReckoning(SlamAdapter):
     name = "dead_reckoning"
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator | None = None) -> None:
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        self._pose = p.reshape(1, 3).copy()
+        self._pose = as_start_pose(pose, where=self.name).reshape(1, 3)
         self._pose[0, 2] = _units.wrap_heading(self._pose[0, 2])
         self._ids = np.empty(0, dtype=np.int64)  # sorted
         self._sum = np.empty((0, 2))

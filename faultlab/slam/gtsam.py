@@ -59,7 +59,7 @@ import numpy as np
 from faultlab.config import Option
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam.noise import NoiseConfig
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
+from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_start_pose, check_generator
 
 __all__ = ["GTSAM_EXTRA", "PRIOR_STD", "REGULARISER", "MIN_RANGE", "GtsamSlamConfig", "GtsamSlam", "gtsam_available",
            "gtsam_version"]
@@ -167,11 +167,8 @@ class GtsamSlam(SlamAdapter):
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        p = np.asarray(pose, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SlamInputError(f"{self.name}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        if not isinstance(rng, np.random.Generator):
-            raise SlamInputError(f"{self.name}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        p = as_start_pose(pose, where=self.name)
+        check_generator(rng, where=self.name)
         g = self._gtsam
         params = g.ISAM2Params()
         self._isam = g.ISAM2(params)

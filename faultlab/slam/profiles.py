@@ -115,6 +115,8 @@ def _rows(*rows: tuple[str, str, str, str]) -> tuple[Difference, ...]:
 
 _FILTER_NOISE_WHY = ("sets how far the particles spread per step and how sharply observations weigh them; "
                      "read in metres the paper's numbers would be 10 times too large")
+_PARTICLES = ("particles, resampling threshold", "N_PARTICLE = 200; resample when n_eff < N / 1.5",
+              "n_particles = 200, resample_ratio = 1.5", "same")
 _LENGTH_UNIT = ("length unit", "0.1 m: maps, ranges and drives are integer mm, the adapter divides them by 100",
                 "SI (m); the unit-dependent constants are converted (noise, new-landmark tolerance, weight "
                 "underflow, output rounding)", "a constant read in the wrong unit is off by a factor of 10")
@@ -162,10 +164,13 @@ _ROTATION_FAULT = ("faulty rotation fault", "removes the innovation wrap in upda
                    "the weight unit wraps on its own) and yaw + bearing at initialisation",
                    "the initialisation wrap changes nothing (sin and cos are periodic)")
 
+#: The last rows of every profile's table: differences that do not depend on the profile's units.
+_COMMON_TAIL = (_ALGEBRA, _RANDOMNESS, _MOTION_INPUT, _ROTATION_FAULT, _FOV, _BEARING_NOISE, _RANGE_NOISE,
+                _FIRST_STEP, _ODOMETRY)
+
 
 _PAPER_ROWS = _rows(
-    ("particles, resampling threshold", "N_PARTICLE = 200; resample when n_eff < N / 1.5",
-     "n_particles = 200, resample_ratio = 1.5", "same"),
+    _PARTICLES,
     _LENGTH_UNIT,
     ("filter noise", "Q = diag(3.0, 10 deg)^2 (measurement), R = diag(1.0, 20 deg)^2 (motion), in 0.1 m units",
      "std_range = 0.3 m, std_bearing = 10 deg, std_v = 0.1 m, std_omega = 20 deg", _FILTER_NOISE_WHY),
@@ -196,15 +201,7 @@ _PAPER_ROWS = _rows(
     _UNOBSERVED,
     ("estimated pose", "the weighted mean of the particles (not used by the metric)",
      "the highest-weight particle's pose (FastSlam.estimate)", "none for map errors"),
-    _ALGEBRA,
-    _RANDOMNESS,
-    _MOTION_INPUT,
-    _ROTATION_FAULT,
-    _FOV,
-    _BEARING_NOISE,
-    _RANGE_NOISE,
-    _FIRST_STEP,
-    _ODOMETRY,
+    *_COMMON_TAIL,
 )
 
 
@@ -220,8 +217,7 @@ def _without_aliasing(rows: tuple[Difference, ...]) -> tuple[Difference, ...]:
 
 
 _REFERENCE_ROWS = _rows(
-    ("particles, resampling threshold", "N_PARTICLE = 200; resample when n_eff < N / 1.5",
-     "n_particles = 200, resample_ratio = 1.5", "same"),
+    _PARTICLES,
     _LENGTH_UNIT,
     ("filter noise", "Q = diag(3.0, 10 deg)^2 (measurement), R = diag(1.0, 20 deg)^2 (motion), in 0.1 m units",
      "std_range = 0.3 m, std_bearing = 10 deg, std_v = 0.1 m, std_omega = 20 deg: the same",
@@ -245,15 +241,7 @@ _REFERENCE_ROWS = _rows(
     ("map output", "the particle minimising distance_to_mean * weight, rounded to whole mm",
      "the highest-weight particle, not rounded (extract_map)", "another particle's map"),
     _UNOBSERVED,
-    _ALGEBRA,
-    _RANDOMNESS,
-    _MOTION_INPUT,
-    _ROTATION_FAULT,
-    _FOV,
-    _BEARING_NOISE,
-    _RANGE_NOISE,
-    _FIRST_STEP,
-    _ODOMETRY,
+    *_COMMON_TAIL,
 )
 
 #: The profile a ``[slam] name = "fastslam"`` table without ``profile`` gets.

@@ -25,7 +25,8 @@ import numpy as np
 
 from faultlab.errors import SlamInputError, SlamOutputError
 
-__all__ = ["Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control"]
+__all__ = ["Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control", "as_start_pose",
+           "check_generator"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,6 +137,26 @@ def as_control(control) -> np.ndarray:
     return u
 
 
+def as_start_pose(pose, *, where: str) -> np.ndarray:
+    """Validate a start pose ``(x, y, theta)`` given to ``where``; return it as a new float array (3,).
+
+    Raises
+    ------
+    SlamInputError
+        Not 3 finite numbers.
+    """
+    p = np.array(pose, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise SlamInputError(f"{where}: start pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+    return p
+
+
+def check_generator(rng, *, where: str) -> None:
+    """Raise :class:`SlamInputError` (naming ``where``) unless ``rng`` is a :class:`numpy.random.Generator`."""
+    if not isinstance(rng, np.random.Generator):
+        raise SlamInputError(f"{where}: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+
+
 class SlamAdapter(abc.ABC):
     """Base class of every SLAM under test.
 
@@ -187,6 +208,21 @@ class SlamAdapter(abc.ABC):
         self.update(u, observations)
 
 
+def _label(slam) -> str:
+    """The SLAM's name for messages (its class name if it has none)."""
+    return getattr(slam, "name", type(slam).__name__)
+
+
+def _feed(slam: SlamAdapter, scenario) -> None:
+    """Step ``slam`` through the scenario: each step's control and the observations made after it."""
+    offsets = scenario.obs_offsets
+    controls = scenario.controls
+    for t in range(scenario.n_steps):
+        a, b = offsets[t], offsets[t + 1]
+        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
+                                            scenario.obs_ids[a:b]))
+
+
 def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estimate:
     """Drive ``slam`` through every step of ``scenario`` and return its validated final estimate.
 
@@ -203,13 +239,8 @@ def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estima
         If the final estimate is malformed or not finite.
     """
     slam.reset(scenario.start_pose, rng=rng)
-    offsets = scenario.obs_offsets
-    controls = scenario.controls
-    for t in range(scenario.n_steps):
-        a, b = offsets[t], offsets[t + 1]
-        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
-                                            scenario.obs_ids[a:b]))
-    return slam.estimate().validate(where=f"{getattr(slam, 'name', type(slam).__name__)} estimate")
+    _feed(slam, scenario)
+    return slam.estimate().validate(where=f"{_label(slam)} estimate")
 
 
 def run_slam_batch(slam: SlamAdapter, scenario, *, rngs: Sequence[np.random.Generator]) -> list:
@@ -234,16 +265,11 @@ def run_slam_batch(slam: SlamAdapter, scenario, *, rngs: Sequence[np.random.Gene
         cannot attribute to one repetition propagates: rerun the repetitions one at a time.
     """
     if not getattr(slam, "supports_batch", False):
-        raise SlamInputError(f"{getattr(slam, 'name', type(slam).__name__)} does not run repetitions in a "
-                             f"batch; use run_slam for each repetition")
+        raise SlamInputError(f"{_label(slam)} does not run repetitions in a batch; use run_slam for each "
+                             "repetition")
     slam.reset_batch(scenario.start_pose, rngs=rngs)
-    offsets = scenario.obs_offsets
-    controls = scenario.controls
-    for t in range(scenario.n_steps):
-        a, b = offsets[t], offsets[t + 1]
-        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
-                                            scenario.obs_ids[a:b]))
-    where = f"{getattr(slam, 'name', type(slam).__name__)} estimate"
+    _feed(slam, scenario)
+    where = f"{_label(slam)} estimate"
     out = []
     for est in slam.estimates():
         if not isinstance(est, BaseException):

@@ -75,14 +75,16 @@ def _named(stats_table: pd.DataFrame, schema_name: str) -> pd.DataFrame:
 def test_every_statistic_uses_the_stored_rule(rich, strict):
     rule = DetectionRule(400.0, 1.0)
     assert strict.rule == rule and not strict.notes_on("rule")
-    expected = detection_rates(rich, rule=rule).rename(columns={"fault": "variant"})
+    first = rich[rich["rep"] == 0]  # the paper's protocol: one SLAM pair per case (the shown repetition)
+    expected = detection_rates(first, rule=rule).rename(columns={"fault": "variant"})
     mine = strict.detection_rates[list(expected.columns)]
     pd.testing.assert_frame_equal(mine, expected.astype(mine.dtypes.to_dict()))
-    pd.testing.assert_frame_equal(strict.by_suite, _named(by_suite(rich, rule=rule), "by_suite"))
+    pd.testing.assert_frame_equal(strict.by_suite, _named(by_suite(first, rule=rule), "by_suite"))
     pd.testing.assert_frame_equal(strict.false_alarms, _named(false_alarm_rate(rich, rule=rule), "false_alarms"))
-    pd.testing.assert_frame_equal(strict.suite_comparisons, _named(compare_suites(rich, rule=rule), "suite_comparisons"))
+    pd.testing.assert_frame_equal(strict.suite_comparisons,
+                                  _named(compare_suites(first, rule=rule), "suite_comparisons"))
     pd.testing.assert_frame_equal(strict.parameter_effects,
-                                  _named(parameter_effects(rich, rule=rule), "parameter_effects"))
+                                  _named(parameter_effects(first, rule=rule), "parameter_effects"))
     pd.testing.assert_frame_equal(strict.oracle, _named(oracle_detections(rich), "oracle"))
     oc = outcomes(rich, rule=rule)
     this = strict.outcomes[strict.outcomes["source"] == "this run"].reset_index(drop=True)
@@ -96,6 +98,19 @@ def test_every_statistic_uses_the_stored_rule(rich, strict):
     assert default.rule == DetectionRule() and default.notes_on("rule")
     nr = lambda a: a.detection_rates.set_index(["suite", "variant"]).loc[("random", "naive_resampling"), "k"]
     assert nr(strict) == 0 < nr(default)
+
+
+def test_the_paper_protocol_tables_do_not_change_with_k_nor_count_the_replica(rich):
+    """More repetitions of the same cases, or an A/A replica, leave Table II's rates and "by Suite" alone."""
+    one = Analysis.from_frame(rich[rich["rep"] == 0], STRICT, paper=False)
+    replica = rich[rich["variant"] == "baseline"].assign(variant="baseline_replica", rms_mm=lambda d: d["rms_mm"] + 900)
+    more = Analysis.from_frame(pd.concat([rich, replica], ignore_index=True), STRICT, paper=False)
+    for name in ("detection_rates", "by_suite", "suite_comparisons"):
+        pd.testing.assert_frame_equal(getattr(more, name), getattr(one, name), obj=name)
+    assert "baseline_replica" not in set(more.detection_rates["variant"])
+    # while the case-level verdicts use all K repetitions and judge the replica apart
+    assert set(more.case_verdicts["fault"]) >= {"baseline_replica", "naive_resampling"}
+    assert not more.replica_false_alarms.empty
 
 
 def test_every_job_is_classified_once_per_data_set(rich, monkeypatch):

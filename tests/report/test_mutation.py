@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.mutation import MutationAnalysis, compare_suites, mutation_scores
-from faultlab.report.mutation import MATRIX_CLASSES, markdown_table, matrix_figure, score_table
+from faultlab.report.mutation import MATRIX_CLASSES, markdown_table, matrix_figure, score_table, survivor_table
 
 
 def _analysis() -> MutationAnalysis:
@@ -38,3 +38,12 @@ def test_matrix_cells_carry_each_mutants_outcome_and_screened_mutants_are_not_dr
     # rows sorted by unit then id: u1:a:1, u1:a:2, u2:b:1
     assert [[codes[int(c)] for c in row] for row in grid] == [["killed", "survived"], ["crash", "killed"],
                                                               ["survived", "timeout"]]
+
+
+def test_survivor_table_lists_each_survived_pair_with_its_detectable_shift():
+    a = _analysis()
+    o = a.outcomes.assign(min_p=[0.01, 0.2, 0.02, 0.03, 0.5, 0.04, 1.0, 1.0],
+                          min_mde_mm=[10.0, 123.4, 1, 2, 56.6, 3, np.nan, np.nan])
+    t = survivor_table(MutationAnalysis(outcomes=o, scores=a.scores, mcnemar=a.mcnemar))
+    assert list(zip(t["mutant"], t["suite"], t["smallest p"], t["detectable shift mm"])) == [
+        ("u1:a:1", "fixed", "0.2", "123"), ("u2:b:1", "systematic", "0.5", "57")]

@@ -21,6 +21,8 @@ from faultlab.report.tables import (
     cell_text,
     detection_markdown,
     format_mm,
+    format_pct_interval,
+    md_table,
     round_mm,
     table2_csv_frame,
     table2_frame,
@@ -54,6 +56,17 @@ def test_round_mm_rounds_halves_up_not_to_even():
     assert format_mm(float("nan")) == ""
     with pytest.raises(ValueError, match="non-finite"):
         round_mm(float("inf"))
+
+
+def test_format_pct_interval_writes_both_bounds_as_percentages():
+    assert format_pct_interval(0.125, 0.4567) == "13-46"  # 12.5 rounds half up
+    assert format_pct_interval(0.0123, 0.5, 1) == "1.2-50.0"
+    assert format_pct_interval(float("nan"), 0.5) == "-50"
+
+
+def test_md_table_writes_header_separator_and_rows():
+    frame = pd.DataFrame({"suite": ["random", "fixed"], "rate %": [27, 100]})
+    assert md_table(frame) == "| suite | rate % |\n| --- | --- |\n| random | 27 |\n| fixed | 100 |"
 
 
 @given(st.floats(min_value=-1e7, max_value=1e7, allow_nan=False, allow_infinity=False))
@@ -143,19 +156,20 @@ def test_crash_and_timeout_cells_and_their_counts():
     assert f.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == ""
 
 
-def test_cells_show_one_repetition_and_rates_count_all():
-    # rep 0 detects nothing, rep 1 detects every fault: the grid shows rep 0, the rate is 50 %
+def test_cells_and_rates_show_one_repetition():
+    # rep 0 detects nothing, rep 1 detects every fault: grid and rate show rep 0 (one pair per case, as the paper)
     res = make_results(lambda run, suite, case, variant, rep:
                        50.0 if variant == "baseline" else (60.0 if rep == 0 else 900.0),
                        suites=("fixed",), variants=("baseline", "motion_sign_error"), reps=2)
     t = analysed(res)
     f = table2_csv_frame(t).set_index(["Suite", "Algorithm", "Source"])
     assert f.loc[("Fixed", "Sign Error", THIS_RUN)][["R1C1", "R1C2"]].tolist() == ["60", "60"]
-    assert f.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == "50"
+    assert f.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == "0"
     assert "repetition 0 of 2" in table2_markdown(t)
     t1 = analysed(res, rep=1)
     f1 = table2_csv_frame(t1).set_index(["Suite", "Algorithm", "Source"])
     assert f1.loc[("Fixed", "Sign Error", THIS_RUN)][["R1C1", "R1C2"]].tolist() == ["900*", "900*"]
+    assert f1.loc[("Fixed", "Sign Error", THIS_RUN), "Detected %"] == "100"
     with pytest.raises(ResultsError, match="repetition 5"):
         analysed(res, rep=5)
 

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from faultlab.errors import ScenarioError
-from faultlab.scenario import ScenarioConfig, generate_scenario
+from faultlab.scenario import ScenarioConfig, fixed_case_scenario, generate_scenario
 from faultlab.scenario.model import _ARRAYS
 from faultlab.space import FIXED_VALUES, CaseSpec, build_suite, table1_space
 
@@ -44,6 +44,18 @@ def test_same_seed_gives_byte_identical_cases(seed, suite_seed):
     assert a.meta == b.meta
     c = generate_scenario(case, rng=np.random.default_rng(seed + 1), n_steps=60)
     assert c.landmarks.tobytes() != a.landmarks.tobytes()
+
+
+def test_fixed_case_scenario_is_the_fixed_case_with_overrides_from_one_seed():
+    sc = fixed_case_scenario({"map_size": 16.0, "inactivity": 10}, seed=7, n_steps=40)
+    assert sc.case.values == {**FIXED_VALUES, "map_size": 16.0, "inactivity": 10}
+    assert sc.seed == 7 and sc.n_steps == 40 + 10
+    by_hand = generate_scenario(CaseSpec({**FIXED_VALUES, "map_size": 16.0, "inactivity": 10}),
+                                rng=np.random.default_rng(np.random.SeedSequence(7)), n_steps=40)
+    for k in _ARRAYS:
+        assert getattr(sc, k).tobytes() == getattr(by_hand, k).tobytes(), k
+    other = fixed_case_scenario({"map_size": 16.0, "inactivity": 10}, seed=8, n_steps=40)
+    assert other.landmarks.tobytes() != sc.landmarks.tobytes()
 
 
 def test_defaults_match_the_paper():

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from faultlab.errors import SlamInputError, SlamOutputError
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_control
+from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_control, as_start_pose, check_generator
 
 
 def test_observations_accept_empty_and_coerce_types():
@@ -33,6 +33,21 @@ def test_control_validation():
         as_control([1.0, 2.0, 3.0])
     with pytest.raises(SlamInputError, match="finite"):
         as_control([np.inf, 0.0])
+
+
+def test_start_pose_validation_copies_and_names_the_slam():
+    given = [1, 2, 3]
+    pose = as_start_pose(given, where="mine")
+    assert pose.dtype == float and pose.tolist() == [1.0, 2.0, 3.0]
+    held = np.zeros(3)
+    as_start_pose(held, where="mine")[0] = 5.0
+    assert held[0] == 0.0  # a new array: the caller's pose is never changed
+    for bad in ([1.0, 2.0], [0.0, np.nan, 0.0], [[0.0, 0.0, 0.0]]):
+        with pytest.raises(SlamInputError, match="mine: start pose must be 3 finite numbers"):
+            as_start_pose(bad, where="mine")
+    check_generator(np.random.default_rng(0), where="mine")
+    with pytest.raises(SlamInputError, match="mine: rng must be a numpy.random.Generator, got RandomState"):
+        check_generator(np.random.RandomState(0), where="mine")
 
 
 def test_estimate_validation_names_the_bad_landmark():
