@@ -9,14 +9,14 @@ from faultlab.cli.options import add_execution_options, add_verb_group, positive
 
 __all__ = ["register"]
 
+_HELP = "test-design strategies study: case pools, kill matrix, suites drawn from the pools"
+_DESCRIPTION = ("Run a pool of cases of every strategy once per fault and sampled mutant (K repetitions, common "
+                "random numbers), keep every case's exact p value (the kill matrix), then evaluate suites of each "
+                "size drawn from the pools at no further SLAM cost.")
+
 
 def register(subparsers) -> None:
-    sub = add_verb_group(
-        subparsers, "study", help="test-design strategies study: case pools, kill matrix, suites drawn from the pools",
-        description="Run a pool of cases of every strategy once per fault and sampled mutant (K repetitions, "
-                    "common random numbers), keep every case's exact p value (the kill matrix), then evaluate "
-                    "suites of each size drawn from the pools at no further SLAM cost.")
-
+    sub = add_verb_group(subparsers, "study", help=_HELP, description=_DESCRIPTION)
     run = sub.add_parser("run", help="run (or resume) a study's case pools",
                          description="Run every pool case against the baseline, the file's faults and its "
                                      "[mutation] sample through the runner. Rerunning the same command resumes.")
