@@ -43,6 +43,9 @@ from typing import Iterator, Mapping
 
 import pandas as pd
 
+from faultlab.analysis.bundle import TableBundle
+from faultlab.analysis.campaign import count_expected_jobs, read_rule
+from faultlab.analysis.mutation import selection_from_table
 from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
@@ -51,12 +54,9 @@ from faultlab.runner.execute import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
 from faultlab.runner.store import load_metadata, load_results
 from faultlab.stats.cases import detectable_difference
-from faultlab.stats.killmatrix import (MULTIPLICITY, KillMatrix, compare_scores, detection_table, evaluate_suites,
+from faultlab.stats.killmatrix import (MULTIPLICITY, compare_scores, detection_table, evaluate_suites,
                                        kill_matrix, score_table)
 from faultlab.stats.verdict import min_pairs
-from faultlab.analysis.campaign import count_expected_jobs, read_rule
-from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.mutation import selection_from_table
 from faultlab.vocabulary import PAPER_FAULTS
 
 __all__ = ["STUDY_FILE", "STUDY_TABLES", "StudySpec", "StudyExperiment", "StudyAnalysis", "load_study_experiment",

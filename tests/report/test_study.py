@@ -32,7 +32,7 @@ def test_markdown_quotes_every_strategy_rate_with_its_interval_and_states_the_po
     row = a.detection[(a.detection["variant"] == "fault_b") & (a.detection["strategy"] == "random")
                       & (a.detection["size"] == 2)].iloc[0]
     cell = f"{100 * row['rate']:.0f} % ({100 * row['ci_low']:.0f}-{100 * row['ci_high']:.0f})"
-    assert f"| fault_b | 2 |" in md and cell in md
+    assert "| fault_b | 2 |" in md and cell in md
     assert "Quick scale (reduced)" in md and "load average 5.0" in md
     assert "## Power" in md and "## Strategies compared at equal size" in md
     assert md.count("systematic vs random") == 3          # one comparison per size
