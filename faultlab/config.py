@@ -13,13 +13,13 @@ import math
 import numbers
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, ClassVar
 
 from faultlab.errors import ConfigError
 
-__all__ = ["read_toml", "Table", "check_number", "check_int", "import_object", "Option", "Settings"]
+__all__ = ["read_toml", "Table", "check_number", "check_int", "check_choice", "import_object", "Option", "Settings"]
 
 
 def read_toml(path: str | Path, *, what: str) -> tuple[dict, str]:
@@ -89,6 +89,14 @@ def check_int(value: Any, *, name: str, minimum: int | None = None,
     if minimum is not None and value < minimum:
         raise error(f"{name} must be >= {minimum}, got {value!r}")
     return int(value)
+
+
+def check_choice(value: Any, *, name: str, choices: tuple[str, ...],
+                 error: type[Exception] = ConfigError) -> str:
+    """``value`` as one of the strings ``choices``, or ``error`` naming ``name`` and the choices."""
+    if not isinstance(value, str) or value not in choices:
+        raise error(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
+    return value
 
 
 def import_object(spec: str, *, what: str = "import path", error: type[Exception] = ConfigError) -> Any:
@@ -209,14 +217,23 @@ class Option:
         An integer setting.
     bounds : dict
         Keyword bounds for :func:`check_number` / :func:`check_int` (``minimum``, ``positive``, ...).
+    choices : tuple of str, optional
+        A string setting with these values (:func:`check_choice`).
+    omit_default : bool
+        :meth:`Settings.to_options` leaves the setting out while it has its default value, so that
+        a setting added later does not change the options (and the hash) of existing experiments.
     """
 
     key: str
     degrees: bool = False
     integer: bool = False
     bounds: Mapping[str, Any] = field(default_factory=dict)
+    choices: tuple[str, ...] | None = None
+    omit_default: bool = False
 
-    def check(self, value: Any, *, name: str) -> float | int:
+    def check(self, value: Any, *, name: str) -> float | int | str:
+        if self.choices is not None:
+            return check_choice(value, name=name, choices=self.choices)
         if self.integer:
             return check_int(value, name=name, **self.bounds)
         return check_number(value, name=name, **self.bounds)
@@ -255,6 +272,11 @@ class Settings:
         return cls(**kwargs)
 
     def to_options(self) -> dict[str, Any]:
-        """The file-shaped options of this instance (inverse of :meth:`from_options`)."""
+        """The file-shaped options of this instance (inverse of :meth:`from_options`).
+
+        Settings declared with ``omit_default`` are left out while they hold their default.
+        """
+        defaults = {f.name: f.default for f in fields(self)}
         return {option.key: (math.degrees(getattr(self, name)) if option.degrees else getattr(self, name))
-                for name, option in self.OPTIONS.items()}
+                for name, option in self.OPTIONS.items()
+                if not (option.omit_default and getattr(self, name) == defaults[name])}

@@ -16,6 +16,9 @@ __all__ = [
     "SUITE_ORDER",
     "PAPER_FAULTS",
     "METRICS",
+    "ASSOCIATIONS",
+    "KNOWN_ASSOCIATION",
+    "UNKNOWN_ASSOCIATION",
     "BACKENDS",
     "JobStatus",
     "Outcome",
@@ -46,6 +49,13 @@ PAPER_FAULTS: tuple[str, ...] = ("naive_resampling", "missing_angle_wrap", "moti
 
 #: Map-error metrics, the primary one of a campaign first by default (both are always recorded).
 METRICS: tuple[str, ...] = ("rms", "emd")
+
+#: Data association of a SLAM under test: ``"known"``, observations carry the landmark ids; ``"unknown"``,
+#: the driver hides them and the SLAM associates observations itself.  A map without ids has no
+#: correspondences with the ground truth, so it is scored by the earth mover's distance (Sec. VII-B).
+KNOWN_ASSOCIATION = "known"
+UNKNOWN_ASSOCIATION = "unknown"
+ASSOCIATIONS: tuple[str, ...] = (KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION)
 
 #: Execution backends of the runner (joblib backends; dask and ray are optional extras).
 BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")

@@ -9,6 +9,7 @@ import numpy as np
 from faultlab.errors import ConfigError
 from faultlab.metrics.alignment import kabsch_rms
 from faultlab.metrics.transport import earth_movers_distance
+from faultlab.vocabulary import ASSOCIATIONS, UNKNOWN_ASSOCIATION
 
 __all__ = ["MapErrors", "map_errors"]
 
@@ -27,7 +28,9 @@ class MapErrors:
         Earth mover's distance between the full ground-truth map and the
         estimated map, mm (see :func:`map_errors` for the alignment used).
     n_mapped, n_unmapped : int
-        Ground-truth landmarks the SLAM did / did not map.
+        Ground-truth landmarks the SLAM did / did not map.  For a map without ids (unknown data
+        association) ``n_mapped`` is the number of estimated landmarks and ``n_unmapped`` the
+        number of ground-truth landmarks beyond it (0 if the SLAM mapped more).
     """
 
     rms_mm: float
@@ -36,7 +39,8 @@ class MapErrors:
     n_unmapped: int
 
 
-def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", emd: bool = True) -> MapErrors:
+def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", emd: bool = True,
+               association: str = "known") -> MapErrors:
     """RMS (Kabsch) and EMD map errors of ``estimate`` against ``scenario``'s map.
 
     Parameters
@@ -57,6 +61,11 @@ def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", emd: bool =
         Compute the EMD at all (default True).  It is exact optimal transport
         and costs seconds for maps of several thousand landmarks (see
         :func:`earth_movers_distance`); ``False`` leaves ``emd_mm`` NaN.
+    association : {"known", "unknown"}
+        ``"unknown"``: the estimate comes from a SLAM that saw no landmark ids
+        (:mod:`faultlab.slam.protocol`, "Data association"), so its labels correspond to nothing
+        in the ground truth: ``rms_mm`` is NaN and the EMD compares the raw estimate (no alignment,
+        whatever ``emd_alignment`` says) with the ground truth.
 
     Returns
     -------
@@ -70,7 +79,16 @@ def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", emd: bool =
     """
     if emd_alignment not in ("kabsch", "none"):
         raise ConfigError(f"map_errors: emd_alignment must be 'kabsch' or 'none', got {emd_alignment!r}")
+    if association not in ASSOCIATIONS:
+        raise ConfigError(f"map_errors: association must be one of {', '.join(map(repr, ASSOCIATIONS))}, "
+                          f"got {association!r}")
     estimate.validate(where="map_errors: estimate")
+    if association == UNKNOWN_ASSOCIATION:
+        est_xy = np.asarray(estimate.landmarks, dtype=float).reshape(-1, 2)
+        emd_m = earth_movers_distance(scenario.landmarks, est_xy) if emd else float("nan")
+        n_truth = int(np.asarray(scenario.landmarks).shape[0])
+        return MapErrors(rms_mm=float("nan"), emd_mm=emd_m * _MM_PER_M, n_mapped=int(est_xy.shape[0]),
+                         n_unmapped=max(n_truth - int(est_xy.shape[0]), 0))
     err = kabsch_rms(scenario.landmark_ids, scenario.landmarks, estimate.landmark_ids, estimate.landmarks)
     emd_m = float("nan")
     if emd:

@@ -67,9 +67,9 @@ from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import ID_COLUMNS, ResultStore, case_path, store_lock
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
-from faultlab.slam.protocol import Estimate, SlamAdapter, run_slam, run_slam_batch
+from faultlab.slam.protocol import Estimate, SlamAdapter, association_of, run_slam, run_slam_batch
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
-from faultlab.vocabulary import BACKENDS, JobStatus
+from faultlab.vocabulary import BACKENDS, UNKNOWN_ASSOCIATION, JobStatus
 
 __all__ = [
     "SKIPPED_VARIANTS_KEY",
@@ -175,6 +175,7 @@ class _Guarded(SlamAdapter):
         self.deadline = deadline
         self.name = getattr(inner, "name", type(inner).__name__)
         self.supports_batch = bool(getattr(inner, "supports_batch", False))
+        self.association = association_of(inner)
 
     def _check(self) -> None:
         if time.monotonic() > self.deadline:
@@ -281,11 +282,15 @@ def _build(spec: JobSpec) -> SlamAdapter:
     return slam if fault is None else fault.apply(slam)
 
 
-def _score(key: JobKey, scenario: Scenario, estimate: Estimate, runtime: float) -> JobResult:
-    """The ``ok`` result of an estimate, or ``crash`` if the metrics cannot score it."""
+def _score(key: JobKey, scenario: Scenario, estimate: Estimate, runtime: float, *, association: str) -> JobResult:
+    """The ``ok`` result of an estimate, or ``crash`` if the metrics cannot score it.
+
+    ``association`` is the SLAM's (:func:`~faultlab.slam.protocol.association_of`): a map without
+    landmark ids is scored by the EMD alone (:func:`~faultlab.metrics.map_errors`).
+    """
     try:
         with np.errstate(all="ignore"):
-            err = map_errors(scenario, estimate)
+            err = map_errors(scenario, estimate, association=association)
     except Exception as exc:  # e.g. an estimate the metrics cannot score
         return JobResult(key, JobStatus.CRASH, runtime_s=runtime, error=f"metrics: {_describe(exc)}")
     return JobResult(key, JobStatus.OK, rms_mm=float(err.rms_mm), emd_mm=float(err.emd_mm),
@@ -316,7 +321,7 @@ def execute_job(spec: JobSpec) -> JobResult:
                          error=f"timeout: wall-clock limit of {spec.timeout_s:g} s exceeded")
     except (Exception, SystemExit) as exc:  # the SUT's fault, never the campaign's
         return JobResult(spec.key, JobStatus.CRASH, runtime_s=runtime, error=_describe(exc))
-    return _score(spec.key, scenario, estimate, runtime)
+    return _score(spec.key, scenario, estimate, runtime, association=association_of(slam))
 
 
 def execute_batch(batch: JobBatch) -> list[JobResult]:
@@ -358,8 +363,9 @@ def execute_batch(batch: JobBatch) -> list[JobResult]:
     if outcomes is None:
         return [execute_job(s) for s in specs]
     share = runtime / len(specs)
+    association = association_of(slam)
     return [JobResult(s.key, JobStatus.CRASH, runtime_s=share, error=_describe(out))
-            if isinstance(out, BaseException) else _score(s.key, scenario, out, share)
+            if isinstance(out, BaseException) else _score(s.key, scenario, out, share, association=association)
             for s, out in zip(specs, outcomes)]
 
 
@@ -465,6 +471,9 @@ def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable
     if not isinstance(slam, SlamAdapter):
         raise ConfigError(f"{experiment.source}: [slam] {experiment.slam.name!r} built a "
                           f"{type(slam).__name__}, not a SlamAdapter")
+    if association_of(slam) == UNKNOWN_ASSOCIATION and experiment.metric != "emd":
+        raise ConfigError(f"{experiment.source}: metric = {experiment.metric!r}, but [slam] {experiment.slam.name!r} "
+                          f"associates landmarks itself (no ids, no RMS): use metric = \"emd\"")
     units = slam_units(slam)
     skipped: list[NotApplicable] = []
     for i, variant in enumerate(experiment.variants):

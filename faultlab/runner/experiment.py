@@ -27,6 +27,7 @@ Example (``experiments/paper.toml`` is the paper's protocol)::
     [slam]
     name = "fastslam"       # or "package.module:factory" with a [slam.options] table
     particles = 200
+    # association = "unknown"   # hide the landmark ids (fastslam, fastslam2): metric "emd" then
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ from faultlab.slam.profiles import DEFAULT_PROFILE
 from faultlab.slam.protocol import SlamAdapter
 from faultlab.slam.registry import build_slam, get_slam_kind, normalise_options
 from faultlab.space import build_suite, space_from_mapping, table1_space
-from faultlab.vocabulary import BASELINE, METRICS, SUITE_KINDS
+from faultlab.vocabulary import BASELINE, KNOWN_ASSOCIATION, METRICS, SUITE_KINDS, UNKNOWN_ASSOCIATION
 
 __all__ = [
     "Experiment",
@@ -102,6 +103,16 @@ class SlamSpec:
             return None
         return str(dict(self.options).get("profile", DEFAULT_PROFILE))
 
+    @property
+    def association(self) -> str:
+        """``"unknown"`` if the SLAM's options hide the landmark ids (``association = "unknown"``), else ``"known"``.
+
+        A factory (import path) declares its association on the adapter it builds
+        (:attr:`~faultlab.slam.SlamAdapter.association`); the runner checks it when it builds the SLAM.
+        """
+        kind = get_slam_kind(self.name)
+        return KNOWN_ASSOCIATION if kind is None else kind.association(dict(self.options))
+
     def build(self) -> SlamAdapter:
         """A fresh SLAM adapter instance."""
         return build_slam(self.name, dict(self.options))
@@ -142,7 +153,9 @@ class Experiment:
     repetitions : int
         SLAM repetitions per case (K >= 1), each with its own SLAM seed shared by all variants.
     metric : str
-        Primary metric, ``"rms"`` or ``"emd"`` (both are recorded).
+        Primary metric, ``"rms"`` or ``"emd"`` (both are recorded).  Default ``"rms"``, or ``"emd"``
+        when the SLAM associates landmarks itself (``association = "unknown"`` in ``[slam]``), which
+        then requires it.
     timeout_s : float
         Wall-clock limit of one SLAM execution, s.
     detection : DetectionRule
@@ -270,11 +283,16 @@ def parse_experiment(data: Mapping, *, source: str = "<experiment>", text: str =
     min_distance = top.float("min_distance", DEFAULT_MIN_DISTANCE, minimum=0.0)
     fov_bug = top.bool("fov_bug", False)
     repetitions = top.int("repetitions", 1, minimum=1)
-    metric = top.str("metric", "rms", choices=METRICS)
     timeout_s = top.float("timeout_s", 600.0, positive=True)
 
     suites = _parse_suites(top, source)
     slam = _parse_slam(top, source)
+    # a SLAM that sees no landmark ids has no correspondences: its maps are scored by the EMD
+    unknown = slam.association == UNKNOWN_ASSOCIATION
+    metric = top.str("metric", "emd" if unknown else "rms", choices=METRICS)
+    if unknown and metric != "emd":
+        raise top.error("metric", f"must be 'emd' with slam.association = 'unknown' (a map without landmark "
+                                  f"ids has no RMS error), got {metric!r}")
     variants = _parse_variants(top, source)
     detection = _parse_detection(top, source)
 

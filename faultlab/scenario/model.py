@@ -48,7 +48,9 @@ class Scenario:
     obs_range, obs_bearing : ndarray, shape (M,)
         Measured range (m) and bearing (rad, relative to the heading).
     obs_ids : ndarray, shape (M,), int64
-        Landmark id of each observation (known correspondences).
+        Landmark id of each observation (known correspondences).  Always the true ids, also for
+        a SLAM with unknown data association: the driver hides them from such a SLAM
+        (:mod:`faultlab.slam.protocol`, "Data association"), so one file serves both kinds.
     meta : dict
         JSON-serialisable extras (generator settings, SI config, ...).
     """

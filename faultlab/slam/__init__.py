@@ -1,4 +1,7 @@
-"""faultlab.slam: the SLAM adapter protocol, the reference FastSLAM 1.0, FastSLAM 2.0, EKF-SLAM, dead reckoning."""
+"""faultlab.slam: the SLAM adapter protocol, the reference FastSLAM 1.0, FastSLAM 2.0 (both also with unknown
+data association), EKF-SLAM, dead reckoning."""
+
+from faultlab.slam.association import FastSlam2Unknown, FastSlam2UnknownSteps, FastSlamUnknown, FastSlamUnknownSteps
 
 from faultlab.slam.deadreckoning import DeadReckoning
 from faultlab.slam.ekf import REFERENCE_STEPS as EKF_REFERENCE_STEPS
@@ -14,7 +17,8 @@ from faultlab.slam.fastslam import (
 )
 from faultlab.slam.fastslam2 import REFERENCE_STEPS as FASTSLAM2_REFERENCE_STEPS
 from faultlab.slam.fastslam2 import FastSlam2, FastSlam2Steps
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_control, run_slam, run_slam_batch
+from faultlab.slam.protocol import (HIDDEN_ID, Estimate, Observations, SlamAdapter, as_control, association_of,
+                                    run_slam, run_slam_batch)
 
 __all__ = [
     "Observations",
@@ -23,6 +27,8 @@ __all__ = [
     "run_slam",
     "run_slam_batch",
     "as_control",
+    "association_of",
+    "HIDDEN_ID",
     "FastSlamConfig",
     "FastSlamSteps",
     "REFERENCE_STEPS",
@@ -38,4 +44,8 @@ __all__ = [
     "EkfSlamConfig",
     "EkfSlamSteps",
     "EKF_REFERENCE_STEPS",
+    "FastSlamUnknown",
+    "FastSlamUnknownSteps",
+    "FastSlam2Unknown",
+    "FastSlam2UnknownSteps",
 ]

@@ -3,20 +3,28 @@
 :class:`UnitTable` is the base of their ``...Steps`` tables (a frozen dataclass whose fields are
 the units), :class:`UnitSlam` the base of the adapters (settings, units, ``with_steps``, the start
 pose), :class:`LandmarkIndex` maps landmark ids to storage columns in order of first observation.
+The particle filters share the weight normalisation (:func:`normalise_log_weights`), the
+resampling tail of a step (:func:`resample_tail`), the best-particle estimate
+(:func:`best_estimate`), the linearisation of the measurement model (:func:`linearise`) and, for
+the ones that run one filter at a time, their bookkeeping (:class:`ParticleFilterSlam`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
-from typing import Any, ClassVar
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from faultlab.errors import ConfigError
-from faultlab.slam.protocol import SlamAdapter, as_start_pose, check_generator
+from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
+from faultlab.slam.protocol import Estimate, SlamAdapter, as_start_pose, check_generator
+from faultlab.slam.streams import unit_streams
 from faultlab.slam.units import wrap_heading
+from faultlab.vocabulary import KNOWN_ASSOCIATION
 
-__all__ = ["UnitTable", "UnitSlam", "LandmarkIndex"]
+__all__ = ["UnitTable", "UnitSlam", "ParticleFilterSlam", "LandmarkIndex", "step_kind", "grown_capacity",
+           "normalise_log_weights", "resample_tail", "best_estimate", "linearise", "sample_pose"]
 
 
 @dataclass(frozen=True)
@@ -71,6 +79,10 @@ class UnitSlam(SlamAdapter):
             raise ConfigError(f"{name}: config must be a {self.config_type.__name__}, got {type(config).__name__}")
         if not isinstance(steps, self.steps_type):
             raise ConfigError(f"{name}: steps must be a {self.steps_type.__name__}, got {type(steps).__name__}")
+        if getattr(config, "association", KNOWN_ASSOCIATION) != self.association:
+            raise ConfigError(f"{name}: config.association is {config.association!r} but {name} works with "
+                              f"{self.association!r} data association (build SLAMs by name: "
+                              f"faultlab.slam.registry.build_slam)")
         self._config = config
         self._steps = steps
 
@@ -97,6 +109,84 @@ class UnitSlam(SlamAdapter):
         check_generator(rng, where=self.name)
         p[2] = float(wrap_heading(p[2]))
         return p
+
+
+class ParticleFilterSlam(UnitSlam):
+    """Base of a particle-filter SLAM that runs one filter at a time on a state object.
+
+    The state (``self._state``) has ``poses`` (N, 3) and normalised log weights ``logw`` (N,) and
+    a ``replace(**fields)`` method.  A subclass names the units of its table that give the map
+    (:attr:`map_unit`) and apply a resampling (:attr:`apply_unit`), and the units that draw random
+    numbers (:attr:`random_units`), each of which gets its own stream in :meth:`_begin`.
+    """
+
+    #: Units that draw random numbers, each from its own stream.
+    random_units: ClassVar[tuple[str, ...]]
+    #: The unit ``(state) -> (ids (M,), xy (M, 2))`` of the map estimate.
+    map_unit: ClassVar[str]
+    #: The unit ``(state, indices (N,)) -> state`` that applies a resampling.
+    apply_unit: ClassVar[str]
+
+    def __init__(self, config=None, *, steps=None):
+        super().__init__(config, steps=steps)
+        self._state = None
+
+    def _begin(self, state, rng: np.random.Generator) -> None:
+        """Start from ``state`` with the unit streams derived from ``rng``."""
+        self._streams = unit_streams(rng, self.random_units)
+        self._state = state
+        self._t = 0
+        self._n_resamples = 0
+
+    def estimate(self) -> Estimate:
+        return best_estimate(getattr(self._steps, self.map_unit), self._require_state())
+
+    @property
+    def n_resamples(self) -> int:
+        """How many updates since :meth:`reset` resampled."""
+        self._require_state()
+        return self._n_resamples
+
+    @property
+    def state(self):
+        """The current particle state (read-only use: its arrays are the filter's own)."""
+        return self._require_state()
+
+    def _require_state(self):
+        if self._state is None:
+            raise SlamInputError(f"{self.name}: reset() must be called first")
+        return self._state
+
+    def _begin_step(self, control: np.ndarray, observations):
+        """``(state, u (2,), u_n (N, 2), k, empty)`` at the start of an update (see :func:`step_kind`)."""
+        st = self._require_state()
+        u, k, empty = step_kind(control, observations)
+        return st, u, np.broadcast_to(u, (st.n_particles, 2)), k, empty
+
+    def _finish(self, state, poses: np.ndarray, logw: np.ndarray, empty: bool) -> None:
+        """Store the step's poses and weights in ``state``, then the resampling tail; the step is over."""
+        st = state.replace(poses=np.asarray(poses, dtype=float), logw=logw)
+        st, resampled = resample_tail(self._steps, st, empty, self._streams["resample"], self._config,
+                                      apply=getattr(self._steps, self.apply_unit))
+        self._n_resamples += resampled
+        self._state = st
+        self._t += 1
+
+
+def grown_capacity(capacity: int, needed: int) -> int | None:
+    """The new capacity of a landmark store that must hold ``needed`` landmarks: None if ``capacity``
+    suffices, else twice it (or ``needed`` if that is more), so that growing costs O(1) amortised."""
+    if needed <= capacity:
+        return None
+    return max(2 * capacity, needed)
+
+
+def step_kind(control: np.ndarray, observations) -> tuple[np.ndarray, int, bool]:
+    """``(u, k, empty)`` of one step: the control as floats (2,), the number of observations and
+    whether it is an *empty update* (control exactly (0, 0) and no observation)."""
+    k = len(observations)
+    u = np.asarray(control, dtype=float)
+    return u, k, k == 0 and u[0] == 0.0 and u[1] == 0.0
 
 
 class LandmarkIndex:
@@ -145,3 +235,82 @@ class LandmarkIndex:
         order = np.argsort(allid, kind="stable")
         self._sorted_ids, self._sorted_cols = allid[order], allcol[order]
         return cols
+
+
+def normalise_log_weights(logw: np.ndarray, *, name: str, step: int) -> np.ndarray:
+    """Normalised log weights (log-sum-exp) of one particle filter.
+
+    Parameters
+    ----------
+    logw : ndarray, shape (N,)
+        Unnormalised log weights.
+    name, step : str, int
+        The SLAM and the step, for the message.
+
+    Raises
+    ------
+    SlamOutputError
+        If no weight is finite.
+    """
+    top = logw.max()
+    if not math.isfinite(top):
+        raise SlamOutputError(f"{name}: particle weights are not finite at step {step}")
+    logw = logw - top
+    logw -= math.log(np.exp(logw).sum())
+    return logw
+
+
+def resample_tail(steps, state, empty: bool, rng: np.random.Generator, config, *,
+                  apply: Callable) -> tuple[Any, int]:
+    """The end of a particle filter's step (Table 13.1, lines 24-28): N_eff, the decision, the copies.
+
+    Calls ``steps.effective_sample_size`` on the weights ``exp(state.logw)``, then
+    ``steps.resample(w, n_eff, empty, rng, config)`` and, if it returned indices, ``apply(state, indices)``.
+
+    Returns
+    -------
+    state
+        The state after resampling (``state`` itself if there was none).
+    resampled : int
+        1 if the particles were resampled, else 0.
+    """
+    w = np.exp(state.logw)
+    n_eff = steps.effective_sample_size(w)
+    idx = steps.resample(w, n_eff, empty, rng, config)
+    if idx is None:
+        return state, 0
+    return apply(state, np.asarray(idx)), 1
+
+
+def best_estimate(extract_map: Callable, state) -> Estimate:
+    """The estimate of a particle filter: the map ``extract_map(state)`` and the highest-weight particle's pose.
+
+    Ties (uniform weights right after a resampling) go to the lowest particle index.
+    """
+    ids, xy = extract_map(state)
+    i = int(np.argmax(state.logw))
+    return Estimate(state.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+
+
+def linearise(steps, poses: np.ndarray, mu: np.ndarray, P: np.ndarray, z: np.ndarray,
+              Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The measurement model at ``poses``: ``(H, nu, S)`` from the units ``predict_measurement``,
+    ``innovation`` (with ``wrap_bearing``) and ``innovation_covariance``, called in that order.
+
+    Shapes: poses (N, 3), mu (N, k, 2), P (N, k, 2, 2), z (k, 2) -> H (N, k, 2, 2), nu (N, k, 2), S (N, k, 2, 2).
+    """
+    zhat, H = steps.predict_measurement(poses, mu)
+    nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+    S = steps.innovation_covariance(H, P, Q)
+    return H, nu, S
+
+
+def sample_pose(steps, poses: np.ndarray, u_n: np.ndarray, lam: np.ndarray, eta: np.ndarray, M: np.ndarray,
+                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """FastSLAM 2.0's pose draw (Table 13.2, lines 12-16): ``proposal``, ``sample_proposal``, ``motion_model``.
+
+    Returns the sampled poses (N, 3) and the proposal covariance (N, 2, 2) (for the weight).
+    """
+    mean, cov = steps.proposal(lam, eta, M)
+    du = np.asarray(steps.sample_proposal(mean, cov, rng), dtype=float)
+    return steps.motion_model(poses, u_n + du, wrap=steps.wrap_heading), cov

@@ -51,7 +51,7 @@ from threadpoolctl import ThreadpoolController
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam import units2 as _units2
-from faultlab.slam.bookkeeping import LandmarkIndex, UnitSlam, UnitTable
+from faultlab.slam.bookkeeping import LandmarkIndex, UnitSlam, UnitTable, step_kind
 from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.protocol import Estimate, Observations
 
@@ -143,9 +143,7 @@ class EkfSlam(UnitSlam):
 
     def _update(self, control: np.ndarray, observations: Observations) -> None:
         steps, Q = self._steps, self._Q
-        k = len(observations)
-        u = np.asarray(control, dtype=float)
-        empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
+        u, k, empty = step_kind(control, observations)
         mu, Sigma = self._mu, self._Sigma
         # prediction (Table 10.1, lines 2-5); an empty update adds no control noise
         pose, u1 = mu[None, :3], u[None, :]

@@ -164,15 +164,17 @@ import numpy as np
 from faultlab.config import Option
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
-from faultlab.slam.bookkeeping import UnitSlam, UnitTable
+from faultlab.slam.bookkeeping import (UnitSlam, UnitTable, best_estimate, grown_capacity, normalise_log_weights,
+                                       resample_tail, step_kind)
 from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.sharing import correct_in_sharer_order
 from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
+from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
-           "landmark_rows", "BatchUnsupported"]
+           "landmark_rows", "materialise_particles", "BatchUnsupported"]
 
 
 @dataclass(frozen=True)
@@ -188,17 +190,35 @@ class FastSlamConfig(NoiseConfig):
         Number of particles N (>= 1).
     resample_ratio : float
         Resample when ``N_eff < N / resample_ratio`` (>= 1).
+    association : {"known", "unknown"}
+        ``"known"``: observations carry landmark ids (this module's filter); ``"unknown"``: the ids
+        are hidden and every particle associates observations by maximum likelihood
+        (:mod:`faultlab.slam.association`).  Left out of the options while ``"known"``.
+    new_landmark_sigmas : float
+        Unknown association only: an observation starts a new landmark when its best landmark's
+        likelihood is below that of an innovation this many standard deviations long under the
+        measurement noise (:func:`faultlab.slam.units.new_landmark_log_likelihood`), >= 0.
+        Left out of the options while at its default.
     """
 
     n_particles: int = 200
     resample_ratio: float = 1.5
+    association: str = KNOWN_ASSOCIATION
+    new_landmark_sigmas: float = 3.0
 
     #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
     OPTIONS: ClassVar[dict[str, Option]] = {
         "n_particles": Option("particles", integer=True, bounds={"minimum": 1}),
         **NoiseConfig.OPTIONS,
         "resample_ratio": Option("resample_ratio", bounds={"minimum": 1.0}),
+        "association": Option("association", choices=ASSOCIATIONS, omit_default=True),
+        "new_landmark_sigmas": Option("new_landmark_sigmas", bounds={"minimum": 0.0}, omit_default=True),
     }
+
+    @property
+    def log_p0(self) -> float:
+        """The new-landmark log likelihood of unknown association (:func:`~faultlab.slam.units.new_landmark_log_likelihood`)."""
+        return _units.new_landmark_log_likelihood(self.Q, self.new_landmark_sigmas)
 
 
 @dataclass(frozen=True)
@@ -257,6 +277,15 @@ class Particles:
     landmark_ids: np.ndarray
     means: np.ndarray
     covariances: np.ndarray
+
+
+def materialise_particles(st: ParticleState) -> Particles:
+    """A materialised copy of the particles of ``st`` (means and covariances in column order)."""
+    C = st.n_landmarks
+    rows = landmark_rows(st, np.arange(C))
+    cols = np.arange(C)[None, :]
+    return Particles(st.poses.copy(), np.exp(st.logw), st.ids.copy(), st.mu[rows, cols].copy(),
+                     st.P[rows, cols].copy())
 
 
 #: Positions of the per-particle arguments (leading axis = particles) of each particle unit; the
@@ -370,9 +399,7 @@ class FastSlam(UnitSlam):
             self._t += 1
             return
         steps, cfg, n = self._units(slots), self._config, self._n
-        k = len(observations)
-        u = np.asarray(control, dtype=float)
-        empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
+        u, k, empty = step_kind(control, observations)
         # prediction (Table 13.1, line 4); an empty update adds no control noise
         if empty:
             u_i = np.broadcast_to(u, (slots * n, 2))
@@ -460,12 +487,7 @@ class FastSlam(UnitSlam):
 
     def particles(self, rep: int = 0) -> Particles:
         """A materialised copy of the particles of repetition ``rep`` (means and covariances in column order)."""
-        st = self.filter_state(rep)
-        C = st.n_landmarks
-        rows = landmark_rows(st, np.arange(C))
-        cols = np.arange(C)[None, :]
-        return Particles(st.poses.copy(), np.exp(st.logw), st.ids.copy(), st.mu[rows, cols].copy(),
-                         st.P[rows, cols].copy())
+        return materialise_particles(self.filter_state(rep))
 
     # -- internals: set-up and bookkeeping ---------------------------------------------------------
 
@@ -608,30 +630,21 @@ class FastSlam(UnitSlam):
         self._views = None
 
     def _estimate(self, j: int) -> Estimate:
-        st = self._filter_state(j)
-        ids, xy = self._steps.extract_map(st)
-        i = int(np.argmax(st.logw))
-        return Estimate(st.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+        return best_estimate(self._steps.extract_map, self._filter_state(j))
 
     def _resample(self, j: int, empty: bool) -> None:
         """Effective sample size, resampling decision and resampling of the filter in slot ``j``."""
         steps = self._steps
-        w = np.exp(self._logw[self._slice(j)])
-        n_eff = steps.effective_sample_size(w)
-        idx = steps.resample(w, n_eff, empty, self._streams[j]["resample"], self._config)
-        if idx is not None:
-            given = self._filter_state(j)
-            self._store(j, given, steps.apply_resample(given, np.asarray(idx)))
+        given = self._filter_state(j)
+        st, resampled = resample_tail(steps, given, empty, self._streams[j]["resample"], self._config,
+                                      apply=steps.apply_resample)
+        if resampled:
+            self._store(j, given, st)
             self._n_resampled[self._reps[j]] += 1
 
     def _normalise(self, logw: np.ndarray) -> np.ndarray:
         """Normalised log weights (log-sum-exp) of one filter."""
-        top = logw.max()
-        if not math.isfinite(top):
-            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
-        logw = logw - top
-        logw -= math.log(np.exp(logw).sum())
-        return logw
+        return normalise_log_weights(logw, name=self.name, step=self._t)
 
     def _columns(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Columns of ``ids`` (k,), adding columns for unseen ids; returns (cols, seen)."""
@@ -658,10 +671,9 @@ class FastSlam(UnitSlam):
         return cols, seen
 
     def _grow(self, needed: int) -> None:
-        cap = self._mu.shape[1]
-        if needed <= cap:
+        new_cap = grown_capacity(self._mu.shape[1], needed)
+        if new_cap is None:
             return
-        new_cap = max(2 * cap, needed)
         C = self._ids.size
         bn = self._mu.shape[2]
         mu = np.zeros((2, new_cap, bn))

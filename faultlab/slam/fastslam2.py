@@ -55,20 +55,18 @@ Units: the fields of :class:`FastSlam2Steps`; those shared with FastSLAM 1.0 are
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
-from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam import units2 as _units2
-from faultlab.slam.bookkeeping import LandmarkIndex, UnitSlam, UnitTable
-from faultlab.slam.fastslam import FastSlamConfig, Particles
-from faultlab.slam.protocol import Estimate, Observations
-from faultlab.slam.streams import unit_streams
-from faultlab.slam.units import ParticleState, landmark_rows
+from faultlab.slam.bookkeeping import (LandmarkIndex, ParticleFilterSlam, UnitTable, grown_capacity, linearise,
+                                       normalise_log_weights, sample_pose)
+from faultlab.slam.fastslam import FastSlamConfig, Particles, materialise_particles
+from faultlab.slam.protocol import Observations
+from faultlab.slam.units import ParticleState
 
 __all__ = ["FastSlam2Steps", "REFERENCE_STEPS", "RANDOM_UNITS", "FastSlam2"]
 
@@ -110,7 +108,7 @@ REFERENCE_STEPS = FastSlam2Steps()
 RANDOM_UNITS: tuple[str, ...] = ("sample_proposal", "resample")
 
 
-class FastSlam2(UnitSlam):
+class FastSlam2(ParticleFilterSlam):
     """FastSLAM 2.0 (known correspondences) as a :class:`SlamAdapter`.
 
     Parameters
@@ -125,32 +123,27 @@ class FastSlam2(UnitSlam):
     config_type = FastSlamConfig
     steps_type = FastSlam2Steps
     reference_steps = REFERENCE_STEPS
+    random_units = RANDOM_UNITS
+    map_unit = "extract_map"
+    apply_unit = "apply_resample"
 
     def __init__(self, config: FastSlamConfig | None = None, *, steps: FastSlam2Steps | None = None):
         super().__init__(config, steps=steps)
         self._Q = self._config.Q
         self._M = np.diag([self._config.std_v ** 2, self._config.std_omega ** 2])
-        self._state: ParticleState | None = None
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
         p = self._start_pose(pose, rng)
-        self._streams = unit_streams(rng, RANDOM_UNITS)
-        self._state = ParticleState.initial(p, self._config.n_particles)
+        self._begin(ParticleState.initial(p, self._config.n_particles), rng)
         self._ident = self._state.owner  # arange(N); lineage starts as this very object
         self._index = LandmarkIndex()
-        self._t = 0
-        self._n_resamples = 0
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
-        st = self._require_state()
-        steps, cfg, Q, M = self._steps, self._config, self._Q, self._M
+        st, _, u_n, k, empty = self._begin_step(control, observations)
+        steps, Q, M = self._steps, self._Q, self._M
         n = st.n_particles
-        k = len(observations)
-        u = np.asarray(control, dtype=float)
-        empty = k == 0 and u[0] == 0.0 and u[1] == 0.0
-        u_n = np.broadcast_to(u, (n, 2))
         logw = st.logw
         if empty:
             poses = steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading)
@@ -164,85 +157,36 @@ class FastSlam2(UnitSlam):
                 # the proposal, linearised at the noise-free prediction (Table 13.2, lines 4-15)
                 x_hat = np.asarray(steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading), dtype=float)
                 mu_p, P_p = self._initialise_new(mu, P, new, x_hat, z)
-                zhat, H = steps.predict_measurement(x_hat, mu_p)
-                nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
-                Z = steps.innovation_covariance(H, P_p, Q)
+                H, nu, Z = linearise(steps, x_hat, mu_p, P_p, z, Q)
                 loglik = steps.log_likelihood(nu, Z)
                 _, V = steps.motion_jacobians(st.poses, u_n)
                 lam, eta = steps.proposal_information(steps.pose_jacobian(H), V, Z, nu, known)
             else:
                 lam, eta = np.zeros((n, 2, 2)), np.zeros((n, 2))
-            mean, cov = steps.proposal(lam, eta, M)
-            du = np.asarray(steps.sample_proposal(mean, cov, self._streams["sample_proposal"]), dtype=float)
-            poses = steps.motion_model(st.poses, u_n + du, wrap=steps.wrap_heading)
+            poses, cov = sample_pose(steps, st.poses, u_n, lam, eta, M, self._streams["sample_proposal"])
             if k:
                 # importance weight: the proposal's normaliser (Table 13.2, lines 21-22)
                 logw = np.asarray(steps.combine_weights(st.logw, loglik, known), dtype=float)
                 logw = logw + np.asarray(steps.proposal_correction(lam, eta, cov, M), dtype=float)
-                logw = self._normalised(logw)
+                logw = normalise_log_weights(logw, name=self.name, step=self._t)
                 # landmarks from the sampled pose, as in FastSLAM 1.0 (Table 13.2, lines 17-20)
                 mu_s, P_s = self._initialise_new(mu, P, new, poses, z)
-                zhat, H = steps.predict_measurement(poses, mu_s)
-                nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
-                Z = steps.innovation_covariance(H, P_s, Q)
+                H, nu, Z = linearise(steps, poses, mu_s, P_s, z, Q)
                 mu_new, P_new = steps.ekf_update(mu_s, P_s, H, Z, nu)
                 mu_new, P_new = np.asarray(mu_new, dtype=float), np.asarray(P_new, dtype=float)
                 if new.any():  # new pairs keep their initial values
                     mu_new, P_new = np.copy(mu_new, order="K"), np.copy(P_new, order="K")
                     mu_new[new], P_new[new] = mu_s[new], P_s[new]
                 self._write(st, cols, mu_new, P_new)
-        st = st.replace(poses=np.asarray(poses, dtype=float), logw=logw)
-        w = np.exp(logw)
-        n_eff = steps.effective_sample_size(w)
-        idx = steps.resample(w, n_eff, empty, self._streams["resample"], cfg)
-        if idx is not None:
-            st = steps.apply_resample(st, np.asarray(idx))
-            self._n_resamples += 1
-        self._state = st
-        self._t += 1
-
-    def estimate(self) -> Estimate:
-        st = self._require_state()
-        ids, xy = self._steps.extract_map(st)
-        i = int(np.argmax(st.logw))
-        return Estimate(st.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+        self._finish(st, poses, logw, empty)
 
     # -- diagnostics -----------------------------------------------------------------------------
 
-    @property
-    def n_resamples(self) -> int:
-        """How many updates since :meth:`reset` resampled."""
-        self._require_state()
-        return self._n_resamples
-
-    @property
-    def state(self) -> ParticleState:
-        """The current particle state (read-only use: its arrays are the filter's own)."""
-        return self._require_state()
-
     def particles(self) -> Particles:
         """A materialised copy of all particles (means and covariances in column order)."""
-        st = self._require_state()
-        C = st.n_landmarks
-        rows = landmark_rows(st, np.arange(C))
-        cols = np.arange(C)[None, :]
-        return Particles(st.poses.copy(), np.exp(st.logw), st.ids.copy(), st.mu[rows, cols].copy(),
-                         st.P[rows, cols].copy())
+        return materialise_particles(self._require_state())
 
     # -- internals -------------------------------------------------------------------------------
-
-    def _require_state(self) -> ParticleState:
-        if self._state is None:
-            raise SlamInputError(f"{self.name}: reset() must be called first")
-        return self._state
-
-    def _normalised(self, logw: np.ndarray) -> np.ndarray:
-        top = logw.max()
-        if not math.isfinite(top):
-            raise SlamOutputError(f"{self.name}: particle weights are not finite at step {self._t}")
-        logw = logw - top
-        logw -= math.log(np.exp(logw).sum())
-        return logw
 
     def _columns(self, st: ParticleState, ids: np.ndarray) -> tuple[ParticleState, np.ndarray, np.ndarray]:
         """Storage columns of ``ids`` (k,), adding columns for unseen ids; returns (state, cols, seen)."""
@@ -257,10 +201,9 @@ class FastSlam2(UnitSlam):
     @staticmethod
     def _grow(st: ParticleState, needed: int) -> ParticleState:
         """``st`` with landmark storage for at least ``needed`` columns (capacity doubles)."""
-        cap = st.mu.shape[1]
-        if needed <= cap:
+        new_cap = grown_capacity(st.mu.shape[1], needed)
+        if new_cap is None:
             return st
-        new_cap = max(2 * cap, needed)
         n, C = st.n_particles, st.n_landmarks
         mu, P = _units.empty_means(n, new_cap), _units.empty_covariances(n, new_cap)
         anc = _units.initial_ancestry(n, new_cap)

@@ -12,6 +12,20 @@ Subclasses implement :meth:`SlamAdapter.reset`, :meth:`SlamAdapter.update`
 and :meth:`SlamAdapter.estimate`; :meth:`SlamAdapter.step` validates the input
 first so that bad input raises :class:`SlamInputError` instead of corrupting
 the estimate.
+
+Data association
+----------------
+A SLAM declares :attr:`SlamAdapter.association`.  ``"known"`` (the default): every observation
+carries its landmark's id, and the estimate names its landmarks by those ids.  ``"unknown"``: the
+driver (:func:`run_slam`, :func:`run_slam_batch`) hides the ids -- it passes
+``Observations.without_ids(ranges, bearings)``, whose ``ids`` are all :data:`HIDDEN_ID` and whose
+``hidden`` flag is set -- so the SLAM must associate observations with landmarks itself; its
+estimate labels the landmarks with its own ids (any distinct integers, e.g. 0, 1, ... in order of
+creation), which correspond to nothing in the ground truth.  Such a map is scored by the earth
+mover's distance (:func:`faultlab.metrics.map_errors` with ``association="unknown"``).  The
+scenario files keep the true ids either way (the metrics need them): hiding is the driver's job,
+so one case serves both kinds of SLAM.  A known-association SLAM given hidden ids raises
+:class:`SlamInputError`.
 """
 
 from __future__ import annotations
@@ -24,9 +38,13 @@ from typing import ClassVar
 import numpy as np
 
 from faultlab.errors import SlamInputError, SlamOutputError
+from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION
 
-__all__ = ["Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control", "as_start_pose",
-           "check_generator"]
+__all__ = ["HIDDEN_ID", "Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control",
+           "as_start_pose", "check_generator", "association_of"]
+
+#: The id every observation carries when the driver hides the ids (unknown data association).
+HIDDEN_ID = -1
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,11 +59,15 @@ class Observations:
         Measured bearings relative to the heading, rad, finite (any multiple of 2 pi allowed).
     ids : array_like of int, shape (k,)
         Landmark ids.  ``k`` may be 0.
+    hidden : bool
+        The ids are hidden (unknown data association): ``ids`` are all :data:`HIDDEN_ID`.  Build
+        such observations with :meth:`without_ids`.
     """
 
     ranges: np.ndarray
     bearings: np.ndarray
     ids: np.ndarray
+    hidden: bool = False
 
     def __post_init__(self) -> None:
         r = np.asarray(self.ranges, dtype=float)
@@ -66,7 +88,10 @@ class Observations:
             if r.min() < 0:
                 raise SlamInputError(f"observations: negative range {r[r < 0][0]!r} for landmark "
                                      f"{ids[r < 0][0]}")
-            if ids.size > 1:
+            if self.hidden:
+                if np.any(ids != HIDDEN_ID):
+                    raise SlamInputError(f"observations: hidden ids must all be {HIDDEN_ID}")
+            elif ids.size > 1:
                 s = np.sort(ids)
                 if (s[1:] == s[:-1]).any():
                     raise SlamInputError("observations: a landmark id appears twice in one step")
@@ -80,6 +105,12 @@ class Observations:
     @classmethod
     def empty(cls) -> "Observations":
         return cls(np.empty(0), np.empty(0), np.empty(0, dtype=np.int64))
+
+    @classmethod
+    def without_ids(cls, ranges, bearings) -> "Observations":
+        """Observations whose landmark ids are hidden (unknown data association)."""
+        r = np.asarray(ranges, dtype=float)
+        return cls(r, bearings, np.full(r.shape, HIDDEN_ID, dtype=np.int64), hidden=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,6 +202,10 @@ class SlamAdapter(abc.ABC):
     #: (:func:`run_slam_batch`); a SLAM without it is run one repetition at a time.
     supports_batch: ClassVar[bool] = False
 
+    #: ``"known"``: observations carry landmark ids; ``"unknown"``: the driver hides them and the SLAM
+    #: associates observations itself (see "Data association" in the module docstring).
+    association: ClassVar[str] = KNOWN_ASSOCIATION
+
     @abc.abstractmethod
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
         """Start from the known pose (x, y, theta), forgetting any map.
@@ -205,7 +240,19 @@ class SlamAdapter(abc.ABC):
             observations = Observations.empty()
         elif not isinstance(observations, Observations):
             observations = Observations(*observations)
+        if observations.hidden and len(observations) and association_of(self) != UNKNOWN_ASSOCIATION:
+            raise SlamInputError(f"{_label(self)} needs landmark ids "
+                                 f"(association {association_of(self)!r}) but the observations hide them")
         self.update(u, observations)
+
+
+def association_of(slam) -> str:
+    """The data association a SLAM declares (:attr:`SlamAdapter.association`; ``"known"`` if it declares none)."""
+    value = getattr(slam, "association", KNOWN_ASSOCIATION)
+    if value not in ASSOCIATIONS:
+        raise SlamInputError(f"{_label(slam)}: association must be one of {', '.join(map(repr, ASSOCIATIONS))}, "
+                             f"got {value!r}")
+    return value
 
 
 def _label(slam) -> str:
@@ -214,13 +261,18 @@ def _label(slam) -> str:
 
 
 def _feed(slam: SlamAdapter, scenario) -> None:
-    """Step ``slam`` through the scenario: each step's control and the observations made after it."""
+    """Step ``slam`` through the scenario: each step's control and the observations made after it, with
+    the ids hidden if the SLAM associates observations itself."""
     offsets = scenario.obs_offsets
     controls = scenario.controls
+    hide = association_of(slam) == UNKNOWN_ASSOCIATION
     for t in range(scenario.n_steps):
         a, b = offsets[t], offsets[t + 1]
-        slam.step(controls[t], Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b],
-                                            scenario.obs_ids[a:b]))
+        if hide:
+            obs = Observations.without_ids(scenario.obs_range[a:b], scenario.obs_bearing[a:b])
+        else:
+            obs = Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b], scenario.obs_ids[a:b])
+        slam.step(controls[t], obs)
 
 
 def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estimate:

@@ -8,6 +8,10 @@ the one place its keys, defaults and bounds are defined.  A built-in SLAM writte
 units names its steps table (:attr:`SlamKind.steps`), whose fields are the units a fault can
 replace (:func:`faultlab.faults.registry.applicable_faults`).
 
+``fastslam`` and ``fastslam2`` take ``association = "unknown"``: the ids are hidden and the filter
+associates observations itself (:mod:`faultlab.slam.association`; :attr:`SlamKind.unknown` is the
+adapter of that mode, whose units differ: :func:`SlamKind.steps_for`).
+
 ``fastslam`` also takes ``profile`` (:mod:`faultlab.slam.profiles`: ``"reference"``, the default,
 ``"paper"``, ``"paper_no_aliasing"``): the profile gives the units and the default settings, and the
 table's other keys override the profile's settings.  A non-default profile is kept in the options
@@ -23,6 +27,7 @@ from typing import Any
 
 from faultlab.config import import_object
 from faultlab.errors import ConfigError
+from faultlab.slam.association import FastSlam2Unknown, FastSlamUnknown
 from faultlab.slam.deadreckoning import DeadReckoning
 from faultlab.slam.ekf import EkfSlam, EkfSlamConfig, EkfSlamSteps
 from faultlab.slam.fastslam import FastSlam, FastSlamConfig, FastSlamSteps
@@ -30,6 +35,7 @@ from faultlab.slam.fastslam2 import FastSlam2, FastSlam2Steps
 from faultlab.slam.gtsam import GtsamSlam, GtsamSlamConfig
 from faultlab.slam.profiles import DEFAULT_PROFILE, get_profile
 from faultlab.slam.protocol import SlamAdapter
+from faultlab.vocabulary import KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION
 
 __all__ = ["SlamKind", "BUILTIN_SLAMS", "get_slam_kind", "build_slam", "normalise_options"]
 
@@ -58,6 +64,9 @@ class SlamKind:
         :class:`~faultlab.errors.ConfigError`.
     profiles : bool
         Whether it takes a ``profile`` option (:mod:`faultlab.slam.profiles`; FastSLAM 1.0 only).
+    unknown : callable or None
+        ``unknown(config)``: the adapter of the unknown-data-association mode (``association =
+        "unknown"`` in the options); None if the SLAM has no such mode.
     """
 
     name: str
@@ -67,6 +76,7 @@ class SlamKind:
     steps: type | None = None
     requires: str | None = None
     profiles: bool = False
+    unknown: Callable[..., SlamAdapter] | None = None
 
     @property
     def available(self) -> bool:
@@ -97,7 +107,13 @@ class SlamKind:
                                   f"(it has no settings)")
             return {}
         profile, rest = self._split(options, where=where)
-        self.config.from_options(rest, where=where)  # validates
+        settings = self.config.from_options(rest, where=where)  # validates
+        if getattr(settings, "association", KNOWN_ASSOCIATION) == UNKNOWN_ASSOCIATION:
+            if self.unknown is None:
+                raise ConfigError(f"{where}.association: {self.name!r} has no unknown-association mode")
+            if profile is not None and profile.name != DEFAULT_PROFILE:
+                raise ConfigError(f"{where}.association: 'unknown' cannot be combined with profile "
+                                  f"{profile.name!r} (the profiles are known-association filters)")
         defaults = (self.config() if profile is None else profile.config).to_options()
         named = {} if profile is None or profile.name == DEFAULT_PROFILE else {"profile": profile.name}
         return {**named, **defaults, **rest}
@@ -108,10 +124,24 @@ class SlamKind:
             return None
         return self.config.from_options(self._split(options)[1])
 
+    def association(self, options: Mapping[str, Any]) -> str:
+        """The data association of validated ``options``: ``"known"`` or ``"unknown"``."""
+        settings = self.settings(options)
+        return getattr(settings, "association", KNOWN_ASSOCIATION)
+
+    def steps_for(self, options: Mapping[str, Any]) -> type | None:
+        """The steps table of the SLAM ``options`` build (the unknown-association mode has its own)."""
+        if self.association(options) == UNKNOWN_ASSOCIATION:
+            return self.unknown.steps_type
+        return self.steps
+
     def build(self, options: Mapping[str, Any]) -> SlamAdapter:
         if self.config is None:
             return self.adapter()
         profile, rest = self._split(options)
+        settings = self.config.from_options(rest)
+        if getattr(settings, "association", KNOWN_ASSOCIATION) == UNKNOWN_ASSOCIATION:
+            return self.unknown(settings)
         if profile is None:
             return self.adapter(self.config.from_options(rest))
         return self.adapter(self.config.from_options(rest), steps=profile.steps)
@@ -121,9 +151,9 @@ class SlamKind:
 BUILTIN_SLAMS: dict[str, SlamKind] = {
     k.name: k for k in (
         SlamKind("fastslam", "the reference FastSLAM 1.0 (known correspondences)", FastSlam, FastSlamConfig,
-                 FastSlamSteps, profiles=True),
+                 FastSlamSteps, profiles=True, unknown=FastSlamUnknown),
         SlamKind("fastslam2", "FastSLAM 2.0: poses sampled from the proposal that includes the observations",
-                 FastSlam2, FastSlamConfig, FastSlam2Steps),
+                 FastSlam2, FastSlamConfig, FastSlam2Steps, unknown=FastSlam2Unknown),
         SlamKind("ekf", "EKF-SLAM: one joint Gaussian over the pose and every landmark", EkfSlam, EkfSlamConfig,
                  EkfSlamSteps),
         SlamKind("dead_reckoning", "odometry only: the baseline any SLAM should beat", DeadReckoning),

@@ -407,3 +407,47 @@ def test_the_executors_tune_glibcs_allocator_once(tmp_path):
     execute_job(JobSpec(JobKey(1, "random", 1, "baseline", 0), str(info.path), exp.slam, seed=1, timeout_s=30.0))
     assert execute_module._allocator_tuned is True  # set by the executor, in this (worker) process
     assert tune_allocator() is True
+
+
+# -- every built-in SLAM runs the smoke experiment; unknown association is scored by EMD ----------
+
+
+def _smoke_with(slam: dict, tmp_path, name: str):
+    """The shipped smoke experiment with another ``[slam]`` table, cut to one case of 30 steps."""
+    from faultlab.runner.experiment import load_experiment, parse_experiment
+
+    data = load_experiment("smoke").to_dict()
+    data.update(slam=slam, suites={"fixed": 1}, n_steps=30)
+    data.pop("metric")  # the SLAM's association chooses it
+    exp = parse_experiment(data, source=f"smoke [{name}]")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FaultNotApplicableWarning)
+        summary = run_experiment(exp, tmp_path / name, jobs=1, progress=False)
+    return exp, summary, load_results(tmp_path / name)
+
+
+@pytest.mark.parametrize("slam", [
+    {"name": "fastslam", "particles": 10}, {"name": "fastslam2", "particles": 10}, {"name": "ekf"},
+    pytest.param({"name": "gtsam"}, marks=pytest.mark.skipif(
+        __import__("importlib").util.find_spec("gtsam") is None, reason="gtsam is not installed"))],
+    ids=lambda s: s["name"])
+def test_the_smoke_experiment_runs_with_every_builtin_slam(slam, tmp_path):
+    exp, summary, df = _smoke_with(slam, tmp_path, slam["name"])
+    assert summary.complete and (df.status == "ok").all()
+    assert exp.metric == "rms" and df.rms_mm.notna().all()
+    assert "baseline" in set(df.variant)
+
+
+def test_a_slam_without_ids_is_scored_by_emd(tmp_path):
+    slam = {"name": "fastslam", "particles": 10, "association": "unknown"}
+    exp, summary, df = _smoke_with(slam, tmp_path, "unknown")
+    assert exp.metric == "emd" and summary.complete and (df.status == "ok").all()
+    assert df.rms_mm.isna().all() and (df.emd_mm > 0).all()
+    # the stored EMD is the one of the same estimate scored directly, without alignment
+    from faultlab.metrics import earth_movers_distance
+    from faultlab.slam import run_slam
+    row = df[df.variant == "baseline"].iloc[0]
+    sc = load_scenario(sorted((tmp_path / "unknown" / "cases").rglob("*.npz"))[0])
+    seed = slam_seed(exp.seed, int(row.run), row.suite, int(row.case), int(row.rep))
+    est = run_slam(exp.slam.build(), sc, rng=np.random.default_rng(seed))
+    assert row.emd_mm == pytest.approx(1000 * earth_movers_distance(sc.landmarks, est.landmarks))

@@ -183,3 +183,19 @@ def test_slam_profile_is_validated_and_hashed(tmp_path):
     assert paper.slam.build().steps.replaced()  # the paper's units, not the reference's
     with pytest.raises(ConfigError, match=r"paper.toml \(with slam=.*slam.profile: unknown FastSLAM profile"):
         exp.replace(slam={"profile": "nope"})
+
+
+def test_unknown_association_selects_the_emd_and_refuses_the_rms():
+    from faultlab.runner.experiment import parse_experiment
+
+    base = {"seed": 1, "suites": {"fixed": 1}, "slam": {"name": "fastslam2", "association": "unknown"}}
+    exp = parse_experiment(base, source="u.toml")
+    assert exp.metric == "emd" and exp.slam.association == "unknown"
+    assert parse_experiment({**base, "metric": "emd"}, source="u.toml").metric == "emd"
+    with pytest.raises(ConfigError, match=r"u.toml: metric must be 'emd' with slam.association = 'unknown'"):
+        parse_experiment({**base, "metric": "rms"}, source="u.toml")
+    known = parse_experiment({"seed": 1, "suites": {"fixed": 1}}, source="k.toml")
+    assert known.metric == "rms" and known.slam.association == "known"
+    assert "association" not in dict(known.slam.options)  # existing experiments keep their hash
+    with pytest.raises(ConfigError, match="slam.association must be one of 'known', 'unknown'"):
+        parse_experiment({**base, "slam": {"name": "fastslam", "association": "sometimes"}}, source="u.toml")

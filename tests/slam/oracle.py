@@ -54,6 +54,26 @@ def measurement(pose, mu):
     return zhat, H
 
 
+def new_landmark(pose, r, b, Q):
+    """Mean and covariance of a landmark first seen at range ``r``, bearing ``b`` (Table 13.1, lines 9-11)."""
+    a = pose[2] + b
+    mu = np.array([pose[0] + r * math.cos(a), pose[1] + r * math.sin(a)])
+    _, H = measurement(pose, mu)
+    Hi = np.linalg.inv(H)
+    return mu, Hi @ Q @ Hi.T
+
+
+def landmark_ekf(pose, mu, P, r, b, Q):
+    """The landmark's EKF update with observation (r, b) and the observation's likelihood (lines 13-19)."""
+    zhat, H = measurement(pose, mu)
+    S = H @ P @ H.T + Q
+    Si = np.linalg.inv(S)
+    K = P @ H.T @ Si
+    nu = np.array([r - zhat[0], wrap(b - zhat[1])])
+    likelihood = math.exp(-0.5 * nu @ Si @ nu) / math.sqrt(np.linalg.det(2.0 * math.pi * S))
+    return mu + K @ nu, (np.eye(2) - K @ H) @ P, likelihood
+
+
 class OracleFastSlam:
     """Per-particle loop FastSLAM 1.0 with the same settings as :class:`faultlab.slam.FastSlamConfig`."""
 
@@ -89,24 +109,18 @@ class OracleFastSlam:
             for r, b, lm_id in zip(ranges, bearings, ids):
                 lm_id = int(lm_id)
                 if lm_id not in p.lm:
-                    a = p.pose[2] + b
-                    mu = np.array([p.pose[0] + r * math.cos(a), p.pose[1] + r * math.sin(a)])
-                    _, H = measurement(p.pose, mu)
-                    Hi = np.linalg.inv(H)
-                    p.lm[lm_id] = (mu, Hi @ self.Q @ Hi.T)
+                    p.lm[lm_id] = new_landmark(p.pose, r, b, self.Q)
                 else:
-                    mu, P = p.lm[lm_id]
-                    zhat, H = measurement(p.pose, mu)
-                    S = H @ P @ H.T + self.Q
-                    Si = np.linalg.inv(S)
-                    K = P @ H.T @ Si
-                    nu = np.array([r - zhat[0], wrap(b - zhat[1])])
-                    p.w *= math.exp(-0.5 * nu @ Si @ nu) / math.sqrt(np.linalg.det(2.0 * math.pi * S))
-                    p.lm[lm_id] = (mu + K @ nu, (np.eye(2) - K @ H) @ P)
+                    mu, P, likelihood = landmark_ekf(p.pose, *p.lm[lm_id], r, b, self.Q)
+                    p.w *= likelihood
+                    p.lm[lm_id] = (mu, P)
+        self.finish_step(empty)
+
+    def finish_step(self, empty: bool) -> None:
+        """Normalise the weights, then resample when the effective sample size is low (never for an empty update)."""
         total = sum(p.w for p in self.particles)
         for p in self.particles:
             p.w /= total
-        # resampling when the effective sample size is low (never for an empty update)
         n_eff = 1.0 / sum(p.w ** 2 for p in self.particles)
         if not empty and n_eff < self.n / self.ratio:
             self.resample()
