@@ -11,7 +11,11 @@ a campaign (``faultlab run``) or on its own (``faultlab generate``):
   same for every variant (common random numbers: a difference between a faulty variant and the
   baseline comes from the fault, not from the SLAM's own noise) -- except the A/A control
   ``baseline_replica``, whose key ends in an extra ``REPLICA`` tag so that its seeds are
-  independent of the baseline's.
+  independent of the baseline's;
+- a strategies study (``faultlab study``) draws the suites of (strategy, size) from
+  ``spawn_key=(STUDY, code("draw"), code(strategy), size)`` and resamples a strategy's pool for the
+  bootstrap from ``spawn_key=(STUDY, code("bootstrap"), code(strategy))`` (the mutants from
+  ``code("mutants")``), so adding a strategy or a size changes no other draw.
 
 ``code(name)`` is :func:`stable_code`, a 32-bit hash of the name, so adding, removing or
 reordering suites changes no other suite's draws.
@@ -23,10 +27,10 @@ import hashlib
 
 import numpy as np
 
-__all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed"]
+__all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed", "study_seed_sequence"]
 
 # Spawn-key tags: what a seed is for.
-_SUITE, _CASE, _SLAM, _REPLICA = 1, 2, 3, 4
+_SUITE, _CASE, _SLAM, _REPLICA, _STUDY = 1, 2, 3, 4, 5
 
 
 def stable_code(name: str) -> int:
@@ -57,3 +61,14 @@ def slam_seed(root: int, run: int, suite: str, case: int, rep: int, *, replica: 
     """
     key = (_SLAM, run, stable_code(suite), case, rep) + ((_REPLICA,) if replica else ())
     return _seed(root, *key)
+
+
+def study_seed_sequence(root: int, purpose: str, *key: str | int) -> np.random.SeedSequence:
+    """The SeedSequence of one random stream of a strategies study (``purpose`` and ``key`` name it).
+
+    ``study_seed_sequence(seed, "draw", strategy, size)`` draws the suites of a strategy and size;
+    ``study_seed_sequence(seed, "bootstrap", strategy)`` resamples a strategy's pool.  Names enter
+    through :func:`stable_code`, integers as they are.
+    """
+    codes = tuple(stable_code(k) if isinstance(k, str) else int(k) for k in (purpose, *key))
+    return np.random.SeedSequence(entropy=int(root), spawn_key=(_STUDY, *codes))

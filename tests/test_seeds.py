@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from faultlab.seeds import case_seed, slam_seed, stable_code, suite_seed_sequence
+from faultlab.seeds import case_seed, slam_seed, stable_code, study_seed_sequence, suite_seed_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -57,3 +57,13 @@ def test_the_replica_seed_is_independent_of_the_baseline_seed_and_keyed_like_it(
     assert a != b
     ss = np.random.SeedSequence(entropy=7, spawn_key=(3, 1, stable_code("random"), 2, 3, 4))
     assert b == int(ss.generate_state(1, np.uint64)[0]) >> 1
+
+
+def test_study_streams_follow_their_spawn_keys_and_are_distinct():
+    a = np.random.default_rng(study_seed_sequence(7, "draw", "pairwise", 4)).random(3)
+    ss = np.random.SeedSequence(7, spawn_key=(5, stable_code("draw"), stable_code("pairwise"), 4))
+    np.testing.assert_array_equal(a, np.random.default_rng(ss).random(3))
+    keys = [("draw", "pairwise", 4), ("draw", "pairwise", 5), ("draw", "random", 4), ("bootstrap", "pairwise"),
+            ("mutants",)]
+    states = {tuple(study_seed_sequence(7, *k).generate_state(2)) for k in keys}
+    assert len(states) == len(keys)

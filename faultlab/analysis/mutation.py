@@ -51,6 +51,7 @@ from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.contingency_tables import mcnemar
 from statsmodels.stats.proportion import proportion_confint
 
+from faultlab.analysis.bundle import TableBundle
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
@@ -65,7 +66,7 @@ from faultlab.stats.verdict import case_verdicts, min_pairs
 from faultlab.vocabulary import BASELINE, JobStatus
 
 __all__ = ["MUTATION_FILE", "MUTATION_TABLES", "MutationExperiment", "MutationAnalysis", "MutationRun",
-           "load_mutation_experiment", "parse_selector", "run_mutation", "analyse_mutation", "suite_kills"]
+           "load_mutation_experiment", "parse_selector", "selection_from_table", "run_mutation", "analyse_mutation", "suite_kills"]
 
 #: File in the output directory recording the selection and the level of a mutation campaign.
 MUTATION_FILE = "mutation.json"
@@ -129,10 +130,7 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
     alpha = float(table.get("alpha", 0.05))
     if not 0 < alpha < 1:
         raise ConfigError(f"{path}: [mutation].alpha must lie in (0, 1), got {alpha}")
-    selection = select_mutants(units=table.get("units"), operators=table.get("operators"), ids=table.get("ids"),
-                               sample=table.get("sample"), seed=int(table.get("seed", 0)))
-    if not selection.run:
-        raise ConfigError(f"{path}: [mutation] selects no live mutant")
+    selection = selection_from_table(table, source=str(path))
     if "variants" in data:
         raise ConfigError(f"{path}: variants: a mutation experiment's variants come from [mutation]")
     data["variants"] = [BASELINE, *map(mutant_variant, selection.run)]
@@ -145,6 +143,19 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
                               f"{n} cases of suite {s.kind!r} a case is judged at {alpha / n:.4g}, which the exact "
                               f"sign-flip test reaches only from K = {min_pairs(alpha / n)}")
     return mexp
+
+
+def selection_from_table(table: dict, *, source: str) -> MutantSelection:
+    """The mutants a ``[mutation]`` table selects (``units``, ``operators``, ``ids``, ``sample``,
+    ``seed``; see :func:`~faultlab.mutation.campaign.select_mutants`); ConfigError if none is live."""
+    unknown = set(table) - set(_MUTATION_KEYS)
+    if unknown:
+        raise ConfigError(f"{source}: [mutation]: unknown key(s) {sorted(unknown)}; known: {', '.join(_MUTATION_KEYS)}")
+    selection = select_mutants(units=table.get("units"), operators=table.get("operators"), ids=table.get("ids"),
+                               sample=table.get("sample"), seed=int(table.get("seed", 0)))
+    if not selection.run:
+        raise ConfigError(f"{source}: [mutation] selects no live mutant")
+    return selection
 
 
 @dataclass(frozen=True)
@@ -272,7 +283,7 @@ def clopper_pearson(k: int, n: int, alpha: float = 0.05) -> tuple[float, float]:
 
 
 @dataclass(frozen=True, eq=False)
-class MutationAnalysis:
+class MutationAnalysis(TableBundle):
     """Outcomes, scores and suite comparisons of a mutation campaign (frozen; save/load as CSV + JSON).
 
     Attributes
@@ -291,28 +302,9 @@ class MutationAnalysis:
     mcnemar: pd.DataFrame
     meta: dict = field(default_factory=dict)
 
-    def table(self, name: str) -> pd.DataFrame:
-        if name not in MUTATION_TABLES:
-            raise ResultsError(f"unknown mutation table {name!r}; known: {', '.join(MUTATION_TABLES)}")
-        return getattr(self, name)
-
-    def save(self, directory: str | Path) -> Path:
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        for name in MUTATION_TABLES:
-            self.table(name).to_csv(d / f"{name}.csv", index=False)
-        (d / "mutation_meta.json").write_text(json.dumps(self.meta, indent=1, sort_keys=True, default=str))
-        return d
-
-    @classmethod
-    def load(cls, directory: str | Path) -> "MutationAnalysis":
-        d = Path(directory)
-        try:
-            tables = {n: pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""]) for n in MUTATION_TABLES}
-            meta = json.loads((d / "mutation_meta.json").read_text())
-        except (OSError, ValueError) as exc:
-            raise ResultsError(f"{d}: not a saved mutation analysis ({exc})") from exc
-        return cls(**tables, meta=meta)
+    TABLES = MUTATION_TABLES
+    META_FILE = "mutation_meta.json"
+    WHAT = "mutation analysis"
 
 
 def _outcomes(results: pd.DataFrame, sel: dict, metric: str, suites: dict | None = None) -> pd.DataFrame:

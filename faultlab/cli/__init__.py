@@ -27,6 +27,7 @@ COMMAND_MODULES = (
     "faultlab.cli.calibrate",  # calibrate
     "faultlab.cli.mutate",  # mutate list, mutate show
     "faultlab.cli.metamorphic",  # metamorphic
+    "faultlab.cli.study",  # study run, study report
 )
 
 

@@ -5,20 +5,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from faultlab.cli.options import add_execution_options, positive_int
+from faultlab.cli.options import add_execution_options, add_verb_group, positive_int, print_paths
 
 __all__ = ["register"]
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "mutate", help="mutation analysis: list the mutants of a SLAM's units, show one",
+    sub = add_verb_group(
+        subparsers, "mutate", help="mutation analysis: list the mutants of a SLAM's units, show one",
         description="Generate mutants of the replaceable units of a SLAM from their source (one small "
                     "change per mutant, classic and numpy-aware operators) and screen them at the unit "
                     "level: stillborn (does not compile or always raises), equivalent (same bytecode or "
                     "bit-identical unit outputs) and duplicate mutants never need a campaign.")
-    sub = p.add_subparsers(dest="mutate_command", metavar="VERB")
-    p.set_defaults(func=lambda args: _usage(p))
 
     ls = sub.add_parser("list", help="list the mutants (by default only the live ones) and count each class",
                         description="One line per mutant: id, unit, line, operator and the changed line; then "
@@ -76,11 +74,6 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="screen afresh instead of reading the cached screening results")
 
 
-def _usage(p: argparse.ArgumentParser) -> int:
-    p.print_help()
-    return 2
-
-
 def _list(args: argparse.Namespace) -> int:
     # imported when the command runs: libcst and the scenario generator take a second to import
     from faultlab.mutation import list_mutants
@@ -110,6 +103,4 @@ def _run(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from faultlab.report.mutation import write_mutation_report
 
-    for path in write_mutation_report(args.results, args.reports):
-        print(path)
-    return 0
+    return print_paths(write_mutation_report(args.results, args.reports))

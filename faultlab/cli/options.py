@@ -6,7 +6,7 @@ import argparse
 
 from faultlab.vocabulary import BACKENDS
 
-__all__ = ["BACKENDS", "positive_int", "add_execution_options"]
+__all__ = ["BACKENDS", "positive_int", "add_execution_options", "add_verb_group", "print_paths"]
 
 
 def positive_int(text: str) -> int:
@@ -31,3 +31,26 @@ def add_execution_options(parser: argparse.ArgumentParser) -> None:
                              "results directory to <dir>/previous-<time>/")
     parser.add_argument("--no-progress", action="store_true",
                         help="no progress output (neither the bar on a terminal nor the log lines elsewhere)")
+
+
+def add_verb_group(subparsers, name: str, *, help: str, description: str):
+    """A command with verbs (``faultlab NAME VERB``); without a verb it prints its help and exits with 2.
+
+    Returns the verbs' subparsers (``add_parser`` for each verb).
+    """
+    p = subparsers.add_parser(name, help=help, description=description)
+    sub = p.add_subparsers(dest=f"{name}_command", metavar="VERB")
+
+    def usage(args: argparse.Namespace) -> int:
+        p.print_help()
+        return 2
+
+    p.set_defaults(func=usage)
+    return sub
+
+
+def print_paths(paths) -> int:
+    """Print the files a command wrote, one per line; exit code 0."""
+    for path in paths:
+        print(path)
+    return 0

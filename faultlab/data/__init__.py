@@ -5,8 +5,9 @@ The package carries the one canonical copy of
 * the shipped experiment files (``experiments/<name>.toml``): ``paper`` (the paper's
   protocol, Sec. VII), ``paper-k10`` (the same with K = 10 repetitions, the statistical
   detection rule and the A/A replica), ``smoke`` (a campaign of seconds), ``slams`` (the
-  cross-SLAM protocol at reduced scale, run once per SLAM by ``reports/slams/run.py``) and
-  ``space_table1`` (Table I written out in the parameter-space override format);
+  cross-SLAM protocol at reduced scale, run once per SLAM by ``reports/slams/run.py``),
+  ``space_table1`` (Table I written out in the parameter-space override format), ``mutation``
+  (the mutation study) and ``study`` (the test-design strategies study, ``faultlab study``);
 * the paper's replication data (``paper/``): the raw RMS errors behind Table II
   (``paper_table2_rms.csv``) and its printed "Detected Faults" percentages
   (``paper_table2_reported.csv``).
@@ -23,7 +24,7 @@ Every command that takes an experiment or a parameter-space file accepts a shipp
 
 >>> from faultlab.data import experiment_names, resolve_experiment
 >>> experiment_names()
-('paper-k10', 'paper', 'smoke', 'space_table1')
+('mutation', 'paper-k10', 'paper', 'slams', 'smoke', 'space_table1', 'study')
 >>> resolve_experiment("paper").name
 'paper.toml'
 

@@ -20,7 +20,7 @@ REPO = Path(__file__).resolve().parents[2]
 PACKAGE_DATA = REPO / "faultlab" / "data"
 #: The repository's top-level folders and the package folders they link into.
 LINKED = {"experiments": PACKAGE_DATA / "experiments", "paper_repro": PACKAGE_DATA / "paper"}
-SHIPPED = ("mutation", "paper-k10", "paper", "slams", "smoke", "space_table1")  # sorted by file name: "-" < "."
+SHIPPED = ("mutation", "paper-k10", "paper", "slams", "smoke", "space_table1", "study")  # sorted by file name: "-" < "."
 
 
 def _files(folder: Path) -> list[str]:
@@ -64,9 +64,9 @@ def test_a_directory_named_like_a_shipped_experiment_does_not_hide_it(tmp_path, 
 
 def test_unknown_name_is_one_error_listing_the_shipped_names(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    with pytest.raises(ConfigError, match=r"^unknown experiment file 'papr': .*\(mutation, paper-k10, paper, slams, smoke, space_table1\)$"):
+    with pytest.raises(ConfigError, match=r"^unknown experiment file 'papr': .*\(mutation, paper-k10, paper, slams, smoke, space_table1, study\)$"):
         data.resolve_experiment("papr")
-    with pytest.raises(ConfigError, match=r"^unknown experiment 'papr'.*mutation, paper-k10, paper, slams, smoke, space_table1"):
+    with pytest.raises(ConfigError, match=r"^unknown experiment 'papr'.*mutation, paper-k10, paper, slams, smoke, space_table1, study"):
         data.experiment_file("papr")
     with pytest.raises(ConfigError, match=r"^unknown parameter-space file 'tabel1'.*space_table1"):
         load_space("tabel1")
@@ -78,7 +78,7 @@ def test_a_missing_path_cannot_be_read_and_the_error_lists_the_shipped_names(tmp
     monkeypatch.chdir(tmp_path)
     for arg in ("paper.toml", "experiments/other.toml", tmp_path / "x" / "paper.toml"):
         with pytest.raises(ConfigError, match=r"experiment file cannot be read \(no such file; .*"
-                                              r"mutation, paper-k10, paper, slams, smoke, space_table1\)"):
+                                              r"mutation, paper-k10, paper, slams, smoke, space_table1, study\)"):
             data.resolve_experiment(arg)
 
 

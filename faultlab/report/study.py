@@ -1,0 +1,230 @@
+"""Report of a strategies study: Markdown, the analysis tables as CSV and one figure.
+
+Rendered from one :class:`~faultlab.analysis.study.StudyAnalysis`: detection probability of a
+drawn suite against its size per strategy (one panel per fault, one for the mutation score), the
+mutation scores at equal size with their paired comparisons, the power statement, the run time
+and the machine load.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from faultlab.analysis.study import StudyAnalysis, analyse_study
+from faultlab.report.figures import PAGE_SIZE, suite_palette
+from faultlab.report.mutation import markdown_table
+from faultlab.runner.progress import format_duration
+from faultlab.vocabulary import SUITE_ORDER, ordered
+
+__all__ = ["FIGURE_FILE", "REPORT_FILE", "detection_figure", "study_markdown", "write_study_report"]
+
+#: File names written by :func:`write_study_report`.
+FIGURE_FILE = "detection_vs_size.png"
+REPORT_FILE = "study.md"
+# strategies differ by marker and line style too, not by colour alone
+_MARKERS = ("o", "s", "^", "D", "v", "P")
+_LINES = ("-", "--", "-.", ":")
+
+
+def _pct(x: float) -> str:
+    return "n/a" if x is None or not np.isfinite(x) else f"{100 * x:.0f} %"
+
+
+def _interval(rate: float, lo: float, hi: float) -> str:
+    return f"{_pct(rate)} ({100 * lo:.0f}-{100 * hi:.0f})"
+
+
+def _p(p: float) -> str:
+    return "n/a" if not np.isfinite(p) else (f"{p:.2g}" if p >= 0.001 else "<0.001")
+
+
+def detection_figure(analysis: StudyAnalysis, *, figsize=PAGE_SIZE) -> Figure:
+    """Detection probability of a drawn suite vs its size, per strategy (lines) with 95 % bootstrap
+    bands; one panel per fault and a last panel with the expected mutation score."""
+    det = analysis.detection[analysis.detection["kind"] == "fault"]
+    faults = list(dict.fromkeys(det["variant"]))
+    strategies = ordered(det["strategy"], SUITE_ORDER)
+    palette = suite_palette(strategies)
+    panels = faults + (["mutation score"] if not analysis.scores.empty else [])
+    ncols = min(4, len(panels))
+    nrows = math.ceil(len(panels) / ncols)
+    fig = Figure(figsize=figsize, layout="constrained")
+    axes = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False).ravel()
+    for ax, panel in zip(axes, panels):
+        frame = analysis.scores.rename(columns={"score": "rate"}) if panel == "mutation score" else \
+            det[det["variant"] == panel]
+        for k, s in enumerate(strategies):
+            rows = frame[frame["strategy"] == s].sort_values("size")
+            ax.plot(rows["size"], rows["rate"], marker=_MARKERS[k % len(_MARKERS)], ms=4,
+                    ls=_LINES[k % len(_LINES)], color=palette[s], label=s)
+            ax.fill_between(rows["size"], rows["ci_low"], rows["ci_high"], color=palette[s], alpha=0.15, lw=0)
+        ax.set_title(panel, fontsize=9)
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(alpha=0.3)
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
+    for ax in axes[(nrows - 1) * ncols:]:
+        ax.set_xlabel("suite size (cases)")
+    for ax in axes[::ncols]:
+        ax.set_ylabel("P(suite detects)")
+    axes[0].legend(fontsize=7, loc="lower right")
+    m = analysis.meta
+    fig.suptitle(f"Detection probability of a suite drawn from each strategy's pool (95 % bootstrap over pool "
+                 f"cases; K = {m['repetitions']}, {m['study']['multiplicity']} at alpha = {m['study']['alpha']})",
+                 fontsize=10)
+    return fig
+
+
+def _detection_md(analysis: StudyAnalysis) -> pd.DataFrame:
+    det = analysis.detection[analysis.detection["kind"] == "fault"]
+    strategies = ordered(det["strategy"], SUITE_ORDER)
+    rows = []
+    for (fault, n), g in det.groupby(["variant", "size"], sort=False):
+        g = g.set_index("strategy")
+        rows.append({"fault": fault, "size": n} | {s: _interval(g.at[s, "rate"], g.at[s, "ci_low"], g.at[s, "ci_high"])
+                                                   for s in strategies if s in g.index})
+    return pd.DataFrame(rows)
+
+
+def _scores_md(analysis: StudyAnalysis) -> pd.DataFrame:
+    s = analysis.scores
+    strategies = ordered(s["strategy"], SUITE_ORDER)
+    rows = []
+    for n, g in s.groupby("size"):
+        g = g.set_index("strategy")
+        rows.append({"size": n} | {st: _interval(g.at[st, "score"], g.at[st, "ci_low"], g.at[st, "ci_high"])
+                                   for st in strategies if st in g.index})
+    return pd.DataFrame(rows)
+
+
+def _comparisons_md(analysis: StudyAnalysis) -> pd.DataFrame:
+    c = analysis.comparisons
+    return pd.DataFrame({
+        "size": c["size"], "a vs b": [f"{a} vs {b}" for a, b in zip(c["strategy_a"], c["strategy_b"])],
+        "score a - b (95 % CI)": [f"{100 * d:+.0f} pp ({100 * lo:+.0f} to {100 * hi:+.0f})"
+                                  for d, lo, hi in zip(c["diff"], c["ci_low"], c["ci_high"])],
+        "p (bootstrap)": [_p(p) for p in c["p_boot"]], "p (Holm)": [_p(p) for p in c["p_holm"]],
+        "detectable at 80 %": [f"{100 * d:.0f} pp" if np.isfinite(d) else "n/a (no spread)" for d in c["mdd80"]],
+        "only a / only b (mean)": [f"{a:.1f} / {b:.1f}" for a, b in zip(c["only_a"], c["only_b"])],
+        "McNemar p (median)": [_p(p) for p in c["mcnemar_p_median"]],
+        "drawn pairs with McNemar p <= 0.05": [_pct(x) for x in c["mcnemar_share_sig"]]})
+
+
+def _run_text(meta: dict) -> str:
+    load = meta.get("load") or {}
+    sessions = meta.get("sessions", [])
+    started = [s.get("started") for s in sessions if s.get("started")]
+    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(min(started))) if started else "unknown"
+    counts = ", ".join(f"{v} {k}" for k, v in sorted(meta["status_counts"].items()))
+    text = (f"Run: {meta['n_jobs']} SLAM executions ({counts}), started {when}, wall time "
+            f"{format_duration(meta['wall_time_s'])} over {len(sessions)} session(s) with "
+            f"{sessions[0].get('jobs', '?') if sessions else '?'} worker processes on a machine with "
+            f"{sessions[0].get('cpus', '?') if sessions else '?'} cores; SLAM time (sum of the jobs' wall times) "
+            f"{format_duration(meta['slam_time_s'])}.")
+    if load:
+        text += (f" The machine was shared: 1-minute load average {load['load1_mean']:.1f} on average "
+                 f"(min {load['load1_min']:.1f}, max {load['load1_max']:.1f}; {load['samples']} samples every "
+                 f"30 s), so the run had a fraction of the cores and the wall time overstates the cost.")
+    return text
+
+
+def _failures_text(meta: dict) -> str:
+    def listing(counts: dict) -> str:
+        return ", ".join(f"{v} ({n})" for v, n in counts.items()) or "none"
+
+    return (f"Pool cases the baseline itself failed on (cannot be judged for any variant): "
+            f"{meta.get('cannot_judge_cases', 0)}. Variants that alone crashed, with the number of pool cases "
+            f"(detections): {listing(meta.get('crash_cases', {}))}. Variants that alone ran out of time "
+            f"(untested cases, not detections): {listing(meta.get('timeout_cases', {}))}.")
+
+
+def _mdd_text(comparisons: pd.DataFrame) -> str:
+    mdd = comparisons["mdd80"].dropna() if not comparisons.empty else pd.Series(dtype=float)
+    if mdd.empty:
+        return ""
+    return (f"For mutation scores the smallest difference detectable with 80 % power ranges from "
+            f"{100 * mdd.min():.0f} to {100 * mdd.max():.0f} pp over the comparisons with any bootstrap spread "
+            f"(`comparisons.csv`, `mdd80`).")
+
+
+def study_markdown(analysis: StudyAnalysis) -> str:
+    """The study's Markdown report."""
+    m = analysis.meta
+    st = m["study"]
+    pools = ", ".join(f"{k} {v}" for k, v in m["pool"].items())
+    pool_sizes = dict(zip(analysis.power["strategy"], analysis.power["pool"]))
+    slam = m["slam"]
+    p = analysis.power
+    md = [
+        "# Which test-design strategy detects faults with fewer cases?", "",
+        ("**Quick scale (reduced).** " if m.get("quick") else "")
+        + f"Case pools: {', '.join(f'{s} {n} cases' for s, n in pool_sizes.items())} ({m['runs']} run(s) of the "
+        f"generators with suites of {pools} cases). SLAM: {slam.get('name')} with {slam.get('particles')} particles, "
+        f"{m['n_steps']} active steps per case (plus the case's inactivity steps), K = {m['repetitions']} "
+        f"repetitions per (case, variant) with common random numbers, time limit {m['timeout_s']:g} s per execution. "
+        f"Variants: {len(m['faults'])} built-in faults ({', '.join(m['faults'])}) and {len(m['mutants'])} live "
+        f"mutants sampled from the screened catalogue of the reference FastSLAM 1.0.", "",
+        _run_text(m), "",
+        _failures_text(m), "",
+        "## Method", "",
+        f"Every pool case ran once per variant; per (case, variant) the kill matrix (`kill_matrix.csv`) keeps the exact "
+        f"one-sided paired sign-flip p value over the K repetitions, whether the variant alone crashed or timed out, "
+        f"and the paper rule's flag. A suite of n cases detects a fault / kills a mutant when the variant crashes on "
+        f"one of its cases or when {st['multiplicity'].capitalize()}'s procedure over its n cases rejects one at "
+        f"family-wise alpha = {st['alpha']} (for 'some case rejects', Holm and Bonferroni coincide: min p <= alpha/n; "
+        f"untestable cases count as p = 1). For every strategy and size {st['draws']} suites were drawn from the pool "
+        f"without replacement (Monte Carlo error at most {100 * 0.5 / math.sqrt(st['draws']):.1f} pp; the exact "
+        f"hypergeometric value is in `detection.csv`, `rate_exact`). Because every case of a suite of n is judged "
+        f"at alpha / n, and K = {m['repetitions']} repetitions give p values no smaller than 2^-K = "
+        f"{2.0 ** -m['repetitions']:.4f}, a variant that only some repetitions reveal can become *less* likely to "
+        f"be detected as the suite grows: the price of controlling the suite's false alarms.", "",
+        "**What the intervals mean.** Drawn suites share pool cases, so their number is not the sample size: the "
+        "unit of evidence is the pool case. Every interval is a 95 % percentile bootstrap over the strategy's pool "
+        f"cases ({st['bootstrap']} replicates): how much the probability could move had the generator drawn another "
+        "pool of the same size. Mutation scores also resample the mutants (the same resample for every strategy, "
+        "so comparisons are paired over mutants). The bootstrap treats pool cases as independent; the cases of one "
+        "covering array or each-choice suite are balanced rather than independent, for which it is conservative. "
+        "Intervals do not cover other SLAM settings: these are figures of the reduced SLAM above.", "",
+        "## Detection probability of a drawn suite, per fault (95 % bootstrap interval)", "",
+        markdown_table(_detection_md(analysis)),
+        f"![detection probability vs suite size]({FIGURE_FILE})", "",
+    ]
+    if not analysis.scores.empty:
+        md += ["## Expected mutation score of a drawn suite (95 % bootstrap interval over cases and mutants)", "",
+               markdown_table(_scores_md(analysis)),
+               "## Strategies compared at equal size on the same mutants", "",
+               "Score difference with its bootstrap interval and two-sided bootstrap p (Holm over the strategy "
+               "pairs of a size); the smallest difference detectable with 80 % power from the bootstrap standard "
+               "error; and exact McNemar tests over the mutants for the suites drawn with the same index (statsmodels), "
+               "summarised over the drawn pairs (they concern a typical pair of suites, not the strategies).", "",
+               markdown_table(_comparisons_md(analysis))]
+    md += ["## Power", "",
+           f"Suites drawn per strategy and size: {st['draws']}; bootstrap replicates: {st['bootstrap']}; pool sizes: "
+           + ", ".join(f"{s} {n}" for s, n in pool_sizes.items()) + ". "
+           f"A size-1 detection probability is the share of a pool's cases that detect; with these pools a two-sample "
+           f"test at 0.05 detects with 80 % power a difference between two strategies of about "
+           f"{100 * p['mdd80_at_0.5'].max():.0f} pp around 50 % and {100 * p['mdd80_at_0.1'].max():.0f} pp around 10 %. "
+           + _mdd_text(analysis.comparisons), "",
+           markdown_table(p.round(3)),
+           "Files: `kill_matrix.csv` (per pool case and variant), `detection.csv` (every variant, strategy and size; "
+           "`rate_paper` = the same under the paper's rule without correction), `scores.csv`, `comparisons.csv`, "
+           "`power.csv`, `study_meta.json`.", ""]
+    return "\n".join(md)
+
+
+def write_study_report(results: str | Path, reports: str | Path) -> list[Path]:
+    """Analyse the study in ``results`` and write its CSV tables, ``study.md`` and the figure to ``reports``."""
+    analysis = analyse_study(results)
+    out = Path(reports)
+    analysis.save(out)
+    paths = [out / f"{name}.csv" for name in ("kill_matrix", "detection", "scores", "comparisons", "power")]
+    (out / REPORT_FILE).write_text(study_markdown(analysis))
+    fig = detection_figure(analysis)
+    fig.savefig(out / FIGURE_FILE, dpi=110)
+    return paths + [out / REPORT_FILE, out / FIGURE_FILE]

@@ -1,0 +1,55 @@
+"""The study report renders what the analysis holds: tables, figure panels, intervals in the text."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from faultlab.analysis.study import StudyAnalysis, StudySpec, _power
+from faultlab.report.study import detection_figure, study_markdown
+from faultlab.stats.killmatrix import compare_scores, detection_table, evaluate_suites, score_table
+from tests.stats.test_killmatrix import hand_matrix
+
+
+def _analysis() -> StudyAnalysis:
+    km = hand_matrix()
+    spec = StudySpec(sizes=(1, 2, 4), draws=200, bootstrap=100, seed=4)
+    ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
+                         mutants=["mutant:x"])
+    det = detection_table(ev, km.variants)
+    det.insert(1, "kind", ["mutant" if v.startswith("mutant:") else "fault" for v in det["variant"]])
+    meta = {"study": spec.to_dict(), "quick": True, "pool": {"systematic": 6, "random": 5}, "runs": 1,
+            "repetitions": 7, "n_steps": 60, "slam": {"name": "fastslam", "particles": 20}, "timeout_s": 10.0,
+            "faults": ["fault_a", "fault_b"], "mutants": ["mutant:x"], "n_jobs": 100, "status_counts": {"ok": 100},
+            "slam_time_s": 12.0, "wall_time_s": 60.0, "sessions": [{"started": 0.0, "jobs": 2, "cpus": 2}],
+            "load": {"samples": 3, "load1_mean": 5.0, "load1_min": 4.0, "load1_max": 6.0}}
+    return StudyAnalysis(kill_matrix=km.to_frame(), detection=det, scores=score_table(ev),
+                         comparisons=compare_scores(ev), power=_power(ev.pool_sizes, spec), meta=meta)
+
+
+def test_markdown_quotes_every_strategy_rate_with_its_interval_and_states_the_power():
+    a = _analysis()
+    md = study_markdown(a)
+    row = a.detection[(a.detection["variant"] == "fault_b") & (a.detection["strategy"] == "random")
+                      & (a.detection["size"] == 2)].iloc[0]
+    cell = f"{100 * row['rate']:.0f} % ({100 * row['ci_low']:.0f}-{100 * row['ci_high']:.0f})"
+    assert "| fault_b | 2 |" in md and cell in md
+    assert "Quick scale (reduced)" in md and "load average 5.0" in md
+    assert "## Power" in md and "## Strategies compared at equal size" in md
+    assert md.count("systematic vs random") == 3          # one comparison per size
+
+
+def test_figure_has_one_panel_per_fault_and_one_for_the_mutation_score(tmp_path):
+    a = _analysis()
+    fig = detection_figure(a)
+    titles = [ax.get_title() for ax in fig.axes if ax.get_visible()]
+    assert titles == ["fault_a", "fault_b", "mutation score"]
+    fig.savefig(tmp_path / "f.png")
+    assert (tmp_path / "f.png").stat().st_size > 1000
+
+
+def test_saved_analysis_loads_back_equal(tmp_path):
+    a = _analysis()
+    a.save(tmp_path)
+    b = StudyAnalysis.load(tmp_path)
+    pd.testing.assert_frame_equal(a.detection, b.detection, check_dtype=False)
+    assert b.meta["study"]["sizes"] == [1, 2, 4]

@@ -1,0 +1,257 @@
+"""The kill matrix and suites drawn from it, against brute force, statsmodels and scipy."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.stats import hypergeom
+from statsmodels.stats.multitest import multipletests
+
+from faultlab.errors import ConfigError, ResultsError
+from faultlab.metrics.detection import DetectionRule
+from faultlab.stats.killmatrix import (KillMatrix, bootstrap_probabilities, compare_scores, detection_probability,
+                                       detection_table, draw_suites, evaluate_suites, judge_suite, kill_matrix,
+                                       score_table,
+                                       strong_cases, suite_detects, suite_rejections)
+
+ALPHA = 0.05
+
+
+def hand_matrix() -> KillMatrix:
+    """Two pools (6 and 5 cases) x 3 variants, p values chosen around alpha / n for n = 1..4."""
+    nan = np.nan
+    p = np.array([
+        # fault_a  fault_b  mutant:x
+        [0.004, 0.30, 0.02],
+        [0.40, 0.011, nan],      # mutant crashed here
+        [0.02, 0.90, 0.60],
+        [nan, nan, nan],         # baseline failed: cannot judge
+        [0.70, 0.013, 0.0039],
+        [0.06, 0.50, 0.30],
+        # second pool
+        [0.001, 0.20, 0.80],
+        [0.30, 0.30, 0.30],
+        [0.024, 0.026, 0.012],
+        [0.90, 0.005, nan],      # mutant crashed
+        [0.50, 0.70, 0.70],
+    ])
+    crash = np.zeros(p.shape, bool)
+    crash[1, 2] = crash[9, 2] = True
+    judged = np.ones(p.shape, bool)
+    judged[3] = False
+    paper = p < 0.015
+    cases = pd.DataFrame({"strategy": ["systematic"] * 6 + ["random"] * 5,
+                          "run": 1, "case": list(range(1, 7)) + list(range(1, 6))})
+    return KillMatrix(cases=cases, variants=("fault_a", "fault_b", "mutant:x"), p=p, crash=crash,
+                      timeout=np.zeros(p.shape, bool), judged=judged,
+                      paper=paper, mean_diff_mm=np.where(np.isnan(p), np.nan, 100.0))
+
+
+def textbook_holm(p, alpha) -> list[bool]:
+    """Holm (1979), step by step: the i-th smallest p value (0-based) is compared with alpha / (m - i)
+    until the first one that is larger; NaN counts as 1."""
+    p = [1.0 if np.isnan(x) else float(x) for x in p]
+    m = len(p)
+    reject = [False] * m
+    for i, j in enumerate(sorted(range(m), key=lambda k: p[k])):
+        if p[j] > alpha / (m - i):
+            break
+        reject[j] = True
+    return reject
+
+
+def brute_force_detects(p_cases, crash_cases, alpha) -> bool:
+    """A suite detects: some case crashed, or Holm over all its cases rejects one."""
+    return bool(np.any(crash_cases)) or any(textbook_holm(p_cases, alpha))
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_suite_evaluation_matches_brute_force_over_every_subset(n):
+    km = hand_matrix()
+    ev = evaluate_suites(km, [n], draws=400, bootstrap=50, seed=3, mutants=["mutant:x"])
+    for strategy in km.strategies:
+        rows = km.rows(strategy)
+        subsets = list(itertools.combinations(rows, n))
+        for j in range(len(km.variants)):
+            share = np.mean([brute_force_detects(km.p[list(s), j], km.crash[list(s), j], ALPHA) for s in subsets])
+            # the exact probability is the share of all C(N, n) suites that detect
+            assert ev.exact[(strategy, n)][j] == pytest.approx(share, abs=1e-12)
+            # the drawn suites estimate it (binomial Monte Carlo error, 400 draws: 5 SE < 0.13)
+            assert abs(ev.detects[(strategy, n)][:, j].mean() - share) <= 5 * np.sqrt(share * (1 - share) / 400) + 1e-12
+
+
+def test_every_drawn_suite_is_judged_as_brute_force_judges_it():
+    km = hand_matrix()
+    rows = km.rows("systematic")
+    idx = draw_suites(rows.size, 3, 50, rng=np.random.default_rng(5))
+    det = suite_detects(np.moveaxis(km.p[rows][idx], 1, -1), np.moveaxis(km.crash[rows][idx], 1, -1), alpha=ALPHA)
+    for d, suite in enumerate(idx):
+        for j in range(3):
+            assert det[d, j] == brute_force_detects(km.p[rows][suite, j], km.crash[rows][suite, j], ALPHA)
+
+
+def test_any_suite_of_pool_cases_is_judged_as_brute_force_judges_it():
+    km = hand_matrix()
+    for suite in ([0], [2, 5], [0, 2, 3, 5], [6, 8, 9], list(range(11))):
+        table = judge_suite(km, suite)
+        for j, v in enumerate(km.variants):
+            row = table[table["variant"] == v].iloc[0]
+            assert row["detected"] == brute_force_detects(km.p[suite, j], km.crash[suite, j], ALPHA)
+            assert row["rejecting"] == sum(textbook_holm(km.p[suite, j], ALPHA))
+            assert row["paper"] == km.paper[suite, j].any()
+    with pytest.raises(ConfigError, match="distinct"):
+        judge_suite(km, [1, 1])
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.one_of(st.floats(0, 1), st.just(float("nan"))), min_size=1, max_size=12),
+       st.sampled_from([0.01, 0.05, 0.1]))
+def test_holm_and_bonferroni_match_the_textbook_and_agree_on_some_rejection(p, alpha):
+    p = np.array(p)
+    filled = np.where(np.isnan(p), 1.0, p)
+    holm = suite_rejections(p, alpha=alpha, method="holm")
+    bonf = suite_rejections(p, alpha=alpha, method="bonferroni")
+    assert holm.tolist() == textbook_holm(p, alpha)
+    assert bonf.tolist() == (filled <= alpha / filled.size).tolist()
+    assert holm.any() == bonf.any() == (filled.min() <= alpha / filled.size)
+    assert holm.sum() >= bonf.sum()  # Holm is uniformly more powerful case by case
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_holm_and_bonferroni_match_statsmodels(seed):
+    rng = np.random.default_rng(seed)
+    p = rng.random((4, 7)) ** 3   # many small p values
+    for method in ("holm", "bonferroni"):
+        expected = np.array([multipletests(row, alpha=0.05, method=method)[0] for row in p])
+        np.testing.assert_array_equal(suite_rejections(p, alpha=0.05, method=method), expected)
+
+
+def test_holm_rejects_more_cases_than_bonferroni_on_a_hand_example():
+    p = np.array([0.01, 0.015, 0.03, 0.5])  # Holm: <= 0.0125, <= 0.0167, 0.03 > 0.025 stops; Bonferroni: 0.0125
+    assert suite_rejections(p, alpha=ALPHA, method="holm").tolist() == [True, True, False, False]
+    assert suite_rejections(p, alpha=ALPHA, method="bonferroni").tolist() == [True, False, False, False]
+    with pytest.raises(ConfigError, match="multiplicity"):
+        suite_rejections(p, method="hochberg")
+
+
+@pytest.mark.parametrize("n_pool,h,n", [(10, 0, 3), (10, 1, 3), (10, 4, 5), (22, 7, 12), (12, 12, 1), (8, 5, 8)])
+def test_detection_probability_is_the_hypergeometric_chance_of_at_least_one(n_pool, h, n):
+    assert detection_probability(h, n_pool, n) == pytest.approx(1 - hypergeom.pmf(0, n_pool, h, n), abs=1e-12)
+
+
+def test_strong_cases_are_crashes_or_p_at_most_alpha_over_n():
+    km = hand_matrix()
+    s2 = strong_cases(km, 2, alpha=ALPHA)
+    assert s2[0, 0] and s2[2, 0] and not s2[5, 0]          # 0.004, 0.02 <= 0.025 < 0.06
+    assert not strong_cases(km, 4, alpha=ALPHA)[2, 0]     # 0.02 > 0.0125
+    assert s2[1, 2] and s2[9, 2]                          # crashes
+    assert not s2[3].any()                                # cannot judge
+    np.testing.assert_array_equal(strong_cases(km, 2, paper=True), km.paper)
+
+
+def test_draw_suites_draws_distinct_cases_uniformly():
+    idx = draw_suites(6, 3, 6000, rng=np.random.default_rng(1))
+    assert idx.shape == (6000, 3)
+    assert all(len(set(r)) == 3 for r in idx.tolist())
+    counts = np.bincount(idx.ravel(), minlength=6) / idx.size
+    np.testing.assert_allclose(counts, 1 / 6, atol=0.01)
+    with pytest.raises(ConfigError, match="pool of 6"):
+        draw_suites(6, 7, 1, rng=np.random.default_rng(1))
+
+
+def test_bootstrap_is_certain_when_every_or_no_case_is_strong():
+    rng = np.random.default_rng(0)
+    strong = np.column_stack([np.ones(7, bool), np.zeros(7, bool)])
+    b = bootstrap_probabilities(strong, 3, 20, rng=rng)
+    assert b.shape == (20, 2) and (b[:, 0] == 1).all() and (b[:, 1] == 0).all()
+
+
+def test_same_seed_same_suites_and_intervals_other_seed_other_suites():
+    km = hand_matrix()
+    kw = dict(draws=300, bootstrap=200, mutants=["mutant:x"])
+    a = evaluate_suites(km, [1, 2, 4], seed=11, **kw)
+    b = evaluate_suites(km, [1, 2, 4], seed=11, **kw)
+    c = evaluate_suites(km, [1, 2, 4], seed=12, **kw)
+    for key in a.detects:
+        np.testing.assert_array_equal(a.detects[key], b.detects[key])
+        np.testing.assert_array_equal(a.boot[key], b.boot[key])
+    pd.testing.assert_frame_equal(detection_table(a, km.variants), detection_table(b, km.variants))
+    assert any(not np.array_equal(a.boot[k], c.boot[k]) for k in a.boot)
+    # adding a size changes no other size's draws (one stream per strategy and size)
+    d = evaluate_suites(km, [2], seed=11, **kw)
+    for s in km.strategies:
+        np.testing.assert_array_equal(d.detects[(s, 2)], a.detects[(s, 2)])
+        np.testing.assert_array_equal(d.boot[(s, 2)], a.boot[(s, 2)])
+
+
+def test_scores_and_comparisons_are_consistent_with_the_drawn_suites():
+    km = hand_matrix()
+    ev = evaluate_suites(km, [1, 3], draws=500, bootstrap=300, seed=2, mutants=["mutant:x"])
+    scores = score_table(ev)
+    det = detection_table(ev, km.variants)
+    for _, r in scores.iterrows():
+        # one mutant: the score is its detection rate
+        rate = det[(det["variant"] == "mutant:x") & (det["strategy"] == r["strategy"]) & (det["size"] == r["size"])]
+        assert r["score"] == pytest.approx(float(rate["rate"].iloc[0]))
+        assert r["ci_low"] <= r["ci_high"]
+    comp = compare_scores(ev)
+    assert set(comp["size"]) == {1, 3} and (comp["p_holm"] >= comp["p_boot"] - 1e-12).all()
+    row = comp[comp["size"] == 1].iloc[0]
+    assert row["diff"] == pytest.approx(row["score_a"] - row["score_b"])
+    assert 0 <= row["mcnemar_p_median"] <= 1
+
+
+def _results(diffs: dict, *, k: int = 6) -> pd.DataFrame:
+    """Runner-shaped results: baseline error 1000 mm, variant = baseline + diff per repetition (or a crash)."""
+    rows = []
+    for (suite, case), per_variant in diffs.items():
+        for rep in range(k):
+            rows.append(dict(run=1, suite=suite, case=case, rep=rep, variant="baseline", status="ok",
+                             rms_mm=1000.0 + rep, emd_mm=1.0, runtime_s=0.1))
+            for variant, d in per_variant.items():
+                if d == "crash":
+                    rows.append(dict(run=1, suite=suite, case=case, rep=rep, variant=variant, status="crash",
+                                     rms_mm=np.nan, emd_mm=np.nan, runtime_s=0.1))
+                else:
+                    rows.append(dict(run=1, suite=suite, case=case, rep=rep, variant=variant, status="ok",
+                                     rms_mm=1000.0 + rep + d[rep], emd_mm=1.0, runtime_s=0.1))
+    return pd.DataFrame(rows)
+
+
+def _sign_flip_p(d) -> float:
+    """Textbook enumeration of the 2^K sign patterns: share with mean >= the observed mean."""
+    d = np.asarray(d, float)
+    signs = np.array(list(itertools.product([1, -1], repeat=d.size)))
+    return float(np.mean((signs * d).mean(axis=1) >= d.mean() - 1e-9))
+
+
+def test_kill_matrix_holds_the_exact_p_value_crash_and_paper_flag_of_every_case():
+    up = [400, 500, 450, 600, 700, 300]        # every repetition worse by > 250 mm and >= 25 %
+    mixed = [5, -3, 8, 2, -1, 4]
+    res = _results({("random", 1): {"f": up, "g": mixed}, ("random", 2): {"f": mixed, "g": "crash"},
+                    ("pairwise", 1): {"f": [0] * 6, "g": "crash"}})
+    timed_out = (res["suite"] == "pairwise") & (res["variant"] == "g") & (res["rep"] == 2)
+    res.loc[timed_out, "status"] = "timeout"
+    km = kill_matrix(res, rule=DetectionRule())
+    assert km.strategies == ("random", "pairwise") or set(km.strategies) == {"random", "pairwise"}
+    frame = km.to_frame().set_index(["strategy", "case", "variant"])
+    assert frame.loc[("random", 1, "f"), "p"] == pytest.approx(_sign_flip_p(up))
+    assert frame.loc[("random", 1, "g"), "p"] == pytest.approx(_sign_flip_p(mixed))
+    assert frame.loc[("pairwise", 1, "f"), "p"] == 1.0
+    assert bool(frame.loc[("random", 2, "g"), "crash"]) and np.isnan(frame.loc[("random", 2, "g"), "p"])
+    assert bool(frame.loc[("random", 1, "f"), "paper"]) and not bool(frame.loc[("random", 1, "g"), "paper"])
+    assert frame["judged"].all()
+    # a timeout is kept apart from crashes: it detects only with timeouts_detect
+    assert bool(frame.loc[("pairwise", 1, "g"), "timeout"]) and not bool(frame.loc[("pairwise", 1, "g"), "crash"])
+    j, row = km.variants.index("g"), int(np.flatnonzero((km.cases["strategy"] == "pairwise").to_numpy())[0])
+    assert not strong_cases(km, 1)[row, j] and strong_cases(km, 1, timeouts_detect=True)[row, j]
+    back = KillMatrix.from_frame(km.to_frame())
+    np.testing.assert_array_equal(back.p, km.p)
+    np.testing.assert_array_equal(back.crash, km.crash)
+    with pytest.raises(ResultsError, match="cases x"):
+        KillMatrix.from_frame(km.to_frame().iloc[1:])
