@@ -31,7 +31,7 @@ from faultlab.report.build import ReportFiles, build_report
 from faultlab.report.fidelity import FidelityFiles, write_fidelity
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
-__all__ = ["ReproduceResult", "reproduce", "quick_overrides", "profile_overrides", "default_out",
+__all__ = ["ReproduceResult", "reproduce", "RebuiltReport", "rebuild_report", "quick_overrides", "profile_overrides", "default_out",
            "default_reports", "ablation_dir", "run_ablation", "DEFAULT_EXPERIMENT", "QUICK_PARTICLES", "QUICK_STEPS",
            "ABLATION_PROFILE", "DEFAULT_ABLATION_RUNS", "ABLATION_VARIANTS"]
 
@@ -208,6 +208,33 @@ def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RU
         dirs[arm.name] = ablation_dir(out) / arm.name
         run_experiment(arm_experiment, dirs[arm.name], jobs=jobs, backend=backend, progress=progress)
     return compute_ablation(dirs)
+
+
+@dataclass(frozen=True)
+class RebuiltReport:
+    """What :func:`rebuild_report` wrote: the report and the comparison with the paper's raw data."""
+
+    report: ReportFiles
+    fidelity: FidelityFiles
+
+    def __str__(self) -> str:
+        return "\n".join([str(self.report), str(self.fidelity)])
+
+
+def rebuild_report(results: str | Path, reports: str | Path) -> RebuiltReport:
+    """Write the report of saved results as :func:`reproduce` does, running nothing.
+
+    The same files and PDF pages as :func:`reproduce` without ``ablation`` (the ablation's arms are
+    separate campaigns: ``reproduce --ablation`` resumes them and adds their pages).
+
+    Raises
+    ------
+    ResultsError
+        No results store at ``results``, or it holds no rows.
+    """
+    fid = fidelity(results)  # computed once, rendered as fidelity.md and as pages of report.pdf
+    report = build_report(results, reports, fidelity=fid)
+    return RebuiltReport(report=report, fidelity=write_fidelity(fid, reports, None))
 
 
 def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Path | None = None,
