@@ -3,8 +3,6 @@
 import dataclasses
 import importlib.metadata
 import pickle
-import sys
-import textwrap
 import warnings
 
 import numpy as np
@@ -31,6 +29,7 @@ from faultlab.faults import (
     resolve_variant,
     step_names,
 )
+from tests.distributions import make_distribution
 
 
 
@@ -175,27 +174,7 @@ def test_resolve_fault_accepts_names_instances_and_import_paths():
 # --------------------------------------------------------------------------- real entry-point metadata
 
 def _make_distribution(site, dist, version, entry_points, modules):
-    """Write a minimal installed distribution (``*.dist-info``) plus its modules into ``site``."""
-    info = site / f"{dist.replace('-', '_')}-{version}.dist-info"
-    info.mkdir(parents=True)
-    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: {version}\n")
-    lines = [f"[{ENTRY_POINT_GROUP}]"] + [f"{k} = {v}" for k, v in entry_points.items()]
-    (info / "entry_points.txt").write_text("\n".join(lines) + "\n")
-    for mod, source in modules.items():
-        (site / f"{mod}.py").write_text(textwrap.dedent(source))
-
-
-@pytest.fixture
-def site(tmp_path, monkeypatch):
-    """A fresh directory on sys.path for throwaway distributions; their modules are unloaded after."""
-    path = tmp_path / "site"
-    path.mkdir()
-    monkeypatch.syspath_prepend(str(path))
-    before = set(sys.modules)
-    yield path
-    for name in set(sys.modules) - before:
-        if getattr(sys.modules[name], "__file__", "") and str(path) in sys.modules[name].__file__:
-            del sys.modules[name]
+    make_distribution(site, dist, ENTRY_POINT_GROUP, entry_points, modules, version=version)
 
 
 GOOD_PLUGIN = """

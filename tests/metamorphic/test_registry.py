@@ -1,7 +1,5 @@
 """Relation plugins are discovered through real entry-point metadata; bad ones are reported, not fatal."""
 
-import sys
-import textwrap
 
 import pytest
 
@@ -14,28 +12,11 @@ from faultlab.metamorphic import (
     get_relation,
     load_relation_plugins,
 )
+from tests.distributions import make_distribution
 
 
 def _make_distribution(site, dist, entry_points, modules):
-    info = site / f"{dist.replace('-', '_')}-1.0.dist-info"
-    info.mkdir(parents=True)
-    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: 1.0\n")
-    lines = [f"[{RELATION_ENTRY_POINT_GROUP}]"] + [f"{k} = {v}" for k, v in entry_points.items()]
-    (info / "entry_points.txt").write_text("\n".join(lines) + "\n")
-    for mod, source in modules.items():
-        (site / f"{mod}.py").write_text(textwrap.dedent(source))
-
-
-@pytest.fixture
-def site(tmp_path, monkeypatch):
-    path = tmp_path / "site"
-    path.mkdir()
-    monkeypatch.syspath_prepend(str(path))
-    before = set(sys.modules)
-    yield path
-    for name in set(sys.modules) - before:
-        if getattr(sys.modules[name], "__file__", "") and str(path) in sys.modules[name].__file__:
-            del sys.modules[name]
+    make_distribution(site, dist, RELATION_ENTRY_POINT_GROUP, entry_points, modules)
 
 
 PLUGIN = """
