@@ -221,11 +221,12 @@ class RebuiltReport:
         return "\n".join([str(self.report), str(self.fidelity)])
 
 
-def rebuild_report(results: str | Path, reports: str | Path) -> RebuiltReport:
+def rebuild_report(results: str | Path, reports: str | Path, *,
+                   ablation: AblationResult | None = None) -> RebuiltReport:
     """Write the report of saved results as :func:`reproduce` does, running nothing.
 
-    The same files and PDF pages as :func:`reproduce` without ``ablation`` (the ablation's arms are
-    separate campaigns: ``reproduce --ablation`` resumes them and adds their pages).
+    The same files and PDF pages as :func:`reproduce`; the ablation's pages only when its result is
+    given (its arms are separate campaigns: ``reproduce --ablation`` resumes them).
 
     Raises
     ------
@@ -233,8 +234,8 @@ def rebuild_report(results: str | Path, reports: str | Path) -> RebuiltReport:
         No results store at ``results``, or it holds no rows.
     """
     fid = fidelity(results)  # computed once, rendered as fidelity.md and as pages of report.pdf
-    report = build_report(results, reports, fidelity=fid)
-    return RebuiltReport(report=report, fidelity=write_fidelity(fid, reports, None))
+    report = build_report(results, reports, fidelity=fid, ablation=ablation)
+    return RebuiltReport(report=report, fidelity=write_fidelity(fid, reports, ablation))
 
 
 def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Path | None = None,
@@ -308,9 +309,7 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
                              progress=progress)
     abl = (run_ablation(experiment, out, runs=ablation_runs, suites=ablation_suites, jobs=jobs, backend=backend,
                         progress=progress) if ablation else None)
-    fid = fidelity(out)  # computed once, rendered as fidelity.md and as pages of report.pdf
-    report = build_report(out, reports, fidelity=fid, ablation=abl)
-    fid_files = write_fidelity(fid, reports, abl)
+    written = rebuild_report(out, reports, ablation=abl)
     abl_files = write_ablation(abl, reports) if abl is not None else None
-    return ReproduceResult(experiment=experiment, summary=summary, report=report, fidelity=fid_files, out=out,
-                           wall_time_s=time.perf_counter() - start, ablation=abl_files)
+    return ReproduceResult(experiment=experiment, summary=summary, report=written.report, fidelity=written.fidelity,
+                           out=out, wall_time_s=time.perf_counter() - start, ablation=abl_files)
