@@ -47,8 +47,9 @@ from faultlab.config import check_number
 from faultlab.errors import ConfigError, SlamProcessError
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_start_pose, check_generator
 
-__all__ = ["PROTOCOL_VERSION", "ProcessSlamConfig", "ProcessSlam", "ReplyRule", "transcript", "reset_message",
-           "step_message", "estimate_from_reply", "STDERR_TAIL"]
+__all__ = ["PROTOCOL_VERSION", "RULES", "ProcessSlamConfig", "ProcessSlam", "Program", "ReplyRule", "transcript",
+           "reset_message", "step_message", "estimate_from_reply", "encode", "parse_reply", "describe_status",
+           "STDERR_TAIL"]
 
 #: Version of the protocol spoken by :class:`ProcessSlam`, sent in every ``reset``.
 PROTOCOL_VERSION = 1
@@ -150,19 +151,20 @@ class ProcessSlamConfig:
 
 
 # ------------------------------------------------------------------ messages
-def _dump(message: dict) -> str:
+def encode(message: dict) -> str:
+    """One protocol line (no newline): compact JSON, no NaN."""
     return json.dumps(message, separators=(",", ":"), allow_nan=False)
 
 
 def reset_message(pose, *, seed: int) -> str:
     """The ``reset`` line (no newline) for start pose ``pose`` (3,) and integer ``seed``."""
     p = as_start_pose(pose, where="process SLAM reset")
-    return _dump({"type": "reset", "protocol": PROTOCOL_VERSION, "pose": p.tolist(), "seed": int(seed)})
+    return encode({"type": "reset", "protocol": PROTOCOL_VERSION, "pose": p.tolist(), "seed": int(seed)})
 
 
 def step_message(t: int, control, observations: Observations) -> str:
     """The ``step`` line (no newline) of step ``t``: control (2,) and the step's observations."""
-    return _dump({"type": "step", "t": int(t), "control": np.asarray(control, dtype=float).tolist(),
+    return encode({"type": "step", "t": int(t), "control": np.asarray(control, dtype=float).tolist(),
                   "ranges": observations.ranges.tolist(), "bearings": observations.bearings.tolist(),
                   "ids": observations.ids.tolist()})
 
@@ -180,8 +182,8 @@ def transcript(scenario, *, seed: int) -> Iterator[str]:
         a, b = int(off[t]), int(off[t + 1])
         obs = Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b], scenario.obs_ids[a:b])
         yield step_message(t, scenario.controls[t], obs)
-    yield _dump({"type": "estimate"})
-    yield _dump({"type": "bye"})
+    yield encode({"type": "estimate"})
+    yield encode({"type": "bye"})
 
 
 def _broken(rule: str, detail: str, *, where: str) -> SlamProcessError:
@@ -190,7 +192,7 @@ def _broken(rule: str, detail: str, *, where: str) -> SlamProcessError:
 
 def estimate_from_reply(line: str, *, where: str = "process SLAM") -> Estimate:
     """The :class:`Estimate` of an ``estimate`` reply line; :class:`SlamProcessError` naming the broken rule."""
-    reply = _parse(line, where=where)
+    reply = parse_reply(line, where=where)
     _expect_type(reply, "estimate", where=where)
     pose = reply.get("pose")
     if (not isinstance(pose, list) or len(pose) != 3
@@ -219,7 +221,8 @@ def _short(value, n: int = 80) -> str:
     return text if len(text) <= n else text[:n] + "..."
 
 
-def _parse(line: str, *, where: str) -> dict:
+def parse_reply(line: str, *, where: str) -> dict:
+    """A reply line as a dict; :class:`SlamProcessError` if it is no JSON object or an ``error`` reply."""
     try:
         reply = json.loads(line)
     except ValueError:
@@ -240,9 +243,9 @@ def _expect_type(reply: dict, kind: str, *, where: str) -> None:
 
 # ------------------------------------------------------------------ the child process
 def describe_status(code: int | None) -> str:
-    """``"exit status 3"``, ``"killed by SIGKILL"`` or ``"still running"`` for a Popen return code."""
+    """``"exit status 3"``, ``"killed by SIGKILL"`` or ``"still running (...)"`` for a Popen return code."""
     if code is None:
-        return "still running"
+        return "still running (then stopped by faultlab)"
     if code < 0:
         try:
             return f"killed by {signal.Signals(-code).name}"
@@ -251,8 +254,8 @@ def describe_status(code: int | None) -> str:
     return f"exit status {code}"
 
 
-class _Child:
-    """One running program: writes request lines, reads reply lines with a deadline, keeps stderr in a file."""
+class Program:
+    """One running program (started by the constructor): writes request lines, reads reply lines with a deadline, keeps stderr in a file."""
 
     def __init__(self, config: ProcessSlamConfig):
         self.label = shlex.join(config.command)
@@ -327,7 +330,7 @@ class _Child:
     def bye(self, *, timeout_s: float) -> int | None:
         """Send ``bye`` and wait for the exit; its return code (None if it did not exit in time: killed)."""
         try:
-            self.send(_dump({"type": "bye"}), deadline=time.monotonic() + timeout_s, what="bye")
+            self.send(encode({"type": "bye"}), deadline=time.monotonic() + timeout_s, what="bye")
         except SlamProcessError:
             return self.proc.poll()
         try:
@@ -388,7 +391,7 @@ class ProcessSlam(SlamAdapter):
         if not config.command:
             raise ConfigError("ProcessSlam: config.command is empty")
         self._config = config
-        self._child: _Child | None = None
+        self._child: Program | None = None
         self._t = 0
         self._deadline = math.inf
 
@@ -428,12 +431,12 @@ class ProcessSlam(SlamAdapter):
         check_generator(rng, where=self.name)
         line = reset_message(pose, seed=int(rng.integers(0, SEED_BOUND)))
         self.close()
-        self._child = _Child(self._config)
+        self._child = Program(self._config)
         self._t = 0
         self._deadline = time.monotonic() + self._config.execution_timeout_s
         reply = self._request(line, what="reset")
         try:
-            parsed = _parse(reply, where=self.name)
+            parsed = parse_reply(reply, where=self.name)
             _expect_type(parsed, "ready", where=self.name)
             if parsed.get("protocol") != PROTOCOL_VERSION:
                 raise _broken("ready-protocol", f"ready reply has protocol {_short(parsed.get('protocol'))}, "
@@ -448,7 +451,7 @@ class ProcessSlam(SlamAdapter):
         t = self._t
         reply = self._request(step_message(t, control, observations), what=f"step {t}")
         try:
-            parsed = _parse(reply, where=self.name)
+            parsed = parse_reply(reply, where=self.name)
             _expect_type(parsed, "ack", where=self.name)
             if parsed.get("t") != t:
                 raise _broken("ack-step", f"ack of step {t} has t = {_short(parsed.get('t'))}", where=self.name)
@@ -460,7 +463,7 @@ class ProcessSlam(SlamAdapter):
         if self._child is None:
             raise SlamProcessError(f"process SLAM {shlex.join(self._config.command)}: estimate before reset "
                                    f"(or after the program failed)")
-        reply = self._request(_dump({"type": "estimate"}), what="estimate")
+        reply = self._request(encode({"type": "estimate"}), what="estimate")
         try:
             return estimate_from_reply(reply, where=self.name)
         except SlamProcessError as exc:
