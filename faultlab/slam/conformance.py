@@ -21,7 +21,7 @@ Checks (:data:`CHECKS`, in order):
     a start heading far outside [-pi, pi), bearings offset by multiples of 2 pi, full turns: headings
     are angles, compared modulo 2 pi; landmarks land at the truth.
 ``large-map``
-    3000 landmarks with large, non-consecutive ids observed in one step: all mapped, ids kept.
+    3000 landmarks with non-consecutive ids beyond 32 bits observed in one step: all mapped, ids kept.
 ``same-seed``
     two executions with the same seed give the same estimate (one process each).
 ``protocol-version``
@@ -52,6 +52,8 @@ TOLERANCE_M = 0.05
 TOLERANCE_RAD = 0.01
 #: Landmarks of the ``large-map`` check.
 LARGE_MAP = 3000
+#: First landmark id of the ``large-map`` check: beyond 32 bits (ids are integers below 2**53 in magnitude).
+LARGE_ID = 2 ** 33 + 7
 
 
 @dataclass(frozen=True)
@@ -197,7 +199,7 @@ def _scene_rotation() -> _Scene:
 
 
 def _scene_large_map() -> _Scene:
-    ids, xy = _ring(LARGE_MAP, radius=20.0, first_id=1_000_000_007, step_id=7919)
+    ids, xy = _ring(LARGE_MAP, radius=20.0, first_id=LARGE_ID, step_id=7919)
     controls = np.array([[0.0, 0.0], [0.1, 0.0]])
     return _Scene(np.array([0.0, 0.0, 0.0]), controls, (ids, np.empty(0, dtype=np.int64)), ids, xy)
 
@@ -277,7 +279,7 @@ CHECKS: dict[str, Callable[[ProcessSlamConfig], None]] = {
     "inactivity": _scene_check(_scene_inactivity, "60 steps, 55 of them with control (0, 0)"),
     "rotation-offsets": _scene_check(_scene_rotation, "start heading 4.75 pi, bearings offset by -6 pi, four "
                                                       "full turns"),
-    "large-map": _scene_check(_scene_large_map, f"{LARGE_MAP} landmarks with ids from 1000000007 in one step"),
+    "large-map": _scene_check(_scene_large_map, f"{LARGE_MAP} landmarks with ids from 2**33 + 7 in one step"),
     "same-seed": _check_same_seed,
     "protocol-version": _check_version,
     "exit-on-bye": _check_bye,

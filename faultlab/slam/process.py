@@ -48,7 +48,7 @@ from faultlab.errors import ConfigError, SlamProcessError
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_start_pose, check_generator
 
 __all__ = ["PROTOCOL_VERSION", "RULES", "ProcessSlamConfig", "ProcessSlam", "Program", "ReplyRule", "transcript",
-           "reset_message", "step_message", "estimate_from_reply", "encode", "parse_reply", "describe_status",
+           "draw_seed", "reset_message", "step_message", "estimate_from_reply", "encode", "parse_reply", "describe_status",
            "STDERR_TAIL"]
 
 #: Version of the protocol spoken by :class:`ProcessSlam`, sent in every ``reset``.
@@ -156,6 +156,11 @@ def encode(message: dict) -> str:
     return json.dumps(message, separators=(",", ":"), allow_nan=False)
 
 
+def draw_seed(rng: np.random.Generator) -> int:
+    """The ``seed`` a reset sends: one integer in [0, :data:`SEED_BOUND`) drawn from the execution's ``rng``."""
+    return int(rng.integers(0, SEED_BOUND))
+
+
 def reset_message(pose, *, seed: int) -> str:
     """The ``reset`` line (no newline) for start pose ``pose`` (3,) and integer ``seed``."""
     p = as_start_pose(pose, where="process SLAM reset")
@@ -173,7 +178,7 @@ def transcript(scenario, *, seed: int) -> Iterator[str]:
     """Every request of one execution of ``scenario`` (a :class:`~faultlab.scenario.model.Scenario`), as lines.
 
     ``reset``, one ``step`` per step, ``estimate``, ``bye``: exactly what :func:`~faultlab.slam.run_slam`
-    sends a :class:`ProcessSlam` whose generator yields ``seed``.  A program run on these lines
+    sends a :class:`ProcessSlam` given a generator ``rng`` with ``draw_seed(rng) == seed``.  A program run on these lines
     (``program < case.jsonl``) prints its estimate as its last line.
     """
     yield reset_message(scenario.start_pose, seed=seed)
@@ -429,7 +434,7 @@ class ProcessSlam(SlamAdapter):
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
         check_generator(rng, where=self.name)
-        line = reset_message(pose, seed=int(rng.integers(0, SEED_BOUND)))
+        line = reset_message(pose, seed=draw_seed(rng))
         self.close()
         self._child = Program(self._config)
         self._t = 0
