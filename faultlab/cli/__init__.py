@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "faultlab.cli.metamorphic",  # metamorphic
     "faultlab.cli.study",  # study run, study report
     "faultlab.cli.adapter",  # adapter check
+    "faultlab.cli.export",  # export
 )
 
 
