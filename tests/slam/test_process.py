@@ -214,3 +214,18 @@ def test_options_are_validated_and_round_trip():
                        ({"command": ["p"], "env": {"X": 1}}, "env must be a table of strings")]:
         with pytest.raises(ConfigError, match=match):
             normalise_options("process", bad, where="slam")
+
+
+@pytest.mark.slow
+def test_past_the_campaigns_timeout_the_job_is_a_timeout_row_and_the_program_is_stopped(tmp_path):
+    marker = tmp_path / "pids"
+    silent = (f"import os, sys, time\nopen({str(marker)!r}, 'a').write(f'{{os.getpid()}}\\n')\n"
+              "for line in sys.stdin:\n    time.sleep(60)\n")
+    exp = _smoke({"name": "process", "command": [sys.executable, "-c", silent], "reply_timeout_s": 100},
+                 suites={"fixed": 1}, timeout_s=0.5)
+    run_experiment(exp, tmp_path / "res", jobs=1, progress=False)
+    rows = load_results(tmp_path / "res")
+    assert rows.status.tolist() == ["timeout"]
+    for pid in map(int, marker.read_text().split()):
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
