@@ -258,7 +258,7 @@ def _check_version(config: ProcessSlamConfig) -> None:
         raise _Mismatch(f"a reset with protocol 999 was answered with type {reply.get('type')!r}; reply "
                         f"{{\"type\":\"error\",\"message\":...}} to a protocol version the program does not speak")
     finally:
-        child.close(kill=True)
+        child.close()
 
 
 def _check_bye(config: ProcessSlamConfig) -> None:

@@ -290,8 +290,9 @@ class Program:
         except subprocess.TimeoutExpired:
             pass
         status = describe_status(self.proc.poll())
-        self.close(kill=True)
+        _kill(self.proc)
         tail = self.stderr_tail()
+        self.close()
         text = f"process SLAM {self.label}: {what}"
         if rule is not None:
             text += f" (rule {rule}: {RULES[rule].text})"
@@ -343,13 +344,14 @@ class Program:
         except subprocess.TimeoutExpired:
             return None
         finally:
-            self.close(kill=True)
+            self.close()
 
-    def close(self, *, kill: bool) -> None:
-        if kill:
-            _kill(self.proc)
+    def close(self) -> None:
+        """Kill the program if it still runs, reap it, release its pipes and stderr file."""
+        _kill(self.proc)
         self._finalizer.detach()
         _close_pipes(self.proc)
+        self.stderr.close()
 
 
 def _kill(proc: subprocess.Popen) -> None:
@@ -424,7 +426,7 @@ class ProcessSlam(SlamAdapter):
             raise
         except BaseException:  # e.g. the runner's wall-clock alarm: never leave the program running
             self._child = None
-            child.close(kill=True)
+            child.close()
             raise
 
     def _fail(self, exc: SlamProcessError) -> SlamProcessError:
