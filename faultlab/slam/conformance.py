@@ -28,12 +28,15 @@ Checks (:data:`CHECKS`, in order):
     a reset with an unknown protocol version is answered by an ``error`` reply, not ``ready``.
 ``exit-on-bye``
     after ``bye`` the program exits with status 0 within the reply timeout.
+``exit-on-eof``
+    after a reset, when its stdin closes, the program exits with status 0 within the reply timeout.
 """
 
 from __future__ import annotations
 
 import math
 import shlex
+import subprocess
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -41,7 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from faultlab.errors import SlamProcessError
-from faultlab.slam.process import (PROTOCOL_VERSION, ProcessSlam, ProcessSlamConfig, Program, encode, parse_reply)
+from faultlab.slam.process import (PROTOCOL_VERSION, ProcessSlam, ProcessSlamConfig, Program, describe_status,
+                                   encode, parse_reply, reset_message)
 from faultlab.slam.protocol import Estimate, Observations
 
 __all__ = ["CheckResult", "ConformanceReport", "CHECKS", "check_program", "TOLERANCE_M", "TOLERANCE_RAD"]
@@ -267,8 +271,28 @@ def _check_bye(config: ProcessSlamConfig) -> None:
     _drive(slam, s, seed=1)
     code = slam.close(timeout_s=config.reply_timeout_s)
     if code != 0:
-        raise _Mismatch(f"after bye the program ended with {'no exit in time' if code is None else code}; "
+        ended = "no exit in time" if code is None else describe_status(code)
+        raise _Mismatch(f"after bye the program ended with {ended}; "
                         f"exit with status 0 on {{\"type\":\"bye\"}} (and when stdin closes)")
+
+
+def _check_eof(config: ProcessSlamConfig) -> None:
+    child = Program(config)
+    try:
+        deadline = time.monotonic() + config.reply_timeout_s
+        child.send(reset_message([0.0, 0.0, 0.0], seed=1), deadline=deadline, what="reset")
+        child.receive(deadline=deadline, what="reset")
+        child.proc.stdin.close()
+        try:
+            code = child.proc.wait(timeout=config.reply_timeout_s)
+        except subprocess.TimeoutExpired:
+            code = None
+    finally:
+        child.close()
+    if code != 0:
+        raise _Mismatch(f"when its stdin closed the program ended with "
+                        f"{'no exit in time' if code is None else describe_status(code)}; exit with status 0 "
+                        f"at the end of input (faultlab closes stdin of a program it abandons)")
 
 
 #: The checks by name, in the order they run.
@@ -283,6 +307,7 @@ CHECKS: dict[str, Callable[[ProcessSlamConfig], None]] = {
     "same-seed": _check_same_seed,
     "protocol-version": _check_version,
     "exit-on-bye": _check_bye,
+    "exit-on-eof": _check_eof,
 }
 
 

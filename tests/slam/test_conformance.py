@@ -40,6 +40,7 @@ for line in sys.stdin:
               flush=True)
     elif m["type"] == "bye":
         sys.exit(3 if defect == "bye-status" else 0)
+sys.exit(4 if defect == "eof-status" else 0)
 """
 
 
@@ -71,7 +72,8 @@ def test_the_python_reference_passes_every_check():
 
 @pytest.mark.parametrize("defect, failing, words", [
     ("any-version", {"protocol-version"}, "reply {\"type\":\"error\""),
-    ("bye-status", {"exit-on-bye"}, "exit with status 0"),
+    ("bye-status", {"exit-on-bye"}, "exit status 3; exit with status 0"),
+    ("eof-status", {"exit-on-eof"}, "exit status 4; exit with status 0 at the end of input"),
     ("unseeded", {"same-seed"}, "different estimates"),
     ("int32-ids", {"large-map"}, "missing ids"),
     ("clamped-heading", {"rotation-offsets"}, "modulo 2 pi"),

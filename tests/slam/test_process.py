@@ -229,3 +229,30 @@ def test_past_the_campaigns_timeout_the_job_is_a_timeout_row_and_the_program_is_
     for pid in map(int, marker.read_text().split()):
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
+
+
+@settings(max_examples=30, deadline=None)
+@given(data=st.data())
+def test_the_example_equals_python_dead_reckoning_on_any_input(example_slam, data):
+    """Random steps (empty ones, large ids, bearings offset by turns): the C program through the adapter
+    equals the built-in DeadReckoning, an independent implementation of the same algorithm."""
+    n_steps = data.draw(st.integers(0, 12))
+    start = data.draw(st.lists(st.floats(-50, 50), min_size=3, max_size=3))
+    ids_pool = st.integers(0, 2 ** 52)
+    steps = []
+    for _ in range(n_steps):
+        u = data.draw(st.lists(st.floats(-2, 2), min_size=2, max_size=2))
+        ids = data.draw(st.lists(ids_pool, max_size=6, unique=True))
+        r = [data.draw(st.floats(0, 30)) for _ in ids]
+        b = [data.draw(st.floats(-20, 20)) for _ in ids]
+        steps.append((u, Observations(r, b, ids)))
+    results = []
+    for slam in (ProcessSlam(_config(example_slam)), DeadReckoning()):
+        slam.reset(np.array(start), rng=np.random.default_rng(0))
+        for u, obs in steps:
+            slam.step(u, obs)
+        results.append(slam.estimate())
+    ours, ref = results
+    np.testing.assert_allclose(ours.pose, ref.pose, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(ours.landmark_ids, ref.landmark_ids)
+    np.testing.assert_allclose(ours.landmarks, ref.landmarks, rtol=0, atol=1e-9)
