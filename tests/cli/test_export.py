@@ -65,3 +65,21 @@ def test_export_refuses_before_writing_anything(suite, tmp_path, capsys):
     assert main(["export", str(tmp_path / "nothing"), "--format", "tum", "--out", str(tmp_path / "o")]) == 1
     assert "missing file" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_the_ate_of_exported_odometry_equals_evo_ape_on_the_same_files(suite, tmp_path):
+    evo_metrics = pytest.importorskip("evo.core.metrics")
+    file_interface = pytest.importorskip("evo.tools.file_interface")
+    from faultlab.metrics.trajectory import absolute_trajectory_error
+
+    assert main(["export", str(suite.paths[0]), "--format", "tum", "--out", str(tmp_path)]) == 0
+    ref = file_interface.read_tum_trajectory_file(str(tmp_path / "case1.groundtruth.tum"))
+    est = file_interface.read_tum_trajectory_file(str(tmp_path / "case1.odometry.tum"))
+    est.align(ref, correct_scale=False)
+    ape = evo_metrics.APE(evo_metrics.PoseRelation.translation_part)
+    ape.process_data((ref, est))
+    _, truth = read_tum(tmp_path / "case1.groundtruth.tum")
+    _, odo = read_tum(tmp_path / "case1.odometry.tum")
+    ours = absolute_trajectory_error(truth[:, :2], odo[:, :2])
+    assert ours.rmse > 0  # the case's odometry has noise: something to measure
+    assert abs(ours.rmse - ape.get_statistic(evo_metrics.StatisticsType.rmse)) <= 1e-9
