@@ -62,7 +62,7 @@ def test_an_existing_directory_is_never_overwritten(scenario, tmp_path):
     assert list((tmp_path / "bag").iterdir()) == []
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_any_case_round_trips_including_empty_steps_and_no_steps(tmp_path, data):
     from faultlab.scenario.model import Scenario
