@@ -27,6 +27,7 @@ from functools import partial
 from typing import NamedTuple
 
 from faultlab.errors import ConfigError
+from faultlab.slam import paperunits
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig, FastSlamSteps
 
@@ -96,18 +97,18 @@ PAPER_CONFIG = FastSlamConfig(n_particles=200, std_v=1.0 * PAPER_LENGTH_UNIT, st
 
 #: The paper's units, deep copies at resampling (every particle keeps its own landmarks).
 PAPER_NO_ALIASING_STEPS = FastSlamSteps(
-    classify_new=partial(U.classify_new_near_zero_x, tolerance=0.01 * PAPER_LENGTH_UNIT),
-    predict_measurement=U.predict_measurement_wrapped,
-    log_likelihood=U.log_likelihood_wrapped,
-    combine_weights=partial(U.combine_weights_linear, length_unit=PAPER_LENGTH_UNIT),
-    resample=U.resample_stratified,
-    extract_map=partial(U.extract_map_closest_to_mean, resolution=0.001),
+    classify_new=partial(paperunits.classify_new_near_zero_x, tolerance=0.01 * PAPER_LENGTH_UNIT),
+    predict_measurement=paperunits.predict_measurement_wrapped,
+    log_likelihood=paperunits.log_likelihood_wrapped,
+    combine_weights=partial(paperunits.combine_weights_linear, length_unit=PAPER_LENGTH_UNIT),
+    resample=paperunits.resample_stratified,
+    extract_map=partial(paperunits.extract_map_closest_to_mean, resolution=0.001),
 )
 
 #: The paper's units as it ran them: resampled particles share landmark arrays.
 PAPER_STEPS = FastSlamSteps(**{**{name: getattr(PAPER_NO_ALIASING_STEPS, name)
                                   for name in FastSlamSteps.unit_names()},
-                               "apply_resample": U.apply_resample_aliased})
+                               "apply_resample": paperunits.apply_resample_aliased})
 
 
 def _rows(*rows: tuple[str, str, str, str]) -> tuple[Difference, ...]:

@@ -29,7 +29,7 @@ from faultlab.slam import (
 from faultlab.slam import units as _units
 from faultlab.slam.fastslam import BatchUnsupported
 from faultlab.slam.profiles import get_profile
-from faultlab.slam.units import FILTER_UNITS, PARTICLE_UNITS, STREAM_UNITS, filter_wise
+from faultlab.slam.contract import FILTER_UNITS, PARTICLE_UNITS, STREAM_UNITS, filter_wise
 
 N = 24
 CFG = FastSlamConfig(n_particles=N)
