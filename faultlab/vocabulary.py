@@ -12,6 +12,7 @@ __all__ = [
     "BASELINE",
     "REPLICA",
     "UNMODIFIED",
+    "MUTANT_PREFIX",
     "SUITE_KINDS",
     "SUITE_ORDER",
     "PAPER_FAULTS",
@@ -34,6 +35,9 @@ REPLICA = "baseline_replica"
 
 #: Variant names that mean "no fault" (reserved: no fault may use them).
 UNMODIFIED: tuple[str, ...] = (BASELINE, REPLICA)
+
+#: Prefix of the variant name of a mutant of the reference's units: ``"mutant:<id>"``.
+MUTANT_PREFIX = "mutant:"
 
 #: Suite builders: the paper's three in the order it introduces them (Sec. VI), then the
 #: combinatorial strategies (base choice, t-wise with the strength in the name, effect-guided).

@@ -42,7 +42,6 @@ from faultlab.faults.registry import (
     list_faults,
     load_plugins,
     resolve_fault,
-    resolve_variant,
 )
 
 __all__ = [
@@ -60,7 +59,6 @@ __all__ = [
     "list_faults",
     "load_plugins",
     "resolve_fault",
-    "resolve_variant",
     "step_names",
     "CheckStatus",
     "FaultCheck",

@@ -38,7 +38,6 @@ __all__ = [
     "all_faults",
     "get_fault",
     "resolve_fault",
-    "resolve_variant",
     "load_plugins",
     "FaultListing",
     "list_faults",
@@ -278,23 +277,6 @@ def resolve_fault(spec: str | Fault) -> Fault:
     if isinstance(spec, str) and ":" in spec:
         return _import_fault(spec)
     return get_fault(spec)
-
-
-#: Variant names with this prefix are mutants of the reference's units (``mutant:<id>``).
-MUTANT_VARIANT_PREFIX = "mutant:"
-MUTANT_VARIANT_RESOLVER = "faultlab.mutation.campaign:resolve_mutant_variant"
-
-
-def resolve_variant(spec: str | Fault) -> Fault | None:
-    """Like :func:`resolve_fault`, but the unmodified variants (``"baseline"``, ``"baseline_replica"``)
-    resolve to None (no fault)."""
-    if isinstance(spec, str) and spec in UNMODIFIED:
-        return None
-    if isinstance(spec, str) and spec.startswith(MUTANT_VARIANT_PREFIX):
-        # "mutant:<id>": looked up by import path, like a ``module:attr`` fault (the mutation
-        # package sits above this one)
-        return import_object(MUTANT_VARIANT_RESOLVER, what="mutant resolver", error=FaultError)(spec)
-    return resolve_fault(spec)
 
 
 # --------------------------------------------------------------------------- listing

@@ -44,8 +44,8 @@ import numpy as np
 from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
-from faultlab.faults import resolve_variant
 from faultlab.metrics.detection import FAMILIES, RULES, DetectionRule
+from faultlab.runner.variants import resolve_variant
 from faultlab.scenario.config import DEFAULT_MIN_DISTANCE, DEFAULT_N_STEPS, DEFAULT_SENSOR_RANGE
 from faultlab.slam.fastslam import FastSlamConfig
 from faultlab.slam.profiles import DEFAULT_PROFILE

@@ -26,7 +26,6 @@ from faultlab.faults import (
     list_faults,
     load_plugins,
     resolve_fault,
-    resolve_variant,
     step_names,
 )
 from tests.distributions import make_distribution
@@ -154,8 +153,6 @@ def test_unknown_name_suggests_close_matches_and_lists_known_names():
         get_fault("zzz")
     with pytest.raises(FaultError, match="unmodified reference"):
         get_fault(BASELINE)
-    assert resolve_variant(BASELINE) is None
-    assert resolve_variant("motion_sign_error") is get_fault("motion_sign_error")
 
 
 def test_resolve_fault_accepts_names_instances_and_import_paths():
