@@ -51,9 +51,10 @@ from typing import Any
 
 from faultlab.errors import FaultError
 from faultlab.slam.fastslam import FastSlamSteps
+from faultlab.slam.registry import BUILTIN_SLAMS
 from faultlab.vocabulary import UNMODIFIED
 
-__all__ = ["Fault", "UnitExample", "apply_faults", "step_names"]
+__all__ = ["Fault", "UnitExample", "apply_faults", "step_names", "known_steps"]
 
 _BUILTIN_NAME = re.compile(r"[a-z][a-z0-9_]*")
 _PLUGIN_NAME = re.compile(r"[a-z0-9][a-z0-9_.-]*/[a-z0-9][a-z0-9_.-]*")
@@ -77,6 +78,14 @@ def step_names(steps: type = FastSlamSteps) -> tuple[str, ...]:
     if not (isinstance(steps, type) and dataclasses.is_dataclass(steps)):
         raise FaultError(f"step_names: steps must be a steps dataclass type (e.g. FastSlamSteps), got {steps!r}")
     return tuple(f.name for f in dataclasses.fields(steps))
+
+
+def known_steps() -> tuple[str, ...]:
+    """Every unit of every built-in SLAM (the steps a fault may replace), FastSLAM 1.0's first."""
+    names = list(step_names())
+    for kind in BUILTIN_SLAMS.values():
+        names += [u for u in kind.units if u not in names]
+    return tuple(names)
 
 
 @dataclass(frozen=True, eq=False)
