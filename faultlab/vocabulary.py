@@ -7,11 +7,13 @@ layers import it from here.  Orders are those of the paper's Table II (Sec. VII)
 from __future__ import annotations
 
 from enum import StrEnum
+from types import MappingProxyType
 
 __all__ = [
     "BASELINE",
     "REPLICA",
     "UNMODIFIED",
+    "PAPER_PROTOCOL",
     "MUTANT_PREFIX",
     "SUITE_ORDER",
     "PAPER_FAULTS",
@@ -42,6 +44,11 @@ MUTANT_PREFIX = "mutant:"
 #: themselves are registered in :mod:`faultlab.space.registry`; one not named here is listed last).
 SUITE_ORDER: tuple[str, ...] = ("systematic", "fixed", "random", "base-choice", "pairwise", "3-wise", "4-wise",
                                 "effect-guided")
+
+#: The paper's protocol (Sec. VII-A), by experiment-file key: steps per case, particles of its
+#: FastSLAM and evaluation runs.  The defaults of a scenario and of FastSLAM are the paper's; a
+#: campaign with fewer is *reduced* (:mod:`faultlab.analysis.fidelity`).
+PAPER_PROTOCOL = MappingProxyType({"n_steps": 1000, "particles": 200, "runs": 3})
 
 #: The paper's three injected faults (Sec. VII-A), in Table II order.
 PAPER_FAULTS: tuple[str, ...] = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")

@@ -167,13 +167,13 @@ from faultlab.slam import associationunits as _associationunits
 from faultlab.slam import units as _units
 from faultlab.slam.bookkeeping import (UnitSlam, UnitTable, best_estimate, grown_capacity, normalise_log_weights,
                                        resample_tail, step_kind)
+from faultlab.slam.contract import STREAM_UNITS
 from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.sharing import correct_in_sharer_order
-from faultlab.slam.contract import STREAM_UNITS
 from faultlab.slam.particles import ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
-from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION
+from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION, PAPER_PROTOCOL
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
            "landmark_rows", "materialise_particles", "BatchUnsupported"]
@@ -203,7 +203,7 @@ class FastSlamConfig(NoiseConfig):
         Left out of the options while at its default.
     """
 
-    n_particles: int = 200
+    n_particles: int = PAPER_PROTOCOL["particles"]
     resample_ratio: float = 1.5
     association: str = KNOWN_ASSOCIATION
     new_landmark_sigmas: float = 3.0

@@ -30,6 +30,7 @@ from faultlab.errors import ConfigError
 from faultlab.slam import paperunits
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig, FastSlamSteps
+from faultlab.vocabulary import PAPER_PROTOCOL
 
 __all__ = ["DEFAULT_PROFILE", "Difference", "Profile", "PROFILES", "get_profile", "profile_names", "differences_markdown",
            "PAPER_LENGTH_UNIT", "PAPER_CONFIG", "PAPER_STEPS", "PAPER_NO_ALIASING_STEPS", "Ablation", "Arm",
@@ -91,7 +92,7 @@ PAPER_LENGTH_UNIT = 0.1
 
 #: The paper's filter settings in SI: 200 particles; Q = diag(3.0, 10 deg)^2 and R = diag(1.0, 20 deg)^2 in
 #: filter units are diag(0.3 m, 10 deg)^2 and diag(0.1 m, 20 deg)^2; resampling when N_eff < N / 1.5.
-PAPER_CONFIG = FastSlamConfig(n_particles=200, std_v=1.0 * PAPER_LENGTH_UNIT, std_omega=math.radians(20.0),
+PAPER_CONFIG = FastSlamConfig(n_particles=PAPER_PROTOCOL["particles"], std_v=1.0 * PAPER_LENGTH_UNIT, std_omega=math.radians(20.0),
                               std_range=3.0 * PAPER_LENGTH_UNIT, std_bearing=math.radians(10.0),
                               resample_ratio=1.5)
 
