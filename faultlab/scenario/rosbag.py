@@ -1,8 +1,8 @@
 """A test case as a ROS 2 bag (written and read with the ``rosbags`` library, no ROS installation needed).
 
 Step ``t`` of a case (:class:`~faultlab.scenario.model.Scenario`; 0-based) happens at time
-``(t + 1) * STEP_S`` (:data:`faultlab.scenario.tum.STEP_S`, 1 s); the start pose is stamped 0.  Topics (frame ``map`` for ground truth,
-``odom`` for odometry, ``base_link`` for the robot):
+``(t + 1) * STEP_S`` (:data:`faultlab.scenario.tum.STEP_S`, 1 s); the start pose is stamped 0.  Topics (frame
+``map`` for ground truth, ``odom`` for odometry, ``base_link`` for the robot):
 
 ==============================  ==================================  ==============================================
 topic                           type                                content

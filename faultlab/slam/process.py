@@ -48,7 +48,8 @@ from faultlab.errors import ConfigError, SlamProcessError
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_start_pose, check_generator
 
 __all__ = ["PROTOCOL_VERSION", "RULES", "ProcessSlamConfig", "ProcessSlam", "Program", "ReplyRule", "transcript",
-           "draw_seed", "reset_message", "step_message", "estimate_from_reply", "encode", "parse_reply", "describe_status",
+           "draw_seed", "reset_message", "step_message", "estimate_from_reply", "encode", "parse_reply",
+           "describe_status",
            "STDERR_TAIL"]
 
 #: Version of the protocol spoken by :class:`ProcessSlam`, sent in every ``reset``.
@@ -178,8 +179,8 @@ def transcript(scenario, *, seed: int) -> Iterator[str]:
     """Every request of one execution of ``scenario`` (a :class:`~faultlab.scenario.model.Scenario`), as lines.
 
     ``reset``, one ``step`` per step, ``estimate``, ``bye``: exactly what :func:`~faultlab.slam.run_slam`
-    sends a :class:`ProcessSlam` given a generator ``rng`` with ``draw_seed(rng) == seed``.  A program run on these lines
-    (``program < case.jsonl``) prints its estimate as its last line.
+    sends a :class:`ProcessSlam` given a generator ``rng`` with ``draw_seed(rng) == seed``.  A program run on
+    these lines (``program < case.jsonl``) prints its estimate as its last line.
     """
     yield reset_message(scenario.start_pose, seed=seed)
     off = scenario.obs_offsets
@@ -260,7 +261,10 @@ def describe_status(code: int | None) -> str:
 
 
 class Program:
-    """One running program (started by the constructor): writes request lines, reads reply lines with a deadline, keeps stderr in a file."""
+    """One running program (started by the constructor).
+
+    Writes request lines, reads reply lines with a deadline, keeps the program's stderr in a temporary file.
+    """
 
     def __init__(self, config: ProcessSlamConfig):
         self.label = shlex.join(config.command)
