@@ -28,10 +28,14 @@ def register(subparsers) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from faultlab.report.calibrate import calibrate
+    from faultlab.analysis.calibration import assess_calibration
+    from faultlab.campaigns.calibrate import calibrate
 
-    result = calibrate(out=args.out, reports=args.reports, quick=args.quick, repetitions=args.repetitions,
-                       jobs=args.jobs, backend=args.backend, force_new=args.force_new,
-                       progress=not args.no_progress)
+    run = calibrate(out=args.out, quick=args.quick, repetitions=args.repetitions, jobs=args.jobs,
+                    backend=args.backend, force_new=args.force_new, progress=not args.no_progress)
+    print(run)
+    result = assess_calibration(run.out)
+    if args.reports is not None:
+        result.analysis.save(args.reports)
     print(result)
     return 0 if result.calibrated else 3

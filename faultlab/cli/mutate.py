@@ -91,7 +91,7 @@ def _show(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from faultlab.analysis.mutation import load_mutation_experiment, run_mutation
+    from faultlab.campaigns.mutation import load_mutation_experiment, run_mutation
 
     mexp = load_mutation_experiment(args.experiment, mutants=args.mutants, repetitions=args.repetitions)
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem

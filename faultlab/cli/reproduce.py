@@ -68,15 +68,23 @@ def _headless() -> None:
 
 def reproduce_handler(args: argparse.Namespace) -> int:
     _headless()
-    from faultlab.report.reproduce import DEFAULT_EXPERIMENT, reproduce
+    from faultlab.analysis.ablation import ablation
+    from faultlab.campaigns.reproduce import DEFAULT_EXPERIMENT, reproduce
+    from faultlab.report.ablation import write_ablation
+    from faultlab.report.reproduce import rebuild_report
 
     experiment = DEFAULT_EXPERIMENT if args.experiment is None else args.experiment
-    result = reproduce(experiment, out=args.out, reports=args.reports, runs=args.runs,
-                       quick=args.quick, profile=args.profile, jobs=args.jobs, backend=args.backend,
-                       force_new=args.force_new, progress=not args.no_progress, ablation=args.ablation,
-                       ablation_runs=args.ablation_runs,
-                       ablation_suites=None if args.ablation_fixed is None else {"fixed": args.ablation_fixed})
-    print(result)
+    run = reproduce(experiment, out=args.out, reports=args.reports, runs=args.runs,
+                    quick=args.quick, profile=args.profile, jobs=args.jobs, backend=args.backend,
+                    force_new=args.force_new, progress=not args.no_progress, ablation=args.ablation,
+                    ablation_runs=args.ablation_runs,
+                    ablation_suites=None if args.ablation_fixed is None else {"fixed": args.ablation_fixed})
+    print(run)
+    effects = ablation(run.ablation_dirs) if run.ablation_dirs else None
+    print(rebuild_report(run.out, run.reports, ablation=effects))
+    if effects is not None:
+        print(write_ablation(effects, run.reports))
+    print(f"reproduce took {run.wall_time_s:.1f} s (campaign)")
     return 0
 
 

@@ -38,7 +38,7 @@ def register(subparsers) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from faultlab.analysis.study import load_study_experiment, run_study
+    from faultlab.campaigns.study import load_study_experiment, run_study
 
     sexp = load_study_experiment(args.experiment, quick=args.quick)
     out = Path(args.out) if args.out else Path("results") / (Path(args.experiment).stem

@@ -100,14 +100,15 @@ def test_report_rebuilds_from_saved_results_without_rerunning(quick, tmp_path, m
     base, code, _, err = quick
     assert code == 0, err
     import faultlab.runner
-    import faultlab.runner.execute
+    import faultlab.runner.execution
+    import faultlab.runner.orchestration
 
     def boom(*args, **kwargs):
         raise AssertionError("report must not run anything")
 
-    for module in (faultlab.runner, faultlab.runner.execute):
-        monkeypatch.setattr(module, "run_experiment", boom)
-        monkeypatch.setattr(module, "execute_job", boom)
+    for module, name in ((faultlab.runner, "run_experiment"), (faultlab.runner.orchestration, "run_experiment"),
+                         (faultlab.runner, "execute_job"), (faultlab.runner.execution, "execute_job")):
+        monkeypatch.setattr(module, name, boom)
     sessions = load_metadata(base / "results")["sessions"]
     code, out, err = _run(["report", str(base / "results"), "--reports", str(tmp_path / "again")])
     assert code == 0, err

@@ -6,7 +6,8 @@ import time
 
 import pytest
 
-from faultlab.analysis.study import StudySpec, load_study_experiment, sampled_load, study_spec
+from faultlab.campaigns.study import load_study_experiment, sampled_load
+from faultlab.stats.killmatrix import StudySpec, study_spec
 from faultlab.errors import ConfigError
 from faultlab.mutation.campaign import is_mutant_variant
 from faultlab.vocabulary import PAPER_FAULTS
