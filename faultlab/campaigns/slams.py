@@ -47,8 +47,7 @@ def slam_experiments(experiment: str | Path | Experiment = DEFAULT_EXPERIMENT, *
         base = base.replace(**overrides)
     out: dict[str, Experiment | None] = {}
     for label, table in SUTS.items():
-        need = REQUIRES.get(table["name"])
-        if need is not None and importlib.util.find_spec(need) is None:
+        if not _installed(label):
             out[label] = None
             continue
         data = base.to_dict()
@@ -58,11 +57,20 @@ def slam_experiments(experiment: str | Path | Experiment = DEFAULT_EXPERIMENT, *
     return out
 
 
+def _installed(label: str) -> bool:
+    need = REQUIRES.get(SUTS[label]["name"])
+    return need is None or importlib.util.find_spec(need) is not None
+
+
 def slam_stores(out: str | Path) -> tuple[dict[str, Path], list[str]]:
-    """The stores of a cross-SLAM campaign in ``out``: (label -> store directory, labels without a store)."""
+    """The stores of a cross-SLAM campaign in ``out``.
+
+    Returns (label -> store directory for every label of :data:`SUTS` with a store, the labels without
+    a store whose optional dependency is not installed).
+    """
     out = Path(out)
     stores = {label: out / label for label in SUTS if results_path(out / label).is_file()}
-    return stores, [label for label in SUTS if label not in stores]
+    return stores, [label for label in SUTS if label not in stores and not _installed(label)]
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import add_execution_options, positive_int
+from faultlab.cli.options import add_examples, add_execution_options, positive_int
 
 __all__ = ["register", "handler"]
 
@@ -24,6 +24,8 @@ def register(subparsers) -> None:
     p.add_argument("--repetitions", type=positive_int, default=None, metavar="K",
                    help="SLAM repetitions per case (default 10; 6 with --quick)")
     add_execution_options(p)
+    add_examples(p, ["faultlab calibrate --quick --out results/calibrate-quick",
+                     "nice -n 10 faultlab calibrate --out results/calibrate --reports results/calibrate/report"])
     p.set_defaults(func=handler)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import add_execution_options, positive_int
+from faultlab.cli.options import add_execution_options, epilog, positive_int, shipped_experiments
 
 __all__ = ["register", "reproduce_handler", "report_handler"]
 
@@ -17,20 +17,23 @@ def register(subparsers) -> None:
                     "experiments/paper.toml) through the runner, resuming if its results exist, then "
                     "write Table II beside the paper's "
                     "(CSV, Markdown, LaTeX), detection rates with confidence intervals, the comparison "
-                    "with the paper and report.pdf to the reports directory.")
+                    "with the paper and report.pdf to the reports directory (default: OUT/report). Everything "
+                    "it writes is under OUT unless --reports names another directory.",
+        **epilog(["faultlab reproduce --quick --out results/quick",
+                  "nice -n 10 faultlab reproduce --out results/paper --reports reports",
+                  "faultlab reproduce --profile paper --quick --out results/paper-quick"]))
     p.add_argument("--experiment", default=None,
-                   help="experiment TOML file, or the name of a shipped experiment (paper, smoke) "
+                   help=f"experiment TOML file, or the name of a shipped experiment ({shipped_experiments()}) "
                         "(default: paper, i.e. experiments/paper.toml)")
     p.add_argument("--out", default=None,
                    help="results directory (default: results/<experiment name>, with -quick / -runsN "
                         "appended for --quick / --runs)")
     p.add_argument("--reports", default=None,
-                   help="report directory (default: reports, or reports/profile-<name> with --profile)")
+                   help="report directory (default: OUT/report)")
     p.add_argument("--profile", default=None, metavar="NAME",
                    help="run on a FastSLAM profile: 'paper' is the paper's own filter, shallow-copy aliasing "
                         "included (about 40x slower), with the field-of-view defect on as the paper ran it; "
-                        "results go to results/<experiment>-profile-<name>, reports to reports/profile-<name>, "
-                        "with fidelity.md comparing the RMS distributions with the paper's raw data")
+                        "results go to results/<experiment>-profile-<name> unless --out is given")
     p.add_argument("--runs", type=positive_int, default=None,
                    help="evaluation runs, overriding the file's (e.g. 30 for power)")
     p.add_argument("--quick", action="store_true",
@@ -54,9 +57,10 @@ def register(subparsers) -> None:
         "report", help="rebuild the report from saved results (runs nothing)",
         description="Write Table II, detection rates, the comparison with the paper, the map errors against the "
                     "paper's raw data (fidelity.csv/.md) and report.pdf "
-                    "from a results directory written by 'run' or 'reproduce'. Nothing is rerun.")
+                    "from a results directory written by 'run' or 'reproduce'. Nothing is rerun.",
+        **epilog(["faultlab report results/quick", "faultlab report reports/store --reports reports"]))
     r.add_argument("results", help="results directory (or its results.sqlite)")
-    r.add_argument("--reports", default="reports", help="report directory (default: reports)")
+    r.add_argument("--reports", default=None, help="report directory (default: RESULTS/report)")
     r.set_defaults(func=report_handler)
 
 
@@ -92,5 +96,9 @@ def report_handler(args: argparse.Namespace) -> int:
     _headless()
     from faultlab.report.reproduce import rebuild_report
 
-    print(rebuild_report(args.results, args.reports))
+    from faultlab.campaigns.reproduce import default_reports
+    from faultlab.runner.store import results_path
+
+    reports = args.reports if args.reports is not None else default_reports(results_path(args.results).parent)
+    print(rebuild_report(args.results, reports))
     return 0
