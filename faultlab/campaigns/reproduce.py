@@ -11,12 +11,12 @@ the paper's own filter, run as the paper ran it, so with ``fov_bug`` on.
 
 ``ablation`` (profile ``"paper"`` only) also runs the arms of :data:`faultlab.slam.profiles.ABLATIONS`
 on the same cases and seeds (the profile ``paper`` with the field-of-view defect is the main run
-itself; every other arm goes to ``<out>-ablation/<arm>``, with at most ``ablation_runs`` evaluation
+itself; every other arm goes to ``<out>/ablation/<arm>``, with at most ``ablation_runs`` evaluation
 runs and the variants :data:`ABLATION_VARIANTS`, resumable like the main run); their effects are
 computed by :mod:`faultlab.analysis.ablation`.
 
 Where things go: everything a reproduction writes is under one directory ``out`` (default
-:func:`default_out`): the store and the cases in ``out`` itself, the ablation's arms beside it
+:func:`default_out`): the store and the cases in ``out`` itself, the ablation's arms under it
 (:func:`ablation_dir`) and the report in :func:`default_reports` ``(out)`` unless another report
 directory is given.
 """
@@ -33,7 +33,7 @@ from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
 __all__ = ["ReproduceRun", "reproduce", "quick_overrides", "profile_overrides", "default_out", "default_reports",
            "ablation_dir", "run_ablation", "DEFAULT_EXPERIMENT", "QUICK_PARTICLES", "QUICK_STEPS", "QUICK_CASES",
-           "ABLATION_PROFILE", "DEFAULT_ABLATION_RUNS", "ABLATION_VARIANTS", "REPORT_DIR"]
+           "ABLATION_PROFILE", "DEFAULT_ABLATION_RUNS", "ABLATION_VARIANTS", "ABLATION_DIR", "REPORT_DIR"]
 
 #: The paper's protocol: the shipped experiment ``paper`` (``experiments/paper.toml``, see
 #: :mod:`faultlab.data`), found wherever faultlab is installed.
@@ -48,6 +48,8 @@ QUICK_CASES = 2
 ABLATION_PROFILE = "paper"
 #: Evaluation runs of the ablation's arms (the main run keeps its own).
 DEFAULT_ABLATION_RUNS = 1
+#: Subdirectory of the main run's results directory that holds the ablation's arms (one store per arm).
+ABLATION_DIR = "ablation"
 #: Subdirectory of the results directory that holds its report unless another is given.
 REPORT_DIR = "report"
 #: Variants of the ablation's arms: the baseline and the fault the paper profile exists to compare.
@@ -110,9 +112,9 @@ def default_reports(out: str | Path) -> Path:
 
 
 def ablation_dir(out: str | Path) -> Path:
-    """Where the ablation's arms of the main run stored in ``out`` go: ``<out>-ablation``."""
-    out = Path(out)
-    return out.with_name(out.name + "-ablation")
+    """Where the ablation's arms of the main run stored in ``out`` go: ``<out>/ablation`` (under ``out``, like
+    everything a reproduction writes)."""
+    return Path(out) / ABLATION_DIR
 
 
 def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RUNS,

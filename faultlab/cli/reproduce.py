@@ -42,7 +42,7 @@ def register(subparsers) -> None:
     p.add_argument("--ablation", action="store_true",
                    help="with --profile paper: also run each of the paper profile's differences on its own "
                         "(paper against paper_no_aliasing, linear against log weights, ...; same cases and "
-                        "seeds, results in <out>-ablation/, resumable) and add the paired effects to the report "
+                        "seeds, results in OUT/ablation/, resumable) and add the paired effects to the report "
                         "(ablation.md/.csv, pages of report.pdf)")
     p.add_argument("--ablation-runs", type=positive_int, default=1,
                    help="evaluation runs of the ablation's arms other than the main run (default: 1)")

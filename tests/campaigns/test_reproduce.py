@@ -182,7 +182,7 @@ def test_run_ablation_reuses_the_main_run_and_runs_every_other_arm(monkeypatch, 
     for exp, out, kw in runs:
         name = out.name
         arm = next(a for a in arms if a.name == name)
-        assert out.parent == tmp_path / "main-ablation" and computed[name] == out
+        assert out.parent == tmp_path / "main" / "ablation" and computed[name] == out
         assert exp.slam.profile == arm.profile and exp.fov_bug == arm.fov_bug
         assert exp.runs == 2 and exp.variants == ("baseline", "missing_angle_wrap")
         assert exp.n_steps == main.n_steps and exp.seed == main.seed and exp.suites == main.suites
