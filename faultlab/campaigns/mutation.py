@@ -13,7 +13,7 @@ Statistical kill.  A *suite* is one (run, suite kind) with ``n`` cases.  A mutan
 case when the exact paired sign-flip test of :func:`faultlab.stats.verdict.case_verdicts`
 (K repetitions, CRN pairs) rejects at ``alpha / n``, or when the mutant alone fails (crash or
 timeout with the baseline usable: class ``crash``/``timeout``).  A mutant is killed by the suite
-when some case kills it.  The cases run in a fixed order, in rounds (case 1 of every suite,
+when some case kills it (:func:`faultlab.stats.killmatrix.suite_kills`).  The cases run in a fixed order, in rounds (case 1 of every suite,
 then case 2, ...), and a mutant killed by a suite does not run its remaining cases (early
 stopping).  Multiplicity: Bonferroni over the suite's cases.  Because the per-case level
 ``alpha / n`` does not depend on what was observed, the probability that a mutant with no effect

@@ -3,11 +3,11 @@
 A study file is an ordinary experiment file (``experiments/study.toml``) plus
 
 * ``[mutation]``: a sample of live mutants of the reference FastSLAM, selected exactly as in a
-  mutation campaign (:func:`~faultlab.analysis.mutation.selection_from_table`); they become the
+  mutation campaign (:func:`~faultlab.campaigns.mutation.selection_from_table`); they become the
   variants ``mutant:<id>`` after the file's own variants;
 * ``[study]``: the suite sizes evaluated, the number of suites drawn per strategy and size, the
   bootstrap replicates, the seed of both, the family-wise level of a suite and the multiplicity
-  rule (:class:`StudySpec`);
+  rule (:class:`~faultlab.stats.killmatrix.StudySpec`);
 * ``[study.quick]``: keys that replace the file's for ``--quick`` (tables merged key by key).
 
 The *case pool* of a strategy is every case its generator draws in the campaign: ``runs``

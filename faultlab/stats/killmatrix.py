@@ -64,6 +64,11 @@ with the same index (statsmodels), summarised over the draws (median p, share of
 p <= 0.05) -- (b) is about a typical pair of suites, (a) about the strategies.  The smallest
 difference detectable with 80 % power is ``(z_0.975 + z_0.8) * SE`` with SE the bootstrap
 standard error of the difference (:func:`detectable_score_difference`).
+
+The ``[study]`` table of a study file (suite sizes, draws, bootstrap, seed, level, multiplicity)
+is validated into a :class:`StudySpec` (:func:`study_spec`); :func:`suite_kills` is the per-case
+kill of a mutation campaign (the exact paired test at a per-case level, or the mutant alone
+failing).
 """
 
 from __future__ import annotations
