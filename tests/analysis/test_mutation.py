@@ -1,6 +1,4 @@
-"""Mutation analysis: statistical kills of a case, scores, McNemar."""
-
-import math
+"""Mutation analysis: scores with exact intervals, McNemar."""
 
 import numpy as np
 import pandas as pd
@@ -8,32 +6,6 @@ import pytest
 from scipy.stats import beta, binomtest
 
 from faultlab.analysis.mutation import clopper_pearson, compare_suites, mutation_scores
-from faultlab.stats.killmatrix import suite_kills
-
-
-def _frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) -> pd.DataFrame:
-    rng = np.random.default_rng(0)
-    base = 100 + rng.random(k) * 10
-    rows = [dict(run=1, suite="fixed", case=case, variant="baseline", rep=r, status="ok", rms_mm=base[r],
-                 emd_mm=base[r]) for r in range(k)]
-    for v, d in diffs.items():
-        for r in range(k):
-            st = (status or {}).get(v, "ok")
-            rows.append(dict(run=1, suite="fixed", case=case, variant=v, rep=r, status=st,
-                             rms_mm=base[r] + d[r] if st == "ok" else math.nan, emd_mm=math.nan))
-    return pd.DataFrame(rows)
-
-
-def test_case_kill_classes_follow_the_exact_paired_test_at_the_case_level():
-    k = 7  # 2^-7 = 0.0078 <= 0.01
-    df = _frame({"mutant:a": np.full(k, 50.0), "mutant:b": np.array([50.0] * 6 + [-5.0]),
-                 "mutant:c": np.zeros(k), "mutant:d": np.zeros(k), "mutant:e": np.zeros(k)},
-                k, status={"mutant:d": "crash", "mutant:e": "timeout"})
-    kills = suite_kills(df, case_alpha=0.01).set_index("fault")["kill"]
-    # b: sum 295; only b itself and the all-positive pattern (305) reach it: p = 2/128 = 0.0156 > 0.01
-    assert kills.to_dict() == {"mutant:a": "killed", "mutant:b": "", "mutant:c": "", "mutant:d": "crash",
-                               "mutant:e": "timeout"}
-    assert suite_kills(df, case_alpha=0.02).set_index("fault")["kill"]["mutant:b"] == "killed"
 
 
 def test_clopper_pearson_matches_the_beta_quantiles():
