@@ -78,7 +78,7 @@ class SlamsRun:
     """What :func:`run_slams` ran: per SLAM label its summary, and the SLAMs left out (not installed)."""
 
     out: Path
-    summaries: dict
+    summaries: dict[str, RunSummary]
     not_installed: tuple[str, ...]
 
     def __str__(self) -> str:

@@ -1,7 +1,5 @@
 """Backends: a dying worker is a crash row; dask gives the loky table."""
 
-
-import numpy as np
 import pandas as pd
 import pytest
 

@@ -6,7 +6,6 @@ import signal
 import threading
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from faultlab.vocabulary import JobStatus
