@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import add_verb_group
+from faultlab.cli.options import add_examples, add_verb_group
 from faultlab.errors import ConfigError
 from faultlab.slam.conformance import CHECKS, check_program
 
@@ -32,7 +32,8 @@ def register(subparsers) -> None:
     verbs = add_verb_group(
         subparsers, "adapter", help="check a SLAM program that speaks the process protocol",
         description="Tools for SLAMs run as child processes ([slam] name = \"process\"; the protocol is in "
-                    "docs/reference/process-protocol.md).")
+                    "docs/reference/process-protocol.md).",
+        examples=["faultlab adapter check ./example_slam"])
     p = verbs.add_parser(
         "check", help="run the protocol's edge cases against a program; exit 1 if any fails",
         description="Start the program once per check and drive it through the protocol's edge cases: "
@@ -46,6 +47,8 @@ def register(subparsers) -> None:
                    help="an environment variable for the program (repeatable)")
     p.add_argument("program", metavar="CMD", help="the program")
     p.add_argument("args", nargs=argparse.REMAINDER, metavar="ARG", help="its arguments")
+    add_examples(p, ["faultlab adapter check ./example_slam",
+                     "faultlab adapter check --reply-timeout 2 --env MY_SLAM_PARTICLES=50 ./my_slam --quiet"])
     p.set_defaults(func=_check)
 
 

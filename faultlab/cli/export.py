@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from faultlab.cli.options import print_paths
+from faultlab.cli.options import add_examples, print_paths
 from faultlab.errors import ConfigError
 from faultlab.scenario.model import load_scenario
 from faultlab.scenario.rosbag import write_bag
@@ -34,6 +34,9 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, type=Path, help="output directory (created)")
     p.add_argument("--seed", type=int, default=None,
                    help="jsonl only: the seed sent in the reset, an integer in [0, 2**53) (default: 0)")
+    add_examples(p, ["faultlab export cases/systematic/case1 --format rosbag2 --out bags",
+                     "faultlab export cases/systematic/case1.npz cases/systematic/case2.npz --format tum --out tum",
+                     "faultlab export cases/systematic/case1 --format jsonl --seed 7 --out transcripts"])
     p.set_defaults(func=_handler)
 
 

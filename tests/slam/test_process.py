@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, SlamProcessError
 from faultlab.metrics import map_errors
-from faultlab.runner.execute import run_experiment
+from faultlab.runner import run_experiment
 from faultlab.runner.experiment import parse_experiment
 from faultlab.runner.store import case_path, load_results
 from faultlab.scenario.model import load_scenario
