@@ -27,10 +27,10 @@ import hashlib
 
 import numpy as np
 
-__all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed", "study_seed_sequence"]
+__all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed", "study_seed_sequence", "sensor_seed_sequence"]
 
 # Spawn-key tags: what a seed is for.
-_SUITE, _CASE, _SLAM, _REPLICA, _STUDY = 1, 2, 3, 4, 5
+_SUITE, _CASE, _SLAM, _REPLICA, _STUDY, _SENSOR = 1, 2, 3, 4, 5, 6
 
 
 def stable_code(name: str) -> int:
@@ -72,3 +72,12 @@ def study_seed_sequence(root: int, purpose: str, *key: str | int) -> np.random.S
     """
     codes = tuple(stable_code(k) if isinstance(k, str) else int(k) for k in (purpose, *key))
     return np.random.SeedSequence(entropy=int(root), spawn_key=(_STUDY, *codes))
+
+
+def sensor_seed_sequence(slam_seed: int, fault: str) -> np.random.SeedSequence:
+    """The SeedSequence of a sensor fault's perturbation in the job whose SLAM seed is ``slam_seed``.
+
+    Keyed by the job's seed and the fault's name, separate from the SLAM's own stream
+    (``default_rng(slam_seed)``), which stays that of the baseline (common random numbers).
+    """
+    return np.random.SeedSequence(entropy=int(slam_seed), spawn_key=(_SENSOR, stable_code(fault)))
