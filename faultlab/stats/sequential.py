@@ -76,20 +76,15 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
 
 from faultlab.errors import ConfigError
+from faultlab.runner.staging import ALTERNATIVES, StagedDesign
 from faultlab.stats.verdict import MAX_EXACT_PAIRS, sign_flip_pvalues
 
-__all__ = ["ALTERNATIVES", "Look", "StagedDesign", "interim_p", "smallest_final_p", "interim_look"]
-
-#: Sidedness of the per-case test, as scipy names it: "greater" (the variant is worse), "less"
-#: (better), "two-sided".
-ALTERNATIVES = ("greater", "less", "two-sided")
-
+__all__ = ["Look", "interim_p", "smallest_final_p", "interim_look"]
 
 class Look(StrEnum):
     """What an interim look decides for one (case, variant)."""
@@ -98,56 +93,6 @@ class Look(StrEnum):
     BASELINE_FAILED = "baseline_failed"   #: verdict cannot_judge, whatever follows
     CURTAILED = "curtailed"               #: the fixed-K test can no longer reject
     FUTILE = "futile"                     #: interim p value above the futility bound
-
-
-@dataclass(frozen=True)
-class StagedDesign:
-    """Stages, level, sidedness and futility bound of a staged run of the repetitions.
-
-    Attributes
-    ----------
-    stages : tuple of int
-        Cumulative repetitions after each stage, strictly increasing, ``>= 1``; the last is ``K``.
-    level : float
-        Level of each per-case test, in (0, 1) (e.g. ``alpha``, or ``alpha / n`` for Holm's
-        first step over a family of ``n`` cases: the lower the level, the more curtailment).
-    alternative : {"greater", "less", "two-sided"}
-        Sidedness of the per-case test.
-    futility : float
-        Non-binding futility bound ``gamma`` in [level, 1]: an interim p value above it stops
-        the pair.  1 disables futility stops (curtailment only).
-    """
-
-    stages: tuple[int, ...]
-    level: float = 0.05
-    alternative: str = "greater"
-    futility: float = 0.5
-
-    def __post_init__(self):
-        stages = tuple(self.stages)
-        if (not stages or any(isinstance(k, bool) or not isinstance(k, numbers.Integral) for k in stages)
-                or stages[0] < 1 or any(b <= a for a, b in zip(stages, stages[1:]))):
-            raise ConfigError(f"stages must be strictly increasing integers >= 1, got {list(self.stages)!r}")
-        if stages[-1] > MAX_EXACT_PAIRS:
-            raise ConfigError(f"stages: the exact test is limited to {MAX_EXACT_PAIRS} pairs, got {stages[-1]}")
-        object.__setattr__(self, "stages", tuple(int(k) for k in stages))
-        if isinstance(self.level, bool) or not isinstance(self.level, numbers.Real) or not 0 < self.level < 1:
-            raise ConfigError(f"level must lie in (0, 1), got {self.level!r}")
-        if self.alternative not in ALTERNATIVES:
-            raise ConfigError(f"alternative must be one of {', '.join(map(repr, ALTERNATIVES))}, "
-                              f"got {self.alternative!r}")
-        if (isinstance(self.futility, bool) or not isinstance(self.futility, numbers.Real)
-                or not self.level <= self.futility <= 1):
-            raise ConfigError(f"futility must lie in [level, 1] = [{self.level:g}, 1], got {self.futility!r}")
-
-    @property
-    def total(self) -> int:
-        """``K``: the repetitions of a pair that never stops."""
-        return self.stages[-1]
-
-    def to_dict(self) -> dict:
-        return {"stages": list(self.stages), "level": self.level, "alternative": self.alternative,
-                "futility": self.futility}
 
 
 def _one_sided(differences) -> tuple[float, float]:
@@ -213,7 +158,8 @@ def interim_look(differences, *, design: StagedDesign, baseline_failed: bool = F
     ----------
     differences : array_like, shape (k,)
         Usable paired differences so far, ``k < design.total``.
-    design : StagedDesign
+    design : faultlab.runner.staging.StagedDesign
+        Stages, per-case level, sidedness and futility bound.
     baseline_failed : bool
         The baseline failed in a repetition looked at (the verdict is ``cannot_judge``).
     variant_failed : bool
@@ -224,6 +170,9 @@ def interim_look(differences, *, design: StagedDesign, baseline_failed: bool = F
     -------
     Look
     """
+    if design.total > MAX_EXACT_PAIRS:
+        raise ConfigError(f"interim_look: the exact test is limited to {MAX_EXACT_PAIRS} pairs, got "
+                          f"K = {design.total}")
     if baseline_failed:
         return Look.BASELINE_FAILED
     if variant_failed:

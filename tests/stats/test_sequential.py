@@ -6,7 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from faultlab.errors import ConfigError
-from faultlab.stats.sequential import Look, StagedDesign, interim_look, interim_p, smallest_final_p
+from faultlab.runner.staging import StagedDesign
+from faultlab.stats.sequential import Look, interim_look, interim_p, smallest_final_p
 from faultlab.stats.verdict import sign_flip_pvalues
 
 ALTS = ("greater", "less", "two-sided")
@@ -156,4 +157,4 @@ def test_bad_designs_are_refused():
     with pytest.raises(ConfigError, match="alternative"):
         StagedDesign((5, 10), alternative="worse")
     with pytest.raises(ConfigError, match="limited"):
-        StagedDesign((5, 30))
+        interim_look([1.0] * 5, design=StagedDesign((5, 30)))
