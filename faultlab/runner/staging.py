@@ -51,8 +51,10 @@ class StagedDesign:
         Cumulative repetitions after each stage, strictly increasing, ``>= 1``; the last is the
         experiment's ``repetitions`` (``K``).
     level : float
-        Level of each per-case test, in (0, 1): ``alpha``, or ``alpha / n`` for Holm's first
-        step over a family of ``n`` cases.
+        Level of each per-case test, in (0, 1).  Under Holm's procedure over a family of ``n``
+        cases a case can be rejected at any threshold from ``alpha / n`` (first step) to
+        ``alpha`` (last), so ``level = alpha`` keeps curtailment exact for every step;
+        ``alpha / n`` curtails more but may stop a case a later Holm step would have rejected.
     alternative : {"greater", "less", "two-sided"}
         Sidedness of the per-case test.
     futility : float
