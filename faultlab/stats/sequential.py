@@ -21,7 +21,7 @@ Write ``p_ge(d)`` for the share of the ``2^k`` sign patterns ``s`` of ``d`` with
   ``P_ge >= p_ge(d) 2^-f`` (and this bound is attained when the future values are positive and
   large).  Likewise ``P_le >= p_le(d) 2^-f``.  For the two-sided test, both
   ``min(1, 2 min(P_ge, P_le))`` and the ``|mean|`` statistic's p value are at least
-  ``2 min(p_ge(d), p_le(d)) 2^-f``: when the final sum is ``>= 0``, the patterns with future signs
+  ``min(1, 2 min(p_ge(d), p_le(d)) 2^-f)``: when the final sum is ``>= 0``, the patterns with future signs
   ``+`` and first-part sum ``>= sum(d)`` and their negations with future signs ``-`` and
   first-part sum ``<= -sum(d)`` (disjoint, equally many) all have ``|sum|`` at least the
   observed one; symmetrically when it is negative.  :func:`smallest_final_p` returns this bound.
@@ -140,14 +140,19 @@ def smallest_final_p(differences, *, total: int, alternative: str = "greater") -
     Returns
     -------
     float
-        ``p_ge 2^-f`` ("greater"), ``p_le 2^-f`` ("less") or ``min(1, 2 min(p_ge, p_le)) 2^-f``
-        ("two-sided"), ``f = total - k`` (derivation in the module docstring).
+        ``p_ge 2^-f`` ("greater"), ``p_le 2^-f`` ("less") or ``min(1, 2 min(p_ge, p_le) 2^-f)``
+        ("two-sided"), ``f = total - k`` (derivation in the module docstring); the bound is
+        attained by large future differences in the favoured direction.
     """
     d = np.asarray(differences, dtype=float).ravel()
     if isinstance(total, bool) or not isinstance(total, numbers.Integral) or not d.size <= total:
         raise ConfigError(f"smallest_final_p: total must be an integer >= {d.size} (the pairs in hand), "
                           f"got {total!r}")
-    return interim_p(d, alternative=alternative) * math.ldexp(1.0, -(int(total) - d.size))
+    shrink = math.ldexp(1.0, -(int(total) - d.size))
+    if alternative == "two-sided":
+        ge, le = _one_sided(d)
+        return min(1.0, 2.0 * min(ge, le) * shrink)
+    return interim_p(d, alternative=alternative) * shrink
 
 
 def interim_look(differences, *, design: StagedDesign, baseline_failed: bool = False,

@@ -2,7 +2,7 @@
 
 import pytest
 
-from faultlab.analysis.campaign import count_expected_jobs, read_rule, read_space
+from faultlab.analysis.metadata import count_expected_jobs, read_rule, read_space
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.space import table1_space
 from faultlab.stats import DetectionRule
@@ -42,7 +42,7 @@ def test_expected_jobs_and_summary_of_adaptive_repetitions():
     # 1 run, 2 cases, baseline + a + b, K = 4 in stages 2 + 2.  Case 1: a stops after 2, b runs
     # on, so the baseline runs 4: 2 + 4 + 4 = 10 jobs.  Case 2: a and b stop after 2, so does the
     # baseline: 6 jobs.  16 of the fixed design's 24.
-    from faultlab.analysis.campaign import adaptive_summary
+    from faultlab.analysis.metadata import adaptive_summary
 
     exp = {"runs": 1, "suites": [["fixed", 2]], "variants": ["baseline", "a", "b"], "repetitions": 4,
            "adaptive": {"stages": [2, 4], "level": 0.05, "alternative": "greater", "futility": 0.5}}
