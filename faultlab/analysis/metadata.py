@@ -16,7 +16,7 @@ from faultlab.space import ParameterSpace, space_from_mapping, table1_space
 from faultlab.stats.detection import DetectionRule
 from faultlab.vocabulary import BASELINE
 
-__all__ = ["read_rule", "read_space", "count_expected_jobs"]
+__all__ = ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary"]
 
 
 def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
