@@ -29,7 +29,7 @@ import pandas as pd
 from faultlab.errors import ConfigError
 from faultlab.vocabulary import BASELINE, JobStatus
 
-__all__ = ["StagedDesign", "STOPS_KEY", "ALTERNATIVES", "Look", "stage_jobs", "look_at_pairs"]
+__all__ = ["StagedDesign", "STOPS_KEY", "ALTERNATIVES", "LookRule", "stage_jobs", "look_at_pairs"]
 
 #: Store metadata key of the stopped pairs.
 STOPS_KEY = "adaptive_stops"
@@ -38,7 +38,7 @@ ALTERNATIVES = ("greater", "less", "two-sided")
 
 #: ``look(differences, *, design, baseline_failed, variant_failed) -> str``: "continue" or the
 #: reason for stopping (see :func:`faultlab.stats.sequential.interim_look`).
-Look = Callable[..., str]
+LookRule = Callable[..., str]
 
 
 @dataclass(frozen=True)
@@ -110,7 +110,7 @@ def _usable(frame: pd.DataFrame, col: str) -> np.ndarray:
 
 
 def look_at_pairs(results: pd.DataFrame, *, design: StagedDesign, upto: int, metric: str,
-                  look: Look) -> dict[tuple, str]:
+                  look: LookRule) -> dict[tuple, str]:
     """The decision of every (run, suite, case, variant) from its repetitions ``< upto``.
 
     Parameters
