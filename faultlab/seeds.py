@@ -12,6 +12,9 @@ a campaign (``faultlab run``) or on its own (``faultlab generate``):
   baseline comes from the fault, not from the SLAM's own noise) -- except the A/A control
   ``baseline_replica``, whose key ends in an extra ``REPLICA`` tag so that its seeds are
   independent of the baseline's;
+- a sensor fault (:mod:`faultlab.faults.sensor`) perturbs the stream of the job with SLAM seed ``s`` from
+  ``SeedSequence(entropy=s, spawn_key=(SENSOR, code(fault)))``, leaving the SLAM's own stream
+  ``default_rng(s)`` that of the baseline;
 - a strategies study (``faultlab study``) draws the suites of (strategy, size) from
   ``spawn_key=(STUDY, code("draw"), code(strategy), size)`` and resamples a strategy's pool for the
   bootstrap from ``spawn_key=(STUDY, code("bootstrap"), code(strategy))`` (the mutants from

@@ -19,6 +19,10 @@ computes, per (SLAM, sensor fault):
   means the fault degrades the SLAM more where the parameter is larger.  No multiplicity
   correction is applied across parameters: the view ranks, it does not test.
 
+Map errors below :data:`FLOOR_MM` (1 mm, the resolution of the result tables) count as 1 mm in the
+ratios: a noise-free case (Table I variance and bias drawn at zero) lets EKF-SLAM and GTSAM recover
+the map to 1e-13 mm, and a ratio against that would measure floating-point round-off.
+
 A fault that does not apply to a SLAM (a hardware limit without its option) has no rows; it is
 listed in ``not_applicable`` with the store's reason.
 """
@@ -41,7 +45,7 @@ from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import BASELINE, JobStatus
 
 __all__ = ["Robustness", "robustness", "case_log_ratios", "rep_log_ratios", "degradation", "parameter_effects",
-           "DEGRADATION", "PARAMETERS", "NUMERIC_PARAMETERS"]
+           "DEGRADATION", "PARAMETERS", "NUMERIC_PARAMETERS", "FLOOR_MM"]
 
 #: The Table I values regressed on (every numeric one; directionality is categorical).
 NUMERIC_PARAMETERS: tuple[str, ...] = tuple(k for k in VALUE_KEYS if k != "directionality")
@@ -53,13 +57,16 @@ DEGRADATION: tuple[str, ...] = ("slam", "fault", "metric", "n_cases", "ratio", "
 PARAMETERS: tuple[str, ...] = ("slam", "fault", "parameter", "n_cases", "slope", "low", "high", "p")
 
 _CASE = ["run", "suite", "case"]
+#: Map errors below this (mm) count as this in the ratios (the resolution of the result tables).
+FLOOR_MM = 1.0
 
 
 def _paired(results: pd.DataFrame, metric: str) -> pd.DataFrame:
-    """Faulty rows joined with the baseline of the same (case, rep); columns ``fault, value, base``."""
+    """Faulty rows joined with the baseline of the same (case, rep); columns ``fault, value, base`` (mm, at
+    least :data:`FLOOR_MM`; NaN for a failed job)."""
     col = f"{metric}_mm"
-    ok = (results["status"] == JobStatus.OK.value) & np.isfinite(results[col]) & (results[col] > 0)
-    df = results.assign(value=results[col].where(ok))
+    ok = (results["status"] == JobStatus.OK.value) & np.isfinite(results[col])
+    df = results.assign(value=np.maximum(results[col], FLOOR_MM).where(ok))
     base = df.loc[df["variant"] == BASELINE, _CASE + ["rep", "value"]].rename(columns={"value": "base"})
     faulty = df.loc[df["variant"] != BASELINE].rename(columns={"variant": "fault"})
     return faulty.merge(base, on=_CASE + ["rep"], how="left")
@@ -147,7 +154,7 @@ class Robustness:
         ``slam, fault, reason``: sensor faults skipped for a SLAM.
     protocol : dict
         Per SLAM: cases, K, steps, particles (where it has them), wall time of its sessions (s) and
-        ``cpu_time_s``, the sum of its jobs' SLAM run times (s).
+        ``job_time_s``, the sum of its jobs' SLAM run times (s, wall clock per job: CPU time where the machine is not shared).
     """
 
     alpha: float
@@ -164,7 +171,7 @@ def _protocol(md: dict) -> dict:
     return {"slam": slam.get("name", ""), "cases": sum(int(n) for _, n in (exp.get("suites") or ())),
             "repetitions": exp.get("repetitions"), "steps": exp.get("n_steps"), "particles": slam.get("particles"),
             "wall_time_s": md.get("wall_time_s"), "metric": str(md.get("metric") or exp.get("metric") or "rms"),
-            "cpu_time_s": None}
+            "job_time_s": None}
 
 
 def robustness(stores: Mapping[str, str | Path], *, alpha: float = 0.05) -> Robustness:
@@ -176,7 +183,7 @@ def robustness(stores: Mapping[str, str | Path], *, alpha: float = 0.05) -> Robu
         results = load_results(store)
         md = load_metadata(store)
         proto = _protocol(md)
-        proto["cpu_time_s"] = float(results["runtime_s"].sum())
+        proto["job_time_s"] = float(results["runtime_s"].sum())
         protocol[label] = proto
         metric = proto["metric"]
         verdicts = case_verdicts(results, alpha=alpha, metric=metric)

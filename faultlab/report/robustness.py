@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from faultlab.analysis.robustness import Robustness
+from faultlab.analysis.robustness import FLOOR_MM, Robustness
 
 __all__ = ["degradation_figure", "parameter_figure", "robustness_markdown", "write_robustness_report"]
 
@@ -82,15 +82,16 @@ def robustness_markdown(r: Robustness) -> str:
              "Each sensor fault perturbs the stream a SLAM is fed (never the ground truth, never the scoring; "
              "`faultlab faults` lists them with their parameters); the SLAM's own random stream is the "
              "baseline's (common random numbers), so each repetition is a paired comparison.", "",
-             "| SLAM | name | cases | K | active steps | particles | wall time | SLAM CPU time |",
+             "| SLAM | name | cases | K | active steps | particles | campaign wall time | summed job time |",
              "|---|---|--:|--:|--:|--:|--:|--:|"]
     for label, pr in r.protocol.items():
         lines.append(f"| {label} | {pr['slam']} | {pr['cases']} | {pr['repetitions']} | {pr['steps']} | "
                      f"{pr['particles'] if pr['particles'] is not None else '–'} | {_minutes(pr['wall_time_s'])} | "
-                     f"{_minutes(pr['cpu_time_s'])} |")
+                     f"{_minutes(pr['job_time_s'])} |")
     lines += ["", "## Degradation", "",
               f"Per case the log ratio of the mean map errors faulty/baseline over the repetitions where both "
-              f"gave an error; over the cases (the independent units) the geometric-mean ratio with a {conf} "
+              f"gave an error (errors below {FLOOR_MM:g} mm count as {FLOOR_MM:g} mm: a noise-free case lets "
+              f"EKF-SLAM and GTSAM reach round-off level); over the cases (the independent units) the geometric-mean ratio with a {conf} "
               f"Student t interval (a ratio of 1 is no degradation).  Verdicts per case: the exact one-sided "
               f"paired sign-flip test of the K differences faulty - baseline at alpha = {r.alpha:g}, family "
               f"\"case\" (`faultlab.stats.verdict`; a case with fewer than the pairs the test needs cannot be "

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from faultlab.analysis.robustness import case_log_ratios, degradation, parameter_effects, rep_log_ratios
+from faultlab.analysis.robustness import FLOOR_MM, case_log_ratios, degradation, parameter_effects, rep_log_ratios
 from faultlab.vocabulary import BASELINE
 
 
@@ -67,3 +67,13 @@ def test_parameter_effects_recover_a_planted_slope():
 def test_parameter_effects_need_three_cases():
     res = _results(lambda c, x: math.exp(x), n_cases=2)
     assert parameter_effects(rep_log_ratios(res))["slope"].isna().all()
+
+
+def test_errors_below_the_floor_count_as_the_floor():
+    res = _results(lambda c, x: 2.0, n_cases=3)
+    base = res["variant"] == BASELINE
+    res.loc[base & (res["case"] == 1), "rms_mm"] = 1e-13
+    res.loc[~base & (res["case"] == 1), "rms_mm"] = 50.0
+    cases = case_log_ratios(res).set_index("case")
+    assert cases.loc[1, "log_ratio"] == pytest.approx(math.log(50.0 / FLOOR_MM))
+    assert cases.loc[2, "log_ratio"] == pytest.approx(math.log(2.0))
