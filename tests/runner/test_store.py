@@ -160,12 +160,38 @@ def test_missing_store(tmp_path):
         load_metadata(tmp_path)
 
 
+def _other_process_holds(lock_file):
+    """Whether another open file description (as another process has) can take the lock: False if held."""
+    import fcntl
+    import os
+    fd = os.open(lock_file, os.O_RDWR)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return True
+    finally:
+        os.close(fd)
+    return False
+
+
 def test_lock_excludes_a_second_writer(tmp_path):
+    import fcntl
+    import os
     with store_lock(tmp_path):
+        assert _other_process_holds(tmp_path / ".lock")
+        with store_lock(tmp_path):  # re-entrant within the process holding it
+            assert _other_process_holds(tmp_path / ".lock")
+        assert _other_process_holds(tmp_path / ".lock")  # the inner exit keeps it
+    assert not _other_process_holds(tmp_path / ".lock")  # released
+    fd = os.open(tmp_path / ".lock", os.O_RDWR)  # another writer holds it
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         with pytest.raises(ResultsError, match="in use"):
             with store_lock(tmp_path):
                 pass
-    with store_lock(tmp_path):  # released
+    finally:
+        os.close(fd)
+    with store_lock(tmp_path):
         pass
 
 
