@@ -57,7 +57,7 @@ from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.mutation.campaign import MutantSelection, mutant_variant, select_mutants
 from faultlab.mutation.outcome import MutantOutcome
-from faultlab.runner.execute import _row, _stream, prepare_cases
+from faultlab.runner.execute import _row, _stream, prepare_cases, store_session
 from faultlab.runner.experiment import Experiment, parse_experiment
 from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import progress as show_progress
@@ -237,9 +237,10 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
             todo = [s for s in round_specs if s.key.astuple() not in done]
             todo.sort(key=lambda s: (-s.cost, s.key))
             n_needed += len(round_specs)
+            t_round = time.perf_counter()
             session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
-            state, n_round = "interrupted", 0
-            try:
+            n_round = 0
+            with store_session(store, session, t0=t_round) as ended:
                 with show_progress(len(round_specs), done=len(round_specs) - len(todo),
                                    desc=f"faultlab mutate case {r}", unit="job", enabled=progress) as bar:
                     # one job per batch: a mutant may couple the filters of a batch through a unit
@@ -247,10 +248,8 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                         k = res.key
                         store.write(_row(info[(k.run, k.suite, k.case)], res), session=session)
                         n_round += 1
+                        ended["n_new"] = n_round
                         bar.update(1)
-                state = "complete"
-            finally:
-                store.end_session(session, state=state, n_new=n_round, wall_time_s=time.perf_counter() - t0)
             n_new += n_round
             df = load_results(out)
             df = df[df["case"] == r]

@@ -81,6 +81,7 @@ __all__ = [
     "tune_allocator",
     "prepare_cases",
     "run_experiment",
+    "store_session",
 ]
 
 #: Key of the store's metadata (:func:`faultlab.runner.load_metadata`) listing the variants skipped
@@ -579,6 +580,26 @@ def _row(case: CaseInfo, res: JobResult) -> dict:
     return row
 
 
+@contextlib.contextmanager
+def store_session(store: ResultStore, session: int, *, t0: float) -> Iterator[dict]:
+    """End ``session`` when the block ends: ``complete``, or ``interrupted`` if it raised.
+
+    Yields a dict whose ``n_new`` the block keeps up to date.  If ending the session fails while
+    the block is already failing (the disk is full: the store cannot take the final update
+    either), the block's error is the one raised; the session is then closed as ``killed`` when
+    the store is next opened.
+    """
+    ended = {"n_new": 0}
+    try:
+        yield ended
+    except BaseException:
+        with contextlib.suppress(FaultlabError):
+            store.end_session(session, state="interrupted", n_new=ended["n_new"],
+                              wall_time_s=time.perf_counter() - t0)
+        raise
+    store.end_session(session, state="complete", n_new=ended["n_new"], wall_time_s=time.perf_counter() - t0)
+
+
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
                    batch_size: int | None = None) -> RunSummary:
@@ -650,8 +671,8 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         batches.sort(key=lambda b: (-b.cost, b.keys))  # longest first: shorter tail on few workers
         counts = {s.value: 0 for s in JobStatus} | store.status_counts()
         session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
-        n_new, state = 0, "interrupted"
-        try:
+        n_new = 0
+        with store_session(store, session, t0=t0) as ended:
             with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
                                enabled=progress,
                                counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
@@ -659,11 +680,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
                     k = res.key
                     store.write(_row(info[(k.run, k.suite, k.case)], res), session=session)
                     n_new += 1
+                    ended["n_new"] = n_new
                     counts[res.status.value] = counts.get(res.status.value, 0) + 1
                     bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
-            state = "complete"
-        finally:
-            store.end_session(session, state=state, n_new=n_new, wall_time_s=time.perf_counter() - t0)
         counts = {s.value: 0 for s in JobStatus} | store.status_counts()
         return RunSummary(out=out, results=store.path, n_jobs=len(specs), counts=counts, n_new=n_new,
                           n_skipped=len(specs) - len(todo), wall_time_s=time.perf_counter() - t0,
