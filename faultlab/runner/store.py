@@ -251,13 +251,13 @@ def store_lock(out: str | Path) -> Iterator[None]:
 
 
 def _is_written(path: Path) -> bool:
-    """Whether a writer may be at work on store ``path``: a write-ahead log is pending or its lock is held."""
-    wal = path.with_name(path.name + "-wal")
-    if wal.exists() and wal.stat().st_size > 0:
+    """Whether a writer may be at work on store ``path``: a write-ahead log exists (a connection is open,
+    or a killed writer left committed rows in it) or another process holds its lock."""
+    if path.with_name(path.name + "-wal").exists():
         return True
     lock = path.parent / ".lock"
-    if path.parent.resolve() in _held_locks:
-        return True
+    if path.parent.resolve() in _held_locks:  # this process: its writing connection has a -wal file
+        return False
     try:
         import fcntl
         fd = os.open(lock, os.O_RDONLY)
