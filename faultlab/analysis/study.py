@@ -52,7 +52,7 @@ from faultlab.errors import ConfigError, ResultsError
 from faultlab.mutation.campaign import MutantSelection, is_mutant_variant, mutant_id_of, mutant_variant
 from faultlab.runner.execute import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
-from faultlab.runner.store import load_metadata, load_results
+from faultlab.runner.store import check_store, load_metadata, load_results, load_sessions
 from faultlab.stats.cases import detectable_difference
 from faultlab.stats.killmatrix import (MULTIPLICITY, compare_scores, detection_table, evaluate_suites,
                                        kill_matrix, score_table)
@@ -60,7 +60,7 @@ from faultlab.stats.verdict import min_pairs
 from faultlab.vocabulary import PAPER_FAULTS
 
 __all__ = ["STUDY_FILE", "STUDY_TABLES", "StudySpec", "StudyExperiment", "StudyAnalysis", "load_study_experiment",
-           "run_study", "analyse_study", "study_spec", "sampled_load"]
+           "run_study", "analyse_study", "study_spec", "sampled_load", "settle_sessions"]
 
 #: File in the output directory recording the study's settings (read by :func:`analyse_study`).
 STUDY_FILE = "study.json"
@@ -226,43 +226,106 @@ def sampled_load(interval_s: float = 30.0) -> Iterator[list]:
         samples.append([time.time(), *os.getloadavg()])
 
 
-def _saved_sessions(out: Path, sexp: StudyExperiment) -> list:
+def _read_study_file(out: Path) -> dict | None:
     try:
-        old = json.loads((out / STUDY_FILE).read_text())
+        return json.loads((out / STUDY_FILE).read_text())
     except (OSError, ValueError):
+        return None
+
+
+def _saved_sessions(out: Path, sexp: StudyExperiment) -> list:
+    old = _read_study_file(out)
+    if old is None:
         return []
     keys = ("quick", "mutants", "pool", "runs")  # the campaign; [study] settings may change between sessions
     same = all(old.get(k) == sexp.to_json()[k] for k in keys)
     return list(old.get("sessions", [])) if same else []
 
 
+def settle_sessions(sessions: list, store_sessions: list) -> list:
+    """The study's session records with every unfinished one settled from the store's sessions.
+
+    A study session that did not end normally (killed: still ``running``; interrupted; or a
+    record with a missing or non-finite wall time) gets the new rows the store committed in its
+    time window (from its start to the next study session's start: the runner's sessions started
+    in it) and the wall time until its last such row; a killed one is marked ``killed``.
+
+    Parameters
+    ----------
+    sessions : list of dict
+        Records of ``study.json`` (``started``: s since the epoch).
+    store_sessions : list of dict
+        :func:`faultlab.runner.store.load_sessions`.
+
+    Returns
+    -------
+    list of dict
+        New records; finished ones unchanged.
+    """
+    out = []
+    for i, rec in enumerate(sessions):
+        rec = dict(rec)
+        wall = rec.get("wall_time_s")
+        finite = isinstance(wall, (int, float)) and math.isfinite(wall)
+        if rec.get("state") != "complete" or not finite:
+            start = float(rec.get("started") or 0.0)
+            end = float(sessions[i + 1].get("started") or math.inf) if i + 1 < len(sessions) else math.inf
+            mine = [s for s in store_sessions if start <= s["started_unix"] < end]
+            rec["n_new"] = int(sum(s["n_new"] or 0 for s in mine))
+            if not finite:
+                ends = [s["started_unix"] + s["wall_time_s"] for s in mine]
+                rec["wall_time_s"] = max(0.0, max(ends, default=start) - start)
+            if rec.get("state") == "running":
+                rec["state"] = "killed"
+        out.append(rec)
+    return out
+
+
 def run_study(sexp: StudyExperiment | str | Path, out: str | Path, *, jobs: int = 2, backend: str = "loky",
               force_new: bool = False, progress: bool = True) -> RunSummary:
     """Run (or resume) a study's pools through the runner; record its settings and every session's
-    wall time, jobs and sampled machine load in ``out/study.json``."""
+    wall time, jobs and sampled machine load in ``out/study.json``.
+
+    A session record is written ``running`` before the pools run and completed when they end; a
+    session killed before that is settled from the store when the study is next run or analysed
+    (:func:`settle_sessions`).  A run the store refuses (another experiment, a damaged store, the
+    store in use) writes nothing: the check comes before the first write.
+    """
     if not isinstance(sexp, StudyExperiment):
         sexp = load_study_experiment(sexp)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    sessions = [] if force_new else _saved_sessions(out, sexp)
+    check_store(out, sexp.experiment, force_new=force_new)
     record = {"started": time.time(), "jobs": jobs, "backend": backend, "cpus": os.cpu_count(), "n_new": 0,
-              "wall_time_s": math.nan, "state": "interrupted", "load": []}
-    sessions.append(record)
+              "wall_time_s": None, "state": "running", "load": []}
+    sessions: list = []
 
     def save() -> None:
-        (out / STUDY_FILE).write_text(json.dumps(sexp.to_json() | {"sessions": sessions}, indent=1))
+        text = json.dumps(sexp.to_json() | {"sessions": sessions}, indent=1, allow_nan=False)
+        tmp = out / (STUDY_FILE + ".tmp")
+        tmp.write_text(text)
+        tmp.replace(out / STUDY_FILE)  # never half-written
 
-    save()
+    def start() -> None:  # the runner accepted the store: from here on the session is recorded
+        sessions[:] = [] if force_new else settle_sessions(_saved_sessions(out, sexp), load_sessions(out))
+        sessions.append(record)
+        save()
+
     t0 = time.perf_counter()
+    summary = None
     try:
         with sampled_load() as load:
             record["load"] = load
             summary = run_experiment(sexp.experiment, out, jobs=jobs, backend=backend, force_new=force_new,
-                                     progress=progress)
+                                     progress=progress, on_start=start)
             record.update(state="complete", n_new=summary.n_new)
     finally:
-        record["wall_time_s"] = time.perf_counter() - t0
-        save()  # an interrupted session is recorded too
+        if sessions:  # not refused
+            record["wall_time_s"] = time.perf_counter() - t0
+            if summary is None:
+                record["state"] = "interrupted"
+                sessions[-1:] = settle_sessions(sessions, load_sessions(out))[-1:]
+            with contextlib.suppress(OSError):  # a full disk must not hide the run's own error
+                save()
     return summary
 
 
@@ -357,7 +420,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     detection = detection_table(ev, km.variants)
     detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
     status = results["status"].astype(str).value_counts().to_dict()
-    sessions = info.get("sessions", [])
+    sessions = settle_sessions(info.get("sessions", []), load_sessions(out))
     meta_out = {
         "study": spec.to_dict(), "quick": info.get("quick", False), "pool": info.get("pool", {}),
         "runs": exp["runs"], "repetitions": exp["repetitions"], "n_steps": exp["n_steps"], "slam": exp["slam"],

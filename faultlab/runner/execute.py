@@ -50,7 +50,7 @@ import traceback
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Mapping
+from typing import Callable, Iterator, Mapping
 
 import numpy as np
 
@@ -602,7 +602,7 @@ def store_session(store: ResultStore, session: int, *, t0: float) -> Iterator[di
 
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
-                   batch_size: int | None = None) -> RunSummary:
+                   batch_size: int | None = None, on_start: Callable[[], None] | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
 
     Parameters
@@ -632,6 +632,10 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         repetitions of a (case, variant) per job (default: all that are missing from the store;
         1: one repetition per job).  The results are the same whatever the batch size, except
         ``runtime_s``.
+    on_start : callable, optional
+        Called once every check passed and the store is open, before the first write to ``out``
+        (a driver writing files of its own next to the store writes them there, so that a refused
+        run writes nothing).
 
     Returns
     -------
@@ -657,6 +661,8 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     out = Path(out)
     sut, skipped = _preflight(experiment)
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
+        if on_start is not None:
+            on_start()
         store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
         cases = prepare_cases(experiment, out)
         info = {(c.run, c.suite, c.case): c for c in cases}

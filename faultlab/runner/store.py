@@ -59,6 +59,7 @@ __all__ = [
     "ResultStore",
     "load_results",
     "load_metadata",
+    "load_sessions",
     "case_path",
     "results_path",
     "store_lock",
@@ -594,21 +595,13 @@ def load_metadata(out: str | Path) -> dict:
     path, conn = _open_existing(out)
     try:
         meta = _read_meta(conn, path)
-        conn.row_factory = sqlite3.Row
-        sessions = [dict(r) for r in conn.execute("SELECT * FROM sessions ORDER BY id")]
-        last = dict(conn.execute("SELECT session, MAX(written_unix) FROM results GROUP BY session").fetchall())
-        rows = dict(conn.execute("SELECT session, COUNT(*) FROM results GROUP BY session").fetchall())
+        sessions = _sessions(conn)
         n_rows = conn.execute("SELECT COUNT(*) FROM results").fetchone()[0]
     except sqlite3.Error as exc:
         raise _database_error(path, exc, "reading its metadata") from exc
     finally:
         conn.close()
     for s in sessions:
-        if s["wall_time_s"] is None:  # killed: count until its last row
-            s["wall_time_s"] = max(0.0, (last.get(s["id"]) or s["started_unix"]) - s["started_unix"])
-            if s["state"] == "running":
-                s["state"] = "killed"
-                s["n_new"] = int(rows.get(s["id"], 0))
         del s["started_unix"]
     try:
         meta["experiment"] = json.loads(meta["experiment"])
@@ -619,6 +612,40 @@ def load_metadata(out: str | Path) -> dict:
     meta["n_rows"] = int(n_rows)
     meta["path"] = str(path)
     return meta
+
+
+def _sessions(conn: sqlite3.Connection) -> list[dict]:
+    """Every session of a store, a killed one's wall time counted until its last stored row and its
+    stored rows as ``n_new``."""
+    conn.row_factory = sqlite3.Row
+    try:
+        sessions = [dict(r) for r in conn.execute("SELECT * FROM sessions ORDER BY id")]
+    finally:
+        conn.row_factory = None
+    last = dict(conn.execute("SELECT session, MAX(written_unix) FROM results GROUP BY session").fetchall())
+    rows = dict(conn.execute("SELECT session, COUNT(*) FROM results GROUP BY session").fetchall())
+    for s in sessions:
+        if s["wall_time_s"] is None:  # killed: count until its last row
+            s["wall_time_s"] = max(0.0, (last.get(s["id"]) or s["started_unix"]) - s["started_unix"])
+            if s["state"] == "running":
+                s["state"] = "killed"
+                s["n_new"] = int(rows.get(s["id"], 0))
+    return sessions
+
+
+def load_sessions(out: str | Path) -> list[dict]:
+    """The sessions of a store as :func:`load_metadata` lists them, each with its ``started_unix`` (s since
+    the epoch); [] if there is no store yet."""
+    path = results_path(out)
+    if not path.is_file():
+        return []
+    conn = _connect_ro(path)
+    try:
+        return _sessions(conn)
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "reading its sessions") from exc
+    finally:
+        conn.close()
 
 
 def _verify(path: Path, rows: list, checked: bool) -> None:

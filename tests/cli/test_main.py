@@ -132,3 +132,45 @@ def test_disk_full_keeps_finished_rows_and_resumes(finished, tmpfs, capsys, room
     pd.testing.assert_frame_equal(got.drop(columns="runtime_s"), want.drop(columns="runtime_s"))
     for p in (reference / "cases").rglob("*.npz"):  # the cases are the reference's, byte for byte
         assert (out / p.relative_to(reference)).read_bytes() == p.read_bytes()
+
+
+MUTATION = """
+seed = 3
+runs = 1
+n_steps = 30
+repetitions = 6
+timeout_s = 60.0
+[suites]
+random = 2
+fixed = 1
+[slam]
+name = "fastslam"
+particles = 5
+[mutation]
+ids = ["motion_model:arithmetic:9"]
+"""
+
+
+@pytest.mark.slow
+def test_a_refused_run_of_any_verb_leaves_every_file_byte_identical(finished, tmp_path, capsys):
+    from tests.cli.test_study import SMALL
+
+    exp, src = finished
+    runs = {"run": (src, exp, str(exp).replace("e.toml", "changed.toml"), ["run"]),
+            "mutate": (None, MUTATION, MUTATION.replace("seed = 3", "seed = 4"), ["mutate", "run"]),
+            "study": (None, SMALL, SMALL.replace('"baseline", "motion_sign_error"', '"baseline"'), ["study", "run"])}
+    write_experiment(runs["run"][2], runs=1, seed=12)
+    for verb, (done, text, changed, command) in runs.items():
+        out = tmp_path / verb
+        if done is not None:
+            shutil.copytree(done, out)
+        else:
+            (tmp_path / f"{verb}.toml").write_text(text)
+            (tmp_path / f"{verb}-changed.toml").write_text(changed)
+            changed = tmp_path / f"{verb}-changed.toml"
+            assert main([*command, str(tmp_path / f"{verb}.toml"), "--out", str(out), "--jobs", "1",
+                         "--backend", "threading", "--no-progress"]) == 0
+        before = _files(out)
+        assert main([*command, str(changed), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+        _one_error(capsys.readouterr().err, "different experiment", "changed:")
+        assert _files(out) == before, verb
