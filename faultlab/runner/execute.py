@@ -82,6 +82,7 @@ __all__ = [
     "prepare_cases",
     "run_experiment",
     "store_session",
+    "watch_parent",
 ]
 
 #: Key of the store's metadata (:func:`faultlab.runner.load_metadata`) listing the variants skipped
@@ -266,6 +267,34 @@ def tune_allocator() -> bool:
     return _allocator_tuned
 
 
+#: Seconds between two checks of a worker that its parent is still alive.
+PARENT_POLL_S = 0.5
+
+
+def watch_parent(parent_pid: int, interval_s: float = PARENT_POLL_S) -> None:
+    """Make this worker process end within ``interval_s`` once the process ``parent_pid`` is gone.
+
+    The initializer of the executors' worker processes.  A campaign killed by SIGKILL cannot shut
+    its pool down, and idle loky workers would otherwise wait for work for minutes.  A daemon
+    thread polls :func:`os.getppid`: an orphan is re-parented, so a different parent means the
+    campaign is gone and the worker exits at once (``os._exit``: nothing of the dead campaign is left
+    to clean up).  On Linux the kernel also sends SIGKILL when the parent dies
+    (``prctl(PR_SET_PDEATHSIG)``), which ends a worker even while a SLAM holds the GIL.
+    """
+    if platform.system() == "Linux":
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG = 1
+    if os.getppid() != parent_pid:  # died before the watch began
+        os._exit(1)
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(interval_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="faultlab-parent-watch", daemon=True).start()
+
+
 def _describe(exc: BaseException) -> str:
     """``"Type: message (at file.py:line in func)"`` with the innermost frame."""
     text = f"{type(exc).__name__}: {exc}"
@@ -383,7 +412,8 @@ def _find_killer(suspects: list[JobBatch]) -> tuple[list[JobResult], list[JobBat
     suspects not run yet, which go back to the parallel pool.
     """
     results: list[JobResult] = []
-    executor = ProcessPoolExecutor(max_workers=1)  # private: joblib's reusable executor stays untouched
+    executor = ProcessPoolExecutor(max_workers=1, initializer=watch_parent,  # private: joblib's stays untouched
+                                   initargs=(os.getpid(),))
     try:
         for i, batch in enumerate(suspects):
             try:
@@ -549,7 +579,8 @@ def _stream(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator[JobRes
                 yield delayed(execute_batch)(b)
 
         try:
-            with _backend(backend, jobs) as (name, n_jobs), parallel_config(backend=name, n_jobs=n_jobs):
+            watch = {"initializer": watch_parent, "initargs": (os.getpid(),)} if backend == "loky" else {}
+            with _backend(backend, jobs) as (name, n_jobs), parallel_config(backend=name, n_jobs=n_jobs, **watch):
                 parallel = Parallel(return_as="generator_unordered", batch_size=1)
                 for results in parallel(tasks(pending)):
                     returned.add(tuple(r.key for r in results))
