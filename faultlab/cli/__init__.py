@@ -12,9 +12,11 @@ import errno
 import importlib
 import os
 import sys
+import warnings
 
 from faultlab import __version__
 from faultlab.errors import FaultlabError
+from faultlab.runner.store import UnverifiedStoreWarning
 
 __all__ = ["main", "build_parser"]
 
@@ -61,6 +63,16 @@ def _silence_stdout() -> None:
         pass
 
 
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    """A note about a store read without checksums is one line for a user, not a source location."""
+    if issubclass(category, UnverifiedStoreWarning):
+        return f"faultlab: note: {message}\n"
+    return _python_format_warning(message, category, filename, lineno, line)
+
+
+_python_format_warning = warnings.formatwarning
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one command; every expected failure is one ``faultlab: error:`` line on stderr and exit code 1.
 
@@ -68,6 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     with exit code 141, as a process killed by SIGPIPE (the shell's convention); the command stops
     at its next write, so a campaign keeps the rows it committed.
     """
+    warnings.formatwarning = _format_warning
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

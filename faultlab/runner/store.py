@@ -648,6 +648,9 @@ def load_sessions(out: str | Path) -> list[dict]:
         conn.close()
 
 
+_noted: set = set()  # (store, unverified rows) already noted in this process
+
+
 def _verify(path: Path, rows: list, checked: bool) -> None:
     """Raise ResultsError at the first row whose values do not match its checksum.
 
@@ -670,7 +673,8 @@ def _verify(path: Path, rows: list, checked: bool) -> None:
                 f"not match its checksum"
             raise ResultsError(f"{path} is damaged: row {rowid} ({key}): {what}. The store's values cannot be "
                                f"trusted; restore it from a copy or rerun the campaign into a new directory")
-    if unverified:
+    if unverified and (path.resolve(), unverified) not in _noted:
+        _noted.add((path.resolve(), unverified))
         warnings.warn(f"{path}: {unverified} of {len(rows)} rows were written before row checksums existed "
                       f"and are read without verification", UnverifiedStoreWarning, stacklevel=3)
 
