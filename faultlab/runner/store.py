@@ -673,8 +673,8 @@ def _verify(path: Path, rows: list, checked: bool) -> None:
                 f"not match its checksum"
             raise ResultsError(f"{path} is damaged: row {rowid} ({key}): {what}. The store's values cannot be "
                                f"trusted; restore it from a copy or rerun the campaign into a new directory")
-    if unverified and (path.resolve(), unverified) not in _noted:
-        _noted.add((path.resolve(), unverified))
+    if unverified and (path.resolve(), unverified, len(rows)) not in _noted:
+        _noted.add((path.resolve(), unverified, len(rows)))
         warnings.warn(f"{path}: {unverified} of {len(rows)} rows were written before row checksums existed "
                       f"and are read without verification", UnverifiedStoreWarning, stacklevel=3)
 
