@@ -11,6 +11,7 @@ import argparse
 import errno
 import importlib
 import os
+import sqlite3
 import sys
 import warnings
 
@@ -100,6 +101,9 @@ def main(argv: list[str] | None = None) -> int:
         where = f" ({exc.filename})" if exc.filename else ""
         what = "the disk is full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
         print(f"faultlab: error: {what}{where}", file=sys.stderr)
+        return 1
+    except sqlite3.Error as exc:  # a store read outside faultlab.runner.store's own error handling
+        print(f"faultlab: error: a results store cannot be read or written (SQLite: {exc})", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("faultlab: interrupted; finished results are saved", file=sys.stderr)

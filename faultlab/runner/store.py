@@ -364,6 +364,20 @@ def _refusal(out: Path, meta: Mapping, experiment) -> ResultsError:
         f"to start a new store (the old one is moved aside, not deleted)")
 
 
+def _is_blank(path: Path) -> bool:
+    """Whether ``path`` is an SQLite file without any table (its creator died before committing the schema)."""
+    if path.stat().st_size == 0:
+        return True
+    try:
+        conn = _connect_ro(path)
+        try:
+            return conn.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()[0] == 0
+        finally:
+            conn.close()
+    except (sqlite3.Error, ResultsError):
+        return False
+
+
 def check_store(out: str | Path, experiment, *, force_new: bool = False) -> None:
     """Refuse, writing nothing, what :meth:`ResultStore.open` would refuse.
 
@@ -380,7 +394,7 @@ def check_store(out: str | Path, experiment, *, force_new: bool = False) -> None
     if out.exists() and not out.is_dir():
         raise ResultsError(f"output directory {out} is a file, not a directory; name a directory")
     path = results_path(out)
-    if force_new or not path.exists():
+    if force_new or not path.exists() or _is_blank(path):
         return
     conn = _connect_ro(path)
     try:
@@ -427,6 +441,8 @@ class ResultStore:
         check_store(out, experiment, force_new=force_new)
         out = ensure_out_dir(out)
         path = results_path(out)
+        if path.exists() and not force_new and _is_blank(path):
+            path.unlink()  # killed before its schema was committed: nothing to keep
         if path.exists() and force_new:
             cls._move_aside(out)
         elif path.exists():

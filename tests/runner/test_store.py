@@ -409,3 +409,11 @@ def test_a_changed_value_is_attributed_to_its_column(column, value):
     # the 16-byte row digest always notices; the 2-byte column digest names the column (or, at a
     # 1 in 65536 collision, only the row is known to be damaged)
     assert bad == [] if same else bad in ([column], ["checksum"])
+
+
+def test_store_killed_before_its_schema_was_committed_is_created_afresh(tmp_path, exp):
+    path = results_path(tmp_path)
+    path.write_bytes(b"")  # created, then killed before the schema transaction committed
+    with ResultStore.open(tmp_path, exp) as store:
+        store.write(_row(1, "random", 1, "baseline", 0))
+    assert len(load_results(tmp_path)) == 1 and load_metadata(tmp_path)["experiment_hash"] == exp.hash
