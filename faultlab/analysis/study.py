@@ -48,7 +48,7 @@ from faultlab.analysis.campaign import count_expected_jobs, read_rule
 from faultlab.analysis.mutation import selection_from_table
 from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
-from faultlab.errors import ConfigError, ResultsError
+from faultlab.errors import ConfigError, FaultlabError, ResultsError
 from faultlab.mutation.campaign import MutantSelection, is_mutant_variant, mutant_id_of, mutant_variant
 from faultlab.runner.execute import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
@@ -323,8 +323,9 @@ def run_study(sexp: StudyExperiment | str | Path, out: str | Path, *, jobs: int 
             record["wall_time_s"] = time.perf_counter() - t0
             if summary is None:
                 record["state"] = "interrupted"
-                sessions[-1:] = settle_sessions(sessions, load_sessions(out))[-1:]
-            with contextlib.suppress(OSError):  # a full disk must not hide the run's own error
+                with contextlib.suppress(FaultlabError):  # a damaged store must not hide the run's own error
+                    sessions[-1:] = settle_sessions(sessions, load_sessions(out))[-1:]
+            with contextlib.suppress(OSError):  # nor a full disk
                 save()
     return summary
 
