@@ -277,13 +277,11 @@ def watch_parent(parent_pid: int, interval_s: float = PARENT_POLL_S) -> None:
     The initializer of the executors' worker processes.  A campaign killed by SIGKILL cannot shut
     its pool down, and idle loky workers would otherwise wait for work for minutes.  A daemon
     thread polls :func:`os.getppid`: an orphan is re-parented, so a different parent means the
-    campaign is gone and the worker exits at once (``os._exit``: nothing of the dead campaign is left
-    to clean up).  On Linux the kernel also sends SIGKILL when the parent dies
-    (``prctl(PR_SET_PDEATHSIG)``), which ends a worker even while a SLAM holds the GIL.
+    campaign is gone and the worker exits at once (``os._exit``: nothing of the dead campaign is
+    left to clean up).  The SLAM's compiled kernels return to Python at every step, so the thread
+    gets its turn within milliseconds.  (``prctl(PR_SET_PDEATHSIG)`` is not used: it fires when the
+    *thread* that started the worker ends, which for a reused pool need not be the campaign's end.)
     """
-    if platform.system() == "Linux":
-        with contextlib.suppress(OSError, AttributeError):
-            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG = 1
     if os.getppid() != parent_pid:  # died before the watch began
         os._exit(1)
 
