@@ -111,17 +111,29 @@ def _encode(value) -> bytes:
     return b"b" + value
 
 
-def _column_digests(values) -> list[bytes]:
-    return [hashlib.blake2b(_encode(v), digest_size=_COLUMN_DIGEST, person=c.encode()[:16]).digest()
-            for c, v in zip(RESULT_COLUMNS, values)]
+#: Order of the per-column digests of a checksum.  Never reorder or shorten it: rows already stored
+#: depend on it.  A column added to the table later is placed after these, in table order, and rows
+#: written before it existed (where it is NULL) keep their checksum.
+_DIGEST_ORDER: tuple[str, ...] = (
+    "run", "suite", "case", "variant", "rep", *VALUE_KEYS, *(f"class_{p}" for p in PARAMETER_NAMES),
+    "n_landmarks", "rms_mm", "emd_mm", "n_mapped", "n_unmapped", "runtime_s", "status", "error")
+
+
+def _digest_layout() -> tuple[str, ...]:
+    return _DIGEST_ORDER + tuple(c for c in RESULT_COLUMNS if c not in _DIGEST_ORDER)
+
+
+def _column_digest(column: str, value) -> bytes:
+    return hashlib.blake2b(_encode(value), digest_size=_COLUMN_DIGEST, person=column.encode()[:16]).digest()
 
 
 def row_checksum(values) -> bytes:
     """Checksum of one row's values (in :data:`RESULT_COLUMNS` order, as stored).
 
-    A 16-byte BLAKE2b digest of the length-prefixed type-tagged encoding of every value (any change
-    of a value or of its type changes it), followed by a 2-byte BLAKE2b digest per column (which
-    column differs, for the error message).
+    A 16-byte BLAKE2b digest of every non-NULL value with its column name (length-prefixed,
+    type-tagged: any change of a value, of its type, or from or to NULL changes it), followed by a
+    2-byte BLAKE2b digest per column (which column differs, for the error message).  A column
+    added to the table later leaves the checksums of older rows, where it is NULL, valid.
 
     Parameters
     ----------
@@ -132,23 +144,29 @@ def row_checksum(values) -> bytes:
     -------
     bytes, shape (16 + 2 * len(RESULT_COLUMNS),)
     """
+    by_name = dict(zip(RESULT_COLUMNS, values))
     h = hashlib.blake2b(digest_size=_ROW_DIGEST, person=b"faultlab-row-v1")
-    for v in values:
-        e = _encode(v)
-        h.update(len(e).to_bytes(8, "little"))
-        h.update(e)
-    return h.digest() + b"".join(_column_digests(values))
+    for c in sorted(by_name):
+        if by_name[c] is None:
+            continue
+        for part in (c.encode(), _encode(by_name[c])):
+            h.update(len(part).to_bytes(8, "little"))
+            h.update(part)
+    return h.digest() + b"".join(_column_digest(c, by_name.get(c)) for c in _digest_layout() if c in by_name)
 
 
 def _damaged_columns(values, checksum) -> list[str]:
     """Columns whose value does not match ``checksum`` ([] if it matches; ["checksum"] if only it is damaged)."""
-    if isinstance(checksum, bytes) and checksum == row_checksum(values):
+    if isinstance(checksum, bytes) and checksum[:_ROW_DIGEST] == row_checksum(values)[:_ROW_DIGEST]:
         return []
-    if not isinstance(checksum, bytes) or len(checksum) != _ROW_DIGEST + _COLUMN_DIGEST * len(RESULT_COLUMNS):
+    n = (len(checksum) - _ROW_DIGEST) // _COLUMN_DIGEST if isinstance(checksum, bytes) else -1
+    if n < 0 or len(checksum) != _ROW_DIGEST + _COLUMN_DIGEST * n:
         return ["checksum"]
-    stored = [checksum[_ROW_DIGEST + i * _COLUMN_DIGEST:_ROW_DIGEST + (i + 1) * _COLUMN_DIGEST]
-              for i in range(len(RESULT_COLUMNS))]
-    bad = [c for c, a, b in zip(RESULT_COLUMNS, _column_digests(values), stored) if a != b]
+    by_name = dict(zip(RESULT_COLUMNS, values))
+    layout = [c for c in _digest_layout() if c in by_name]
+    bad = [c for i, c in enumerate(layout)
+           if (i < n and checksum[_ROW_DIGEST + i * _COLUMN_DIGEST:_ROW_DIGEST + (i + 1) * _COLUMN_DIGEST]
+               != _column_digest(c, by_name[c])) or (i >= n and by_name[c] is not None)]
     return bad or ["checksum"]
 
 

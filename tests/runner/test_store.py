@@ -417,3 +417,19 @@ def test_store_killed_before_its_schema_was_committed_is_created_afresh(tmp_path
     with ResultStore.open(tmp_path, exp) as store:
         store.write(_row(1, "random", 1, "baseline", 0))
     assert len(load_results(tmp_path)) == 1 and load_metadata(tmp_path)["experiment_hash"] == exp.hash
+
+
+def test_a_column_added_to_the_table_later_keeps_older_checksums_valid(monkeypatch):
+    from faultlab.runner import store as store_module
+
+    values = store_module._stored_values(_row(1, "random", 2, "baseline", 0))
+    old = row_checksum(values)
+    i = RESULT_COLUMNS.index("rep") + 1  # a new column in the middle of the table, NULL in older rows
+    monkeypatch.setattr(store_module, "RESULT_COLUMNS", RESULT_COLUMNS[:i] + ("repetitions_used",) + RESULT_COLUMNS[i:])
+    assert store_module._damaged_columns(values[:i] + [None] + values[i:], old) == []
+    assert store_module._damaged_columns(values[:i] + [10] + values[i:], old) == ["repetitions_used"]
+    changed = values[:i] + [None] + values[i:]
+    changed[RESULT_COLUMNS.index("emd_mm") + 1] = 1.0
+    assert store_module._damaged_columns(changed, old) == ["emd_mm"]
+    new = row_checksum(values[:i] + [10] + values[i:])  # rows written with the column are checked on it too
+    assert store_module._damaged_columns(values[:i] + [11] + values[i:], new) == ["repetitions_used"]
