@@ -180,7 +180,7 @@ def _stored_values(row: Mapping) -> list:
         if v is None or (isinstance(v, float) and math.isnan(v)):
             v = None
         elif t == "REAL":
-            v = float(v)
+            v = float(v) + 0.0  # -0.0 -> 0.0: SQLite stores a negative zero as 0
         elif t == "INTEGER":
             v = int(v)
         else:
