@@ -279,9 +279,10 @@ def watch_parent(parent_pid: int, interval_s: float = PARENT_POLL_S) -> None:
     its pool down, and idle loky workers would otherwise wait for work for minutes.  A daemon
     thread polls :func:`os.getppid`: an orphan is re-parented, so a different parent means the
     campaign is gone and the worker exits at once (``os._exit``: nothing of the dead campaign is
-    left to clean up).  The SLAM's compiled kernels return to Python at every step, so the thread
-    gets its turn within milliseconds.  (``prctl(PR_SET_PDEATHSIG)`` is not used: it fires when the
-    *thread* that started the worker ends, which for a reused pool need not be the campaign's end.)
+    left to clean up).  The thread needs the GIL: a worker inside one long call that holds it exits
+    when that call returns (numpy and the SLAMs' kernels return to Python at every step).
+    (``prctl(PR_SET_PDEATHSIG)`` is not used: it fires when the *thread* that started the worker
+    ends, which for a reused pool need not be the campaign's end.)
     """
     if os.getppid() != parent_pid:  # died before the watch began
         os._exit(1)
