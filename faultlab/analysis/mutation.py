@@ -61,7 +61,7 @@ from faultlab.runner.execute import _row, _stream, prepare_cases, store_session
 from faultlab.runner.experiment import Experiment, parse_experiment
 from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import progress as show_progress
-from faultlab.runner.store import ResultStore, load_results, store_lock
+from faultlab.runner.store import ResultStore, check_store, load_results, results_path, store_lock
 from faultlab.stats.verdict import case_verdicts, min_pairs
 from faultlab.vocabulary import BASELINE, JobStatus
 
@@ -213,6 +213,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
     t0 = time.perf_counter()
     out = Path(out)
     n_new = 0
+    _check_level(out, mexp, force_new=force_new)
     with store_lock(out), ResultStore.open(out, exp, force_new=force_new) as store:
         (out / MUTATION_FILE).write_text(json.dumps(_selection_json(mexp), indent=1))
         cases = prepare_cases(exp, out)
@@ -263,6 +264,22 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                 killed[(run, suite)].update(k.loc[k["kill"] != "", "fault"])
     return MutationRun(out=out, n_mutants=len(mexp.selection.run), n_jobs_max=len(specs), n_jobs_run=n_needed,
                        n_new=n_new, n_skipped_early=len(specs) - n_needed, wall_time_s=time.perf_counter() - t0)
+
+
+def _check_level(out: Path, mexp: MutationExperiment, *, force_new: bool) -> None:
+    """Refuse, before anything is written, to resume a campaign at another ``alpha``: the level decides
+    which cases ran (early stopping), so the stored rows belong to the level they were run at."""
+    check_store(out, mexp.experiment, force_new=force_new)
+    if force_new or not results_path(out).exists():
+        return
+    try:
+        old = json.loads((out / MUTATION_FILE).read_text())
+    except (OSError, ValueError):
+        return
+    if old.get("alpha") is not None and float(old["alpha"]) != mexp.alpha:
+        raise ResultsError(f"{out} holds a mutation campaign at alpha = {old['alpha']}, not {mexp.alpha}; changed: "
+                           f"mutation.alpha. Rerun with the original level to resume, or use --force-new "
+                           f"(force_new=True) to start a new store (the old one is moved aside, not deleted)")
 
 
 def _selection_json(mexp: MutationExperiment) -> dict:

@@ -156,21 +156,25 @@ def test_a_refused_run_of_any_verb_leaves_every_file_byte_identical(finished, tm
     from tests.cli.test_study import SMALL
 
     exp, src = finished
-    runs = {"run": (src, exp, str(exp).replace("e.toml", "changed.toml"), ["run"]),
-            "mutate": (None, MUTATION, MUTATION.replace("seed = 3", "seed = 4"), ["mutate", "run"]),
-            "study": (None, SMALL, SMALL.replace('"baseline", "motion_sign_error"', '"baseline"'), ["study", "run"])}
-    write_experiment(runs["run"][2], runs=1, seed=12)
-    for verb, (done, text, changed, command) in runs.items():
+    changed_run = tmp_path / "run-changed.toml"
+    write_experiment(changed_run, runs=1, seed=12)
+    runs = {"run": (src, None, [changed_run], ["run"]),
+            "mutate": (None, MUTATION, [MUTATION.replace("seed = 3", "seed = 4"),
+                                        MUTATION.replace("[mutation]", "[mutation]\nalpha = 0.1")], ["mutate", "run"]),
+            "study": (None, SMALL, [SMALL.replace('"baseline", "motion_sign_error"', '"baseline"')], ["study", "run"])}
+    for verb, (done, text, changes, command) in runs.items():
         out = tmp_path / verb
         if done is not None:
             shutil.copytree(done, out)
         else:
             (tmp_path / f"{verb}.toml").write_text(text)
-            (tmp_path / f"{verb}-changed.toml").write_text(changed)
-            changed = tmp_path / f"{verb}-changed.toml"
             assert main([*command, str(tmp_path / f"{verb}.toml"), "--out", str(out), "--jobs", "1",
                          "--backend", "threading", "--no-progress"]) == 0
         before = _files(out)
-        assert main([*command, str(changed), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
-        _one_error(capsys.readouterr().err, "different experiment", "changed:")
-        assert _files(out) == before, verb
+        for i, changed in enumerate(changes):
+            if isinstance(changed, str):
+                (tmp_path / f"{verb}-changed{i}.toml").write_text(changed)
+                changed = tmp_path / f"{verb}-changed{i}.toml"
+            assert main([*command, str(changed), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+            _one_error(capsys.readouterr().err, "changed:")
+            assert _files(out) == before, (verb, i)
