@@ -145,6 +145,10 @@ def row_checksum(values) -> bytes:
     bytes, shape (16 + 2 * len(RESULT_COLUMNS),)
     """
     by_name = dict(zip(RESULT_COLUMNS, values))
+    return _row_digest(by_name) + b"".join(_column_digest(c, by_name.get(c)) for c in _digest_layout() if c in by_name)
+
+
+def _row_digest(by_name: Mapping) -> bytes:
     h = hashlib.blake2b(digest_size=_ROW_DIGEST, person=b"faultlab-row-v1")
     for c in sorted(by_name):
         if by_name[c] is None:
@@ -152,12 +156,12 @@ def row_checksum(values) -> bytes:
         for part in (c.encode(), _encode(by_name[c])):
             h.update(len(part).to_bytes(8, "little"))
             h.update(part)
-    return h.digest() + b"".join(_column_digest(c, by_name.get(c)) for c in _digest_layout() if c in by_name)
+    return h.digest()
 
 
 def _damaged_columns(values, checksum) -> list[str]:
     """Columns whose value does not match ``checksum`` ([] if it matches; ["checksum"] if only it is damaged)."""
-    if isinstance(checksum, bytes) and checksum[:_ROW_DIGEST] == row_checksum(values)[:_ROW_DIGEST]:
+    if isinstance(checksum, bytes) and checksum[:_ROW_DIGEST] == _row_digest(dict(zip(RESULT_COLUMNS, values))):
         return []
     n = (len(checksum) - _ROW_DIGEST) // _COLUMN_DIGEST if isinstance(checksum, bytes) else -1
     if n < 0 or len(checksum) != _ROW_DIGEST + _COLUMN_DIGEST * n:
