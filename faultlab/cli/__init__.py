@@ -1,4 +1,4 @@
-"""Command line: ``python -m faultlab <command>``.
+"""Command line: ``faultlab <command>`` (or ``python -m faultlab <command>``).
 
 The CLI only parses arguments and delegates to library functions.  Each
 command lives in its own module that defines ``register(subparsers)``; the
@@ -16,6 +16,7 @@ import sys
 import warnings
 
 from faultlab import __version__
+from faultlab.cli.options import epilog
 from faultlab.errors import FaultlabError
 from faultlab.runner.store import UnverifiedStoreWarning
 
@@ -36,10 +37,17 @@ COMMAND_MODULES = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: The program name of the installed command (``python -m faultlab`` passes its own).
+PROG = "faultlab"
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The parser of every command; ``prog`` is the name the usage lines show."""
     parser = argparse.ArgumentParser(
-        prog="python -m faultlab",
+        prog=prog,
         description="Coverage-driven testing of SLAM algorithms with injected faults.",
+        **epilog(["faultlab reproduce --quick --out results/quick", "faultlab run smoke --out results/smoke",
+                  "faultlab COMMAND --help"]),
     )
     parser.add_argument("--version", action="version", version=f"faultlab {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -74,15 +82,17 @@ def _format_warning(message, category, filename, lineno, line=None) -> str:
 _python_format_warning = warnings.formatwarning
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run one command; every expected failure is one ``faultlab: error:`` line on stderr and exit code 1.
+def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
+    """Run the command of ``argv`` (default ``sys.argv[1:]``); returns the exit status.
+
+    Every expected failure is one ``faultlab: error:`` line on stderr and exit code 1.
 
     A reader that closes the pipe early (``faultlab mutate list | head``) ends the command quietly
     with exit code 141, as a process killed by SIGPIPE (the shell's convention); the command stops
     at its next write, so a campaign keeps the rows it committed.
     """
     warnings.formatwarning = _format_warning
-    parser = build_parser()
+    parser = build_parser(prog)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

@@ -5,6 +5,7 @@ Layout of an output directory ``out``::
     out/results.sqlite                    rows, metadata, sessions
     out/cases/run{r}/{suite}/case{c}.npz  saved test cases (+ .json), shared by all variants
     out/previous-<UTC time>/              an older store moved aside by ``force_new``
+    out/mutation.json, out/study.json     a mutation campaign's selection, a study's settings
 
 Each finished job is committed as its own transaction, so a run killed with
 SIGKILL loses at most the jobs in flight.  ``UNIQUE (run, suite, case, variant,
@@ -59,6 +60,7 @@ __all__ = [
     "load_results",
     "load_metadata",
     "load_sessions",
+    "settle_sessions",
     "case_path",
     "results_path",
     "store_lock",
@@ -66,11 +68,24 @@ __all__ = [
     "check_store",
     "row_checksum",
     "UnverifiedStoreWarning",
+    "SKIPPED_VARIANTS_KEY",
+    "MUTATION_FILE",
+    "STUDY_FILE",
 ]
 
 RESULTS_FILE = "results.sqlite"
 CASES_DIR = "cases"
 FORMAT_VERSION = 1
+#: Key of the store's metadata (:func:`load_metadata`) listing the variants skipped because their
+#: fault does not apply to the SLAM: one dict per variant with ``fault`` (the variant), ``step``,
+#: ``slam``, ``n_units`` and ``reason`` (one sentence).
+SKIPPED_VARIANTS_KEY = "skipped_variants"
+#: File in a mutation campaign's output directory recording its mutant selection and level
+#: (written by :func:`faultlab.campaigns.mutation.run_mutation`).
+MUTATION_FILE = "mutation.json"
+#: File in a study's output directory recording its settings and sessions
+#: (written by :func:`faultlab.campaigns.study.run_study`).
+STUDY_FILE = "study.json"
 
 ID_COLUMNS: tuple[str, ...] = ("run", "suite", "case", "variant", "rep")
 
@@ -683,6 +698,45 @@ def load_sessions(out: str | Path) -> list[dict]:
         raise _database_error(path, exc, "reading its sessions") from exc
     finally:
         conn.close()
+
+
+def settle_sessions(sessions: list, store_sessions: list) -> list:
+    """A driver's session records (e.g. ``study.json``'s) with every unfinished one settled from the store's.
+
+    A driver session that did not end normally (killed: still ``running``; interrupted; or a
+    record with a missing or non-finite wall time) gets the new rows the store committed in its
+    time window (from its start to the next record's start: the runner's sessions started
+    in it) and the wall time until its last such row; a killed one is marked ``killed``.
+
+    Parameters
+    ----------
+    sessions : list of dict
+        The driver's records (``started``: s since the epoch; ``state``, ``n_new``, ``wall_time_s``).
+    store_sessions : list of dict
+        :func:`load_sessions`.
+
+    Returns
+    -------
+    list of dict
+        New records; finished ones unchanged.
+    """
+    out = []
+    for i, rec in enumerate(sessions):
+        rec = dict(rec)
+        wall = rec.get("wall_time_s")
+        finite = isinstance(wall, (int, float)) and math.isfinite(wall)
+        if rec.get("state") != "complete" or not finite:
+            start = float(rec.get("started") or 0.0)
+            end = float(sessions[i + 1].get("started") or math.inf) if i + 1 < len(sessions) else math.inf
+            mine = [s for s in store_sessions if start <= s["started_unix"] < end]
+            rec["n_new"] = int(sum(s["n_new"] or 0 for s in mine))
+            if not finite:
+                ends = [s["started_unix"] + s["wall_time_s"] for s in mine]
+                rec["wall_time_s"] = max(0.0, max(ends, default=start) - start)
+            if rec.get("state") == "running":
+                rec["state"] = "killed"
+        out.append(rec)
+    return out
 
 
 _noted: set = set()  # (store, unverified rows) already noted in this process

@@ -433,3 +433,26 @@ def test_a_column_added_to_the_table_later_keeps_older_checksums_valid(monkeypat
     assert store_module._damaged_columns(changed, old) == ["emd_mm"]
     new = row_checksum(values[:i] + [10] + values[i:])  # rows written with the column are checked on it too
     assert store_module._damaged_columns(values[:i] + [11] + values[i:], new) == ["repetitions_used"]
+
+
+def test_settle_sessions_counts_a_killed_sessions_rows_and_time_from_the_store():
+    import math
+
+    from faultlab.runner.store import settle_sessions
+
+    study = [{"started": 100.0, "state": "complete", "n_new": 5, "wall_time_s": 20.0},
+             {"started": 200.0, "state": "running", "n_new": 0, "wall_time_s": None},      # killed
+             {"started": 300.0, "state": "interrupted", "n_new": 0, "wall_time_s": math.nan},  # an old file's NaN
+             {"started": 400.0, "state": "complete", "n_new": 3, "wall_time_s": 9.0}]
+    store = [{"started_unix": 101.0, "n_new": 5, "wall_time_s": 18.0},
+             {"started_unix": 203.0, "n_new": 231, "wall_time_s": 40.0},  # the runner's session of the killed one
+             {"started_unix": 305.0, "n_new": 7, "wall_time_s": 2.5},
+             {"started_unix": 320.0, "n_new": 1, "wall_time_s": 1.0},     # a second runner session in its window
+             {"started_unix": 401.0, "n_new": 3, "wall_time_s": 8.0}]
+    got = settle_sessions(study, store)
+    assert got[0] == study[0] and got[3] == study[3]  # finished sessions are left alone
+    assert (got[1]["state"], got[1]["n_new"], got[1]["wall_time_s"]) == ("killed", 231, 43.0)
+    assert (got[2]["state"], got[2]["n_new"], got[2]["wall_time_s"]) == ("interrupted", 8, 21.0)
+    assert study[1]["state"] == "running"  # the input is not changed
+    assert settle_sessions([{"started": 10.0, "state": "running"}], []) == [
+        {"started": 10.0, "state": "killed", "n_new": 0, "wall_time_s": 0.0}]

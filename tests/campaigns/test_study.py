@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from faultlab.analysis.study import StudySpec, load_study_experiment, sampled_load, study_spec
+from faultlab.campaigns.study import load_study_experiment, sampled_load
 from faultlab.errors import ConfigError
 from faultlab.mutation.variants import is_mutant_variant
 from faultlab.vocabulary import PAPER_FAULTS
@@ -88,39 +88,8 @@ def test_malformed_study_files_are_refused_naming_the_key(tmp_path, change, matc
         load_study_experiment(_file(tmp_path, BASE.replace(*change)))
 
 
-def test_study_spec_defaults_and_types():
-    assert study_spec({}, source="x") == StudySpec()
-    with pytest.raises(ConfigError, match="x: study.alpha must lie in"):
-        study_spec({"alpha": 1.5}, source="x")
-    with pytest.raises(ConfigError, match="study.timeouts_detect must be true or false"):
-        study_spec({"timeouts_detect": "no"}, source="x")
-
-
 def test_sampled_load_samples_at_start_interval_and_end():
     with sampled_load(interval_s=0.05) as samples:
         time.sleep(0.18)
     assert len(samples) >= 4 and all(len(s) == 4 for s in samples)
     assert samples[0][0] <= samples[-1][0]
-
-
-def test_settle_sessions_counts_a_killed_sessions_rows_and_time_from_the_store():
-    import math
-
-    from faultlab.analysis.study import settle_sessions
-
-    study = [{"started": 100.0, "state": "complete", "n_new": 5, "wall_time_s": 20.0},
-             {"started": 200.0, "state": "running", "n_new": 0, "wall_time_s": None},      # killed
-             {"started": 300.0, "state": "interrupted", "n_new": 0, "wall_time_s": math.nan},  # an old file's NaN
-             {"started": 400.0, "state": "complete", "n_new": 3, "wall_time_s": 9.0}]
-    store = [{"started_unix": 101.0, "n_new": 5, "wall_time_s": 18.0},
-             {"started_unix": 203.0, "n_new": 231, "wall_time_s": 40.0},  # the runner's session of the killed one
-             {"started_unix": 305.0, "n_new": 7, "wall_time_s": 2.5},
-             {"started_unix": 320.0, "n_new": 1, "wall_time_s": 1.0},     # a second runner session in its window
-             {"started_unix": 401.0, "n_new": 3, "wall_time_s": 8.0}]
-    got = settle_sessions(study, store)
-    assert got[0] == study[0] and got[3] == study[3]  # finished sessions are left alone
-    assert (got[1]["state"], got[1]["n_new"], got[1]["wall_time_s"]) == ("killed", 231, 43.0)
-    assert (got[2]["state"], got[2]["n_new"], got[2]["wall_time_s"]) == ("interrupted", 8, 21.0)
-    assert study[1]["state"] == "running"  # the input is not changed
-    assert settle_sessions([{"started": 10.0, "state": "running"}], []) == [
-        {"started": 10.0, "state": "killed", "n_new": 0, "wall_time_s": 0.0}]
