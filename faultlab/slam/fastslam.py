@@ -171,6 +171,7 @@ from faultlab.slam.sharing import correct_in_sharer_order
 from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
+from faultlab.slam import twins as _twins
 from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
@@ -363,6 +364,9 @@ class FastSlam(UnitSlam):
         self._Q = self._config.Q
         self._started = False
         self._batched_steps: FastSlamSteps | None = None
+        self._single_steps: FastSlamSteps | None = None
+        self._jit = _twins.JIT_ENABLED  # compiled twins and bookkeeping (FAULTLAB_JIT)
+        self._fused = self._jit and _twins.fused(self._steps)
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
@@ -536,14 +540,19 @@ class FastSlam(UnitSlam):
             raise SlamInputError(f"{self.name}: reset() must be called first")
 
     def _units(self, slots: int) -> FastSlamSteps:
-        """The units for ``slots`` filters: particle units marked filter-wise are looped per filter."""
+        """The units the filter calls for ``slots`` filters: the reference units' compiled twins
+        (:func:`~faultlab.slam.twins.twinned`), every other unit as given, particle units marked
+        filter-wise looped per filter."""
         if slots == 1:
-            return self._steps
+            if self._single_steps is None:
+                self._single_steps = _twins.twinned(self._steps) if self._jit else self._steps
+            return self._single_steps
         if self._batched_steps is None:
             looped = {name: _looped(getattr(self._steps, name), pos, self._n)
                       for name, pos in _PARTICLE_ARGS.items()
                       if getattr(getattr(self._steps, name), "filter_wise", False)}
-            self._batched_steps = dataclasses.replace(self._steps, **looped) if looped else self._steps
+            steps = dataclasses.replace(self._steps, **looped) if looped else self._steps
+            self._batched_steps = _twins.twinned(steps) if self._jit else steps
         return self._batched_steps
 
     def _call(self, j: int, fn: Callable, *args, **kwargs):
@@ -741,6 +750,11 @@ class FastSlam(UnitSlam):
             if self._offsets is None:
                 self._offsets = np.repeat(np.arange(bn // n, dtype=np.intp) * n, n)
             base = base + self._offsets[p0:p1]
+        if self._jit:
+            mb = np.empty((2, cols.size, p1 - p0))
+            pb = np.empty((2, 2, cols.size, p1 - p0))
+            _twins.gather_rows(self._mu, self._P, self._anc, cols, p0, n, mb, pb)
+            return mb, pb, base
         flat = self._anc[p0:p1, cols].T + base  # (k, M) positions in the flattened storage
         mb = np.take(self._mu.reshape(2, cap * bn), flat, axis=1)  # (2, k, M), a fresh copy
         pb = np.take(self._P.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, cols.size, p1 - p0)
@@ -809,11 +823,14 @@ class FastSlam(UnitSlam):
         # write every particle's estimate of the observed columns into its own storage row
         owners = self._owner[start:stop]
         if all(o is self._ident or np.array_equal(o, self._ident) for o in owners):
+            owner = owners[0] if len(owners) == 1 else np.tile(self._ident, len(owners))
+            if self._jit:
+                _twins.scatter_rows(mu_new, P_new, cols, p0, owner, mu_store, P_store, self._anc)
+                return
             # rows of the (component, column) x particle views of the storage: contiguous row copies
             rows = cols + (cap * np.arange(4))[:, None]
             mu_store.reshape(2 * cap, bn)[rows[:2].ravel(), p0:p1] = mu_new.reshape(2 * k, m_rows)
             P_store.reshape(4 * cap, bn)[rows.ravel(), p0:p1] = P_new.reshape(4 * k, m_rows)
-            owner = owners[0] if len(owners) == 1 else np.tile(self._ident, len(owners))
         else:
             owner = np.asarray(owners[0]) if len(owners) == 1 else np.concatenate(owners)
             wflat = owner[None, :] + base  # sharers of a row: the last particle's values win
@@ -843,17 +860,21 @@ class FastSlam(UnitSlam):
             m = new[:, new_cols].T
             mb[:, new_cols] = np.where(m, mi, mb[:, new_cols])
             pb[:, :, new_cols] = np.where(m, pi, pb[:, :, new_cols])
-        zhat, H = steps.predict_measurement(x, mu)
-        nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
-        S = steps.innovation_covariance(H, P, Q)
-        loglik = steps.log_likelihood(nu, S)
-        mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
-        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, M')
-        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, M')
+        if self._fused:  # every correction unit is the reference: their work in one compiled pass
+            loglik, mu_new, P_new = _twins.correct_pairs(x, z, mb, pb, Q)
+        else:
+            zhat, H = steps.predict_measurement(x, mu)
+            nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+            S = steps.innovation_covariance(H, P, Q)
+            loglik = steps.log_likelihood(nu, S)
+            mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
+            mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, M')
+            P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, M')
+            if new_cols is not None:  # the unit's output may share memory with its inputs
+                mu_new = mu_new.copy()
+                P_new = P_new.copy()
         if new_cols is not None:
             # new pairs keep their initial values
-            mu_new = mu_new.copy()
-            P_new = P_new.copy()
             m = new[:, new_cols].T
             mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
             P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
