@@ -251,11 +251,16 @@ def gather_pairs(mu_store, P_store, anc, cols, p0, n, mb, pb):
     """
     k = cols.shape[0]
     m = mb.shape[2]
+    rows = np.empty((k, m), dtype=np.intp)
+    for i in range(m):  # particle-major: one row of anc at a time
+        p = p0 + i
+        off = (p // n) * n
+        for j in range(k):
+            rows[j, i] = anc[p, cols[j]] + off
     for j in range(k):
         c = cols[j]
         for i in range(m):
-            p = p0 + i
-            r = anc[p, c] + (p // n) * n
+            r = rows[j, i]
             mb[0, j, i] = mu_store[0, c, r]
             mb[1, j, i] = mu_store[1, c, r]
             pb[0, 0, j, i] = P_store[0, 0, c, r]
@@ -283,4 +288,7 @@ def scatter_pairs(mu_new, P_new, cols, p0, owner, mu_store, P_store, anc):
             P_store[0, 1, c, p] = P_new[0, 1, j, i]
             P_store[1, 0, c, p] = P_new[1, 0, j, i]
             P_store[1, 1, c, p] = P_new[1, 1, j, i]
-            anc[p, c] = owner[i]
+    for i in range(m):
+        o = owner[i]
+        for j in range(k):
+            anc[p0 + i, cols[j]] = o
