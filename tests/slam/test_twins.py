@@ -25,7 +25,8 @@ from faultlab.mutation.examples import unit_examples
 from faultlab.mutation.mutant import generate_mutants, mutant_fault
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.mutation.screening import screen_mutants
-from faultlab.slam import REFERENCE_STEPS, FastSlam, FastSlamConfig, Observations, run_slam, run_slam_batch
+from faultlab.slam import (REFERENCE_STEPS, EkfSlam, FastSlam, FastSlam2, FastSlamConfig, FastSlamUnknown, run_slam,
+                           run_slam_batch)
 from faultlab.slam import twins
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import FastSlamSteps
@@ -193,7 +194,7 @@ def numpy_filter(monkeypatch, make):
     with monkeypatch.context() as m:
         m.setattr(twins, "JIT_ENABLED", False)
         slam = make()
-    assert not slam._jit
+    assert not getattr(slam, "_jit", False)
     return slam
 
 
@@ -259,6 +260,22 @@ def test_equivalent_mutants_stay_hidden_under_the_compiled_path():
                            n_particles=20, n_seeds=1, plugins=False)
     statuses = [c.status for c in checked]
     assert statuses[:-1] == [CheckStatus.EQUIVALENT] * len(eq) and statuses[-1] is not CheckStatus.EQUIVALENT
+
+
+@pytest.mark.parametrize("make", [
+    lambda: FastSlam2(FastSlamConfig(n_particles=N)),
+    EkfSlam,
+    lambda: FastSlamUnknown(FastSlamConfig(n_particles=N, association="unknown")),
+], ids=["fastslam2", "ekf", "fastslam1-unknown"])
+def test_the_other_unit_slams_run_the_twins_bit_identically(monkeypatch, scenario, make):
+    compiled = make()
+    assert compiled._run_steps is not compiled.steps  # some slot holds a reference unit with a twin
+    plain = numpy_filter(monkeypatch, make)
+    assert plain._run_steps is plain.steps
+    with quiet():
+        a = run_slam(compiled, scenario, rng=np.random.default_rng(3))
+        b = run_slam(plain, scenario, rng=np.random.default_rng(3))
+    assert estimates_identical(a, b)
 
 
 _CHILD = """
