@@ -896,7 +896,7 @@ class FastSlam(UnitSlam):
         k = cols.size
         mb, pb, base = self._gather(j, j + 1, cols)
         owner = np.asarray(self._owner[j])
-        lw, mu_new, P_new = correct_in_sharer_order(self._steps, self._logw[sl], owner, poses[sl], z, seen,
+        lw, mu_new, P_new = correct_in_sharer_order(self._units(1), self._logw[sl], owner, poses[sl], z, seen,
                                                     mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
         logw[sl] = self._normalise(np.asarray(lw, dtype=float))
         wflat = owner[None, :] + base  # sharers write equal values to their common row

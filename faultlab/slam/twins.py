@@ -41,7 +41,8 @@ from faultlab.slam.units import _mat22, _vec2
 
 __all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twin_of", "twinned", "fused", "correct_pairs", "gather_rows",
            "scatter_rows", "warm_up",
-           "predict_measurement", "innovation", "innovation_covariance", "log_likelihood", "ekf_update"]
+           "predict_measurement", "innovation", "innovation_covariance", "log_likelihood", "ekf_update",
+           "predict_measurement_wrapped", "log_likelihood_wrapped"]
 
 #: The environment variable that turns the compiled twins off (value ``0``).
 JIT_VARIABLE = "FAULTLAB_JIT"
@@ -159,13 +160,29 @@ def ekf_update(mu: np.ndarray, P: np.ndarray, H: np.ndarray, S: np.ndarray,
     return mu_new, P_new
 
 
-#: Reference unit -> its compiled twin.
+def predict_measurement_wrapped(poses: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Twin of :func:`faultlab.slam.units.predict_measurement_wrapped` (the paper's measurement model)."""
+    zhat, H = predict_measurement(poses, mu)
+    zhat[..., 1] = _units._wrap(zhat[..., 1])
+    return zhat, H
+
+
+def log_likelihood_wrapped(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """Twin of :func:`faultlab.slam.units.log_likelihood_wrapped` (the paper's weight)."""
+    nu = np.array(nu, dtype=float)
+    nu[..., 1] = _units._wrap(nu[..., 1])
+    return log_likelihood(nu, S)
+
+
+#: Reference unit (or alternative unit of the paper's filter) -> its compiled twin.
 TWINS: dict[Callable, Callable] = {
     _units.predict_measurement: predict_measurement,
     _units.innovation: innovation,
     _units.innovation_covariance: innovation_covariance,
     _units.log_likelihood: log_likelihood,
     _units.ekf_update: ekf_update,
+    _units.predict_measurement_wrapped: predict_measurement_wrapped,
+    _units.log_likelihood_wrapped: log_likelihood_wrapped,
 }
 
 #: The units that :func:`correct_pairs` fuses (with ``wrap_bearing``, which ``innovation`` calls).

@@ -30,6 +30,7 @@ from faultlab.slam import (REFERENCE_STEPS, EkfSlam, FastSlam, FastSlam2, FastSl
 from faultlab.slam import twins
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import FastSlamSteps
+from faultlab.slam.profiles import get_profile
 
 pytestmark = pytest.mark.skipif(not twins.JIT_ENABLED, reason="compiled twins turned off (FAULTLAB_JIT=0)")
 
@@ -103,6 +104,10 @@ def test_every_twin_is_bit_identical_to_its_unit(problem):
         m1, P1 = U.ekf_update(mu, P, H, S, nu)
         t_m1, t_P1 = twins.ekf_update(mu, P, H, S, nu)
         assert same_bits(m1, t_m1) and same_bits(P1, t_P1)
+        # the paper's filter's units
+        for got, want in zip(twins.predict_measurement_wrapped(poses, mu), U.predict_measurement_wrapped(poses, mu)):
+            assert same_bits(got, want)
+        assert same_bits(U.log_likelihood_wrapped(nu, S), twins.log_likelihood_wrapped(nu, S))
 
 
 @settings(max_examples=150, deadline=None)
@@ -237,6 +242,16 @@ def test_every_builtin_fault_under_the_compiled_path_equals_numpy(monkeypatch, s
     compiled = fault.apply(FastSlam(CFG))
     plain = numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG)))
     assert_same_run(final(compiled, scenario, 5), final(plain, scenario, 5), fault.name)
+
+
+@pytest.mark.parametrize("profile", ["paper", "paper_no_aliasing"])
+def test_the_papers_filter_under_the_compiled_path_equals_numpy(monkeypatch, scenario, profile):
+    """Twins of the paper's wrapped units; with aliasing, the sharer-order correction runs them too."""
+    make = lambda: dataclasses.replace(get_profile(profile), config=dataclasses.replace(  # noqa: E731
+        get_profile(profile).config, n_particles=N)).slam()
+    compiled = make()
+    assert compiled._units(1).predict_measurement is twins.predict_measurement_wrapped
+    assert_same_run(final(compiled, scenario, 4), final(numpy_filter(monkeypatch, make), scenario, 4), profile)
 
 
 def test_batched_compiled_repetitions_equal_single_numpy_runs(monkeypatch, scenario):
