@@ -520,6 +520,7 @@ class FastSlam(UnitSlam):
         self._mu = np.zeros((2, cap, b * n))  # storage buffers (see "Storage and resampling")
         self._P = np.zeros((2, 2, cap, b * n))
         self._anc = self._local_ancestry(b, cap)
+        self._anc_spare = None  # the second ancestry buffer of _materialise
         self._lineage = [self._ident] * b
         self._owner = [self._ident] * b
         self._sharers = [False] * b  # ParticleState.sequential_sharers of each filter
@@ -706,16 +707,8 @@ class FastSlam(UnitSlam):
         """
         n = self._n
         slots = len(self._reps)
-        anc = self._anc
         k = cols.size
-        C = self._ids.size
-        # materialise pending resamplings (lineage -> identity), O(N C) ints, only after a resampling
-        for j in range(slots):
-            lineage = self._lineage[j]
-            if lineage is not self._ident:
-                a = anc[self._slice(j)]
-                a[:, :C] = a[lineage, :C]
-                self._lineage[j] = self._ident
+        self._materialise()
         z = np.empty((k, 2))
         z[:, 0] = obs.ranges
         z[:, 1] = obs.bearings
@@ -733,6 +726,33 @@ class FastSlam(UnitSlam):
             self._correct_filters(steps, start, stop, poses, cols, seen, z, logw)
             start = stop
         return logw
+
+    def _materialise(self) -> None:
+        """Apply the pending resamplings to the ancestry (lineage -> identity), O(N C) ints.
+
+        The rows are gathered into a second ancestry buffer (one read and one write of the used
+        columns), which then becomes the ancestry: the columns beyond C are identity in both.
+        """
+        pending = [j for j in range(len(self._reps)) if self._lineage[j] is not self._ident]
+        if not pending:
+            return
+        C = self._ids.size
+        anc = self._anc
+        spare = self._anc_spare
+        if spare is None or spare.shape != anc.shape:
+            spare = self._local_ancestry(anc.shape[0] // self._n, anc.shape[1])
+        for j in range(len(self._reps)):
+            sl = self._slice(j)
+            if self._lineage[j] is self._ident:
+                spare[sl, :C] = anc[sl, :C]
+            else:
+                if self._jit:
+                    _twins.take_rows(anc[sl], self._lineage[j], spare[sl], C)
+                else:
+                    spare[sl, :C] = anc[sl][self._lineage[j], :C]
+                self._lineage[j] = self._ident
+        self._anc, self._anc_spare = spare, anc
+        self._views = None
 
     def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The stored landmarks of ``cols`` for the particles of slots ``start .. stop - 1``.

@@ -24,7 +24,8 @@ import numpy as np
 from numba import njit
 
 __all__ = ["offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
-           "ekf_correction", "fused_correction", "gather_pairs", "scatter_pairs"]
+           "ekf_correction", "fused_correction", "gather_pairs", "scatter_pairs",
+           "take_rows"]
 
 _TWO_PI = 2.0 * math.pi
 _INV_TWO_PI = 1.0 / _TWO_PI
@@ -292,3 +293,12 @@ def scatter_pairs(mu_new, P_new, cols, p0, owner, mu_store, P_store, anc):
         o = owner[i]
         for j in range(k):
             anc[p0 + i, cols[j]] = o
+
+
+@_jit
+def take_rows(src, rows, dst, width):
+    """``dst[i, :width] = src[rows[i], :width]`` for every row ``i`` of ``dst`` (a copy)."""
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        for c in range(width):
+            dst[i, c] = src[r, c]

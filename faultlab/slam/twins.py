@@ -40,7 +40,7 @@ from faultlab.slam import units as _units
 from faultlab.slam.units import _mat22, _vec2
 
 __all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twin_of", "twinned", "fused", "correct_pairs", "gather_rows",
-           "scatter_rows", "warm_up",
+           "scatter_rows", "take_rows", "warm_up",
            "predict_measurement", "innovation", "innovation_covariance", "log_likelihood", "ekf_update",
            "predict_measurement_wrapped", "log_likelihood_wrapped"]
 
@@ -274,6 +274,11 @@ def scatter_rows(mu_new: np.ndarray, P_new: np.ndarray, cols: np.ndarray, p0: in
                        mu_store, P_store, anc)
 
 
+def take_rows(src: np.ndarray, rows: np.ndarray, dst: np.ndarray, width: int) -> None:
+    """``dst[i, :width] = src[rows[i], :width]`` for 2-D ``src`` and ``dst`` (the filter's ancestry gather)."""
+    _k().take_rows(src, np.asarray(rows, dtype=np.intp), dst, width)
+
+
 _warmed = False
 
 
@@ -310,5 +315,6 @@ def warm_up() -> float:
     cols = np.arange(k, dtype=np.intp)
     scatter_rows(mu_new, P_new, cols, 0, np.arange(n, dtype=np.intp), store_mu, store_P, anc)
     gather_rows(store_mu, store_P, anc, cols, 0, n, mb, pb)
+    take_rows(anc, np.arange(n)[::-1], np.empty_like(anc), k)
     _warmed = True
     return time.perf_counter() - t0

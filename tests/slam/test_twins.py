@@ -182,6 +182,18 @@ def test_gather_and_scatter_copy_what_numpy_indexing_copies(b, n, k, data):
     np.testing.assert_array_equal(anc, want_anc)
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 8), st.integers(0, 6), st.integers(0, 3), st.data())
+def test_take_rows_is_numpy_row_indexing(n, width, extra, data):
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    src = rng.integers(-9, 9, size=(n, width + extra)).astype(np.int32)
+    rows = rng.integers(0, n, size=n)
+    dst = np.full((n, width + extra), 77, dtype=np.int32)
+    twins.take_rows(src, rows, dst, width)
+    np.testing.assert_array_equal(dst[:, :width], src[rows, :width])
+    assert (dst[:, width:] == 77).all()
+
+
 # --------------------------------------------------------------------------- the filter
 
 
