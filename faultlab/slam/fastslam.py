@@ -644,7 +644,7 @@ class FastSlam(UnitSlam):
 
     def _resample(self, j: int, empty: bool) -> None:
         """Effective sample size, resampling decision and resampling of the filter in slot ``j``."""
-        steps = self._steps
+        steps = self._units(1)  # per-filter units: never looped
         given = self._filter_state(j)
         st, resampled = resample_tail(steps, given, empty, self._streams[j]["resample"], self._config,
                                       apply=steps.apply_resample)

@@ -25,7 +25,7 @@ from numba import njit
 
 __all__ = ["offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
            "ekf_correction", "fused_correction", "gather_pairs", "scatter_pairs",
-           "take_rows"]
+           "take_rows", "systematic_indices"]
 
 _TWO_PI = 2.0 * math.pi
 _INV_TWO_PI = 1.0 / _TWO_PI
@@ -302,3 +302,26 @@ def take_rows(src, rows, dst, width):
         r = rows[i]
         for c in range(width):
             dst[i, c] = src[r, c]
+
+
+@_jit
+def systematic_indices(w, r, out):
+    """Low-variance resampling indices: ``out[m]`` = the first ``i`` with ``cumsum(w)[i] >= r + m / N``,
+    at most ``N - 1``.
+
+    The cumulative sum is accumulated in order (as numpy's ``cumsum``); the thresholds increase
+    with ``m``, so one merge-like scan finds the same leftmost positions as a binary search
+    (``searchsorted(..., side="left")``) for weights without NaN.
+    """
+    n = w.shape[0]
+    cs = np.empty(n)
+    acc = 0.0
+    for i in range(n):
+        acc = acc + w[i] if i > 0 else w[0]
+        cs[i] = acc
+    i = 0
+    for m in range(n):
+        u = r + m / n
+        while i < n and cs[i] < u:
+            i += 1
+        out[m] = i if i < n else n - 1

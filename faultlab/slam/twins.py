@@ -42,7 +42,7 @@ from faultlab.slam.units import _mat22, _vec2
 __all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twin_of", "twinned", "fused", "correct_pairs", "gather_rows",
            "scatter_rows", "take_rows", "warm_up",
            "predict_measurement", "innovation", "innovation_covariance", "log_likelihood", "ekf_update",
-           "predict_measurement_wrapped", "log_likelihood_wrapped"]
+           "predict_measurement_wrapped", "log_likelihood_wrapped", "resample"]
 
 #: The environment variable that turns the compiled twins off (value ``0``).
 JIT_VARIABLE = "FAULTLAB_JIT"
@@ -174,6 +174,19 @@ def log_likelihood_wrapped(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
     return log_likelihood(nu, S)
 
 
+def resample(w: np.ndarray, n_eff: float, empty: bool, rng: np.random.Generator, config) -> np.ndarray | None:
+    """Twin of :func:`faultlab.slam.units.resample` (same decision, same single draw from ``rng``)."""
+    n = w.shape[0]
+    if empty or n_eff >= n / config.resample_ratio:
+        return None
+    if not (isinstance(w, np.ndarray) and w.dtype == np.float64 and w.ndim == 1 and (w >= 0.0).all()):
+        return _units.low_variance_indices(w, rng)  # NaN or negative weights: numpy's search
+    r = rng.uniform(0.0, 1.0 / n)
+    out = np.empty(n, dtype=np.intp)
+    _k().systematic_indices(w, r, out)
+    return out
+
+
 #: Reference unit (or alternative unit of the paper's filter) -> its compiled twin.
 TWINS: dict[Callable, Callable] = {
     _units.predict_measurement: predict_measurement,
@@ -183,6 +196,7 @@ TWINS: dict[Callable, Callable] = {
     _units.ekf_update: ekf_update,
     _units.predict_measurement_wrapped: predict_measurement_wrapped,
     _units.log_likelihood_wrapped: log_likelihood_wrapped,
+    _units.resample: resample,
 }
 
 #: The units that :func:`correct_pairs` fuses (with ``wrap_bearing``, which ``innovation`` calls).
@@ -316,5 +330,6 @@ def warm_up() -> float:
     scatter_rows(mu_new, P_new, cols, 0, np.arange(n, dtype=np.intp), store_mu, store_P, anc)
     gather_rows(store_mu, store_P, anc, cols, 0, n, mb, pb)
     take_rows(anc, np.arange(n)[::-1], np.empty_like(anc), k)
+    _k().systematic_indices(np.full(n, 1.0 / n), 0.1, np.empty(n, dtype=np.intp))
     _warmed = True
     return time.perf_counter() - t0

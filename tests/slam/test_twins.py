@@ -194,6 +194,32 @@ def test_take_rows_is_numpy_row_indexing(n, width, extra, data):
     assert (dst[:, width:] == 77).all()
 
 
+@dataclasses.dataclass(frozen=True)
+class _Ratio:
+    resample_ratio: float
+
+
+WEIGHTS = st.one_of(st.floats(0.0, 1.0), st.floats(0.0, 1e-300), st.sampled_from([0.0, 1e-320, 0.5, 1.0]))
+
+
+@settings(max_examples=200, deadline=None)
+@given(arrays(np.float64, st.integers(1, 40), elements=WEIGHTS), st.booleans(), st.booleans(),
+       st.integers(0, 2 ** 32 - 1))
+def test_the_resampling_twin_draws_and_picks_as_the_unit(w, normalise, empty, seed):
+    if normalise and w.sum() > 0:
+        w = w / w.sum()
+    config = _Ratio(resample_ratio=1.5)
+    n_eff = float(len(w)) / 2.0  # below N / 1.5: resample unless empty
+    rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
+    want = U.resample(w, n_eff, empty, rng_a, config)
+    got = twins.resample(w, n_eff, empty, rng_b, config)
+    if want is None:
+        assert got is None
+    else:
+        assert got.dtype == want.dtype and np.array_equal(got, want)
+    assert rng_a.random() == rng_b.random()  # the same draws were consumed
+
+
 # --------------------------------------------------------------------------- the filter
 
 
@@ -241,6 +267,7 @@ def test_compiled_filter_equals_the_numpy_filter(monkeypatch, scenario, seed):
                                                           scenario, seed), f"seed {seed}")
 
 
+@pytest.mark.slow
 def test_compiled_filter_equals_the_numpy_filter_on_a_generated_case(monkeypatch):
     """A fixed-suite scenario (200 particles, ~29 observations per step), first 150 steps."""
     from faultlab.scenario import generate_scenario
