@@ -36,6 +36,7 @@ from typing import Callable
 
 import numpy as np
 
+from faultlab.slam import paperunits as _paperunits
 from faultlab.slam import units as _units
 from faultlab.slam.units import _mat22, _vec2
 
@@ -161,14 +162,14 @@ def ekf_update(mu: np.ndarray, P: np.ndarray, H: np.ndarray, S: np.ndarray,
 
 
 def predict_measurement_wrapped(poses: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Twin of :func:`faultlab.slam.units.predict_measurement_wrapped` (the paper's measurement model)."""
+    """Twin of :func:`faultlab.slam.paperunits.predict_measurement_wrapped` (the paper's measurement model)."""
     zhat, H = predict_measurement(poses, mu)
     zhat[..., 1] = _units._wrap(zhat[..., 1])
     return zhat, H
 
 
 def log_likelihood_wrapped(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
-    """Twin of :func:`faultlab.slam.units.log_likelihood_wrapped` (the paper's weight)."""
+    """Twin of :func:`faultlab.slam.paperunits.log_likelihood_wrapped` (the paper's weight)."""
     nu = np.array(nu, dtype=float)
     nu[..., 1] = _units._wrap(nu[..., 1])
     return log_likelihood(nu, S)
@@ -194,8 +195,8 @@ TWINS: dict[Callable, Callable] = {
     _units.innovation_covariance: innovation_covariance,
     _units.log_likelihood: log_likelihood,
     _units.ekf_update: ekf_update,
-    _units.predict_measurement_wrapped: predict_measurement_wrapped,
-    _units.log_likelihood_wrapped: log_likelihood_wrapped,
+    _paperunits.predict_measurement_wrapped: predict_measurement_wrapped,
+    _paperunits.log_likelihood_wrapped: log_likelihood_wrapped,
     _units.resample: resample,
 }
 

@@ -28,6 +28,7 @@ from faultlab.mutation.screening import screen_mutants
 from faultlab.slam import (REFERENCE_STEPS, EkfSlam, FastSlam, FastSlam2, FastSlamConfig, FastSlamUnknown, run_slam,
                            run_slam_batch)
 from faultlab.slam import twins
+from faultlab.slam import paperunits as PU
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import FastSlamSteps
 from faultlab.slam.profiles import get_profile
@@ -105,9 +106,9 @@ def test_every_twin_is_bit_identical_to_its_unit(problem):
         t_m1, t_P1 = twins.ekf_update(mu, P, H, S, nu)
         assert same_bits(m1, t_m1) and same_bits(P1, t_P1)
         # the paper's filter's units
-        for got, want in zip(twins.predict_measurement_wrapped(poses, mu), U.predict_measurement_wrapped(poses, mu)):
+        for got, want in zip(twins.predict_measurement_wrapped(poses, mu), PU.predict_measurement_wrapped(poses, mu)):
             assert same_bits(got, want)
-        assert same_bits(U.log_likelihood_wrapped(nu, S), twins.log_likelihood_wrapped(nu, S))
+        assert same_bits(PU.log_likelihood_wrapped(nu, S), twins.log_likelihood_wrapped(nu, S))
 
 
 @settings(max_examples=150, deadline=None)
