@@ -40,7 +40,7 @@ from faultlab.slam import paperunits as _paperunits
 from faultlab.slam import units as _units
 from faultlab.slam.units import _mat22, _vec2
 
-__all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twin_of", "twinned", "fused", "correct_pairs", "gather_rows",
+__all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "gather_rows",
            "scatter_rows", "take_rows", "warm_up",
            "predict_measurement", "innovation", "innovation_covariance", "log_likelihood", "ekf_update",
            "predict_measurement_wrapped", "log_likelihood_wrapped", "resample"]
@@ -203,11 +203,6 @@ TWINS: dict[Callable, Callable] = {
 #: The units that :func:`correct_pairs` fuses (with ``wrap_bearing``, which ``innovation`` calls).
 FUSED_UNITS: tuple[str, ...] = ("predict_measurement", "innovation", "wrap_bearing", "innovation_covariance",
                                 "log_likelihood", "ekf_update")
-
-
-def twin_of(unit: Callable) -> Callable:
-    """The twin of a reference unit, or ``unit`` itself (any other function)."""
-    return TWINS.get(unit, unit)
 
 
 def twinned(table):

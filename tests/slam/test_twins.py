@@ -155,46 +155,6 @@ def test_twinned_swaps_reference_units_only():
     assert not twins.fused(dataclasses.replace(REFERENCE_STEPS, wrap_bearing=lambda a: a))
 
 
-@settings(max_examples=60, deadline=None)
-@given(st.integers(1, 4), st.integers(1, 5), st.integers(1, 6), st.data())
-def test_gather_and_scatter_copy_what_numpy_indexing_copies(b, n, k, data):
-    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
-    cap, bn = k + 3, b * n
-    mu_store, P_store = rng.normal(size=(2, cap, bn)), rng.normal(size=(2, 2, cap, bn))
-    anc = rng.integers(0, n, size=(bn, cap)).astype(np.int32)
-    cols = rng.permutation(cap)[:k].astype(np.intp)
-    p0 = n * data.draw(st.integers(0, b - 1))
-    p1 = n * data.draw(st.integers(p0 // n + 1, b))
-    m = p1 - p0
-    rows = anc[p0:p1][:, cols] + (np.arange(p0, p1) // n * n)[:, None]  # (M, k)
-    mb, pb = np.empty((2, k, m)), np.empty((2, 2, k, m))
-    twins.gather_rows(mu_store, P_store, anc, cols, p0, n, mb, pb)
-    np.testing.assert_array_equal(mb, mu_store[:, cols[:, None], rows.T])
-    np.testing.assert_array_equal(pb, P_store[:, :, cols[:, None], rows.T])
-    owner = np.tile(np.arange(n), m // n)
-    new_mu, new_P = rng.normal(size=(2, k, m)), rng.normal(size=(2, 2, k, m))
-    want_mu, want_P, want_anc = mu_store.copy(), P_store.copy(), anc.copy()
-    want_mu[:, cols[:, None], np.arange(p0, p1)[None, :]] = new_mu
-    want_P[:, :, cols[:, None], np.arange(p0, p1)[None, :]] = new_P
-    want_anc[p0:p1, cols] = owner[:, None]
-    twins.scatter_rows(new_mu, new_P, cols, p0, owner, mu_store, P_store, anc)
-    np.testing.assert_array_equal(mu_store, want_mu)
-    np.testing.assert_array_equal(P_store, want_P)
-    np.testing.assert_array_equal(anc, want_anc)
-
-
-@settings(max_examples=40, deadline=None)
-@given(st.integers(1, 8), st.integers(0, 6), st.integers(0, 3), st.data())
-def test_take_rows_is_numpy_row_indexing(n, width, extra, data):
-    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
-    src = rng.integers(-9, 9, size=(n, width + extra)).astype(np.int32)
-    rows = rng.integers(0, n, size=n)
-    dst = np.full((n, width + extra), 77, dtype=np.int32)
-    twins.take_rows(src, rows, dst, width)
-    np.testing.assert_array_equal(dst[:, :width], src[rows, :width])
-    assert (dst[:, width:] == 77).all()
-
-
 @dataclasses.dataclass(frozen=True)
 class _Ratio:
     resample_ratio: float
