@@ -63,12 +63,25 @@ def _k():
     return _kernels
 
 
+_F64 = np.dtype(np.float64)
+
+
 def _pairs(*arrays, ndim: int) -> bool:
-    """True if all ``arrays`` are float64 ndarrays of one shape with ``ndim`` dimensions."""
+    """True if all ``arrays`` are float64 ndarrays (not subclasses) of one shape with ``ndim`` dimensions.
+
+    Called once per unit call, also on tiny arrays (the sharer-order correction calls the units once
+    per sharer), so written for speed.
+    """
     first = arrays[0]
-    if not isinstance(first, np.ndarray) or first.ndim != ndim:
+    if type(first) is not np.ndarray:
         return False
-    return all(isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape == first.shape for a in arrays)
+    shape = first.shape
+    if len(shape) != ndim:
+        return False
+    for a in arrays:
+        if type(a) is not np.ndarray or a.shape != shape or (a.dtype is not _F64 and a.dtype != _F64):
+            return False
+    return True
 
 
 def _kt(a: np.ndarray) -> np.ndarray:
