@@ -105,6 +105,13 @@ def test_every_twin_is_bit_identical_to_its_unit(problem):
         m1, P1 = U.ekf_update(mu, P, H, S, nu)
         t_m1, t_P1 = twins.ekf_update(mu, P, H, S, nu)
         assert same_bits(m1, t_m1) and same_bits(P1, t_P1)
+        # the same inputs in C order (a replacement unit may return ordinary arrays)
+        C = np.ascontiguousarray
+        assert same_bits(nu, twins.innovation(z, C(zhat), wrap=U.wrap_bearing))
+        assert same_bits(S, twins.innovation_covariance(C(H), C(P), Q))
+        assert same_bits(ll, twins.log_likelihood(C(nu), C(S)))
+        for got, want in zip(twins.ekf_update(C(mu), C(P), C(H), C(S), C(nu)), (m1, P1)):
+            assert same_bits(got, want)
         # the paper's filter's units
         for got, want in zip(twins.predict_measurement_wrapped(poses, mu), PU.predict_measurement_wrapped(poses, mu)):
             assert same_bits(got, want)
