@@ -36,7 +36,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from faultlab.faults.check import estimates_identical  # noqa: E402
-from faultlab.runner.execute import tune_allocator  # noqa: E402
+from faultlab.runner.execution import tune_allocator  # noqa: E402
 from faultlab.scenario import generate_scenario  # noqa: E402
 from faultlab.slam import FastSlam, FastSlamConfig, run_slam, run_slam_batch, twins  # noqa: E402
 from faultlab.space.case import FIXED_VALUES, CaseSpec  # noqa: E402
