@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "faultlab.cli.generate",  # generate
     "faultlab.cli.faults",  # faults
     "faultlab.cli.slams",  # slams
+    "faultlab.cli.robustness",  # robustness run, robustness report
     "faultlab.cli.stats",  # paper-table, effects
     "faultlab.cli.calibrate",  # calibrate
     "faultlab.cli.mutate",  # mutate list, mutate show

@@ -156,7 +156,8 @@ def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable
     """Build the SUT and apply every fault once in the parent: configuration errors fail fast.
 
     A fault that replaces a unit the SUT does not have (:func:`faultlab.faults.not_applicable`:
-    e.g. a resampling fault and EKF-SLAM, or any fault and dead reckoning) does not apply: its
+    e.g. a resampling fault and EKF-SLAM, or any fault and dead reckoning), or a hardware limit whose
+    option the SUT does not have (a particle budget and EKF-SLAM), does not apply: its
     variant is skipped with a :class:`~faultlab.faults.FaultNotApplicableWarning` naming fault,
     unit and SLAM, and returned so that the caller drops its jobs and records it in the store.
     Returns the built SUT (without fault) and the skipped variants.
@@ -180,7 +181,7 @@ def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable
         fault = resolve_variant(variant)  # known: parse_experiment checked every name
         if fault is None:
             continue
-        reason = not_applicable(fault, experiment.slam.name, units=units)
+        reason = not_applicable(fault, experiment.slam.name, units=units, options=dict(experiment.slam.options))
         if reason is not None:
             reason = dataclasses.replace(reason, fault=variant)  # as the experiment names it
             warnings.warn(f"{experiment.source}: variants[{i}] skipped: {reason}", FaultNotApplicableWarning,
