@@ -24,6 +24,7 @@ standard errors, so a reader can tell a small index from noise.
 
 from __future__ import annotations
 
+import warnings
 from typing import Sequence
 
 import numpy as np
@@ -139,8 +140,10 @@ def sobol_indices(y, *, factors: Sequence[str], seed: int, resamples: int = 1000
     y = _check_y(y, y.size, "sobol_indices")
     if not np.ptp(y) > 0:
         raise ResultsError("sobol_indices: the response is constant over the design (no variance to apportion)")
-    res = sobol.analyze(_problem(factors), y, calc_second_order=False, num_resamples=int(resamples),
-                        conf_level=float(conf), seed=_salib_seed(seed))
+    with warnings.catch_warnings():  # SALib warns of constant blocks; a constant response is refused above
+        warnings.simplefilter("ignore", UserWarning)
+        res = sobol.analyze(_problem(factors), y, calc_second_order=False, num_resamples=int(resamples),
+                            conf_level=float(conf), seed=_salib_seed(seed))
     s1, s1c = np.asarray(res["S1"], dtype=float), np.asarray(res["S1_conf"], dtype=float)
     st, stc = np.asarray(res["ST"], dtype=float), np.asarray(res["ST_conf"], dtype=float)
     var = float(np.var(y, ddof=1))

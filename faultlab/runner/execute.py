@@ -50,7 +50,7 @@ import traceback
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Mapping
+from typing import Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -396,32 +396,36 @@ def _find_killer(suspects: list[JobBatch]) -> tuple[list[JobResult], list[JobBat
 
 
 # ------------------------------------------------------------------ parent side
-def prepare_cases(experiment: Experiment, out: str | Path) -> list[CaseInfo]:
+def prepare_cases(experiment: Experiment, out: str | Path, *,
+                  drawn: Sequence[SuiteCase] | None = None) -> list[CaseInfo]:
     """Generate and save every test case of ``experiment`` (idempotent).
 
     Cases come from the one case pipeline (:func:`faultlab.scenario.suite.draw_suite`,
     :func:`~faultlab.scenario.suite.generate_case`), so they are exactly those
     ``faultlab generate`` writes for the same seed, suite and run.  A case already on disk is
     loaded and checked against the experiment (seed and parameter values) instead of being
-    regenerated.
+    regenerated.  ``drawn`` replaces the suites' draws by given cases (a designed experiment,
+    :mod:`faultlab.space.design`); they are generated from their own seeds the same way.
 
     Raises
     ------
     ResultsError
         If a saved case belongs to another experiment.
     """
-    space = experiment.parameter_space()
+    if drawn is None:
+        space = experiment.parameter_space()
+        drawn = [case for run in range(1, experiment.runs + 1) for suite in experiment.suites
+                 for case in draw_suite(suite.kind, space, root_seed=experiment.seed, run=run,
+                                        n_cases=suite.n_cases)]
     infos: list[CaseInfo] = []
-    for run in range(1, experiment.runs + 1):
-        for suite in experiment.suites:
-            for case in draw_suite(suite.kind, space, root_seed=experiment.seed, run=run, n_cases=suite.n_cases):
-                path = case_path(out, run, suite.kind, case.case)
-                scenario = _saved_case(path, case, experiment)
-                if scenario is None:
-                    scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
-                                             min_distance=experiment.min_distance, fov_bug=experiment.fov_bug)
-                    save_scenario(scenario, path)
-                infos.append(_case_info(case, path, scenario))
+    for case in drawn:
+        path = case_path(out, case.run, case.suite, case.case)
+        scenario = _saved_case(path, case, experiment)
+        if scenario is None:
+            scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
+                                     min_distance=experiment.min_distance, fov_bug=experiment.fov_bug)
+            save_scenario(scenario, path)
+        infos.append(_case_info(case, path, scenario))
     return infos
 
 
@@ -581,7 +585,7 @@ def _row(case: CaseInfo, res: JobResult) -> dict:
 
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
-                   batch_size: int | None = None) -> RunSummary:
+                   batch_size: int | None = None, cases: Sequence[SuiteCase] | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
 
     Parameters
@@ -611,6 +615,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         repetitions of a (case, variant) per job (default: all that are missing from the store;
         1: one repetition per job).  The results are the same whatever the batch size, except
         ``runtime_s``.
+    cases : sequence of SuiteCase, optional
+        Run these cases instead of drawing the experiment's suites (a designed experiment); their
+        scenarios are generated from their own seeds and checked on a resume like drawn ones.
 
     Returns
     -------
@@ -637,9 +644,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     sut, skipped = _preflight(experiment)
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
         store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
-        cases = prepare_cases(experiment, out)
-        info = {(c.run, c.suite, c.case): c for c in cases}
-        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases))
+        prepared = prepare_cases(experiment, out, drawn=cases)
+        info = {(c.run, c.suite, c.case): c for c in prepared}
+        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in prepared))
         if skipped:  # variants whose fault does not apply to the SLAM have no jobs
             names = {r.fault for r in skipped}
             specs = [s for s in specs if s.key.variant not in names]

@@ -1,0 +1,242 @@
+"""An effects study's analysis: responses per case, Morris screening, Sobol indices, regression view.
+
+Reads the stores of :func:`faultlab.campaigns.effects.run_effects` (runs nothing).  For every
+response (:mod:`faultlab.analysis.responses`: the baseline's difficulty, each fault's effect size,
+each fault's detection probability) and stage, the design's response vector (one value per case,
+in design order) goes to SALib's estimators (:mod:`faultlab.analysis.sensitivity`):
+
+* ``morris``: ``mu*`` (bootstrap interval over trajectories), ``sigma``, ``mu`` for every factor;
+  screening (:func:`screen_store`) keeps the ``keep`` largest ``mu*`` of the difficulty and of every
+  effect response (detection, a coarse 0-1 share, is reported but does not steer screening);
+* ``sobol``: ``S1`` and ``ST`` with bootstrap intervals over the kept factors, corrected for the
+  repetitions' noise (``noise_var`` = mean squared per-case standard error,
+  :func:`~faultlab.analysis.sensitivity.sobol_indices`);
+* ``regression``: the cluster-robust OLS view over the cases of both stages.
+
+A response that some case lacks (every repetition failed) or that does not vary is not estimated;
+a note says so.  A study too small for an estimator (fewer than 2 Morris trajectories with a value,
+a Sobol stage not run) says what size it needs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from faultlab.analysis.campaign import read_rule
+from faultlab.analysis.responses import CASE_KEY, DIFFICULTY, case_responses, rep_values
+from faultlab.analysis.sensitivity import (morris_indices, noise_floor, partial_dependence, regression_view, screen,
+                                           sobol_indices)
+from faultlab.campaigns.effects import (STAGES, EffectsExperiment, parse_effects, read_effects_json,
+                                        stage_design)
+from faultlab.errors import FaultlabError, ResultsError
+from faultlab.runner.store import load_metadata, load_results, results_path
+from faultlab.seeds import stable_code
+
+__all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "stage_responses", "screening_responses"]
+
+
+def screening_responses(responses: Sequence[str]) -> list[str]:
+    """The responses that steer screening: the difficulty and the effect sizes."""
+    return [r for r in responses if r == DIFFICULTY or r.startswith("effect:")]
+
+
+def stage_responses(store: str | Path) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, dict]:
+    """Case responses (wide: one column per response, std errors ``se:<response>``), repetition values,
+    the cases' parameter values and the store metadata of one stage."""
+    meta = load_metadata(store)
+    results = load_results(store)
+    rule, _ = read_rule(meta)
+    metric = str(meta.get("metric", "rms"))
+    long = case_responses(results, metric=metric, rule=rule)
+    key = list(CASE_KEY)
+    wide = long.pivot_table(index=key, columns="response", values="value", sort=False, dropna=False)
+    se = long.pivot_table(index=key, columns="response", values="std_err", sort=False, dropna=False)
+    se.columns = [f"se:{c}" for c in se.columns]
+    order = list(dict.fromkeys(long["response"]))
+    wide = wide[order].join(se).reset_index().sort_values("case", kind="mergesort").reset_index(drop=True)
+    cases = results.drop_duplicates(key).sort_values("case", kind="mergesort").reset_index(drop=True)
+    return wide, rep_values(results, metric=metric), cases, meta
+
+
+def _design_for(eexp: EffectsExperiment, stage: str, kept: Sequence[str] | None):
+    return stage_design(eexp, stage, factors=kept)
+
+
+def _check_design(store: Path, eexp: EffectsExperiment, design) -> None:
+    """The store's cases are the design's (same values, same order)."""
+    results = load_results(store)
+    got = results.drop_duplicates(list(CASE_KEY)).sort_values("case", kind="mergesort")
+    if len(got) != design.n_points:
+        raise ResultsError(f"{store}: {len(got)} cases stored, the {design.method} design has {design.n_points} "
+                           f"(the run is unfinished: rerun `faultlab effects run` to resume)")
+
+
+def screen_store(store: Path, eexp: EffectsExperiment) -> tuple[str, ...]:
+    """The factors screening keeps from a finished Morris store (module docstring)."""
+    design = stage_design(eexp, "morris")
+    _check_design(store, eexp, design)
+    wide, _, _, _ = stage_responses(store)
+    tables = []
+    for r in screening_responses([c for c in wide.columns if not c.startswith("se:") and c not in CASE_KEY]):
+        y = wide[r].to_numpy(dtype=float)
+        if not np.isfinite(y).all() or not np.ptp(y) > 0:
+            continue
+        tables.append(morris_indices(design.unit, y, factors=design.factors, levels=design.levels,
+                                     seed=_seed(eexp, "morris", r), resamples=eexp.spec.resamples))
+    if not tables:
+        raise ResultsError(f"{store}: no response varies over the Morris design; nothing to screen")
+    return screen(tables, keep=eexp.spec.keep)
+
+
+def _seed(eexp: EffectsExperiment, stage: str, response: str) -> int:
+    return int(np.random.SeedSequence(eexp.spec.seed, spawn_key=(stable_code(stage), stable_code(response)))
+               .generate_state(1, np.uint32)[0])
+
+
+@dataclass(frozen=True)
+class EffectsAnalysis:
+    """Everything the effects report shows.
+
+    Attributes
+    ----------
+    responses : tuple of str
+    morris, sobol, regression : DataFrame
+        Long tables with a ``response`` column (:data:`~faultlab.analysis.sensitivity.MORRIS_COLUMNS`, ...).
+    cases : DataFrame
+        One row per (stage, case): parameter values and every response with its standard error.
+    partial : DataFrame
+        Partial dependence of the top parameters: ``response, parameter, x, mean, std_err, n``.
+    kept : tuple of str
+    notes : tuple of str
+    info : dict
+        Scale and cost: settings, design sizes, executions, wall time per stage.
+    """
+
+    responses: tuple[str, ...]
+    morris: pd.DataFrame
+    sobol: pd.DataFrame
+    regression: pd.DataFrame
+    cases: pd.DataFrame
+    partial: pd.DataFrame
+    kept: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    info: dict = field(default_factory=dict)
+
+
+def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) -> EffectsAnalysis:
+    """Analyse an effects study's output directory (module docstring).
+
+    Parameters
+    ----------
+    out : path
+        Output directory of ``faultlab effects run``.
+    experiment : path, optional
+        The effects file (default: its text as recorded in ``effects.json``).
+
+    Raises
+    ------
+    ResultsError
+        Not an effects study, the Morris stage unfinished.
+    """
+    out = Path(out)
+    saved = read_effects_json(out)
+    eexp = _reload(out, saved, experiment)
+    notes: list[str] = []
+    info = {"settings": saved.get("effects", {}), "quick": saved.get("quick", False), "stages": {}}
+    morris_rows, sobol_rows, reg_rows, case_frames, pd_rows = [], [], [], [], []
+    responses: list[str] = []
+    kept = tuple(saved.get("kept") or ())
+    for stage in STAGES:
+        store = out / stage
+        if not results_path(store).exists():
+            if stage == "sobol" and eexp.spec.sobol_base:
+                notes.append(f"Sobol stage not run yet: needs {eexp.spec.sobol_base} x (k + 2) cases for the k kept "
+                             f"factors; run `faultlab effects run` to finish it")
+            continue
+        design = _design_for(eexp, stage, kept if stage == "sobol" else None)
+        _check_design(store, eexp, design)
+        wide, reps, cases, meta = stage_responses(store)
+        info["stages"][stage] = {"cases": design.n_points, "factors": list(design.factors),
+                                 "executions": int(len(load_results(store))),
+                                 "wall_time_s": float(meta.get("wall_time_s") or 0.0),
+                                 "repaired": design.repaired}
+        names = [c for c in wide.columns if not c.startswith("se:") and c not in CASE_KEY]
+        responses += [r for r in names if r not in responses]
+        frame = cases.merge(wide, on=list(CASE_KEY))
+        frame.insert(0, "stage", stage)
+        case_frames.append(frame)
+        for r in names:
+            y = wide[r].to_numpy(dtype=float)
+            if not np.isfinite(y).all():
+                notes.append(f"{stage}, {r}: {int((~np.isfinite(y)).sum())} of {y.size} cases have no value "
+                             f"(every repetition failed): not estimated")
+                continue
+            if not np.ptp(y) > 0:
+                notes.append(f"{stage}, {r}: the response does not vary over the design: not estimated")
+                continue
+            try:
+                if stage == "morris":
+                    t = morris_indices(design.unit, y, factors=design.factors, levels=design.levels,
+                                       seed=_seed(eexp, stage, r), resamples=eexp.spec.resamples)
+                    morris_rows.append(t.assign(response=r))
+                else:
+                    nv = float(np.nanmean(wide[f"se:{r}"].to_numpy(dtype=float) ** 2))
+                    t = sobol_indices(y, factors=design.factors, seed=_seed(eexp, stage, r),
+                                      resamples=eexp.spec.resamples, noise_var=nv if np.isfinite(nv) else None)
+                    sobol_rows.append(t.assign(response=r, noise_floor=noise_floor(y, wide[f"se:{r}"])))
+            except FaultlabError as exc:
+                notes.append(f"{stage}, {r}: {exc}")
+        for r in names:
+            rr = reps[reps["response"] == r]
+            if rr.empty:
+                continue
+            try:
+                reg_rows.append(regression_view(rr, cases, factors=design.factors).assign(response=r, stage=stage))
+            except FaultlabError as exc:
+                notes.append(f"{stage}, {r}, regression: {exc}")
+    if not case_frames:
+        raise ResultsError(f"{out}: the Morris stage has no results yet; run `faultlab effects run`")
+    morris = _concat(morris_rows)
+    sobol = _concat(sobol_rows)
+    all_cases = pd.concat(case_frames, ignore_index=True)
+    # partial dependence of the two top parameters of every response (Sobol ST if there, else mu*)
+    for r in responses:
+        src = sobol[sobol["response"] == r] if not sobol.empty else sobol
+        top = list(src["parameter"].head(2)) if len(src) else \
+            (list(morris[morris["response"] == r]["parameter"].head(2)) if not morris.empty else [])
+        for p in top:
+            col = "directionality" if p == "directionality" else (f"{p}_distance" if p in ("variance", "bias") else p)
+            part = partial_dependence(all_cases[col], all_cases[r])
+            pd_rows.append(part.assign(response=r, parameter=p, column=col))
+    info["executions"] = sum(s["executions"] for s in info["stages"].values())
+    info["wall_time_s"] = sum(s["wall_time_s"] for s in info["stages"].values())
+    return EffectsAnalysis(responses=tuple(responses), morris=morris, sobol=sobol, regression=_concat(reg_rows),
+                           cases=all_cases, partial=_concat(pd_rows), kept=kept, notes=tuple(notes), info=info)
+
+
+def _concat(frames: list[pd.DataFrame]) -> pd.DataFrame:
+    if not frames:
+        return pd.DataFrame()
+    out = pd.concat(frames, ignore_index=True)
+    return out[["response"] + [c for c in out.columns if c != "response"]]
+
+
+def _reload(out: Path, saved: dict, experiment) -> EffectsExperiment:
+    """The study's settings from the effects file text recorded in ``effects.json`` (or ``experiment``)."""
+    quick = bool(saved.get("quick", False))
+    try:
+        if experiment is not None:
+            from faultlab.campaigns.effects import load_effects_experiment
+            eexp = load_effects_experiment(experiment, quick=quick)
+        else:
+            eexp = parse_effects(saved.get("text", ""), source=saved.get("source", str(out)), quick=quick)
+    except FaultlabError as exc:
+        raise ResultsError(f"{out}: cannot read the study's effects settings ({exc})") from exc
+    if eexp.to_json()["effects"] != saved.get("effects") or eexp.experiment.hash != saved.get("experiment_hash"):
+        raise ResultsError(f"{out}: the effects file does not match the study's settings (effects.json)")
+    return eexp

@@ -1,0 +1,1 @@
+"""faultlab.campaigns: campaign drivers that run several stores through the ordinary runner."""
