@@ -147,7 +147,12 @@ def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) ->
     saved = read_effects_json(out)
     eexp = _reload(out, saved, experiment)
     notes: list[str] = []
-    info = {"settings": saved.get("effects", {}), "quick": saved.get("quick", False), "stages": {}}
+    exp = eexp.experiment
+    info = {"settings": saved.get("effects", {}), "quick": saved.get("quick", False), "stages": {},
+            "experiment": {"slam": ", ".join(f"{k} = {v}" for k, v in exp.slam.to_dict().items()),
+                           "n_steps": exp.n_steps, "repetitions": exp.repetitions, "variants": list(exp.variants),
+                           "space": exp.space},
+            "load": _load(saved.get("sessions", []))}
     morris_rows, sobol_rows, reg_rows, case_frames, pd_rows = [], [], [], [], []
     responses: list[str] = []
     kept = tuple(saved.get("kept") or ())
@@ -161,8 +166,10 @@ def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) ->
         design = _design_for(eexp, stage, kept if stage == "sobol" else None)
         _check_design(store, eexp, design)
         wide, reps, cases, meta = stage_responses(store)
+        stored = load_results(store)
         info["stages"][stage] = {"cases": design.n_points, "factors": list(design.factors),
-                                 "executions": int(len(load_results(store))),
+                                 "executions": int(len(stored)),
+                                 "slam_time_s": float(pd.to_numeric(stored["runtime_s"], errors="coerce").sum()),
                                  "wall_time_s": float(meta.get("wall_time_s") or 0.0),
                                  "repaired": design.repaired}
         names = [c for c in wide.columns if not c.startswith("se:") and c not in CASE_KEY]
@@ -215,8 +222,16 @@ def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) ->
             pd_rows.append(part.assign(response=r, parameter=p, column=col))
     info["executions"] = sum(s["executions"] for s in info["stages"].values())
     info["wall_time_s"] = sum(s["wall_time_s"] for s in info["stages"].values())
+    info["slam_time_s"] = sum(s["slam_time_s"] for s in info["stages"].values())
     return EffectsAnalysis(responses=tuple(responses), morris=morris, sobol=sobol, regression=_concat(reg_rows),
                            cases=all_cases, partial=_concat(pd_rows), kept=kept, notes=tuple(notes), info=info)
+
+
+def _load(sessions: list) -> dict:
+    loads = [x for s in sessions for x in (s.get("load_start"), s.get("load_end")) if x is not None]
+    if not loads:
+        return {}
+    return {"min": min(loads), "max": max(loads), "cpus": sessions[-1].get("cpus"), "sessions": len(sessions)}
 
 
 def _concat(frames: list[pd.DataFrame]) -> pd.DataFrame:

@@ -17,14 +17,16 @@ numbers, any backend) in two stages, each its own store:
 Every design is drawn from the file's seed (:func:`faultlab.seeds.design_seed_sequence`), every
 case generated from its own seed (:func:`faultlab.seeds.case_seed` with run 1 and the stage as the
 suite), every repetition run with the same SLAM seed for all variants.  ``OUT/effects.json``
-records the settings and the kept factors; a resume with other settings is refused before anything
-is written.
+records the settings, the kept factors and every finished session (start, end, the 1-minute load
+average at both); a resume with other settings is refused before anything is written.
 """
 
 from __future__ import annotations
 
 import copy
 import json
+import os
+import time
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -270,25 +272,30 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
     """
     out = Path(out)
     saved = {} if force_new else _check_resume(out, eexp)
-    record = eexp.to_json() | {"kept": saved.get("kept")}
+    session = {"started": time.time(), "load_start": os.getloadavg()[0], "jobs": jobs, "backend": backend,
+               "cpus": os.cpu_count()}
+    record = eexp.to_json() | {"kept": saved.get("kept"), "sessions": list(saved.get("sessions", []))}
     summaries: dict[str, RunSummary] = {}
     morris = stage_design(eexp, "morris")
-    _write_json(out, record | {"repaired": {"morris": morris.repaired}})
+    record["repaired"] = {"morris": morris.repaired}
+    _write_json(out, record)
     summaries["morris"] = run_experiment(eexp.experiment, out / "morris", jobs=jobs, backend=backend,
                                          force_new=force_new, progress=progress, batch_size=batch_size,
                                          cases=design_cases(eexp, morris))
-    if not eexp.spec.sobol_base:
-        return summaries
-    kept = tuple(screen(out / "morris", eexp))
-    if saved.get("kept") is not None and tuple(saved["kept"]) != kept:
-        raise ResultsError(f"{out}: screening now keeps {', '.join(kept)}, the Sobol stage already run kept "
-                           f"{', '.join(saved['kept'])} (the Morris results changed); use --force-new")
-    sobol = stage_design(eexp, "sobol", factors=kept)
-    record = record | {"kept": list(kept), "repaired": {"morris": morris.repaired, "sobol": sobol.repaired}}
+    if eexp.spec.sobol_base:
+        kept = tuple(screen(out / "morris", eexp))
+        if saved.get("kept") is not None and tuple(saved["kept"]) != kept:
+            raise ResultsError(f"{out}: screening now keeps {', '.join(kept)}, the Sobol stage already run kept "
+                               f"{', '.join(saved['kept'])} (the Morris results changed); use --force-new")
+        sobol = stage_design(eexp, "sobol", factors=kept)
+        record |= {"kept": list(kept), "repaired": {"morris": morris.repaired, "sobol": sobol.repaired}}
+        _write_json(out, record)
+        summaries["sobol"] = run_experiment(eexp.experiment, out / "sobol", jobs=jobs, backend=backend,
+                                            force_new=force_new, progress=progress, batch_size=batch_size,
+                                            cases=design_cases(eexp, sobol))
+    session |= {"finished": time.time(), "load_end": os.getloadavg()[0]}
+    record["sessions"].append(session)
     _write_json(out, record)
-    summaries["sobol"] = run_experiment(eexp.experiment, out / "sobol", jobs=jobs, backend=backend,
-                                        force_new=force_new, progress=progress, batch_size=batch_size,
-                                        cases=design_cases(eexp, sobol))
     return summaries
 
 
