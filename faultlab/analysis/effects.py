@@ -36,6 +36,7 @@ from faultlab.campaigns.effects import (STAGES, EffectsExperiment, parse_effects
 from faultlab.errors import FaultlabError, ResultsError
 from faultlab.runner.store import load_metadata, load_results, results_path
 from faultlab.seeds import stable_code
+from faultlab.space.case import VALUE_KEYS
 
 __all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "stage_responses", "screening_responses"]
 
@@ -59,7 +60,8 @@ def stage_responses(store: str | Path) -> tuple[pd.DataFrame, pd.DataFrame, pd.D
     se.columns = [f"se:{c}" for c in se.columns]
     order = list(dict.fromkeys(long["response"]))
     wide = wide[order].join(se).reset_index().sort_values("case", kind="mergesort").reset_index(drop=True)
-    cases = results.drop_duplicates(key).sort_values("case", kind="mergesort").reset_index(drop=True)
+    cols = key + [c for c in results.columns if c in VALUE_KEYS or c.startswith("class_") or c == "n_landmarks"]
+    cases = results.drop_duplicates(key).sort_values("case", kind="mergesort")[cols].reset_index(drop=True)
     return wide, rep_values(results, metric=metric), cases, meta
 
 
