@@ -38,7 +38,8 @@ from faultlab.runner.store import load_metadata, load_results, results_path
 from faultlab.seeds import stable_code
 from faultlab.space.case import VALUE_KEYS
 
-__all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "stage_responses", "screening_responses"]
+__all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "stage_responses", "screening_responses",
+           "study_weights"]
 
 
 def screening_responses(responses: Sequence[str]) -> list[str]:
@@ -257,3 +258,69 @@ def _reload(out: Path, saved: dict, experiment) -> EffectsExperiment:
     if eexp.to_json()["effects"] != saved.get("effects") or eexp.experiment.hash != saved.get("experiment_hash"):
         raise ResultsError(f"{out}: the effects file does not match the study's settings (effects.json)")
     return eexp
+
+
+def study_weights(analysis: EffectsAnalysis, response: str, *, space=None, floor: float = 0.05) -> pd.DataFrame:
+    """Class weights for an ``effect-guided`` suite from an effects study (documented rule).
+
+    1. The *influential* parameters of ``response``: those whose total Sobol index is clear of 0
+       (interval above 0); for a response without Sobol indices, those whose Morris ``mu*``
+       interval is clear of 0.
+    2. For every class of an influential parameter, the response's mean over the study's cases in
+       that class (both stages), on the ratio scale: ``exp(mean)`` for the log responses
+       (difficulty, effect size: the geometric-mean error, or faulty/baseline error ratio, of the
+       class), the mean share for a detection response.  A class without study cases gets its
+       parameter's mean.
+    3. These strengths are normalised within the parameter and mixed with a floor
+       (:func:`faultlab.space.settings.weights_from_effects` with them as ``odds_ratio``): a class
+       that makes the fault show more is drawn more often, none is left out.
+    4. Every other parameter is not listed: the suite gives its classes equal weights.
+
+    Parameters
+    ----------
+    analysis : EffectsAnalysis
+    response : str
+        E.g. ``"effect:naive_resampling"``.
+    space : ParameterSpace, optional
+        The study's space (class names); default Table I.
+    floor : float
+        Smallest share of a class (see ``weights_from_effects``).
+
+    Returns
+    -------
+    DataFrame
+        ``parameter, class, weight`` (a ``--weights`` CSV of ``faultlab generate``, or ``[weights]``).
+
+    Raises
+    ------
+    ResultsError
+        An unknown response.
+    """
+    from faultlab.space import table1_space, weights_from_effects, weights_frame
+
+    if response not in analysis.responses:
+        raise ResultsError(f"study_weights: no response {response!r} in this study (responses: "
+                           f"{', '.join(analysis.responses)})")
+    space = space or table1_space()
+    s = analysis.sobol[analysis.sobol["response"] == response] if not analysis.sobol.empty else analysis.sobol
+    if len(s):
+        influential = list(s.loc[s["ST_low"] > 0, "parameter"])
+    else:
+        m = analysis.morris[analysis.morris["response"] == response] if not analysis.morris.empty else analysis.morris
+        influential = list(m.loc[m["mu_star_low"] > 0, "parameter"]) if len(m) else []
+    rows = []
+    cases = analysis.cases
+    for p in influential:
+        par = space[p]
+        cls = pd.to_numeric(cases[f"class_{p}"], errors="coerce")
+        y = pd.to_numeric(cases[response], errors="coerce")
+        means = y.groupby(cls).mean()
+        fill = float(y.mean())
+        for i, name in enumerate(par.class_names):
+            v = float(means.get(i, fill))
+            v = fill if not np.isfinite(v) else v
+            strength = v if response.startswith("detection:") else float(np.exp(v))
+            rows.append({"parameter": p, "class": name, "odds_ratio": max(strength, 1e-12)})
+    if not rows:
+        return weights_frame({})
+    return weights_from_effects(pd.DataFrame(rows), floor=floor)

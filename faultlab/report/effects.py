@@ -10,7 +10,10 @@ Rendered from one :class:`~faultlab.analysis.effects.EffectsAnalysis`:
 * ``partial.png``: per response, the mean response over the design in bins of each of its two top
   parameters;
 * ``morris.csv``, ``sobol.csv``, ``regression.csv``, ``cases.csv``, ``partial.csv`` and
-  ``effects.md`` (ranked tables, scale, cost and notes).
+  ``effects.md`` (ranked tables, scale, cost and notes);
+* ``weights_<fault>.csv``: class weights of an ``effect-guided`` suite aimed at that fault
+  (:func:`~faultlab.analysis.effects.study_weights`), for ``faultlab generate --weights`` or a
+  space file's ``[weights]``.
 """
 
 from __future__ import annotations
@@ -22,11 +25,12 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from faultlab.analysis.effects import EffectsAnalysis, analyse_effects
+from faultlab.analysis.effects import EffectsAnalysis, analyse_effects, study_weights
 from faultlab.analysis.responses import DIFFICULTY
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
+from faultlab.space import space_from_mapping
 
 __all__ = ["EFFECTS_TABLES", "morris_figure", "sobol_figure", "partial_figure", "effects_markdown",
            "write_effects_report", "response_label"]
@@ -222,6 +226,13 @@ def write_effects_report(results: str | Path, reports: str | Path) -> list[Path]
         paths.append(path)
     (out / "effects.md").write_text(effects_markdown(analysis))
     paths.append(out / "effects.md")
+    overrides = analysis.info.get("experiment", {}).get("space") or {}
+    space = space_from_mapping(overrides, source="the study's [space]") if overrides else None
+    for r in analysis.responses:
+        if r.startswith("effect:"):
+            path = out / f"weights_{r.partition(':')[2]}.csv"
+            study_weights(analysis, r, space=space).to_csv(path, index=False)
+            paths.append(path)
     for name, make in (("morris", morris_figure), ("sobol", sobol_figure), ("partial", partial_figure)):
         fig = make(analysis)
         fig.savefig(out / f"{name}.png", dpi=110)
