@@ -39,7 +39,7 @@ from faultlab.seeds import stable_code
 from faultlab.space.case import VALUE_KEYS
 
 __all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "stage_responses", "screening_responses",
-           "study_weights"]
+           "study_weights", "campaign_effects", "CAMPAIGN_EFFECT_COLUMNS", "CASES_PER_COEFFICIENT"]
 
 
 def screening_responses(responses: Sequence[str]) -> list[str]:
@@ -324,3 +324,87 @@ def study_weights(analysis: EffectsAnalysis, response: str, *, space=None, floor
     if not rows:
         return weights_frame({})
     return weights_from_effects(pd.DataFrame(rows), floor=floor)
+
+
+#: Cases per regression coefficient below which a campaign is called too small for the regression view
+#: (the usual rule of thumb for linear models: about 10 observations per estimated coefficient).
+CASES_PER_COEFFICIENT = 10
+#: Columns of :func:`campaign_effects`.
+CAMPAIGN_EFFECT_COLUMNS: tuple[str, ...] = ("response", "term", "n_cases", "estimate", "low", "high", "p", "note")
+
+
+def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, alpha: float = 0.05) -> pd.DataFrame:
+    """The continuous effect analysis of an ordinary campaign (suites drawn for coverage, not a design).
+
+    Per response (difficulty, each fault's effect size; :mod:`faultlab.analysis.responses`):
+
+    * ``(mean over cases)``: the mean of the per-case values with its t interval over cases (the
+      cases are the independent units);
+    * one row per parameter: the cluster-robust regression coefficient per standard deviation
+      (:func:`~faultlab.analysis.sensitivity.regression_view`) when the campaign has more cases than
+      coefficients; a ``(size)`` row says how many cases the regression view needs to be informative
+      (:data:`CASES_PER_COEFFICIENT` per coefficient) when the campaign has fewer, and that a
+      designed study (``faultlab effects run``) is the way to rank parameters.
+
+    Returns
+    -------
+    DataFrame
+        :data:`CAMPAIGN_EFFECT_COLUMNS`.
+    """
+    from statsmodels.stats.weightstats import DescrStatsW
+
+    from faultlab.metrics.detection import DetectionRule
+    from faultlab.space.case import PARAMETER_NAMES
+
+    rule = rule or DetectionRule()
+    key = list(CASE_KEY)
+    long = case_responses(results, metric=metric, rule=rule, detection=False)
+    reps = rep_values(results, metric=metric)
+    cols = key + [c for c in results.columns if c in VALUE_KEYS]
+    cases = results.drop_duplicates(key)[cols].reset_index(drop=True)
+    X = cases[[c for c in cases.columns if c in VALUE_KEYS]]
+    column = {p: f"{p}_distance" if p in ("variance", "bias") else p for p in PARAMETER_NAMES}
+    varying = [p for p in PARAMETER_NAMES if column[p] in X.columns and X[column[p]].nunique() > 1]
+    n_coef = len(varying) + 1
+    need = CASES_PER_COEFFICIENT * n_coef
+    rows = []
+    for r in dict.fromkeys(long["response"]):
+        v = long.loc[long["response"] == r, "value"].to_numpy(dtype=float)
+        v = v[np.isfinite(v)]
+        n = int(v.size)
+        if n >= 2:
+            lo, hi = DescrStatsW(v).tconfint_mean(alpha=alpha)
+            p = float(DescrStatsW(v).ttest_mean(0.0)[1])
+            rows.append({"response": r, "term": "(mean over cases)", "n_cases": n, "estimate": float(v.mean()),
+                         "low": float(lo), "high": float(hi), "p": p, "note": "t interval over cases"})
+        else:
+            rows.append({"response": r, "term": "(mean over cases)", "n_cases": n, "estimate": np.nan,
+                         "low": np.nan, "high": np.nan, "p": np.nan, "note": "fewer than 2 cases with a value"})
+        size_note = (f"{n} cases for {n_coef} coefficients ({len(varying)} varying parameters + intercept): the "
+                     f"regression view needs about {need} cases ({CASES_PER_COEFFICIENT} per coefficient) to say "
+                     f"which parameter matters; a designed study ranks them with far fewer SLAM runs "
+                     f"(faultlab effects run)")
+        if not varying:
+            rows.append({"response": r, "term": "(size)", "n_cases": n, "estimate": np.nan, "low": np.nan,
+                         "high": np.nan, "p": np.nan, "note": f"not fitted: no parameter varies among the {n} cases"})
+            continue
+        if n <= n_coef:
+            rows.append({"response": r, "term": "(size)", "n_cases": n, "estimate": np.nan, "low": np.nan,
+                         "high": np.nan, "p": np.nan, "note": "not fitted: " + size_note})
+            continue
+        try:
+            reg = regression_view(reps[reps["response"] == r], cases, factors=varying, alpha=alpha)
+        except FaultlabError as exc:
+            rows.append({"response": r, "term": "(size)", "n_cases": n, "estimate": np.nan, "low": np.nan,
+                         "high": np.nan, "p": np.nan, "note": f"not fitted: {exc}"})
+            continue
+        note = "per SD, cluster-robust by case" + ("" if n >= need else "; too few cases: " + size_note)
+        for t in reg.itertuples():
+            if not t.std_err > 0:  # residuals cancel within every case: no interval from these data
+                rows.append({"response": r, "term": t.parameter, "n_cases": n, "estimate": np.nan, "low": np.nan,
+                             "high": np.nan, "p": np.nan, "note": "not fitted: zero standard error (the parameter "
+                             "is confounded with the cases); " + size_note})
+                continue
+            rows.append({"response": r, "term": t.parameter, "n_cases": n, "estimate": t.coef, "low": t.low,
+                         "high": t.high, "p": t.p, "note": note})
+    return pd.DataFrame(rows, columns=list(CAMPAIGN_EFFECT_COLUMNS))

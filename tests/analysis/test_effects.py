@@ -39,3 +39,33 @@ def test_weights_follow_the_planted_class_ratios_of_influential_parameters_only(
 def test_unknown_response_is_one_clear_error():
     with pytest.raises(ResultsError, match="no response 'effect:g'"):
         study_weights(_study(), "effect:g")
+
+
+def test_campaign_effects_mean_over_cases_is_the_t_interval_of_the_per_case_log_ratios():
+    from scipy import stats
+
+    from faultlab.analysis.effects import campaign_effects
+
+    rng = np.random.default_rng(4)
+    rows = []
+    n_cases, k = 8, 3
+    ratios = np.exp(rng.normal(0.5, 0.3, (n_cases, k)))
+    for c in range(n_cases):
+        values = {"directionality": "random", "rotation_error": 0.0, "inactivity": 0, "map_size": 10.0 + c,
+                  "landmark_density": 5.0, "step_size": 80.0, "symmetry": 0.0, "outlier_probability": 2.0,
+                  "field_of_view": 3.0, "variance_distance": 10.0, "variance_angle": 0.02,
+                  "bias_distance": 0.0, "bias_angle": 0.0}
+        for r in range(k):
+            base = 100.0 + 10 * r
+            for variant, err in (("baseline", base), ("f", base * ratios[c, r])):
+                rows.append({"run": 1, "suite": "random", "case": c + 1, "variant": variant, "rep": r,
+                             "status": "ok", "rms_mm": err, **values})
+    t = campaign_effects(pd.DataFrame(rows))
+    mean = t[(t["response"] == "effect:f") & (t["term"] == "(mean over cases)")].iloc[0]
+    per_case = np.log(ratios).mean(axis=1)
+    lo, hi = stats.t.interval(0.95, n_cases - 1, loc=per_case.mean(), scale=stats.sem(per_case))
+    assert mean["estimate"] == pytest.approx(per_case.mean())
+    assert (mean["low"], mean["high"]) == pytest.approx((lo, hi))
+    # one varying parameter: 2 coefficients, 8 cases: fitted, but flagged as far too few (needs 20)
+    reg = t[(t["response"] == "effect:f") & (t["term"] == "map_size")].iloc[0]
+    assert np.isfinite(reg["estimate"]) and "needs about 20 cases" in reg["note"]
