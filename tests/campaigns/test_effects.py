@@ -60,8 +60,8 @@ def test_shipped_file_and_its_quick_scale():
     assert full.experiment.n_steps == 1000 and quick.experiment.n_steps == 60
     plan = effects_plan(quick)
     d = len(quick.spec.factors)
-    assert plan["morris_cases"] == quick.spec.trajectories * (d + 1) == 72
-    assert plan["executions_morris"] == 72 * len(quick.experiment.variants) * quick.experiment.repetitions
+    assert plan["morris_cases"] == quick.spec.trajectories * (d + 1) == 96
+    assert plan["executions_morris"] == 96 * len(quick.experiment.variants) * quick.experiment.repetitions
     assert plan["sobol_cases_max"] == quick.spec.sobol_base * (d + 2)
 
 
