@@ -140,6 +140,10 @@ def sobol_indices(y, *, factors: Sequence[str], seed: int, resamples: int = 1000
     y = _check_y(y, y.size, "sobol_indices")
     if not np.ptp(y) > 0:
         raise ResultsError("sobol_indices: the response is constant over the design (no variance to apportion)")
+    blocks = y.reshape(-1, d + 2)
+    if not np.ptp(np.concatenate([blocks[:, 0], blocks[:, -1]])) > 0:
+        raise ResultsError("sobol_indices: the response is constant over the design's base samples A and B (it "
+                           "varies only at a few mixed points): no variance to apportion")
     with warnings.catch_warnings():  # SALib warns of constant blocks; a constant response is refused above
         warnings.simplefilter("ignore", UserWarning)
         res = sobol.analyze(_problem(factors), y, calc_second_order=False, num_resamples=int(resamples),
@@ -154,6 +158,8 @@ def sobol_indices(y, *, factors: Sequence[str], seed: int, resamples: int = 1000
     if share > 0:
         scale = 1.0 / (1.0 - share)
         st, stc, s1, s1c = (st - share) * scale, stc * scale, s1 * scale, s1c * scale
+    s1c = np.where(s1c > 0, s1c, np.nan)  # a zero-width interval from a finite sample is no interval
+    stc = np.where(stc > 0, stc, np.nan)
     out = pd.DataFrame({"parameter": list(factors), "S1": s1, "S1_low": s1 - s1c, "S1_high": s1 + s1c,
                         "ST": st, "ST_low": st - stc, "ST_high": st + stc, "noise_share": share})
     return _ranked(out, "ST")
@@ -278,7 +284,8 @@ def partial_dependence(values: pd.Series, response, std_err=None, *, bins: int =
     Returns
     -------
     DataFrame
-        ``x`` (mean value in the bin), ``mean``, ``std_err`` (over the bin's cases), ``n``.
+        ``x`` (mean value in the bin), ``mean``, ``std_err`` (over the bin's cases; NaN where every
+        case of the bin has the same value or the bin has one case), ``n``.
     """
     x = pd.Series(np.asarray(values), dtype=object if values.dtype == object else float)
     y = np.asarray(response, dtype=float)
@@ -294,5 +301,5 @@ def partial_dependence(values: pd.Series, response, std_err=None, *, bins: int =
     frame = frame[np.isfinite(frame["y"])]
     out = frame.groupby("g", observed=True).agg(x=("x", "mean"), mean=("y", "mean"),
                                                 sd=("y", "std"), n=("y", "size")).reset_index(drop=True)
-    out["std_err"] = out["sd"] / np.sqrt(out["n"])
+    out["std_err"] = (out["sd"] / np.sqrt(out["n"])).where(out["sd"] > 0)  # no zero-width interval
     return out[["x", "mean", "std_err", "n"]]

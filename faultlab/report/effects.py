@@ -110,7 +110,9 @@ def sobol_figure(analysis: EffectsAnalysis, *, figsize=PAGE_SIZE) -> Figure:
         ax.set_yticks(y, t["parameter"], fontsize=7)
         ax.invert_yaxis()
         ax.axvline(0, color="black", lw=0.6)
-        ax.set_title(response_label(r), fontsize=8.5)
+        share = float(t["noise_share"].iloc[0])
+        ax.set_title(response_label(r) + (f"\nnoise is {share:.0%} of the variance: not informative"
+                                          if share > 0.5 else ""), fontsize=8.5)
         ax.tick_params(labelsize=7)
         ax.set_xlabel("share of the response variance", fontsize=7.5)
     axes[0].legend(fontsize=7, loc="lower right")
@@ -130,12 +132,12 @@ def partial_figure(analysis: EffectsAnalysis, *, figsize=PAGE_SIZE) -> Figure:
         return fig
     for ax, (r, par) in zip(axes, pairs):
         t = p[(p["response"] == r) & (p["parameter"] == par)]
-        ax.errorbar(t["x"], t["mean"], yerr=1.96 * t["std_err"].fillna(0), fmt="o-", ms=4, lw=1, capsize=2)
+        ax.errorbar(t["x"], t["mean"], yerr=1.96 * t["std_err"], fmt="o-", ms=4, lw=1, capsize=2)
         ax.set_title(response_label(r), fontsize=8)
         ax.set_xlabel(t["column"].iloc[0] + (" (1 = loop)" if par == "directionality" else ""), fontsize=7.5)
         ax.tick_params(labelsize=7)
     fig.suptitle("Partial dependence: mean response over the design cases in bins of a top parameter "
-                 "(bars: 95 % normal interval over the bin's cases)", fontsize=10)
+                 "(bars: 95 % normal interval over the bin's cases; none where they all agree)", fontsize=10)
     return fig
 
 
@@ -174,6 +176,14 @@ def _scale_text(analysis: EffectsAnalysis) -> str:
     if exp:
         lines.append(f"SLAM: {exp.get('slam')}; {exp.get('n_steps')} steps, K = {exp.get('repetitions')} "
                      f"repetitions per case (common random numbers), variants {', '.join(exp.get('variants', []))}.")
+    space = exp.get("space") or {}
+    if space:
+        parts = []
+        for name, table in space.items():
+            classes = table.get("classes") if isinstance(table, dict) else None
+            if isinstance(classes, dict):
+                parts.append(f"{name} " + ", ".join(f"{c} = {v}" for c, v in classes.items()))
+        lines.append("Parameter space: Table I with these classes replaced: " + "; ".join(parts) + ".")
     for stage, st in info.get("stages", {}).items():
         lines.append(f"- {stage}: {st['cases']} cases over {len(st['factors'])} parameters, {st['executions']} "
                      f"SLAM executions, wall time {format_duration(st['wall_time_s'])}, SLAM time "
@@ -200,8 +210,12 @@ def effects_markdown(analysis: EffectsAnalysis) -> str:
         s = analysis.sobol[analysis.sobol["response"] == r] if not analysis.sobol.empty else pd.DataFrame()
         m = analysis.morris[analysis.morris["response"] == r] if not analysis.morris.empty else pd.DataFrame()
         if len(s):
-            out += [f"Sobol indices (noise share of the variance removed: {_f(s['noise_share'].iloc[0], 2)}):", "",
-                    _sobol_md(s)]
+            share = float(s["noise_share"].iloc[0])
+            out += [f"Sobol indices (noise share of the variance removed: {_f(share, 2)}):", ""]
+            if share > 0.5:
+                out += [f"Repetition noise is {_f(share, 2)} of this response's variance over the design: the "
+                        f"indices below are not informative (more repetitions per case would be).", ""]
+            out += [_sobol_md(s)]
         if len(m):
             out += ["Morris screening:", "", _morris_md(m)]
         if not len(s) and not len(m):

@@ -79,6 +79,14 @@ def test_missing_or_constant_responses_are_one_clear_error():
         sobol_indices(y, factors=d.factors, seed=1)
 
 
+def test_a_response_that_varies_only_at_mixed_points_is_refused():
+    d = sobol_design(table1_space(), rng=np.random.default_rng(5), base=8, factors=["map_size", "bias", "symmetry"])
+    y = np.zeros(d.n_points)
+    y[2] = 1.0  # one A_B point: A and B constant
+    with pytest.raises(ResultsError, match="base samples A and B"):
+        sobol_indices(y, factors=d.factors, seed=1)
+
+
 def test_noise_floor_is_the_noise_share_of_the_variance():
     rng = np.random.default_rng(0)
     v = rng.normal(0, 2.0, 5000)
