@@ -205,6 +205,11 @@ def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) ->
             rr = reps[reps["response"] == r]
             if rr.empty:
                 continue
+            need = CASES_PER_COEFFICIENT * (len(design.factors) + 1)
+            if len(cases) < need:
+                notes.append(f"{stage}, {r}, regression: {len(cases)} cases for {len(design.factors) + 1} "
+                             f"coefficients, fewer than the {need} it needs; not fitted")
+                continue
             try:
                 reg_rows.append(regression_view(rr, cases, factors=design.factors).assign(response=r, stage=stage))
             except FaultlabError as exc:
@@ -341,10 +346,10 @@ def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, a
     * ``(mean over cases)``: the mean of the per-case values with its t interval over cases (the
       cases are the independent units);
     * one row per parameter: the cluster-robust regression coefficient per standard deviation
-      (:func:`~faultlab.analysis.sensitivity.regression_view`) when the campaign has more cases than
-      coefficients; a ``(size)`` row says how many cases the regression view needs to be informative
-      (:data:`CASES_PER_COEFFICIENT` per coefficient) when the campaign has fewer, and that a
-      designed study (``faultlab effects run``) is the way to rank parameters.
+      (:func:`~faultlab.analysis.sensitivity.regression_view`) when the campaign has at least
+      :data:`CASES_PER_COEFFICIENT` cases per coefficient; otherwise one ``(size)`` row saying how
+      many cases it would need, and that a designed study (``faultlab effects run``) is the way to
+      rank parameters (with fewer cases the cluster-robust errors are far too small to trust).
 
     Returns
     -------
@@ -388,7 +393,7 @@ def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, a
             rows.append({"response": r, "term": "(size)", "n_cases": n, "estimate": np.nan, "low": np.nan,
                          "high": np.nan, "p": np.nan, "note": f"not fitted: no parameter varies among the {n} cases"})
             continue
-        if n <= n_coef:
+        if n < need:
             rows.append({"response": r, "term": "(size)", "n_cases": n, "estimate": np.nan, "low": np.nan,
                          "high": np.nan, "p": np.nan, "note": "not fitted: " + size_note})
             continue
@@ -398,13 +403,10 @@ def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, a
             rows.append({"response": r, "term": "(size)", "n_cases": n, "estimate": np.nan, "low": np.nan,
                          "high": np.nan, "p": np.nan, "note": f"not fitted: {exc}"})
             continue
-        note = "per SD, cluster-robust by case" + ("" if n >= need else "; too few cases: " + size_note)
         for t in reg.itertuples():
-            if not t.std_err > 0:  # residuals cancel within every case: no interval from these data
-                rows.append({"response": r, "term": t.parameter, "n_cases": n, "estimate": np.nan, "low": np.nan,
-                             "high": np.nan, "p": np.nan, "note": "not fitted: zero standard error (the parameter "
-                             "is confounded with the cases); " + size_note})
-                continue
-            rows.append({"response": r, "term": t.parameter, "n_cases": n, "estimate": t.coef, "low": t.low,
-                         "high": t.high, "p": t.p, "note": note})
+            ok = t.std_err > 0  # residuals cancelling within every case give no interval
+            rows.append({"response": r, "term": t.parameter, "n_cases": n, "estimate": t.coef if ok else np.nan,
+                         "low": t.low if ok else np.nan, "high": t.high if ok else np.nan,
+                         "p": t.p if ok else np.nan,
+                         "note": "per SD, cluster-robust by case" if ok else "not fitted: zero standard error"})
     return pd.DataFrame(rows, columns=list(CAMPAIGN_EFFECT_COLUMNS))

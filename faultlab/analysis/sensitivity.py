@@ -244,8 +244,9 @@ def regression_view(reps: pd.DataFrame, cases: pd.DataFrame, *, factors: Sequenc
     -------
     DataFrame
         :data:`REGRESSION_COLUMNS`: per factor the coefficient per standard deviation of its
-        column (:func:`design_columns`), its standard error, interval and p value; a factor that is
-        constant over the cases has NaN numbers.
+        column (:func:`design_columns`), its standard error, interval and p value (Student t with
+        one degree of freedom less than the number of cases, as for cluster-robust errors); a factor
+        that is constant over the cases has NaN numbers.
     """
     import statsmodels.api as sm
 
@@ -260,7 +261,7 @@ def regression_view(reps: pd.DataFrame, cases: pd.DataFrame, *, factors: Sequenc
     if len(np.unique(groups)) <= len(varying) + 1:
         raise ResultsError(f"regression_view: {len(np.unique(groups))} cases for {len(varying) + 1} coefficients")
     exog = sm.add_constant(frame[varying].to_numpy(), has_constant="add")
-    res = sm.OLS(frame["value"].to_numpy(), exog).fit(cov_type="cluster", cov_kwds={"groups": groups})
+    res = sm.OLS(frame["value"].to_numpy(), exog).fit(cov_type="cluster", cov_kwds={"groups": groups}, use_t=True)
     ci = np.asarray(res.conf_int(alpha=alpha))
     rows = []
     for f in factors:

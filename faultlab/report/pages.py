@@ -530,7 +530,8 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
     from faultlab.analysis.effects import campaign_effects
     from faultlab.report.effects import response_label
 
-    jobs = analysis.this_run_jobs
+    jobs = analysis.this_run_jobs.drop(columns=["source"]).merge(analysis.cases, on=["run", "suite", "case"],
+                                                                 how="left")
     metric = str(analysis.metadata.get("metric", "rms"))
     try:
         eff = campaign_effects(jobs, metric=metric, rule=analysis.rule, alpha=analysis.alpha)
