@@ -131,4 +131,4 @@ def test_case_level_pages_state_test_alpha_family_and_what_could_not_be_judged()
     assert "Parameter effects: what this campaign's size allows" in titles
     why = a.class_effects.query("fault == 'motion_sign_error'")["note"].iloc[0]
     assert why and why in text
-    assert "no parameter varies among the 12 cases" in text
+    assert "12 cases for 2 coefficients (1 varying parameters + intercept): the regression view needs about 20 cases" in text
