@@ -235,6 +235,9 @@ def read_effects_json(out: str | Path) -> dict:
 def _check_resume(out: Path, eexp: EffectsExperiment) -> dict:
     path = out / EFFECTS_FILE
     if not path.exists():
+        if any((out / stage).exists() for stage in STAGES):
+            raise ResultsError(f"{out} holds stores but no {EFFECTS_FILE}: not an effects study's output; use "
+                               f"another --out or --force-new")
         return {}
     saved = read_effects_json(out)
     now = eexp.to_json()

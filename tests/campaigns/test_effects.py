@@ -145,3 +145,11 @@ def test_resume_with_other_settings_is_refused_before_writing(tmp_path, tiny):
     with pytest.raises(ResultsError, match="other settings"):
         run_effects(eexp, out, screen=lambda *_: ("map_size", "step_size"), progress=False)
     assert (out / "effects.json").read_text() == before and sorted(os.listdir(out)) == ["effects.json"]
+
+
+def test_a_directory_with_stores_but_no_study_record_is_refused(tmp_path, tiny):
+    out = tmp_path / "out"
+    (out / "morris").mkdir(parents=True)
+    with pytest.raises(ResultsError, match="not an effects study"):
+        run_effects(load_effects_experiment(tiny), out, screen=lambda *_: (), progress=False)
+    assert not (out / "effects.json").exists()
