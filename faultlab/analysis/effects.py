@@ -27,7 +27,7 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from faultlab.analysis.campaign import read_rule
+from faultlab.analysis.metadata import read_rule
 from faultlab.analysis.responses import CASE_KEY, DIFFICULTY, case_responses, rep_values
 from faultlab.analysis.sensitivity import (morris_indices, noise_floor, partial_dependence, regression_view, screen,
                                            sobol_indices)
