@@ -29,8 +29,8 @@ import pandas as pd
 
 from faultlab.analysis.metadata import read_rule
 from faultlab.analysis.responses import CASE_KEY, DIFFICULTY, case_responses, rep_values
-from faultlab.analysis.sensitivity import (morris_indices, noise_floor, partial_dependence, regression_view, screen,
-                                           sobol_indices)
+from faultlab.analysis.sensitivity import (MORRIS_COLUMNS, REGRESSION_COLUMNS, SOBOL_COLUMNS, morris_indices,
+                                           noise_floor, partial_dependence, regression_view, screen, sobol_indices)
 from faultlab.campaigns.effects import (STAGES, EffectsExperiment, parse_effects, read_effects_json,
                                         stage_design)
 from faultlab.errors import FaultlabError, ResultsError
@@ -216,8 +216,8 @@ def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) ->
                 notes.append(f"{stage}, {r}, regression: {exc}")
     if not case_frames:
         raise ResultsError(f"{out}: the Morris stage has no results yet; run `faultlab effects run`")
-    morris = _concat(morris_rows)
-    sobol = _concat(sobol_rows)
+    morris = _concat(morris_rows, MORRIS_COLUMNS)
+    sobol = _concat(sobol_rows, SOBOL_COLUMNS + ("noise_floor",))
     all_cases = pd.concat(case_frames, ignore_index=True)
     # partial dependence of the two top parameters of every response (Sobol ST if there, else mu*)
     for r in responses:
@@ -231,8 +231,8 @@ def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) ->
     info["executions"] = sum(s["executions"] for s in info["stages"].values())
     info["wall_time_s"] = sum(s["wall_time_s"] for s in info["stages"].values())
     info["slam_time_s"] = sum(s["slam_time_s"] for s in info["stages"].values())
-    return EffectsAnalysis(responses=tuple(responses), morris=morris, sobol=sobol, regression=_concat(reg_rows),
-                           cases=all_cases, partial=_concat(pd_rows), kept=kept, notes=tuple(notes), info=info)
+    return EffectsAnalysis(responses=tuple(responses), morris=morris, sobol=sobol, regression=_concat(reg_rows, REGRESSION_COLUMNS + ("stage",)),
+                           cases=all_cases, partial=_concat(pd_rows, ("x", "mean", "std_err", "n", "parameter", "column")), kept=kept, notes=tuple(notes), info=info)
 
 
 def _load(sessions: list) -> dict:
@@ -242,9 +242,10 @@ def _load(sessions: list) -> dict:
     return {"min": min(loads), "max": max(loads), "cpus": sessions[-1].get("cpus"), "sessions": len(sessions)}
 
 
-def _concat(frames: list[pd.DataFrame]) -> pd.DataFrame:
+def _concat(frames: list[pd.DataFrame], columns: Sequence[str] = ()) -> pd.DataFrame:
+    """The frames with ``response`` first; an empty table keeps its columns (``columns``)."""
     if not frames:
-        return pd.DataFrame()
+        return pd.DataFrame(columns=["response", *columns])
     out = pd.concat(frames, ignore_index=True)
     return out[["response"] + [c for c in out.columns if c != "response"]]
 
