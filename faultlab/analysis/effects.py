@@ -378,7 +378,11 @@ def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, a
         v = long.loc[long["response"] == r, "value"].to_numpy(dtype=float)
         v = v[np.isfinite(v)]
         n = int(v.size)
-        if n >= 2:
+        if n >= 2 and not np.ptp(v) > 0:
+            rows.append({"response": r, "term": "(mean over cases)", "n_cases": n, "estimate": float(v.mean()),
+                         "low": np.nan, "high": np.nan, "p": np.nan,
+                         "note": "every case has the same value: no interval"})
+        elif n >= 2:
             lo, hi = DescrStatsW(v).tconfint_mean(alpha=alpha)
             p = float(DescrStatsW(v).ttest_mean(0.0)[1])
             rows.append({"response": r, "term": "(mean over cases)", "n_cases": n, "estimate": float(v.mean()),
