@@ -93,10 +93,10 @@ def test_bad_settings_are_one_clear_error_and_write_nothing(tmp_path, tiny, caps
     assert not out.exists()
 
 
-def _run_cli(tiny: Path, out: Path, **kw) -> subprocess.Popen:
+def _run_cli(tiny: Path, out: Path, jobs: int = 1, **kw) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
     return subprocess.Popen([sys.executable, "-m", "faultlab", "effects", "run", str(tiny), "--out", str(out),
-                             "--jobs", "1", "--no-progress"], env=env, stdout=subprocess.DEVNULL,
+                             "--jobs", str(jobs), "--no-progress"], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, start_new_session=True, **kw)
 
 
@@ -109,7 +109,7 @@ def _rows(store: Path) -> int:
 
 
 @pytest.mark.slow
-def test_sigkill_then_resume_gives_the_same_report(tmp_path, tiny):
+def test_sigkill_then_resume_gives_the_same_report_as_an_uninterrupted_run(tmp_path, tiny):
     from faultlab.report.effects import write_effects_report
 
     killed = tmp_path / "killed"
@@ -125,8 +125,8 @@ def test_sigkill_then_resume_gives_the_same_report(tmp_path, tiny):
     with pytest.raises(ResultsError, match="unfinished"):
         write_effects_report(killed, tmp_path / "rep-partial")
     assert _run_cli(tiny, killed).wait() == 0
-    whole = tmp_path / "whole"
-    assert _run_cli(tiny, whole).wait() == 0
+    whole = tmp_path / "whole"  # uninterrupted, and with two workers: the same results whatever the workers
+    assert _run_cli(tiny, whole, jobs=2).wait() == 0
     a = write_effects_report(killed, tmp_path / "rep-killed")
     b = write_effects_report(whole, tmp_path / "rep-whole")
     for pa, pb in zip(a, b):
