@@ -102,3 +102,18 @@ def test_constraints_are_repaired_to_the_nearest_allowed_class():
 def test_bad_designs_are_one_clear_error(call, match):
     with pytest.raises(ConfigError, match=match):
         call()
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.sampled_from(["map_size", "landmark_density", "step_size", "symmetry", "outlier_probability",
+                        "field_of_view", "variance", "bias"]), st.floats(0.0, 1.0), st.floats(0.0, 1.0))
+def test_continuous_factors_are_monotone_in_their_unit_coordinate(name, a, b):
+    key = SPACE[name].keys[0]
+    lo, hi = sorted((a, b))
+    x = np.full(11, 0.5)
+    pos = PARAMETER_NAMES.index(name)
+    x[pos] = lo
+    v_lo = unit_to_values(SPACE, PARAMETER_NAMES, x)[0].values[key]
+    x[pos] = hi
+    v_hi = unit_to_values(SPACE, PARAMETER_NAMES, x)[0].values[key]
+    assert v_lo <= v_hi
