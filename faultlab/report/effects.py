@@ -32,7 +32,7 @@ from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
 from faultlab.space import space_from_mapping
 
-__all__ = ["EFFECTS_TABLES", "morris_figure", "sobol_figure", "partial_figure", "effects_markdown",
+__all__ = ["EFFECTS_TABLES", "summary_table", "morris_figure", "sobol_figure", "partial_figure", "effects_markdown",
            "write_effects_report", "response_label"]
 
 #: Tables written as CSV.
@@ -196,6 +196,24 @@ def _scale_text(analysis: EffectsAnalysis) -> str:
     return "\n".join(lines)
 
 
+def summary_table(analysis: EffectsAnalysis) -> pd.DataFrame:
+    """Per response: the parameters with a total Sobol index clear of 0 (with the index) and Morris' top three."""
+    rows = []
+    for r in analysis.responses:
+        s = analysis.sobol[analysis.sobol["response"] == r] if not analysis.sobol.empty else analysis.sobol
+        m = analysis.morris[analysis.morris["response"] == r] if not analysis.morris.empty else analysis.morris
+        clear = s[s["ST_low"] > 0] if len(s) else s
+        noisy = len(s) and float(s["noise_share"].iloc[0]) > 0.5
+        rows.append({"response": response_label(r),
+                     "Sobol ST clear of 0": ("(noise-dominated) " if noisy else "")
+                     + (", ".join(f"{p} {_f(v, 2)}" for p, v in zip(clear["parameter"], clear["ST"]))
+                        if len(clear) else ("none" if len(s) else "not estimated")),
+                     "Morris top 3 (mu*)": ", ".join(f"{p} {_f(v, 2)}" for p, v in
+                                                     zip(m["parameter"].head(3), m["mu_star"].head(3)))
+                     if len(m) else "not estimated"})
+    return pd.DataFrame(rows, columns=["response", "Sobol ST clear of 0", "Morris top 3 (mu*)"])
+
+
 def effects_markdown(analysis: EffectsAnalysis) -> str:
     """The study as Markdown: scale and cost, then per response the ranked Sobol and Morris tables."""
     out = ["# Effects study: which parameters make the map hard, and which make each fault show", "",
@@ -205,6 +223,9 @@ def effects_markdown(analysis: EffectsAnalysis) -> str:
            "(mean log map error over the K repetitions), each fault's effect size (mean over repetitions of "
            "log(faulty / baseline error), paired by SLAM seed) and its detection probability. Figures: "
            "`morris.png` (mu*-sigma), `sobol.png` (S1/ST bars), `partial.png` (partial dependence).", ""]
+    out += ["## Summary", "", markdown_table(summary_table(analysis)),
+            "Parameters whose total Sobol index is clear of 0 (95 % interval above 0), and Morris' three largest "
+            "mu*; a response whose repetition noise exceeds half its variance is marked.", ""]
     for r in analysis.responses:
         out += [f"## {response_label(r)}", ""]
         s = analysis.sobol[analysis.sobol["response"] == r] if not analysis.sobol.empty else pd.DataFrame()
