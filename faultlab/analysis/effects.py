@@ -20,6 +20,7 @@ a Sobol stage not run) says what size it needs.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -31,14 +32,15 @@ from faultlab.analysis.metadata import read_rule
 from faultlab.analysis.responses import CASE_KEY, DIFFICULTY, case_responses, rep_values
 from faultlab.analysis.sensitivity import (MORRIS_COLUMNS, REGRESSION_COLUMNS, SOBOL_COLUMNS, morris_indices,
                                            noise_floor, partial_dependence, regression_view, screen, sobol_indices)
-from faultlab.campaigns.effects import (STAGES, EffectsExperiment, parse_effects, read_effects_json,
-                                        stage_design)
 from faultlab.errors import FaultlabError, ResultsError
 from faultlab.runner.store import load_metadata, load_results, results_path
 from faultlab.seeds import stable_code
 from faultlab.space.case import VALUE_KEYS
+from faultlab.space.design import Design, study_design
+from faultlab.space.parameters import space_from_mapping, table1_space
+from faultlab.vocabulary import EFFECTS_FILE, EFFECTS_STAGES
 
-__all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "stage_responses", "screening_responses",
+__all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "read_effects_json", "saved_design", "stage_responses", "screening_responses",
            "study_weights", "campaign_effects", "CAMPAIGN_EFFECT_COLUMNS", "CASES_PER_COEFFICIENT"]
 
 
@@ -66,12 +68,38 @@ def stage_responses(store: str | Path) -> tuple[pd.DataFrame, pd.DataFrame, pd.D
     return wide, rep_values(results, metric=metric), cases, meta
 
 
-def _design_for(eexp: EffectsExperiment, stage: str, kept: Sequence[str] | None):
-    return stage_design(eexp, stage, factors=kept)
+def read_effects_json(out: str | Path) -> dict:
+    """``OUT/effects.json``, written by :func:`faultlab.campaigns.effects.run_effects` (ResultsError if
+    missing or damaged)."""
+    path = Path(out) / EFFECTS_FILE
+    try:
+        saved = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ResultsError(f"{out}: not an effects study output (no {EFFECTS_FILE}); run `faultlab effects run`"
+                           ) from None
+    except (OSError, ValueError) as exc:
+        raise ResultsError(f"{path}: cannot be read ({exc})") from exc
+    if not isinstance(saved, dict) or not isinstance(saved.get("effects"), dict):
+        raise ResultsError(f"{path}: not an effects study record (no 'effects' settings)")
+    return saved
 
 
-def _check_design(store: Path, eexp: EffectsExperiment, design) -> None:
-    """The store's cases are the design's (same values, same order)."""
+def saved_design(saved: dict, stage: str) -> Design:
+    """The design of ``stage`` rebuilt from the study's record (the same call the campaign made)."""
+    s = saved["effects"]
+    try:
+        space = space_from_mapping(saved["space"], source=f"{EFFECTS_FILE} [space]") if saved.get("space") \
+            else table1_space()
+        factors = s["factors"] if stage == "morris" else saved.get("kept")
+        return study_design(space, stage, seed=int(s["seed"]), trajectories=int(s["trajectories"]),
+                            levels=int(s["levels"]), base=int(s["sobol_base"]), factors=factors)
+    except (KeyError, TypeError, ValueError, FaultlabError) as exc:
+        raise ResultsError(f"{EFFECTS_FILE}: cannot rebuild the {stage} design from the study's record ({exc})"
+                           ) from exc
+
+
+def _check_design(store: Path, design: Design) -> None:
+    """The store holds every case of the design."""
     results = load_results(store)
     got = results.drop_duplicates(list(CASE_KEY)).sort_values("case", kind="mergesort")
     if len(got) != design.n_points:
@@ -79,25 +107,29 @@ def _check_design(store: Path, eexp: EffectsExperiment, design) -> None:
                            f"(the run is unfinished: rerun `faultlab effects run` to resume)")
 
 
-def screen_store(store: Path, eexp: EffectsExperiment) -> tuple[str, ...]:
-    """The factors screening keeps from a finished Morris store (module docstring)."""
-    design = stage_design(eexp, "morris")
-    _check_design(store, eexp, design)
+def screen_store(out: str | Path) -> tuple[str, ...]:
+    """The factors screening keeps from a study's finished Morris store (module docstring)."""
+    out = Path(out)
+    saved = read_effects_json(out)
+    design = saved_design(saved, "morris")
+    store = out / "morris"
+    _check_design(store, design)
     wide, _, _, _ = stage_responses(store)
+    spec = saved["effects"]
     tables = []
     for r in screening_responses([c for c in wide.columns if not c.startswith("se:") and c not in CASE_KEY]):
         y = wide[r].to_numpy(dtype=float)
         if not np.isfinite(y).all() or not np.ptp(y) > 0:
             continue
         tables.append(morris_indices(design.unit, y, factors=design.factors, levels=design.levels,
-                                     seed=_seed(eexp, "morris", r), resamples=eexp.spec.resamples))
+                                     seed=_seed(spec, "morris", r), resamples=int(spec["resamples"])))
     if not tables:
         raise ResultsError(f"{store}: no response varies over the Morris design; nothing to screen")
-    return screen(tables, keep=eexp.spec.keep)
+    return screen(tables, keep=int(spec["keep"]))
 
 
-def _seed(eexp: EffectsExperiment, stage: str, response: str) -> int:
-    return int(np.random.SeedSequence(eexp.spec.seed, spawn_key=(stable_code(stage), stable_code(response)))
+def _seed(spec: dict, stage: str, response: str) -> int:
+    return int(np.random.SeedSequence(int(spec["seed"]), spawn_key=(stable_code(stage), stable_code(response)))
                .generate_state(1, np.uint32)[0])
 
 
@@ -131,15 +163,13 @@ class EffectsAnalysis:
     info: dict = field(default_factory=dict)
 
 
-def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) -> EffectsAnalysis:
+def analyse_effects(out: str | Path) -> EffectsAnalysis:
     """Analyse an effects study's output directory (module docstring).
 
     Parameters
     ----------
     out : path
         Output directory of ``faultlab effects run``.
-    experiment : path, optional
-        The effects file (default: its text as recorded in ``effects.json``).
 
     Raises
     ------
@@ -148,26 +178,26 @@ def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) ->
     """
     out = Path(out)
     saved = read_effects_json(out)
-    eexp = _reload(out, saved, experiment)
+    spec = saved["effects"]
     notes: list[str] = []
-    exp = eexp.experiment
-    info = {"settings": saved.get("effects", {}), "quick": saved.get("quick", False), "stages": {},
-            "experiment": {"slam": ", ".join(f"{k} = {v}" for k, v in exp.slam.to_dict().items()),
-                           "n_steps": exp.n_steps, "repetitions": exp.repetitions, "variants": list(exp.variants),
-                           "space": exp.space},
+    exp = saved.get("experiment") or {}
+    info = {"settings": spec, "quick": saved.get("quick", False), "stages": {},
+            "experiment": {"slam": ", ".join(f"{k} = {v}" for k, v in (exp.get("slam") or {}).items()),
+                           "n_steps": exp.get("n_steps"), "repetitions": exp.get("repetitions"),
+                           "variants": list(exp.get("variants", [])), "space": saved.get("space") or {}},
             "load": _load(saved.get("sessions", []))}
     morris_rows, sobol_rows, reg_rows, case_frames, pd_rows = [], [], [], [], []
     responses: list[str] = []
     kept = tuple(saved.get("kept") or ())
-    for stage in STAGES:
+    for stage in EFFECTS_STAGES:
         store = out / stage
-        if not results_path(store).exists():
-            if stage == "sobol" and eexp.spec.sobol_base:
-                notes.append(f"Sobol stage not run yet: needs {eexp.spec.sobol_base} x (k + 2) cases for the k kept "
+        if not results_path(store).exists() or (stage == "sobol" and not kept):
+            if stage == "sobol" and spec.get("sobol_base"):
+                notes.append(f"Sobol stage not run yet: needs {spec['sobol_base']} x (k + 2) cases for the k kept "
                              f"factors; run `faultlab effects run` to finish it")
             continue
-        design = _design_for(eexp, stage, kept if stage == "sobol" else None)
-        _check_design(store, eexp, design)
+        design = saved_design(saved, stage)
+        _check_design(store, design)
         wide, reps, cases, meta = stage_responses(store)
         stored = load_results(store)
         info["stages"][stage] = {"cases": design.n_points, "factors": list(design.factors),
@@ -192,12 +222,12 @@ def analyse_effects(out: str | Path, *, experiment: str | Path | None = None) ->
             try:
                 if stage == "morris":
                     t = morris_indices(design.unit, y, factors=design.factors, levels=design.levels,
-                                       seed=_seed(eexp, stage, r), resamples=eexp.spec.resamples)
+                                       seed=_seed(spec, stage, r), resamples=int(spec["resamples"]))
                     morris_rows.append(t.assign(response=r))
                 else:
                     nv = float(np.nanmean(wide[f"se:{r}"].to_numpy(dtype=float) ** 2))
-                    t = sobol_indices(y, factors=design.factors, seed=_seed(eexp, stage, r),
-                                      resamples=eexp.spec.resamples, noise_var=nv if np.isfinite(nv) else None)
+                    t = sobol_indices(y, factors=design.factors, seed=_seed(spec, stage, r),
+                                      resamples=int(spec["resamples"]), noise_var=nv if np.isfinite(nv) else None)
                     sobol_rows.append(t.assign(response=r, noise_floor=noise_floor(y, wide[f"se:{r}"])))
             except FaultlabError as exc:
                 notes.append(f"{stage}, {r}: {exc}")
@@ -248,22 +278,6 @@ def _concat(frames: list[pd.DataFrame], columns: Sequence[str] = ()) -> pd.DataF
         return pd.DataFrame(columns=["response", *columns])
     out = pd.concat(frames, ignore_index=True)
     return out[["response"] + [c for c in out.columns if c != "response"]]
-
-
-def _reload(out: Path, saved: dict, experiment) -> EffectsExperiment:
-    """The study's settings from the effects file text recorded in ``effects.json`` (or ``experiment``)."""
-    quick = bool(saved.get("quick", False))
-    try:
-        if experiment is not None:
-            from faultlab.campaigns.effects import load_effects_experiment
-            eexp = load_effects_experiment(experiment, quick=quick)
-        else:
-            eexp = parse_effects(saved.get("text", ""), source=saved.get("source", str(out)), quick=quick)
-    except FaultlabError as exc:
-        raise ResultsError(f"{out}: cannot read the study's effects settings ({exc})") from exc
-    if eexp.to_json()["effects"] != saved.get("effects") or eexp.experiment.hash != saved.get("experiment_hash"):
-        raise ResultsError(f"{out}: the effects file does not match the study's settings (effects.json)")
-    return eexp
 
 
 def study_weights(analysis: EffectsAnalysis, response: str, *, space=None, floor: float = 0.05) -> pd.DataFrame:

@@ -11,8 +11,8 @@ numbers, any backend) in two stages, each its own store:
 1. ``OUT/morris``: the Morris design (:func:`faultlab.space.design.morris_design`) over the file's
    factors, one test case per design point (suite ``morris``, case = point number);
 2. ``OUT/sobol``: the Sobol/Saltelli design (:func:`faultlab.space.design.sobol_design`) over the
-   factors that screening keeps (a ``screen`` callable, the analysis layer's
-   :func:`faultlab.analysis.effects.screen_store`), suite ``sobol``.
+   factors that screening keeps (a ``screen`` callable: the analysis layer's
+   :func:`faultlab.analysis.effects.screen_store`, passed in by the command line), suite ``sobol``.
 
 Every design is drawn from the file's seed (:func:`faultlab.seeds.design_seed_sequence`), every
 case generated from its own seed (:func:`faultlab.seeds.case_seed` with run 1 and the stage as the
@@ -32,25 +32,22 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
-import numpy as np
 
 from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.runner.execute import RunSummary, run_experiment
+from faultlab.runner import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
 from faultlab.scenario.suite import SuiteCase
-from faultlab.seeds import case_seed, design_seed_sequence
-from faultlab.space.design import Design, check_factors, design_size, morris_design, sobol_design
-from faultlab.vocabulary import BASELINE
+from faultlab.seeds import case_seed
+from faultlab.space.design import Design, check_factors, design_size, study_design
+from faultlab.vocabulary import BASELINE, EFFECTS_FILE, EFFECTS_STAGES
 
 __all__ = ["EFFECTS_FILE", "STAGES", "EffectsSpec", "EffectsExperiment", "load_effects_experiment", "parse_effects",
            "effects_spec", "stage_design", "design_cases", "run_effects", "effects_plan", "read_effects_json"]
 
-#: File in the output directory recording the study's settings and the kept factors.
-EFFECTS_FILE = "effects.json"
-#: The two stages, in running order; each is a store ``OUT/<stage>`` and a suite label.
-STAGES: tuple[str, ...] = ("morris", "sobol")
+#: The two stages, in running order (:data:`faultlab.vocabulary.EFFECTS_STAGES`).
+STAGES: tuple[str, ...] = EFFECTS_STAGES
 _KEYS = ("factors", "trajectories", "levels", "keep", "sobol_base", "resamples", "seed", "quick")
 
 
@@ -124,8 +121,13 @@ class EffectsExperiment:
     source: str = ""
 
     def to_json(self) -> dict:
-        return {"effects": self.spec.to_dict(), "quick": self.quick, "experiment_hash": self.experiment.hash,
-                "source": self.source, "text": self.experiment.text}
+        """What ``effects.json`` records: the settings, and what the analysis needs to rebuild the designs
+        (the space overrides) and to describe the run (SLAM, steps, K, variants, metric)."""
+        exp = self.experiment
+        return {"effects": self.spec.to_dict(), "quick": self.quick, "experiment_hash": exp.hash,
+                "source": self.source, "text": exp.text, "space": exp.space,
+                "experiment": {"slam": exp.slam.to_dict(), "n_steps": exp.n_steps, "repetitions": exp.repetitions,
+                               "variants": list(exp.variants), "metric": exp.metric}}
 
 
 def _merge(data: dict, overrides: Mapping) -> dict:
@@ -185,16 +187,13 @@ def parse_effects(text: str, *, source: str, quick: bool = False) -> EffectsExpe
 def stage_design(eexp: EffectsExperiment, stage: str, *, factors: Sequence[str] | None = None) -> Design:
     """The design of a stage (``"morris"`` over the file's factors, ``"sobol"`` over ``factors``)."""
     spec = eexp.spec
-    space = eexp.experiment.parameter_space()
-    rng = np.random.default_rng(design_seed_sequence(spec.seed, stage))
-    if stage == "morris":
-        return morris_design(space, rng=rng, trajectories=spec.trajectories, levels=spec.levels,
-                             factors=spec.factors)
-    if stage == "sobol":
-        if factors is None:
-            raise ConfigError("the Sobol stage needs the factors screening kept")
-        return sobol_design(space, rng=rng, base=spec.sobol_base, factors=factors)
-    raise ConfigError(f"unknown stage {stage!r} (stages: {', '.join(STAGES)})")
+    if stage not in STAGES:
+        raise ConfigError(f"unknown stage {stage!r} (stages: {', '.join(STAGES)})")
+    if stage == "sobol" and factors is None:
+        raise ConfigError("the Sobol stage needs the factors screening kept")
+    return study_design(eexp.experiment.parameter_space(), stage, seed=spec.seed, trajectories=spec.trajectories,
+                        levels=spec.levels, base=spec.sobol_base,
+                        factors=spec.factors if stage == "morris" else factors)
 
 
 def design_cases(eexp: EffectsExperiment, design: Design) -> tuple[SuiteCase, ...]:
@@ -248,7 +247,7 @@ def _check_resume(out: Path, eexp: EffectsExperiment) -> dict:
     return saved
 
 
-def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[Path, EffectsExperiment], Sequence[str]],
+def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[Path], Sequence[str]],
                 jobs: int = 2, backend: str = "loky", force_new: bool = False, progress: bool = True,
                 batch_size: int | None = None) -> dict[str, RunSummary]:
     """Run (or resume) both stages (module docstring).
@@ -259,7 +258,8 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
     out : path
         Output directory: ``effects.json``, ``morris/`` and ``sobol/`` (each an ordinary store).
     screen : callable
-        ``screen(morris_store, eexp) -> factors`` kept for the Sobol stage.
+        ``screen(out) -> factors`` kept for the Sobol stage, from the finished Morris store and
+        ``out/effects.json`` (the analysis layer's :func:`faultlab.analysis.effects.screen_store`).
     jobs, backend, force_new, progress, batch_size
         As for :func:`faultlab.runner.run_experiment`.
 
@@ -286,7 +286,7 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
                                          force_new=force_new, progress=progress, batch_size=batch_size,
                                          cases=design_cases(eexp, morris))
     if eexp.spec.sobol_base:
-        kept = tuple(screen(out / "morris", eexp))
+        kept = tuple(screen(out))
         if saved.get("kept") is not None and tuple(saved["kept"]) != kept:
             raise ResultsError(f"{out}: screening now keeps {', '.join(kept)}, the Sobol stage already run kept "
                                f"{', '.join(saved['kept'])} (the Morris results changed); use --force-new")
@@ -305,6 +305,6 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
 def _write_json(out: Path, record: dict) -> None:
     out.mkdir(parents=True, exist_ok=True)
     tmp = out / (EFFECTS_FILE + ".tmp")
-    tmp.write_text(json.dumps(record, indent=2, sort_keys=True))
+    tmp.write_text(json.dumps(record, indent=2))  # key order kept: class order of the space overrides
     tmp.replace(out / EFFECTS_FILE)
 

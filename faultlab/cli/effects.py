@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from faultlab.cli.options import add_execution_options, positive_int, print_paths
+from faultlab.cli.options import add_examples, add_execution_options, epilog, positive_int, print_paths
 
 __all__ = ["register", "VERBS"]
 
@@ -22,32 +22,34 @@ _DESCRIPTION = """Per-parameter effect studies.
   faultlab effects RESULTS [--parameters A,B]          logistic regression of detection on the
                                                          parameters of a finished campaign
 
-FILE is an effects file or a shipped name (default: effects). Example:
-  faultlab effects run effects --quick --out results/effects-quick
-  faultlab effects report results/effects-quick --reports reports/effects"""
+FILE is an effects file or a shipped name (default: effects); `faultlab effects VERB --help` describes
+each verb."""
 
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("effects", help="per-parameter effect studies (Morris, Sobol) or the logistic view "
                                               "of a campaign",
-                              description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
-                              usage="faultlab effects {design,run,report} ... | faultlab effects RESULTS "
-                                    "[--parameters A,B,...]")
+                              description=_DESCRIPTION,
+                              usage="%(prog)s {design,run,report} ... | %(prog)s RESULTS [--parameters A,B,...]",
+                              **epilog(["faultlab effects design effects --quick",
+                                        "faultlab effects run effects --quick --out results/effects-quick",
+                                        "faultlab effects report results/effects-quick"]))
     p.add_argument("--parameters", default=None, metavar="A,B,...",
                    help="with RESULTS: comma-separated predictors (default: every scenario parameter)")
     p.add_argument("argv", nargs=argparse.REMAINDER, metavar="VERB|RESULTS ...")
     p.set_defaults(func=_dispatch, effects_parser=p)
 
 
-def _verb_parser(verb: str) -> argparse.ArgumentParser:
-    prog = f"faultlab effects {verb}"
+def _verb_parser(verb: str, parent: str = "faultlab effects") -> argparse.ArgumentParser:
+    prog = f"{parent} {verb}"
     if verb == "report":
         v = argparse.ArgumentParser(prog=prog, description="Read an effects study (runs nothing) and write "
                                     "morris.csv, sobol.csv, regression.csv, cases.csv, partial.csv, effects.md, "
                                     "morris.png, sobol.png and partial.png.")
         v.add_argument("results", help="output directory of `faultlab effects run`")
-        v.add_argument("--reports", default="reports/effects", help="where to write (default: reports/effects)")
-        return v
+        v.add_argument("--reports", default=None, help="where to write (default: RESULTS/report)")
+        return add_examples(v, ["faultlab effects report results/effects-quick",
+                                "faultlab effects report results/effects-quick --reports reports/effects"])
     v = argparse.ArgumentParser(prog=prog, description=(
         "Print the designs' sizes and the SLAM executions they cost." if verb == "design" else
         "Run the Morris design, screen, then the Sobol design over the kept parameters, each an ordinary "
@@ -61,7 +63,10 @@ def _verb_parser(verb: str) -> argparse.ArgumentParser:
         v.add_argument("--batch-size", type=positive_int, default=None,
                        help="at most this many repetitions of a case per batched SLAM (default: all)")
         add_execution_options(v)
-    return v
+        return add_examples(v, ["faultlab effects run effects --quick --out results/effects-quick",
+                                "nice -n 10 faultlab effects run effects --out results/effects --backend dask"])
+    return add_examples(v, ["faultlab effects design effects --quick",
+                            "faultlab effects design effects --quick --out results/effects-design"])
 
 
 def _dispatch(args: argparse.Namespace) -> int:
@@ -80,7 +85,7 @@ def _dispatch(args: argparse.Namespace) -> int:
             args.effects_parser.error(f"unrecognised arguments: {' '.join(argv[1:])}")
         return _logistic(argv[0], args.parameters)
     verb, rest = argv[0], argv[1:]
-    vargs = _verb_parser(verb).parse_args(rest)
+    vargs = _verb_parser(verb, args.effects_parser.prog).parse_args(rest)
     return {"design": _design, "run": _run, "report": _report}[verb](vargs)
 
 
@@ -134,7 +139,8 @@ def _run(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from faultlab.report.effects import write_effects_report
 
-    return print_paths(write_effects_report(args.results, args.reports))
+    reports = args.reports if args.reports is not None else Path(args.results) / "report"
+    return print_paths(write_effects_report(args.results, reports))
 
 
 def _logistic(results: str, parameters: str | None) -> int:

@@ -52,10 +52,11 @@ from typing import Sequence
 import numpy as np
 
 from faultlab.errors import ConfigError
+from faultlab.seeds import design_seed_sequence
 from faultlab.space.case import FIXED_VALUES, PARAMETER_NAMES, CaseSpec
 from faultlab.space.parameters import Kind, Parameter, ParameterSpace
 
-__all__ = ["DESIGN_METHODS", "Design", "unit_problem", "unit_to_values", "morris_design", "sobol_design",
+__all__ = ["DESIGN_METHODS", "Design", "unit_problem", "unit_to_values", "morris_design", "sobol_design", "study_design",
            "design_size", "check_factors", "factor_levels"]
 
 #: Design methods: elementary effects (screening) and Saltelli's scheme for Sobol indices.
@@ -318,3 +319,19 @@ def sobol_design(space: ParameterSpace, *, rng: np.random.Generator, base: int,
     cases, n_rep = _cases(space, factors, unit)
     return Design("sobol", factors, unit, cases, base=base, repaired=n_rep)
 
+
+
+def study_design(space: ParameterSpace, method: str, *, seed: int, trajectories: int = 0, levels: int = 4,
+                 base: int = 0, factors: Sequence[str] | None = None) -> Design:
+    """The design of an effects study's stage, drawn from :func:`faultlab.seeds.design_seed_sequence`.
+
+    ``method`` ``"morris"`` uses ``trajectories`` and ``levels``, ``"sobol"`` uses ``base``; the same
+    arguments always give the same design (the campaign that runs it and the analysis that reads it
+    rebuild it from the study's settings).
+    """
+    rng = np.random.default_rng(design_seed_sequence(seed, method))
+    if method == "morris":
+        return morris_design(space, rng=rng, trajectories=trajectories, levels=levels, factors=factors)
+    if method == "sobol":
+        return sobol_design(space, rng=rng, base=base, factors=factors)
+    raise ConfigError(f"unknown design method {method!r} (methods: {', '.join(DESIGN_METHODS)})")

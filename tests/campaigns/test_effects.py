@@ -153,3 +153,18 @@ def test_a_directory_with_stores_but_no_study_record_is_refused(tmp_path, tiny):
     with pytest.raises(ResultsError, match="not an effects study"):
         run_effects(load_effects_experiment(tiny), out, screen=lambda *_: (), progress=False)
     assert not (out / "effects.json").exists()
+
+
+def test_the_analysis_rebuilds_the_campaigns_designs_from_the_study_record(tmp_path, tiny):
+    """effects.json keeps the space's class order, so the designs and class indices are the campaign's."""
+    from faultlab.analysis.effects import read_effects_json, saved_design
+    from faultlab.campaigns.effects import _write_json
+
+    eexp = load_effects_experiment(tiny)
+    _write_json(tmp_path, eexp.to_json() | {"kept": ["map_size", "step_size"]})
+    saved = read_effects_json(tmp_path)
+    assert list(saved["space"]["map_size"]["classes"]) == ["small", "medium", "large"]
+    for stage, kept in (("morris", None), ("sobol", ["map_size", "step_size"])):
+        a, b = stage_design(eexp, stage, factors=kept), saved_design(saved, stage)
+        assert a.factors == b.factors and (a.unit == b.unit).all()
+        assert [c.classes for c in a.cases] == [c.classes for c in b.cases]
