@@ -31,9 +31,10 @@ def register(subparsers) -> None:
                                               "of a campaign",
                               description=_DESCRIPTION,
                               usage="%(prog)s {design,run,report} ... | %(prog)s RESULTS [--parameters A,B,...]",
-                              **epilog(["faultlab effects design effects --quick",
-                                        "faultlab effects run effects --quick --out results/effects-quick",
-                                        "faultlab effects report results/effects-quick"]))
+                              **(epilog(["faultlab effects design effects --quick",
+                                         "faultlab effects run effects --quick --out results/effects-quick",
+                                         "faultlab effects report results/effects-quick"])
+                                 | {"formatter_class": argparse.RawDescriptionHelpFormatter}))  # the verb table
     p.add_argument("--parameters", default=None, metavar="A,B,...",
                    help="with RESULTS: comma-separated predictors (default: every scenario parameter)")
     p.add_argument("argv", nargs=argparse.REMAINDER, metavar="VERB|RESULTS ...")
