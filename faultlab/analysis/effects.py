@@ -40,7 +40,8 @@ from faultlab.space.design import Design, study_design
 from faultlab.space.parameters import space_from_mapping, table1_space
 from faultlab.vocabulary import EFFECTS_FILE, EFFECTS_STAGES
 
-__all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "read_effects_json", "saved_design", "stage_responses", "screening_responses",
+__all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "read_effects_json", "saved_design",
+           "stage_responses", "screening_responses",
            "study_weights", "campaign_effects", "CAMPAIGN_EFFECT_COLUMNS", "CASES_PER_COEFFICIENT"]
 
 
@@ -261,8 +262,10 @@ def analyse_effects(out: str | Path) -> EffectsAnalysis:
     info["executions"] = sum(s["executions"] for s in info["stages"].values())
     info["wall_time_s"] = sum(s["wall_time_s"] for s in info["stages"].values())
     info["slam_time_s"] = sum(s["slam_time_s"] for s in info["stages"].values())
-    return EffectsAnalysis(responses=tuple(responses), morris=morris, sobol=sobol, regression=_concat(reg_rows, REGRESSION_COLUMNS + ("stage",)),
-                           cases=all_cases, partial=_concat(pd_rows, ("x", "mean", "std_err", "n", "parameter", "column")), kept=kept, notes=tuple(notes), info=info)
+    return EffectsAnalysis(responses=tuple(responses), morris=morris, sobol=sobol,
+                           regression=_concat(reg_rows, REGRESSION_COLUMNS + ("stage",)), cases=all_cases,
+                           partial=_concat(pd_rows, ("x", "mean", "std_err", "n", "parameter", "column")),
+                           kept=kept, notes=tuple(notes), info=info)
 
 
 def _load(sessions: list) -> dict:

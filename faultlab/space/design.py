@@ -56,7 +56,8 @@ from faultlab.seeds import design_seed_sequence
 from faultlab.space.case import FIXED_VALUES, PARAMETER_NAMES, CaseSpec
 from faultlab.space.parameters import Kind, Parameter, ParameterSpace
 
-__all__ = ["DESIGN_METHODS", "Design", "unit_problem", "unit_to_values", "morris_design", "sobol_design", "study_design",
+__all__ = ["DESIGN_METHODS", "Design", "unit_problem", "unit_to_values", "morris_design", "sobol_design",
+           "study_design",
            "design_size", "check_factors", "factor_levels"]
 
 #: Design methods: elementary effects (screening) and Saltelli's scheme for Sobol indices.
