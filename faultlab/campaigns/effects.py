@@ -281,10 +281,10 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
     summaries: dict[str, RunSummary] = {}
     morris = stage_design(eexp, "morris")
     record["repaired"] = {"morris": morris.repaired}
-    _write_json(out, record)
+    # effects.json is written once the stage's store has accepted the run: a refused run writes nothing
     summaries["morris"] = run_experiment(eexp.experiment, out / "morris", jobs=jobs, backend=backend,
                                          force_new=force_new, progress=progress, batch_size=batch_size,
-                                         cases=design_cases(eexp, morris))
+                                         cases=design_cases(eexp, morris), on_start=lambda: _write_json(out, record))
     if eexp.spec.sobol_base:
         kept = tuple(screen(out))
         if saved.get("kept") is not None and tuple(saved["kept"]) != kept:
@@ -292,10 +292,10 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
                                f"{', '.join(saved['kept'])} (the Morris results changed); use --force-new")
         sobol = stage_design(eexp, "sobol", factors=kept)
         record |= {"kept": list(kept), "repaired": {"morris": morris.repaired, "sobol": sobol.repaired}}
-        _write_json(out, record)
         summaries["sobol"] = run_experiment(eexp.experiment, out / "sobol", jobs=jobs, backend=backend,
                                             force_new=force_new, progress=progress, batch_size=batch_size,
-                                            cases=design_cases(eexp, sobol))
+                                            cases=design_cases(eexp, sobol),
+                                            on_start=lambda: _write_json(out, record))
     session |= {"finished": time.time(), "load_end": os.getloadavg()[0]}
     record["sessions"].append(session)
     _write_json(out, record)
