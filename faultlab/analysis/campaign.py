@@ -38,7 +38,7 @@ def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
     """
     det = metadata.get("detection") or {}
     try:
-        rule = DetectionRule(**{k: det[k] for k in ("abs_mm", "rel", "rule", "alpha", "family")
+        rule = DetectionRule(**{k: det[k] for k in ("abs_mm", "rel", "rule", "alpha", "family", "direction")
                                  if k in det})
     except (TypeError, ValueError, FaultlabError) as exc:
         raise ResultsError(f"results metadata has an invalid detection rule {det!r} ({exc})") from exc

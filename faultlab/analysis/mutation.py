@@ -4,7 +4,7 @@ Running (:func:`run_mutation`)
 ------------------------------
 A mutation experiment is an ordinary experiment file plus a ``[mutation]`` table selecting the
 mutants (``units``, ``operators``, ``ids``, ``sample``, ``seed``; all optional: every live
-mutant) and the family-wise level ``alpha`` (default 0.05).  Its variants are ``baseline`` and
+mutant) and the family-wise level ``alpha`` (default :data:`~faultlab.vocabulary.DEFAULT_ALPHA`).  Its variants are ``baseline`` and
 ``mutant:<id>`` for every selected live mutant (:mod:`faultlab.mutation.campaign`); the campaign
 is stored in the runner's results store (:class:`~faultlab.runner.store.ResultStore`), one row
 per job, seeds as in any campaign (repetition k of a case uses the same SLAM seed for every
@@ -63,7 +63,7 @@ from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import ResultStore, load_results, store_lock
 from faultlab.stats.verdict import case_verdicts, min_pairs
-from faultlab.vocabulary import BASELINE, JobStatus
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, JobStatus
 
 __all__ = ["MUTATION_FILE", "MUTATION_TABLES", "MutationExperiment", "MutationAnalysis", "MutationRun",
            "load_mutation_experiment", "parse_selector", "selection_from_table", "run_mutation", "analyse_mutation", "suite_kills"]
@@ -83,7 +83,7 @@ class MutationExperiment:
 
     experiment: Experiment
     selection: MutantSelection
-    alpha: float = 0.05
+    alpha: float = DEFAULT_ALPHA
 
     def case_alpha(self, n_cases: int) -> float:
         return self.alpha / n_cases
@@ -127,7 +127,7 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
         table = {k: v for k, v in table.items() if k in ("seed", "alpha")} | parse_selector(mutants)
     if repetitions is not None:
         data["repetitions"] = repetitions
-    alpha = float(table.get("alpha", 0.05))
+    alpha = float(table.get("alpha", DEFAULT_ALPHA))
     if not 0 < alpha < 1:
         raise ConfigError(f"{path}: [mutation].alpha must lie in (0, 1), got {alpha}")
     selection = selection_from_table(table, source=str(path))
@@ -274,7 +274,7 @@ def _selection_json(mexp: MutationExperiment) -> dict:
 
 # --------------------------------------------------------------------------- analysis
 
-def clopper_pearson(k: int, n: int, alpha: float = 0.05) -> tuple[float, float]:
+def clopper_pearson(k: int, n: int, alpha: float = DEFAULT_ALPHA) -> tuple[float, float]:
     """Exact two-sided (1 - alpha) interval of a binomial proportion (NaN, NaN for n = 0)."""
     if n == 0:
         return math.nan, math.nan
@@ -354,7 +354,7 @@ INCOMPLETE = "incomplete"
 KILL_CLASSES = (MutantOutcome.KILLED.value, MutantOutcome.CRASH.value, MutantOutcome.TIMEOUT.value)
 
 
-def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
+def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Mutation score per suite kind, per (suite kind, operator) and per (suite kind, unit).
 
     Score = killed / (killed + survived + incomplete) over the (mutant, run) rows that ran
@@ -400,7 +400,7 @@ def compare_suites(outcomes: pd.DataFrame, suites) -> pd.DataFrame:
     return df
 
 
-def analyse_mutation(out: str | Path, *, alpha: float = 0.05) -> MutationAnalysis:
+def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> MutationAnalysis:
     """The :class:`MutationAnalysis` of the campaign saved in ``out`` (runs nothing)."""
     out = Path(out)
     try:

@@ -74,7 +74,7 @@ from faultlab.stats.oracle import oracle_detections
 from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, paper_table, resolve_data_path
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
 from faultlab.space.case import PARAMETER_NAMES
-from faultlab.vocabulary import METRICS, REPLICA, SUITE_ORDER, JobStatus, ordered
+from faultlab.vocabulary import DEFAULT_ALPHA, METRICS, REPLICA, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["Analysis", "Note", "analyse", "FORMAT_VERSION", "JSON_FILE", "BEYOND_THE_PAPER"]
 
@@ -174,7 +174,7 @@ class Analysis:
     # ------------------------------------------------------------------ construction
 
     @classmethod
-    def from_frame(cls, results: pd.DataFrame, metadata: Mapping | None = None, *, alpha: float = 0.05,
+    def from_frame(cls, results: pd.DataFrame, metadata: Mapping | None = None, *, alpha: float = DEFAULT_ALPHA,
                    paper: bool = True, paper_raw: str | Path | None = None,
                    paper_reported: str | Path | None = None, rep: int | None = None,
                    parameters: Sequence[str] | None = None) -> "Analysis":
@@ -372,7 +372,7 @@ _TABLE_NAMES = tuple(s.name for s in TABLES)
 assert set(_TABLE_NAMES) <= {f.name for f in fields(Analysis)}, "every table of the schema is an Analysis field"
 
 
-def analyse(results_dir: str | Path, *, alpha: float = 0.05, paper: bool = True,
+def analyse(results_dir: str | Path, *, alpha: float = DEFAULT_ALPHA, paper: bool = True,
             paper_raw: str | Path | None = None, paper_reported: str | Path | None = None,
             rep: int | None = None, parameters: Sequence[str] | None = None) -> Analysis:
     """Analyse the results store of a campaign (:meth:`Analysis.from_frame` of its rows and metadata).

@@ -57,7 +57,7 @@ from faultlab.stats.cases import detectable_difference
 from faultlab.stats.killmatrix import (MULTIPLICITY, compare_scores, detection_table, evaluate_suites,
                                        kill_matrix, score_table)
 from faultlab.stats.verdict import min_pairs
-from faultlab.vocabulary import PAPER_FAULTS
+from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_FAULTS
 
 __all__ = ["STUDY_FILE", "STUDY_TABLES", "StudySpec", "StudyExperiment", "StudyAnalysis", "load_study_experiment",
            "run_study", "analyse_study", "study_spec", "sampled_load"]
@@ -94,7 +94,7 @@ class StudySpec:
     draws: int = 2000
     bootstrap: int = 1000
     seed: int = 0
-    alpha: float = 0.05
+    alpha: float = DEFAULT_ALPHA
     multiplicity: str = "holm"
     timeouts_detect: bool = False
 

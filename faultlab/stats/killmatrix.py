@@ -4,7 +4,10 @@ The kill matrix
 ---------------
 Every case of every strategy's pool runs once per variant (faults and mutants) with K
 repetitions and common random numbers.  :func:`kill_matrix` keeps, per (pool case, variant), the
-exact one-sided p value of the paired sign-flip test over the K repetitions
+exact p value of the paired sign-flip test over the K repetitions -- two-sided by default (a
+variant is detected, a mutant killed, when its behaviour is distinguishable in either direction;
+``direction`` records whether its map got worse or better), one-sided with the rule's
+``direction = "worse"`` (the paper's notion) --
 (:func:`~faultlab.stats.verdict.case_verdicts`), whether the variant alone crashed (``crash``:
 an exception or a non-finite map, an observable failure and a detection whatever the test) or
 ran out of time (``timeout``), whether the case can be
@@ -17,7 +20,7 @@ The suite rule
 A suite is a set of ``n`` pool cases.  It *detects* a variant (detects a fault, kills a mutant)
 when the variant crashes on one of its cases (with ``timeouts_detect``, also when it times out),
 or when Holm's step-down procedure over the ``n``
-one-sided tests of its cases rejects at least one at the family-wise level ``alpha``
+tests of its cases rejects at least one at the family-wise level ``alpha``
 (:func:`suite_rejections`).  The family is all ``n`` cases: a case that cannot be tested (the
 baseline failed, or the variant crashed) enters with p = 1, which keeps the rule valid and
 makes it depend on ``n`` only.  Why Holm: it is the project's correction within a family
@@ -83,7 +86,7 @@ from faultlab.seeds import study_seed_sequence
 from faultlab.stats.cases import holm_within, rule_verdicts
 from faultlab.stats.detection import outcomes
 from faultlab.stats.verdict import Verdict, case_verdicts
-from faultlab.vocabulary import SUITE_ORDER, JobStatus, ordered
+from faultlab.vocabulary import DEFAULT_ALPHA, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects",
            "judge_suite",
@@ -95,7 +98,7 @@ __all__ = ["MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "
 MULTIPLICITY: tuple[str, ...] = ("holm", "bonferroni")
 #: Columns of :meth:`KillMatrix.to_frame`.
 KILL_MATRIX_COLUMNS = ("strategy", "run", "case", "variant", "p", "crash", "timeout", "judged", "paper",
-                       "mean_diff_mm")
+                       "mean_diff_mm", "direction")
 #: Power of the smallest detectable differences.
 COMPARISON_POWER = 0.8
 
@@ -110,7 +113,7 @@ class KillMatrix:
         ``strategy, run, case`` of every pool case, sorted by strategy (report order), run, case.
     variants : tuple of str, length V
     p : ndarray, shape (N, V)
-        Exact one-sided p value; NaN where not tested (baseline failed, variant crashed).
+        Exact p value (the rule's sidedness); NaN where not tested (baseline failed, variant crashed).
     crash : ndarray of bool, shape (N, V)
         The variant alone crashed on the case (with the baseline usable), without a timeout.
     timeout : ndarray of bool, shape (N, V)
@@ -121,6 +124,8 @@ class KillMatrix:
         The paper rule's per-case flag.
     mean_diff_mm : ndarray, shape (N, V)
         Mean paired difference of the map error, mm.
+    direction : ndarray of str, shape (N, V)
+        Observed direction of the change (:class:`~faultlab.vocabulary.Change`: worse, better, none).
     """
 
     cases: pd.DataFrame
@@ -131,6 +136,7 @@ class KillMatrix:
     judged: np.ndarray
     paper: np.ndarray
     mean_diff_mm: np.ndarray
+    direction: np.ndarray
 
     @property
     def strategies(self) -> tuple[str, ...]:
@@ -145,7 +151,7 @@ class KillMatrix:
         n, v = self.p.shape
         out = self.cases.loc[np.repeat(np.arange(n), v)].reset_index(drop=True)
         out["variant"] = np.tile(np.asarray(self.variants, dtype=object), n)
-        for name in ("p", "crash", "timeout", "judged", "paper", "mean_diff_mm"):
+        for name in ("p", "crash", "timeout", "judged", "paper", "mean_diff_mm", "direction"):
             out[name] = getattr(self, name).reshape(-1)
         return out[list(KILL_MATRIX_COLUMNS)]
 
@@ -169,7 +175,8 @@ class KillMatrix:
             return f[name].to_numpy(dtype).reshape(shape)
 
         return cls(cases=cases, variants=variants, p=col("p", float), crash=col("crash", bool),
-                   timeout=col("timeout", bool), judged=col("judged", bool), paper=col("paper", bool), mean_diff_mm=col("mean_diff_mm", float))
+                   timeout=col("timeout", bool), judged=col("judged", bool), paper=col("paper", bool),
+                   mean_diff_mm=col("mean_diff_mm", float), direction=col("direction", object))
 
 
 def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), metric: str = "rms") -> KillMatrix:
@@ -180,11 +187,13 @@ def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
     results : DataFrame
         The runner's results (one row per job) with a ``baseline`` variant.
     rule : DetectionRule
-        Its ``abs_mm``/``rel`` thresholds give the paper flag; its ``alpha`` only gates which cases
-        have enough usable pairs to be tested (:func:`~faultlab.stats.verdict.min_pairs`).
+        Its ``abs_mm``/``rel`` thresholds give the paper flag; its ``direction`` the sidedness of
+        the p values (two-sided by default, ``"worse"`` the paper's one-sided notion); its
+        ``alpha`` only gates which cases have enough usable pairs to be tested
+        (:func:`~faultlab.stats.verdict.min_pairs`).
     metric : {"rms", "emd"}
     """
-    stat = case_verdicts(results, alpha=rule.alpha, metric=metric)
+    stat = case_verdicts(results, alpha=rule.alpha, metric=metric, direction=rule.direction)
     if stat.empty:
         raise ResultsError("kill matrix: no faulty variant in the results")
     paper_rule = DetectionRule(abs_mm=rule.abs_mm, rel=rule.rel, rule="paper", alpha=rule.alpha)
@@ -204,7 +213,7 @@ def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
         "crash": failed & ~timeout, "timeout": timeout,
         "judged": (frame["verdict"] != Verdict.CANNOT_JUDGE.value).to_numpy(bool),
         "paper": frame["paper"].fillna(False).to_numpy(bool),
-        "mean_diff_mm": frame["mean_diff_mm"].astype(float)})
+        "mean_diff_mm": frame["mean_diff_mm"].astype(float), "direction": frame["direction"].astype(str)})
     variants = ordered(frame["variant"], list(dict.fromkeys(results["variant"])))
     frame["variant"] = pd.Categorical(frame["variant"], categories=variants, ordered=True)
     frame = frame.sort_values(["variant"], kind="stable")
@@ -221,7 +230,7 @@ def _check(alpha: float, method: str) -> None:
         raise ConfigError(f"suite rule: multiplicity must be one of {', '.join(MULTIPLICITY)}, got {method!r}")
 
 
-def suite_rejections(p, *, alpha: float = 0.05, method: str = "holm") -> np.ndarray:
+def suite_rejections(p, *, alpha: float = DEFAULT_ALPHA, method: str = "holm") -> np.ndarray:
     """Which cases of each suite reject, by Holm's step-down procedure or Bonferroni.
 
     Parameters
@@ -250,7 +259,7 @@ def suite_rejections(p, *, alpha: float = 0.05, method: str = "holm") -> np.ndar
     return out
 
 
-def suite_detects(p, crash, *, alpha: float = 0.05, method: str = "holm") -> np.ndarray:
+def suite_detects(p, crash, *, alpha: float = DEFAULT_ALPHA, method: str = "holm") -> np.ndarray:
     """Whether each suite detects: a case crashes, or the multiplicity rule rejects some case.
 
     ``crash`` holds the failures that count as detections (crashes, and timeouts if they do).
@@ -260,7 +269,7 @@ def suite_detects(p, crash, *, alpha: float = 0.05, method: str = "holm") -> np.
     return np.asarray(crash, dtype=bool).any(axis=-1) | suite_rejections(p, alpha=alpha, method=method).any(axis=-1)
 
 
-def judge_suite(km: KillMatrix, rows, *, alpha: float = 0.05, method: str = "holm",
+def judge_suite(km: KillMatrix, rows, *, alpha: float = DEFAULT_ALPHA, method: str = "holm",
                 timeouts_detect: bool = False) -> pd.DataFrame:
     """Judge one suite, any set of pool cases (row indices of ``km``), for every variant.
 
@@ -280,7 +289,7 @@ def judge_suite(km: KillMatrix, rows, *, alpha: float = 0.05, method: str = "hol
                          "paper": km.paper[rows].T.any(axis=1)})
 
 
-def strong_cases(km: KillMatrix, n: int, *, alpha: float = 0.05, paper: bool = False,
+def strong_cases(km: KillMatrix, n: int, *, alpha: float = DEFAULT_ALPHA, paper: bool = False,
                  timeouts_detect: bool = False) -> np.ndarray:
     """(N, V) bool: the cases whose presence makes a suite of ``n`` cases detect the variant.
 
@@ -376,7 +385,7 @@ class SuiteDraws:
     n_strong: dict
 
 
-def evaluate_suites(km: KillMatrix, sizes, *, draws: int, bootstrap: int, seed: int, alpha: float = 0.05,
+def evaluate_suites(km: KillMatrix, sizes, *, draws: int, bootstrap: int, seed: int, alpha: float = DEFAULT_ALPHA,
                     method: str = "holm", mutants=(), timeouts_detect: bool = False) -> SuiteDraws:
     """Draw ``draws`` suites of every size from every strategy's pool and judge them.
 
@@ -478,7 +487,7 @@ def score_table(ev: SuiteDraws) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def detectable_score_difference(se: float, *, alpha: float = 0.05, power: float = COMPARISON_POWER) -> float:
+def detectable_score_difference(se: float, *, alpha: float = DEFAULT_ALPHA, power: float = COMPARISON_POWER) -> float:
     """Smallest difference a two-sided level-``alpha`` test with standard error ``se`` detects with ``power``.
 
     NaN when ``se`` is 0 or NaN: without any spread the bootstrap says nothing about power (every
@@ -489,7 +498,7 @@ def detectable_score_difference(se: float, *, alpha: float = 0.05, power: float 
     return float((norm.ppf(1 - alpha / 2) + norm.ppf(power)) * se)
 
 
-def compare_scores(ev: SuiteDraws, *, alpha: float = 0.05) -> pd.DataFrame:
+def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Strategies compared at equal size on the same mutants.
 
     Per (size, strategy_a, strategy_b): ``diff`` (score a - score b), its 95 % bootstrap interval

@@ -60,7 +60,7 @@ from statsmodels.stats.multitest import multipletests
 
 from faultlab.errors import ConfigError
 from faultlab.stats.detection import _check_columns
-from faultlab.vocabulary import BASELINE
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA
 from faultlab.stats.rates import _sort
 from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER
 
@@ -133,7 +133,7 @@ def _single_value_split_p(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return u, float(p)
 
 
-def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str = "exact") -> pd.DataFrame:
+def oracle_detections(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, method: str = "exact") -> pd.DataFrame:
     """Per (suite, run, case, fault): Mann-Whitney U of faulty vs baseline RMS, Holm-corrected.
 
     Parameters

@@ -49,7 +49,8 @@ def hand_matrix() -> KillMatrix:
                           "run": 1, "case": list(range(1, 7)) + list(range(1, 6))})
     return KillMatrix(cases=cases, variants=("fault_a", "fault_b", "mutant:x"), p=p, crash=crash,
                       timeout=np.zeros(p.shape, bool), judged=judged,
-                      paper=paper, mean_diff_mm=np.where(np.isnan(p), np.nan, 100.0))
+                      paper=paper, mean_diff_mm=np.where(np.isnan(p), np.nan, 100.0),
+                      direction=np.full(p.shape, "worse", dtype=object))
 
 
 def textbook_holm(p, alpha) -> list[bool]:
@@ -223,11 +224,15 @@ def _results(diffs: dict, *, k: int = 6) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _sign_flip_p(d) -> float:
-    """Textbook enumeration of the 2^K sign patterns: share with mean >= the observed mean."""
+def _sign_flip_p(d, two_sided=True) -> float:
+    """Textbook enumeration of the 2^K sign patterns: share with mean >= the observed mean
+    (two-sided: twice the smaller tail, at most 1)."""
     d = np.asarray(d, float)
     signs = np.array(list(itertools.product([1, -1], repeat=d.size)))
-    return float(np.mean((signs * d).mean(axis=1) >= d.mean() - 1e-9))
+    means = (signs * d).mean(axis=1)
+    greater = float(np.mean(means >= d.mean() - 1e-9))
+    less = float(np.mean(means <= d.mean() + 1e-9))
+    return min(1.0, 2 * min(greater, less)) if two_sided else greater
 
 
 def test_kill_matrix_holds_the_exact_p_value_crash_and_paper_flag_of_every_case():
@@ -243,6 +248,9 @@ def test_kill_matrix_holds_the_exact_p_value_crash_and_paper_flag_of_every_case(
     assert frame.loc[("random", 1, "f"), "p"] == pytest.approx(_sign_flip_p(up))
     assert frame.loc[("random", 1, "g"), "p"] == pytest.approx(_sign_flip_p(mixed))
     assert frame.loc[("pairwise", 1, "f"), "p"] == 1.0
+    assert frame.loc[("random", 1, "f"), "direction"] == "worse" and frame.loc[("pairwise", 1, "f"), "direction"] == "none"
+    one = kill_matrix(res, rule=DetectionRule(direction="worse")).to_frame().set_index(["strategy", "case", "variant"])
+    assert one.loc[("random", 1, "f"), "p"] == pytest.approx(_sign_flip_p(up, two_sided=False))
     assert bool(frame.loc[("random", 2, "g"), "crash"]) and np.isnan(frame.loc[("random", 2, "g"), "p"])
     assert bool(frame.loc[("random", 1, "f"), "paper"]) and not bool(frame.loc[("random", 1, "g"), "paper"])
     assert frame["judged"].all()
@@ -253,5 +261,19 @@ def test_kill_matrix_holds_the_exact_p_value_crash_and_paper_flag_of_every_case(
     back = KillMatrix.from_frame(km.to_frame())
     np.testing.assert_array_equal(back.p, km.p)
     np.testing.assert_array_equal(back.crash, km.crash)
+    np.testing.assert_array_equal(back.direction, km.direction)
     with pytest.raises(ResultsError, match="cases x"):
         KillMatrix.from_frame(km.to_frame().iloc[1:])
+
+
+def test_a_mutant_that_only_improves_the_map_is_killed_by_the_two_sided_rule():
+    """Every repetition better by 200-300 mm: the two-sided rule kills, the paper's one-sided one does not."""
+    better = [-200, -250, -300, -220, -280, -260, -240, -210, -230]
+    res = _results({("random", 1): {"mutant:x": better, "f": [3, -2, 4, -1, 2, -3, 1, -4, 5]}}, k=9)
+    km = kill_matrix(res, rule=DetectionRule())
+    j = km.variants.index("mutant:x")
+    assert km.p[0, j] == pytest.approx(_sign_flip_p(better)) == 2.0 ** -8
+    assert km.direction[0, j] == "better"
+    assert judge_suite(km, [0]).set_index("variant").loc["mutant:x", "detected"]
+    one = kill_matrix(res, rule=DetectionRule(direction="worse"))
+    assert one.p[0, j] == 1.0 and not judge_suite(one, [0]).set_index("variant").loc["mutant:x", "detected"]
