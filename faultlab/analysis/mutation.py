@@ -62,19 +62,21 @@ from faultlab.runner.experiment import Experiment, parse_experiment
 from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import ResultStore, load_results, store_lock
-from faultlab.stats.verdict import case_verdicts, min_pairs
-from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, JobStatus
+from faultlab.stats.verdict import alternative_of, case_verdicts, min_pairs
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS, PAPER_DIRECTION, JobStatus
 
 __all__ = ["MUTATION_FILE", "MUTATION_TABLES", "MutationExperiment", "MutationAnalysis", "MutationRun",
-           "load_mutation_experiment", "parse_selector", "selection_from_table", "run_mutation", "analyse_mutation", "suite_kills"]
+           "load_mutation_experiment", "parse_selector", "selection_from_table", "run_mutation", "analyse_mutation", "suite_kills",
+           "mutant_outcomes", "stored_direction", "OBSERVED_EQUIVALENT"]
 
 #: File in the output directory recording the selection and the level of a mutation campaign.
 MUTATION_FILE = "mutation.json"
 #: Tables of a :class:`MutationAnalysis`, saved as ``<name>.csv``.
 MUTATION_TABLES = ("outcomes", "scores", "mcnemar")
-OUTCOME_COLUMNS = ["mutant", "unit", "operator", "run", "suite", "outcome", "represented_by", "killing_case",
-                   "n_cases_run", "n_cases", "min_p", "min_mde_mm", "note"]
-_MUTATION_KEYS = ("units", "operators", "ids", "sample", "seed", "alpha")
+OUTCOME_COLUMNS = ["mutant", "unit", "operator", "run", "suite", "outcome", "survival", "represented_by",
+                   "killing_case", "direction", "median_diff_mm", "ratio", "n_cases_run", "n_cases", "min_p",
+                   "max_p_equivalence", "min_mde_mm", "note"]
+_MUTATION_KEYS = ("units", "operators", "ids", "sample", "seed", "alpha", "direction")
 
 
 @dataclass(frozen=True)
@@ -84,6 +86,7 @@ class MutationExperiment:
     experiment: Experiment
     selection: MutantSelection
     alpha: float = DEFAULT_ALPHA
+    direction: str = DEFAULT_DIRECTION
 
     def case_alpha(self, n_cases: int) -> float:
         return self.alpha / n_cases
@@ -124,24 +127,30 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
     if unknown:
         raise ConfigError(f"{path}: [mutation]: unknown key(s) {sorted(unknown)}; known: {', '.join(_MUTATION_KEYS)}")
     if mutants is not None:
-        table = {k: v for k, v in table.items() if k in ("seed", "alpha")} | parse_selector(mutants)
+        table = {k: v for k, v in table.items() if k in ("seed", "alpha", "direction")} | parse_selector(mutants)
     if repetitions is not None:
         data["repetitions"] = repetitions
     alpha = float(table.get("alpha", DEFAULT_ALPHA))
     if not 0 < alpha < 1:
         raise ConfigError(f"{path}: [mutation].alpha must lie in (0, 1), got {alpha}")
-    selection = selection_from_table(table, source=str(path))
+    direction = table.get("direction", DEFAULT_DIRECTION)
+    if direction not in DIRECTIONS:
+        raise ConfigError(f"{path}: [mutation].direction must be one of {', '.join(map(repr, DIRECTIONS))}, "
+                          f"got {direction!r}")
+    selection = selection_from_table({k: v for k, v in table.items() if k != "direction"}, source=str(path))
     if "variants" in data:
         raise ConfigError(f"{path}: variants: a mutation experiment's variants come from [mutation]")
     data["variants"] = [BASELINE, *map(mutant_variant, selection.run)]
     exp = parse_experiment(data, source=str(path), text=text)
-    mexp = MutationExperiment(experiment=exp, selection=selection, alpha=alpha)
+    mexp = MutationExperiment(experiment=exp, selection=selection, alpha=alpha, direction=direction)
+    alternative = alternative_of(direction)
     for s in exp.suites:
         n = s.n_cases
-        if n is not None and exp.repetitions < min_pairs(mexp.case_alpha(n)):
+        if n is not None and exp.repetitions < min_pairs(mexp.case_alpha(n), alternative=alternative):
             raise ConfigError(f"{path}: repetitions = {exp.repetitions} is too few: with alpha = {alpha} over "
                               f"{n} cases of suite {s.kind!r} a case is judged at {alpha / n:.4g}, which the exact "
-                              f"sign-flip test reaches only from K = {min_pairs(alpha / n)}")
+                              f"{alternative} sign-flip test reaches only from K = "
+                              f"{min_pairs(alpha / n, alternative=alternative)}")
     return mexp
 
 
@@ -176,13 +185,15 @@ class MutationRun:
                 f"{self.wall_time_s:.0f} s; results in {self.out}")
 
 
-def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms") -> pd.DataFrame:
+def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms",
+                direction: str = DEFAULT_DIRECTION) -> pd.DataFrame:
     """Per (run, suite, case, mutant variant): whether the case kills it, and how.
 
-    Returns the :func:`case_verdicts` frame at level ``case_alpha`` with a column ``kill``:
-    ``killed`` (test rejects), ``crash``/``timeout`` (the mutant alone failed), ``""`` otherwise.
+    Returns the :func:`case_verdicts` frame at level ``case_alpha`` (two-sided unless
+    ``direction`` is the paper's ``"worse"``) with a column ``kill``: ``killed`` (test rejects),
+    ``crash``/``timeout`` (the mutant alone failed), ``""`` otherwise.
     """
-    v = case_verdicts(results, alpha=case_alpha, metric=metric)
+    v = case_verdicts(results, alpha=case_alpha, metric=metric, direction=direction)
     kill = np.where(v["verdict"] == "detected", MutantOutcome.KILLED.value, "").astype(object)
     crashed = (v["verdict"] == "crash_detected").to_numpy()
     if crashed.any():
@@ -260,7 +271,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                 part = df[(df["run"] == run) & (df["suite"] == suite)]
                 if part.empty:
                     continue
-                k = suite_kills(part, case_alpha=mexp.case_alpha(n), metric=exp.metric)
+                k = suite_kills(part, case_alpha=mexp.case_alpha(n), metric=exp.metric, direction=mexp.direction)
                 killed[(run, suite)].update(k.loc[k["kill"] != "", "fault"])
     return MutationRun(out=out, n_mutants=len(mexp.selection.run), n_jobs_max=len(specs), n_jobs_run=n_needed,
                        n_new=n_new, n_skipped_early=len(specs) - n_needed, wall_time_s=time.perf_counter() - t0)
@@ -268,7 +279,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
 
 def _selection_json(mexp: MutationExperiment) -> dict:
     s = mexp.selection
-    return {"alpha": mexp.alpha, "run": list(s.run), "screened": s.screened, "represented_by": s.represented_by,
+    return {"alpha": mexp.alpha, "direction": mexp.direction, "run": list(s.run), "screened": s.screened, "represented_by": s.represented_by,
             "unit": s.unit, "operator": s.operator}
 
 
@@ -307,8 +318,18 @@ class MutationAnalysis(TableBundle):
     WHAT = "mutation analysis"
 
 
-def _outcomes(results: pd.DataFrame, sel: dict, metric: str, suites: dict | None = None) -> pd.DataFrame:
+def stored_direction(sel: dict) -> str:
+    """The direction a stored campaign's kills (and so its early stopping) used: its ``direction``, or
+    the paper's one-sided ``"worse"`` for a campaign recorded before the choice existed."""
+    return str(sel.get("direction", PAPER_DIRECTION))
+
+
+def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suites: dict | None = None) -> pd.DataFrame:
+    """One row per (mutant, run, suite), :data:`OUTCOME_COLUMNS`, from a campaign's results and its
+    ``mutation.json`` record ``sel`` (``alpha``, ``direction``, ``run``, ``screened``, ``unit``,
+    ``operator``, ``represented_by``); see the module docstring."""
     alpha = float(sel["alpha"])
+    direction = stored_direction(sel)
     ncases = results.groupby(["run", "suite"])["case"].max().to_dict()
     if suites:  # the experiment's case counts: an interrupted campaign has not reached the last cases
         ncases = {k: int(suites.get(k[1], n)) for k, n in ncases.items()}
@@ -316,41 +337,65 @@ def _outcomes(results: pd.DataFrame, sel: dict, metric: str, suites: dict | None
     per_suite = {}
     for (run, suite), n in ncases.items():
         part = results[(results["run"] == run) & (results["suite"] == suite)]
-        per_suite[(run, suite)] = suite_kills(part, case_alpha=alpha / n, metric=metric)
+        per_suite[(run, suite)] = suite_kills(part, case_alpha=alpha / n, metric=metric, direction=direction)
     for mid in sel["run"]:
         variant = mutant_variant(mid)
-        for (run, suite), v in per_suite.items():
-            mv = v[v["fault"] == variant].sort_values("case")
+        mine = {rs: v[v["fault"] == variant].sort_values("case") for rs, v in per_suite.items()}
+        # bit-identical to the baseline in every paired run of every case of every suite
+        observed_equivalent = all(len(mv) == ncases[rs] and mv["identical"].all() for rs, mv in mine.items())
+        for (run, suite), mv in mine.items():
             n = ncases[(run, suite)]
             base = dict(mutant=mid, unit=sel["unit"].get(mid, ""), operator=sel["operator"].get(mid, ""), run=run,
-                        suite=suite, represented_by="", n_cases=n, n_cases_run=len(mv), note="")
+                        suite=suite, represented_by="", n_cases=n, n_cases_run=len(mv), note="", survival="",
+                        direction="", median_diff_mm=math.nan, ratio=math.nan)
             kills = mv[mv["kill"] != ""]
             p = pd.to_numeric(mv["p"], errors="coerce")
             mde = pd.to_numeric(mv["mde_mm"], errors="coerce")
+            pe = pd.to_numeric(mv["p_equivalence"], errors="coerce")
             base["min_p"] = float(p.min()) if p.notna().any() else math.nan
             base["min_mde_mm"] = float(mde.min()) if mde.notna().any() else math.nan
+            base["max_p_equivalence"] = float(pe.max()) if len(pe) and pe.notna().all() else math.nan
             if len(kills):
                 first = kills.iloc[0]
-                rows.append(base | dict(outcome=first["kill"], killing_case=int(first["case"])))
+                effect = {} if first["kill"] != MutantOutcome.KILLED.value else dict(
+                    direction=first["direction"], median_diff_mm=float(first["median_diff_mm"]),
+                    ratio=float(first["ratio"]))
+                rows.append(base | dict(outcome=first["kill"], killing_case=int(first["case"])) | effect)
             elif len(mv) < n:
                 rows.append(base | dict(outcome=INCOMPLETE, killing_case=0,
                                         note=f"{len(mv)} of {n} cases run"))
             elif (mv["verdict"] == "cannot_judge").all():
                 rows.append(base | dict(outcome="cannot_judge", killing_case=0,
                                         note="; ".join(sorted(set(mv["reason"].astype(str))))))
+            elif observed_equivalent:
+                rows.append(base | dict(outcome=OBSERVED_EQUIVALENT, killing_case=0,
+                                        note="maps bit-identical to the baseline's in every paired run"))
             else:
+                equivalent = bool(base["max_p_equivalence"] <= alpha)
+                margin = pd.to_numeric(mv["margin_mm"], errors="coerce")
+                note = (f"equivalent within +-{margin.min():.0f}-{margin.max():.0f} mm on every case (TOST, "
+                        f"p <= {base['max_p_equivalence']:.2g})" if equivalent else
+                        f"no difference shown; smallest detectable shift {base['min_mde_mm']:.0f} mm (80 % power)")
                 rows.append(base | dict(outcome=MutantOutcome.SURVIVED.value, killing_case=0,
-                                        note=f"smallest detectable shift {base['min_mde_mm']:.0f} mm (80 % power)"))
+                                        survival=SURVIVED_EQUIVALENT if equivalent else SURVIVED_INCONCLUSIVE,
+                                        note=note))
     for mid, cls in sel["screened"].items():
         for (run, suite), n in ncases.items():
             rows.append(dict(mutant=mid, unit=sel["unit"].get(mid, ""), operator=sel["operator"].get(mid, ""),
-                             run=run, suite=suite, outcome=cls, represented_by=sel["represented_by"].get(mid, ""),
-                             killing_case=0, n_cases_run=0, n_cases=n, min_p=math.nan, min_mde_mm=math.nan,
-                             note="not run (screened out)"))
+                             run=run, suite=suite, outcome=cls, survival="",
+                             represented_by=sel["represented_by"].get(mid, ""), killing_case=0, direction="",
+                             median_diff_mm=math.nan, ratio=math.nan, n_cases_run=0, n_cases=n, min_p=math.nan,
+                             max_p_equivalence=math.nan, min_mde_mm=math.nan, note="not run (screened out)"))
     return pd.DataFrame(rows, columns=OUTCOME_COLUMNS)
 
 
 INCOMPLETE = "incomplete"
+#: A live mutant whose maps were bit-identical to the baseline's in every paired run: equivalent as
+#: observed on these cases; it leaves the score's denominator and is listed apart.
+OBSERVED_EQUIVALENT = "equivalent_observed"
+#: How a survivor survived: shown equivalent within the margin on every case (TOST), or not.
+SURVIVED_EQUIVALENT = "equivalent"
+SURVIVED_INCONCLUSIVE = "inconclusive"
 KILL_CLASSES = (MutantOutcome.KILLED.value, MutantOutcome.CRASH.value, MutantOutcome.TIMEOUT.value)
 
 
@@ -360,12 +405,17 @@ def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> 
     Score = killed / (killed + survived + incomplete) over the (mutant, run) rows that ran
     (``crash`` and ``timeout`` count as killed), with a Clopper-Pearson ``1 - alpha`` interval.
     An ``incomplete`` mutant (not killed by the cases run so far of an interrupted campaign)
-    counts as not killed, so the score of an interrupted campaign is a lower bound.
+    counts as not killed, so the score of an interrupted campaign is a lower bound.  Survivors
+    split into ``equivalent`` (TOST on every case) and ``inconclusive``; mutants observed
+    equivalent (bit-identical maps) leave the denominator and are counted in
+    ``equivalent_observed``.
     """
     judged = outcomes[outcomes["outcome"].isin((*KILL_CLASSES, MutantOutcome.SURVIVED.value, INCOMPLETE))]
+    observed = outcomes[outcomes["outcome"] == OBSERVED_EQUIVALENT]
     rows = []
     for by in (None, "operator", "unit"):
         keys = ["suite"] + ([by] if by else [])
+        n_observed = observed.groupby(keys).size().to_dict() if len(observed) else {}
         for key, g in judged.groupby(keys, sort=True):
             key = key if isinstance(key, tuple) else (key,)
             k = int(g["outcome"].isin(KILL_CLASSES).sum())
@@ -373,8 +423,13 @@ def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> 
             lo, hi = clopper_pearson(k, n, alpha)
             rows.append(dict(suite=key[0], by=by or "all", group=key[1] if by else "all", killed=k, judged=n,
                              crash=int((g["outcome"] == "crash").sum()), timeout=int((g["outcome"] == "timeout").sum()),
-                             incomplete=int((g["outcome"] == INCOMPLETE).sum()), score=k / n, ci_low=lo, ci_high=hi))
+                             incomplete=int((g["outcome"] == INCOMPLETE).sum()),
+                             survived_equivalent=int((g["survival"] == SURVIVED_EQUIVALENT).sum()),
+                             survived_inconclusive=int((g["survival"] == SURVIVED_INCONCLUSIVE).sum()),
+                             equivalent_observed=int(n_observed.get(key if by else key[0], 0)),
+                             score=k / n, ci_low=lo, ci_high=hi))
     return pd.DataFrame(rows, columns=["suite", "by", "group", "killed", "judged", "crash", "timeout", "incomplete",
+                                       "survived_equivalent", "survived_inconclusive", "equivalent_observed",
                                        "score", "ci_low", "ci_high"])
 
 
@@ -415,9 +470,9 @@ def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> Mutati
     metric = exp.get("metric", "rms") if isinstance(exp, dict) else "rms"
     spec = exp.get("suites", {}) if isinstance(exp, dict) else {}
     pairs = spec.items() if isinstance(spec, dict) else (tuple(p) for p in spec)  # stored as [[kind, n], ...]
-    outcomes = _outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)})
+    outcomes = mutant_outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)})
     suites = list(dict.fromkeys(results["suite"]))
-    info = dict(alpha=sel["alpha"], n_mutants_run=len(sel["run"]), n_screened=len(sel["screened"]),
+    info = dict(alpha=sel["alpha"], direction=stored_direction(sel), n_mutants_run=len(sel["run"]), n_screened=len(sel["screened"]),
                 n_jobs=len(results), runtime_s_sum=float(results["runtime_s"].sum()),
                 status_counts={k: int(v) for k, v in results["status"].value_counts().items()},
                 repetitions=int(results["rep"].max()) + 1, suites=suites,

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import dataclasses
 import json
 import math
 import os
@@ -56,7 +57,7 @@ from faultlab.runner.store import load_metadata, load_results
 from faultlab.stats.cases import detectable_difference
 from faultlab.stats.killmatrix import (MULTIPLICITY, compare_scores, detection_table, evaluate_suites,
                                        kill_matrix, score_table)
-from faultlab.stats.verdict import min_pairs
+from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_FAULTS
 
 __all__ = ["STUDY_FILE", "STUDY_TABLES", "StudySpec", "StudyExperiment", "StudyAnalysis", "load_study_experiment",
@@ -192,11 +193,12 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
         if s.n_cases is not None and max(spec.sizes) > pool:
             raise ConfigError(f"{source}: study.sizes: a suite of {max(spec.sizes)} cases cannot be drawn from the "
                               f"{pool} cases of the {s.kind} pool (runs x suites.{s.kind})")
-    need = min_pairs(spec.alpha / max(spec.sizes))
+    alternative = alternative_of(exp.detection.direction)
+    need = min_pairs(spec.alpha / max(spec.sizes), alternative=alternative)
     if exp.repetitions < need:
         raise ConfigError(f"{source}: repetitions = {exp.repetitions} is too few: a case of a suite of "
                           f"{max(spec.sizes)} cases is judged at {spec.alpha}/{max(spec.sizes)}, which the exact "
-                          f"sign-flip test reaches only from K = {need}")
+                          f"{alternative} sign-flip test reaches only from K = {need}")
     return StudyExperiment(experiment=exp, study=spec, selection=selection, quick=quick)
 
 
@@ -349,6 +351,16 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     meta = load_metadata(out)
     rule, _ = read_rule(meta)
     exp = meta["experiment"]
+    # sizes whose per-case level alpha / n the stored K cannot reach with the rule's sidedness are not
+    # evaluated (every such suite would detect by crashes only) and are listed in the meta
+    alternative = alternative_of(rule.direction)
+    k = int(exp["repetitions"])
+    too_large = {int(n): min_pairs(spec.alpha / n, alternative=alternative) for n in spec.sizes
+                 if k < min_pairs(spec.alpha / n, alternative=alternative)}
+    if len(too_large) == len(spec.sizes):
+        raise ResultsError(f"{out}: K = {k} repetitions reach no suite size's per-case level with the "
+                           f"{alternative} test (sizes {list(spec.sizes)})")
+    spec = dataclasses.replace(spec, sizes=tuple(n for n in spec.sizes if n not in too_large))
     km = kill_matrix(results, rule=rule, metric=exp.get("metric", "rms"))
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))
     ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
@@ -371,6 +383,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "wall_time_s": float(sum(s.get("wall_time_s") or 0.0 for s in sessions)),
         "load": _load_summary(sessions), "complete": int(meta["n_rows"]) == count_expected_jobs(meta),
         "cannot_judge_cases": int((~km.judged).any(axis=1).sum()),
+        "alternative": alternative, "sizes_not_evaluated": {str(n): need for n, need in too_large.items()},
         "crash_cases": {v: int(n) for v, n in zip(km.variants, km.crash.sum(axis=0)) if n},
         "timeout_cases": {v: int(n) for v, n in zip(km.variants, km.timeout.sum(axis=0)) if n},
     }

@@ -134,6 +134,8 @@ __all__ = [
     "min_pairs",
     "sign_flip_pvalues",
     "ALTERNATIVES",
+    "EQUIVALENCE_MARGIN_REL",
+    "EQUIVALENCE_MARGIN_MM",
     "alternative_of",
     "median_interval",
     "detectable_shift_factor",
@@ -155,7 +157,14 @@ _BATCH_BUDGET = 2 ** 22
 
 _COLUMNS = ["suite", "run", "case", "fault", "verdict", "reason", "detected", "alternative", "direction", "n_reps",
             "n_failed", "n_pairs", "mean_diff_mm", "median_diff_mm", "median_low_mm", "median_high_mm", "ratio",
-            "ratio_low", "ratio_high", "ci_coverage", "p", "p_min", "baseline_sd_mm", "mde_mm"]
+            "ratio_low", "ratio_high", "ci_coverage", "p", "p_min", "baseline_sd_mm", "mde_mm", "identical",
+            "margin_mm", "p_equivalence"]
+
+#: Default equivalence margin relative to the baseline's median error on the case (10 %): a change
+#: of the map error within +-10 % of its level is "equivalent" (TOST, :func:`case_verdicts`).
+EQUIVALENCE_MARGIN_REL = 0.10
+#: Default absolute equivalence margin, mm (none: the relative margin alone).
+EQUIVALENCE_MARGIN_MM = 0.0
 
 #: The alternatives of :func:`sign_flip_pvalues` (SciPy's names): ``"greater"`` (the faulty error is
 #: larger), ``"less"``, ``"two-sided"``.
@@ -396,7 +405,8 @@ def _usable(frame: pd.DataFrame, col: str) -> np.ndarray:
 
 def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric: str = "rms", power: float = 0.8,
                   min_pairs_required: int | None = None, direction: str = DEFAULT_DIRECTION,
-                  mde_alpha: float | None = None) -> pd.DataFrame:
+                  mde_alpha: float | None = None, margin_rel: float = EQUIVALENCE_MARGIN_REL,
+                  margin_mm: float = EQUIVALENCE_MARGIN_MM) -> pd.DataFrame:
     """Verdict of every fault on every case from the K repetitions (exact paired sign-flip test).
 
     Parameters
@@ -419,6 +429,15 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     mde_alpha : float, optional
         Per-test level of the decision the smallest detectable shift is for (e.g. Holm's first
         step ``alpha / n`` over a family of ``n`` cases); default ``alpha``.
+    margin_rel, margin_mm : float
+        Equivalence margin ``delta = max(margin_mm, margin_rel * median baseline error)`` of the
+        case, mm (defaults :data:`EQUIVALENCE_MARGIN_REL` = 10 %, :data:`EQUIVALENCE_MARGIN_MM`).
+        Two one-sided tests (TOST) with the exact sign-flip test on the shifted differences:
+        ``H0: shift <= -delta`` ("greater" on ``d + delta``) and ``H0: shift >= +delta``
+        ("less" on ``d - delta``); ``p_equivalence`` is the larger p value, and the variant is
+        equivalent within ``+-delta`` on the case when it is at most ``alpha``.  With ``K``
+        pairs TOST can succeed only when ``2^-K <= alpha`` and ``delta`` exceeds the noise of
+        the mean difference; otherwise "not detected" stays "no difference shown".
 
     Returns
     -------
@@ -435,7 +454,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
         at ``1 - alpha``, exact coverage ``ci_coverage``), ``ratio`` (median over the pairs of
         faulty / baseline error) with ``ratio_low, ratio_high`` (the same order statistics of the
         ratios) -- the effect intervals are NaN for untested cases and where every difference is
-        0 (bit-identical runs: no interval to estimate) --, ``p`` (exact p value of the chosen
+        0 (bit-identical runs: no interval to estimate) --, ``identical`` (every repetition ran
+        and every paired error equals the baseline's bit for bit), ``margin_mm`` and
+        ``p_equivalence`` (TOST, see ``margin_rel``; NaN where not tested), ``p`` (exact p value of the chosen
         alternative; NaN where not tested), ``p_min`` (``2^-n_pairs``), ``baseline_sd_mm`` (std of the baseline's errors
         on the case, ddof = 1) and ``mde_mm`` (smallest shift detectable with ``power``; inf
         when ``n_pairs`` is too small, NaN when the baseline failed or has one repetition).
@@ -450,6 +471,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     """
     alpha = _check_alpha(alpha, "case_verdicts")
     alternative = alternative_of(direction)
+    for name, value in (("margin_rel", margin_rel), ("margin_mm", margin_mm)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 <= value < math.inf:
+            raise ConfigError(f"case_verdicts: {name} must be a finite number >= 0, got {value!r}")
     mde_alpha = alpha if mde_alpha is None else _check_alpha(mde_alpha, "case_verdicts")
     if metric not in METRICS:
         raise ConfigError(f"case_verdicts: metric must be one of {list(METRICS)}, got {metric!r}")
@@ -482,18 +506,19 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     if faulty.empty:
         return pd.DataFrame(columns=_COLUMNS)
     base_stats = base.groupby(case_key).agg(base_all_ok=("usable", "all"), baseline_sd_mm=(col, "std"),
-                                            n_base=("usable", "size"))
+                                            baseline_median_mm=(col, "median"), n_base=("usable", "size"))
     pairs = faulty.merge(base.rename(columns={col: "base_value", "usable": "base_usable"}),
                          on=case_key + ["rep"], how="left")
     pairs["base_usable"] = pairs["base_usable"].astype("boolean").fillna(False).astype(bool)
     pairs["pair_ok"] = pairs["usable"] & pairs["base_usable"]
     pairs["diff"] = np.where(pairs["pair_ok"], pairs[col].to_numpy(float) - pairs["base_value"].to_numpy(float),
                              np.nan)
+    pairs["abs_diff"] = np.abs(pairs["diff"].to_numpy(float))
     key = case_key + ["fault"]
     g = pairs.groupby(key, sort=True)
     table = g.agg(n_reps=("usable", "size"), n_usable=("usable", "sum"), all_base_paired=("base_usable", "all"),
                   n_pairs=("pair_ok", "sum"), mean_diff_mm=("diff", "mean"),
-                  median_diff_mm=("diff", "median")).reset_index()
+                  median_diff_mm=("diff", "median"), max_abs_diff=("abs_diff", "max")).reset_index()
     table["n_failed"] = table["n_reps"] - table["n_usable"]
     table = table.merge(base_stats.reset_index(), on=case_key, how="left")
     base_ok = (table["base_all_ok"].astype("boolean").fillna(False).to_numpy(bool)
@@ -514,7 +539,8 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
 
     p = np.full(len(table), np.nan)
     eff = {name: np.full(len(table), np.nan) for name in ("median_low_mm", "median_high_mm", "ratio", "ratio_low",
-                                                           "ratio_high", "ci_coverage")}
+                                                           "ratio_high", "ci_coverage", "p_equivalence")}
+    margin = np.maximum(float(margin_mm), float(margin_rel) * table["baseline_median_mm"].to_numpy(float))
     if tested.any():
         too_many = n_pairs[tested].max()
         if too_many > MAX_EXACT_PAIRS:
@@ -548,6 +574,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
             eff["ratio_low"][groups] = np.where(varies, rlo, np.nan)
             eff["ratio_high"][groups] = np.where(varies, rhi, np.nan)
             eff["ci_coverage"][groups] = np.where(varies, cover, np.nan)
+            delta = margin[groups][:, None]
+            eff["p_equivalence"][groups] = np.maximum(sign_flip_pvalues(mat + delta, alternative="greater"),
+                                                      sign_flip_pvalues(mat - delta, alternative="less"))
         hit = tested & (p <= alpha)
         verdict[hit] = Verdict.DETECTED.value
 
@@ -580,6 +609,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     out["p_min"] = min_p_value(n_pairs, alternative=alternative)
     out["baseline_sd_mm"] = np.where(base_ok, sd, np.nan)
     out["mde_mm"] = mde
+    out["identical"] = (base_ok & (n_failed == 0) & (n_pairs == table["n_reps"].to_numpy(np.int64)) & (n_pairs > 0)
+                        & (table["max_abs_diff"].to_numpy(float) == 0))
+    out["margin_mm"] = np.where(base_ok, margin, np.nan)
     return out[_COLUMNS].reset_index(drop=True)
 
 

@@ -7,8 +7,10 @@ import pandas as pd
 import pytest
 from scipy.stats import beta, binomtest
 
-from faultlab.analysis.mutation import (analyse_mutation, clopper_pearson, compare_suites, load_mutation_experiment,
-                                        mutation_scores, run_mutation, suite_kills)
+from faultlab.analysis.mutation import (OBSERVED_EQUIVALENT, analyse_mutation, clopper_pearson, compare_suites,
+                                        load_mutation_experiment, mutant_outcomes, mutation_scores, run_mutation,
+                                        suite_kills)
+from faultlab.stats.verdict import min_pairs
 from faultlab.errors import ConfigError
 from faultlab.runner.store import load_results
 
@@ -30,15 +32,53 @@ def _frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) ->
 
 
 def test_case_kill_classes_follow_the_exact_paired_test_at_the_case_level():
-    k = 7  # 2^-7 = 0.0078 <= 0.01
+    k = 7  # one-sided 2^-7 = 0.0078 <= 0.01 (the paper's notion, labelled "worse")
     df = _frame({"mutant:a": np.full(k, 50.0), "mutant:b": np.array([50.0] * 6 + [-5.0]),
                  "mutant:c": np.zeros(k), "mutant:d": np.zeros(k), "mutant:e": np.zeros(k)},
                 k, status={"mutant:d": "crash", "mutant:e": "timeout"})
-    kills = suite_kills(df, case_alpha=0.01).set_index("fault")["kill"]
+    kills = suite_kills(df, case_alpha=0.01, direction="worse").set_index("fault")["kill"]
     # b: sum 295; only b itself and the all-positive pattern (305) reach it: p = 2/128 = 0.0156 > 0.01
     assert kills.to_dict() == {"mutant:a": "killed", "mutant:b": "", "mutant:c": "", "mutant:d": "crash",
                                "mutant:e": "timeout"}
-    assert suite_kills(df, case_alpha=0.02).set_index("fault")["kill"]["mutant:b"] == "killed"
+    assert suite_kills(df, case_alpha=0.02, direction="worse").set_index("fault")["kill"]["mutant:b"] == "killed"
+    # two-sided (the default) at 0.01 needs K = 8: with K = 7 no case can be judged
+    two = suite_kills(df, case_alpha=0.01).set_index("fault")
+    assert two.loc["mutant:a", "kill"] == "" and two.loc["mutant:a", "reason"] == "too_few_pairs"
+
+
+def test_a_mutant_that_only_improves_the_map_is_killed_by_the_two_sided_rule():
+    k = min_pairs(0.01, alternative="two-sided")
+    assert k == 8
+    df = _frame({"mutant:better": np.full(k, -50.0), "mutant:worse": np.full(k, 50.0)}, k)
+    two = suite_kills(df, case_alpha=0.01).set_index("fault")
+    assert two.loc["mutant:better", "kill"] == "killed" and two.loc["mutant:better", "direction"] == "better"
+    assert two.loc["mutant:worse", "kill"] == "killed" and two.loc["mutant:worse", "direction"] == "worse"
+    assert two.loc["mutant:better", "p"] == 2.0 ** -7
+    one = suite_kills(df, case_alpha=0.01, direction="worse").set_index("fault")
+    assert one.loc["mutant:better", "kill"] == "" and one.loc["mutant:worse", "kill"] == "killed"
+
+
+def test_survivors_split_into_equivalent_and_inconclusive_and_identical_maps_leave_the_denominator():
+    k = 8
+    rng = np.random.default_rng(1)
+    parts = []
+    for case in (1, 2):
+        parts.append(_frame({"mutant:same": np.zeros(k), "mutant:tiny": rng.normal(0.0, 0.3, k),
+                             "mutant:noisy": rng.normal(0.0, 30.0, k), "mutant:kill": np.full(k, 40.0)},
+                            k, case=case))
+    df = pd.concat(parts, ignore_index=True)
+    sel = {"alpha": 0.05, "direction": "either", "run": ["same", "tiny", "noisy", "kill"], "screened": {},
+           "unit": {}, "operator": {}, "represented_by": {}}
+    o = mutant_outcomes(df, sel).set_index("mutant")
+    assert o.loc["same", "outcome"] == OBSERVED_EQUIVALENT
+    # baseline errors ~105 mm: margin 10.5 mm; noise 0.3 mm -> TOST succeeds on both cases; 30 mm -> it cannot
+    assert (o.loc["tiny", "outcome"], o.loc["tiny", "survival"]) == ("survived", "equivalent")
+    assert (o.loc["noisy", "outcome"], o.loc["noisy", "survival"]) == ("survived", "inconclusive")
+    assert o.loc["kill", "outcome"] == "killed" and o.loc["kill", "direction"] == "worse"
+    assert o.loc["kill", "median_diff_mm"] == pytest.approx(40.0)
+    s = mutation_scores(o.reset_index()).set_index(["suite", "by", "group"]).loc[("fixed", "all", "all")]
+    assert (s["killed"], s["judged"], s["equivalent_observed"]) == (1, 3, 1)
+    assert (s["survived_equivalent"], s["survived_inconclusive"]) == (1, 1)
 
 
 def test_clopper_pearson_matches_the_beta_quantiles():
@@ -49,7 +89,7 @@ def test_clopper_pearson_matches_the_beta_quantiles():
 
 
 def _outcomes(table: dict) -> pd.DataFrame:
-    rows = [dict(mutant=m, unit=u, operator=o, run=1, suite=s, outcome=out)
+    rows = [dict(mutant=m, unit=u, operator=o, run=1, suite=s, outcome=out, survival="")
             for (m, u, o), per_suite in table.items() for s, out in per_suite.items()]
     return pd.DataFrame(rows)
 
@@ -88,7 +128,7 @@ TINY = """
 seed = 3
 runs = 1
 n_steps = 30
-repetitions = 6
+repetitions = 7
 timeout_s = 60.0
 [suites]
 random = 2
@@ -104,8 +144,9 @@ ids = ["{kill}", "{eq}"]
 def test_too_few_repetitions_for_the_per_case_level_is_refused(tmp_path):
     f = tmp_path / "m.toml"
     f.write_text(TINY.format(kill=SIGN_FLIP, eq=EQUIVALENT))
-    with pytest.raises(ConfigError, match="K = 6"):
-        load_mutation_experiment(f, repetitions=5)
+    # random = 2 cases: a case is judged at 0.025, which the two-sided test reaches from K = 7
+    with pytest.raises(ConfigError, match="K = 7"):
+        load_mutation_experiment(f, repetitions=6)
 
 
 @pytest.mark.slow
@@ -120,7 +161,7 @@ def test_a_killed_mutant_stops_early_an_equivalent_one_never_runs_and_a_rerun_re
     mutant = df[df["variant"] == f"mutant:{SIGN_FLIP}"]
     # killed on case 1 of the random suite: case 2 never runs (nor its baseline: nothing is left to judge)
     assert set(zip(mutant["suite"], mutant["case"])) == {("random", 1), ("fixed", 1)}
-    assert len(df) == 2 * 2 * 6 and first.n_skipped_early == 2 * 6
+    assert len(df) == 2 * 2 * 7 and first.n_skipped_early == 2 * 7
     a = analyse_mutation(tmp_path / "out")
     o = a.outcomes.set_index(["mutant", "suite"])
     assert o.loc[(SIGN_FLIP, "random"), "outcome"] in ("killed", "crash")

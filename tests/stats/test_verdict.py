@@ -408,3 +408,32 @@ def test_clustered_interval_keeps_its_coverage_where_the_binomial_one_does_not()
         naive += lo <= rate <= hi
     assert 0.91 <= covered / n_sim <= 0.99  # nominal 0.95; Monte Carlo standard error 0.013
     assert naive / n_sim < 0.85             # the binomial interval treats 180 trials as independent
+
+
+def test_equivalence_is_tost_with_the_shifted_exact_test_and_identity_is_observed():
+    rng = np.random.default_rng(4)
+    k, rows = 10, []
+    base = rng.normal(1000.0, 30.0, k)
+    for rep in range(k):
+        rows.append(job(1, "fixed", 1, "baseline", rep, base[rep]))
+        rows.append(job(1, "fixed", 1, "naive_resampling", rep, base[rep] + rng.normal(0.0, 10.0)))  # within 10 %
+        rows.append(job(1, "fixed", 1, "motion_sign_error", rep, base[rep] + 95.0 + rng.normal(0.0, 10.0)))
+        rows.append(job(1, "fixed", 1, "missing_angle_wrap", rep, base[rep]))                         # bit-identical
+    res = frame(rows)
+    table = case_verdicts(res).set_index("fault")
+    delta = 0.10 * np.median(base)
+    for fault, row in table.iterrows():
+        d = res[res["variant"] == fault]["rms_mm"].to_numpy() - base
+        # the larger of the two one-sided p values on the shifted differences, by enumeration
+        expect = max(brute_force_p(d + delta, "greater"), brute_force_p(d - delta, "less"))
+        assert row["margin_mm"] == pytest.approx(delta)
+        assert row["p_equivalence"] == pytest.approx(float(expect), abs=1e-12)
+    assert table.loc["naive_resampling", "p_equivalence"] <= 0.05          # equivalent within +-10 %
+    assert table.loc["motion_sign_error", "p_equivalence"] > 0.05          # 95 mm of 100: not shown
+    assert table.loc["missing_angle_wrap", "identical"] and not table.loc["naive_resampling", "identical"]
+    assert np.isnan(table.loc["missing_angle_wrap", "median_low_mm"])     # no interval from identical runs
+    # an absolute margin replaces a smaller relative one
+    wide = case_verdicts(res, margin_mm=200.0).set_index("fault")
+    assert wide.loc["motion_sign_error", "p_equivalence"] <= 0.05
+    with pytest.raises(ConfigError, match="margin_rel"):
+        case_verdicts(res, margin_rel=-0.1)
