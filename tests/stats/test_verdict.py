@@ -437,3 +437,14 @@ def test_equivalence_is_tost_with_the_shifted_exact_test_and_identity_is_observe
     assert wide.loc["motion_sign_error", "p_equivalence"] <= 0.05
     with pytest.raises(ConfigError, match="margin_rel"):
         case_verdicts(res, margin_rel=-0.1)
+
+
+@pytest.mark.parametrize("k,n,alternative", [(10, 15, "two-sided"), (8, 5, "two-sided"), (7, 5, "greater")])
+def test_smallest_detectable_shift_has_its_power_at_the_decisions_level(k, n, alternative):
+    """Simulated with an independent generator: the shift c(K) sigma is detected by the decision's test
+    (its sidedness, Holm's first step alpha / n) with 80 % power, within 2 percentage points."""
+    level = 0.05 / n
+    c = detectable_shift_factor(k, alpha=level, alternative=alternative)
+    e = np.random.default_rng(np.random.SeedSequence(99)).standard_normal((8000, k))
+    p = sign_flip_pvalues(c + e, alternative=alternative)
+    assert np.mean(p <= level) == pytest.approx(0.8, abs=0.02)
