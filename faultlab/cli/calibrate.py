@@ -20,6 +20,9 @@ def register(subparsers) -> None:
                    help="smoke version: 1 run, small suites, K = 6, 200 steps, 60 particles")
     p.add_argument("--out", default=None, help="results directory (default: results/calibrate[-quick])")
     p.add_argument("--reports", default=None, metavar="DIR", help="also save the analysis tables (CSV) here")
+    p.add_argument("--check", default=None, metavar="DIR",
+                   help="run nothing: repeat the check on a saved A/A analysis (its jobs.csv and analysis.json); "
+                        "with --reports, write calibration.csv there")
     p.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default: 2)")
     p.add_argument("--repetitions", type=positive_int, default=None, metavar="K",
                    help="SLAM repetitions per case (default 10; 6 with --quick)")
@@ -28,10 +31,20 @@ def register(subparsers) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from faultlab.report.calibrate import calibrate
+    """Exit 0 when calibrated, 3 when miscalibrated (or nothing could be judged), 4 when underpowered."""
+    from pathlib import Path
 
+    from faultlab.report.calibrate import EXIT_CODES, calibrate, check_saved, format_calibration
+
+    if args.check is not None:
+        rates, check, rule = check_saved(args.check)
+        print(format_calibration(rates, check, alpha=rule.alpha))
+        if args.reports is not None:
+            Path(args.reports).mkdir(parents=True, exist_ok=True)
+            rates.to_csv(Path(args.reports) / "calibration.csv", index=False)
+        return EXIT_CODES[check.status]
     result = calibrate(out=args.out, reports=args.reports, quick=args.quick, repetitions=args.repetitions,
                        jobs=args.jobs, backend=args.backend, force_new=args.force_new,
                        progress=not args.no_progress)
     print(result)
-    return 0 if result.calibrated else 3
+    return EXIT_CODES[result.check.status]

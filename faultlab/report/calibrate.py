@@ -16,13 +16,26 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import json
+
 import pandas as pd
 
-from faultlab.analysis import Analysis, analyse
+from faultlab.analysis import Analysis, analyse, read_rule
+from faultlab.errors import ResultsError
+from faultlab.metrics.detection import DetectionRule
 from faultlab.report.reproduce import DEFAULT_EXPERIMENT, quick_overrides
+from faultlab.stats.calibration import (CalibrationCheck, CalibrationStatus, check_calibration,
+                                        false_alarm_rates)
+from faultlab.stats.cases import rule_verdicts
+from faultlab.stats.detection import outcomes
 from faultlab.vocabulary import BASELINE, REPLICA
 
-__all__ = ["CalibrationResult", "calibrate", "CALIBRATION_REPS", "QUICK_CALIBRATION_REPS", "default_calibration_out"]
+__all__ = ["CalibrationResult", "calibrate", "check_saved", "replica_calibration", "format_calibration",
+           "CALIBRATION_REPS", "QUICK_CALIBRATION_REPS", "default_calibration_out", "EXIT_CODES"]
+
+#: Exit status of ``faultlab calibrate`` per check outcome.
+EXIT_CODES = {CalibrationStatus.CALIBRATED: 0, CalibrationStatus.UNDERPOWERED: 4,
+              CalibrationStatus.MISCALIBRATED: 3, CalibrationStatus.NOTHING_JUDGED: 3}
 
 #: Repetitions per case of the A/A campaign (K).
 CALIBRATION_REPS = 10
@@ -43,16 +56,23 @@ class CalibrationResult:
         The campaign's analysis (its ``replica_false_alarms`` table is the calibration).
     out : Path
         The results directory.
-    calibrated : bool
-        Whether the statistical rule's false-alarm rate is at most alpha in every suite (its
-        interval's lower bound below alpha); False when nothing could be judged.
+    rates : DataFrame
+        :func:`faultlab.stats.calibration.false_alarm_rates` of the statistical rule.
+    check : CalibrationCheck
+        :func:`faultlab.stats.calibration.check_calibration`.
     """
 
     experiment: object
     summary: object
     analysis: Analysis
     out: Path
-    calibrated: bool
+    rates: pd.DataFrame
+    check: CalibrationCheck
+
+    @property
+    def calibrated(self) -> bool:
+        """Whether the check passed (the per-case rate is compatible with alpha and excludes 2 alpha)."""
+        return self.check.status == CalibrationStatus.CALIBRATED
 
     @property
     def table(self) -> pd.DataFrame:
@@ -66,13 +86,52 @@ class CalibrationResult:
                  f"A/A false alarms ({REPLICA} vs {BASELINE}, K = {self.experiment.repetitions}; "
                  f"{conf} % interval clustered by case):"]
         for r in self.table.itertuples(index=False):
-            unit = "repetition pairs" if r.rule == "paper" else "cases"
+            if r.rule != "paper":
+                continue
             rate = "n/a" if math.isnan(r.rate) else f"{100 * r.rate:.1f} % [{100 * r.low:.1f}, {100 * r.high:.1f}]"
-            lines.append(f"  {r.rule:<11} {r.suite:<10} {r.flagged:>4}/{r.n_pairs:<5} {unit:<16} {rate}")
-        verdict = "holds" if self.calibrated else "does NOT hold"
-        lines.append(f"statistical rule: false-alarm rate <= alpha = {alpha:g} {verdict} "
-                     f"(lower bound of every suite's interval below alpha)")
+            lines.append(f"  paper rule  {r.suite:<10} {r.flagged:>4}/{r.n_pairs:<5} repetition pairs {rate}")
+        lines.append(format_calibration(self.rates, self.check, alpha=alpha))
         return "\n".join(lines)
+
+
+def format_calibration(rates: pd.DataFrame, check: CalibrationCheck, *, alpha: float) -> str:
+    """The statistical rule's A/A rates (cases, exact intervals) and the check's verdict, as text."""
+    lines = [f"statistical rule, cases flagged (Clopper-Pearson 95 %): per case = unadjusted p <= {alpha:g}; "
+             "family-wise = after Holm within the rule's family"]
+    for r in rates.itertuples(index=False):
+        rate = "n/a" if math.isnan(r.rate) else f"{100 * r.rate:.1f} % [{100 * r.cp_low:.1f}, {100 * r.cp_high:.1f}]"
+        lines.append(f"  {r.scope:<11} {r.suite:<10} {r.k:>4}/{r.n:<5} cases {rate}")
+    lines.append(check.reason)
+    return "\n".join(lines)
+
+
+def replica_calibration(jobs: pd.DataFrame, rule: DetectionRule, *, metric: str = "rms"):
+    """``(rates, check)`` of the statistical rule (with ``rule``'s alpha, family and direction) on the
+    A/A jobs (``baseline`` and ``baseline_replica`` rows of a results or ``jobs`` table)."""
+    stat = DetectionRule(abs_mm=rule.abs_mm, rel=rule.rel, rule="statistical", alpha=rule.alpha, family=rule.family,
+                         direction=rule.direction)
+    aa = jobs[jobs["variant"].isin([BASELINE, REPLICA])]
+    if not (aa["variant"] == REPLICA).any():
+        raise ResultsError(f"calibration: no {REPLICA} jobs: not an A/A campaign")
+    v = rule_verdicts(aa, outcomes(aa, rule=stat), rule=stat, metric=metric)
+    rates = false_alarm_rates(v[v["fault"] == REPLICA], alpha=rule.alpha)
+    return rates, check_calibration(rates, alpha=rule.alpha)
+
+
+def check_saved(directory: str | Path) -> tuple[pd.DataFrame, CalibrationCheck, DetectionRule]:
+    """The calibration check of a saved A/A analysis (``jobs.csv`` and ``analysis.json``), running nothing."""
+    d = Path(directory)
+    try:
+        jobs = pd.read_csv(d / "jobs.csv")
+        meta = json.loads((d / "analysis.json").read_text())
+    except (OSError, ValueError) as exc:
+        raise ResultsError(f"{d}: not a saved analysis of an A/A campaign ({exc})") from exc
+    if "source" in jobs.columns:
+        jobs = jobs[jobs["source"] == "this run"]
+    rule, _ = read_rule(meta.get("metadata", {}))
+    metric = str(meta.get("metadata", {}).get("metric", "rms"))
+    rates, check = replica_calibration(jobs, rule, metric=metric)
+    return rates, check, rule
 
 
 def default_calibration_out(*, quick: bool = False) -> Path:
@@ -122,7 +181,8 @@ def calibrate(*, experiment_path: str | Path = DEFAULT_EXPERIMENT, out: str | Pa
     result = analyse(out, paper=False)
     if reports is not None:
         result.save(reports)
-    stat = result.replica_false_alarms
-    stat = stat[(stat["rule"] == "statistical") & (stat["n_pairs"] > 0)]
-    calibrated = bool(len(stat)) and bool((stat["low"] < result.rule.alpha).all())
-    return CalibrationResult(experiment=experiment, summary=summary, analysis=result, out=out, calibrated=calibrated)
+    rates, check = replica_calibration(result.this_run_jobs, result.rule, metric=experiment.metric)
+    if reports is not None:
+        rates.to_csv(Path(reports) / "calibration.csv", index=False)
+    return CalibrationResult(experiment=experiment, summary=summary, analysis=result, out=out, rates=rates,
+                             check=check)

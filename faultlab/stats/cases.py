@@ -498,7 +498,7 @@ def replica_false_alarms(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: De
         return pd.DataFrame(rows, columns=list(REPLICA_FALSE_ALARM_COLUMNS))
     aa = results[results["variant"].isin([BASELINE, REPLICA])]
     stat_rule = DetectionRule(abs_mm=rule.abs_mm, rel=rule.rel, rule="statistical", alpha=rule.alpha,
-                              family=rule.family)
+                              family=rule.family, direction=rule.direction)
     stat = _judged(rule_verdicts(aa, pairs[pairs["fault"] == REPLICA], rule=stat_rule, metric=metric))
     stat = stat[stat["fault"] == REPLICA]
     rep_pairs = pairs[(pairs["fault"] == REPLICA) & (pairs["outcome"] != Outcome.BASELINE_FAILED.value)]
