@@ -469,7 +469,7 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
     notes = []
     verdicts, v_note = _guarded(CASE_VERDICTS, lambda: rule_verdicts(results, pairs, rule=rule, metric=metric),
                                 "Per-case verdicts")
-    test = (f"exact one-sided paired sign-flip test over the K repetitions on the {metric.upper()} error, "
+    test = (f"{rule.test_name} over the K repetitions on the {metric.upper()} error, "
             f"Holm within the family '{rule.family}', alpha = {rule.alpha:g}" if rule.statistical else
             f"the paper's thresholds ({rule.abs_mm:g} mm and {100 * rule.rel:g} %) on the {metric.upper()} error "
             f"per repetition, a case detected when a strict majority of its judged repetitions detect")

@@ -112,6 +112,12 @@ class DetectionRule:
         """Whether cases are judged by the exact paired test."""
         return self.rule == "statistical"
 
+    @property
+    def test_name(self) -> str:
+        """The statistical rule's test, with its sidedness, for reports."""
+        return ("exact two-sided paired sign-flip test" if self.direction == "either"
+                else "exact one-sided paired sign-flip test (the paper's notion: the error grows)")
+
     def describe(self) -> str:
         """One line for reports."""
         paper = (f"detected when faulty RMS - baseline RMS > {self.abs_mm:g} mm "
