@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Mapping
 
+import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
@@ -55,7 +56,7 @@ from faultlab.runner.execute import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
 from faultlab.runner.store import load_metadata, load_results
 from faultlab.stats.cases import detectable_difference
-from faultlab.stats.killmatrix import (MULTIPLICITY, compare_scores, detection_table, evaluate_suites,
+from faultlab.stats.killmatrix import (MULTIPLICITY, KillMatrix, compare_scores, detection_table, evaluate_suites,
                                        kill_matrix, score_table)
 from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_FAULTS
@@ -335,13 +336,47 @@ def _of_run(by_id: dict, variants) -> dict:
     return {v: by_id[mutant_id_of(v)] for v in variants if mutant_id_of(v) in by_id}
 
 
+def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
+    """A saved study analysis evaluated again from its kill matrix (``kill_matrix.csv`` and
+    ``study_meta.json``), without the store: the suite draws, intervals and comparisons are
+    recomputed by the current code; the kill matrix's p values keep the sidedness they were
+    computed with (``alternative`` in the meta; one-sided for an analysis saved before it was recorded).
+    """
+    d = Path(directory)
+    try:
+        frame = pd.read_csv(d / "kill_matrix.csv", keep_default_na=False, na_values=[""])
+        meta = json.loads((d / _META_FILE).read_text())
+    except (OSError, ValueError) as exc:
+        raise ResultsError(f"{d}: not a saved study analysis ({exc})") from exc
+    alternative = meta.get("alternative", "greater")
+    if "direction" not in frame.columns:
+        diff = frame["mean_diff_mm"].to_numpy(float)
+        frame["direction"] = np.where(diff > 0, "worse", np.where(diff < 0, "better", "none"))
+    km = KillMatrix.from_frame(frame)
+    spec = study_spec(meta["study"], source=str(d / _META_FILE))
+    mutants = tuple(v for v in km.variants if is_mutant_variant(v))
+    ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
+                         alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
+                         timeouts_detect=spec.timeouts_detect)
+    detection = detection_table(ev, km.variants)
+    detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
+    meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {})}
+    return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
+                         comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
+                         meta=meta)
+
+
 def analyse_study(out: str | Path) -> StudyAnalysis:
     """The study's analysis from its output directory (runs nothing).
 
     Reads the store and ``study.json`` (written by :func:`run_study`), builds the kill matrix and
     evaluates suites of every size from every strategy's pool (:mod:`faultlab.stats.killmatrix`).
+    A directory holding a saved analysis instead (``kill_matrix.csv`` and ``study_meta.json``, no
+    ``study.json``) is evaluated again from its kill matrix (:func:`reanalyse_saved_study`).
     """
     out = Path(out)
+    if not (out / STUDY_FILE).exists() and (out / _META_FILE).exists():
+        return reanalyse_saved_study(out)
     try:
         info = json.loads((out / STUDY_FILE).read_text())
     except (OSError, ValueError) as exc:

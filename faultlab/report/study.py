@@ -203,13 +203,17 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         f"some repetitions reveal can become *less* likely to be detected as the suite grows: the price of "
         f"controlling the suite's false alarms." + _not_evaluated_text(m), "",
         "**What the intervals mean.** Drawn suites share pool cases, so their number is not the sample size: the "
-        "unit of evidence is the pool case. Every interval is a 95 % percentile bootstrap over the strategy's pool "
-        f"cases ({st['bootstrap']} replicates): how much the probability could move had the generator drawn another "
-        "pool of the same size. Mutation scores also resample the mutants (the same resample for every strategy, "
+        "unit of evidence is the pool case. A detection probability's interval is exact: the Clopper-Pearson 95 % "
+        "interval of the strategy's share of strong cases (cases that alone make a suite of this size detect) "
+        "from the pool's count, mapped to n independently generated cases -- it never has zero width (0 of 16 "
+        "strong cases still allows up to 21 % per case); the 95 % percentile bootstrap over the pool's cases "
+        f"({st['bootstrap']} replicates) is kept beside it in `detection.csv` (`boot_low`, `boot_high`). "
+        "Mutation scores are bootstrap intervals resampling pool cases and mutants (the same resample for every strategy, "
         "so comparisons are paired over mutants). The bootstrap treats pool cases as independent; the cases of one "
         "covering array or each-choice suite are balanced rather than independent, for which it is conservative. "
-        "Intervals do not cover other SLAM settings: these are figures of the reduced SLAM above.", "",
-        "## Detection probability of a drawn suite, per fault (95 % bootstrap interval)", "",
+        "A score interval where every replicate agrees is replaced by the Clopper-Pearson interval over the "
+        "sampled mutants. Intervals do not cover other SLAM settings: these are figures of the reduced SLAM above.", "",
+        "## Detection probability of a drawn suite, per fault (95 % exact interval)", "",
         markdown_table(_detection_md(analysis)),
         f"![detection probability vs suite size]({FIGURE_FILE})", "",
     ]

@@ -277,3 +277,28 @@ def test_a_mutant_that_only_improves_the_map_is_killed_by_the_two_sided_rule():
     assert judge_suite(km, [0]).set_index("variant").loc["mutant:x", "detected"]
     one = kill_matrix(res, rule=DetectionRule(direction="worse"))
     assert one.p[0, j] == 1.0 and not judge_suite(one, [0]).set_index("variant").loc["mutant:x", "detected"]
+
+
+def test_exact_detection_interval_is_clopper_pearson_mapped_to_n_cases_and_never_zero_width():
+    from scipy.stats import beta
+
+    from faultlab.stats.killmatrix import exact_detection_interval
+
+    lo, hi = exact_detection_interval([0, 16, 5], 16, 1)
+    assert lo[0] == 0.0 and hi[0] == pytest.approx(beta.ppf(0.975, 1, 16))      # 0/16: up to 21 % per case
+    assert hi[1] == 1.0 and lo[1] == pytest.approx(beta.ppf(0.025, 16, 1))
+    assert np.all(hi > lo)
+    lo5, hi5 = exact_detection_interval([5], 16, 5)
+    assert lo5[0] == pytest.approx(1 - (1 - beta.ppf(0.025, 5, 12)) ** 5)
+    assert hi5[0] == pytest.approx(1 - (1 - beta.ppf(0.975, 6, 11)) ** 5)
+
+
+def test_smallest_showable_difference_is_the_exact_mcnemar_floor():
+    from statsmodels.stats.contingency_tables import mcnemar
+
+    from faultlab.stats.killmatrix import smallest_showable_difference
+
+    for m in (10, 150):
+        d = round(smallest_showable_difference(m) * m)
+        assert mcnemar([[0, d], [0, m - d]], exact=True).pvalue <= 0.05
+        assert mcnemar([[0, d - 1], [0, m - d + 1]], exact=True).pvalue > 0.05
