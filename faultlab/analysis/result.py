@@ -344,8 +344,8 @@ class Analysis:
                 rule=DetectionRule(**data["rule"]), alpha=float(data["alpha"]), rep=int(data["rep"]),
                 parameters=None if data["parameters"] is None else tuple(data["parameters"]),
                 metadata=data["metadata"], equivalent_faults=tuple(data["equivalent_faults"]),
-                paper_raw=None if data["paper_raw"] is None else Path(data["paper_raw"]),
-                paper_reported=None if data["paper_reported"] is None else Path(data["paper_reported"]),
+                paper_raw=_located(data["paper_raw"]),
+                paper_reported=_located(data["paper_reported"]),
                 notes=tuple(Note(n["topic"], n["text"]) for n in data["notes"]))
         except (KeyError, TypeError, ValueError, FaultlabError) as exc:
             raise ResultsError(f"{path}: malformed saved analysis ({type(exc).__name__}: {exc})") from exc
@@ -362,8 +362,8 @@ class Analysis:
             "parameters": None if self.parameters is None else list(self.parameters),
             "metadata": self.metadata,
             "equivalent_faults": list(self.equivalent_faults),
-            "paper_raw": None if self.paper_raw is None else str(self.paper_raw),
-            "paper_reported": None if self.paper_reported is None else str(self.paper_reported),
+            "paper_raw": _portable(self.paper_raw),
+            "paper_reported": _portable(self.paper_reported),
             "notes": [{"topic": n.topic, "text": n.text} for n in self.notes],
         }
 
@@ -603,3 +603,23 @@ def _beyond_the_paper(results: pd.DataFrame, pairs: pd.DataFrame, rates: pd.Data
     return tables, [n for n in (fa_note, orc_note, cmp_note, eff_note) if n is not None]
 
 
+#: Directory that holds the faultlab package: saved paths below it are stored relative to it.
+_ROOT = Path(__file__).resolve().parent.parent.parent
+
+
+def _portable(path: Path | None) -> str | None:
+    """``path`` relative to :data:`_ROOT` when it lies below it (no machine path in saved files)."""
+    if path is None:
+        return None
+    try:
+        return Path(path).relative_to(_ROOT).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def _located(text: str | None) -> Path | None:
+    """Inverse of :func:`_portable`."""
+    if text is None:
+        return None
+    path = Path(text)
+    return path if path.is_absolute() else _ROOT / path
