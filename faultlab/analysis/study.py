@@ -352,6 +352,8 @@ def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
     if "direction" not in frame.columns:
         diff = frame["mean_diff_mm"].to_numpy(float)
         frame["direction"] = np.where(diff > 0, "worse", np.where(diff < 0, "better", "none"))
+    if "mean_log_ratio" not in frame.columns:  # not recorded by the analysis that saved it
+        frame["mean_log_ratio"] = np.nan
     km = KillMatrix.from_frame(frame)
     spec = study_spec(meta["study"], source=str(d / _META_FILE))
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))

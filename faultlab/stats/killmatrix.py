@@ -86,6 +86,7 @@ from faultlab.metrics.detection import DetectionRule
 from faultlab.seeds import study_seed_sequence
 from faultlab.stats.cases import holm_within, rule_verdicts
 from faultlab.stats.detection import outcomes
+from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import DEFAULT_ALPHA, SUITE_ORDER, JobStatus, ordered
 
@@ -99,7 +100,7 @@ __all__ = ["MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "
 MULTIPLICITY: tuple[str, ...] = ("holm", "bonferroni")
 #: Columns of :meth:`KillMatrix.to_frame`.
 KILL_MATRIX_COLUMNS = ("strategy", "run", "case", "variant", "p", "crash", "timeout", "judged", "paper",
-                       "mean_diff_mm", "direction")
+                       "mean_diff_mm", "direction", "mean_log_ratio")
 #: Power of the smallest detectable differences.
 COMPARISON_POWER = 0.8
 
@@ -127,6 +128,9 @@ class KillMatrix:
         Mean paired difference of the map error, mm.
     direction : ndarray of str, shape (N, V)
         Observed direction of the change (:class:`~faultlab.vocabulary.Change`: worse, better, none).
+    mean_log_ratio : ndarray, shape (N, V)
+        Mean over the repetitions of ``log(variant / baseline)`` (the pooled suite test's input;
+        NaN where not tested).
     """
 
     cases: pd.DataFrame
@@ -138,6 +142,7 @@ class KillMatrix:
     paper: np.ndarray
     mean_diff_mm: np.ndarray
     direction: np.ndarray
+    mean_log_ratio: np.ndarray
 
     @property
     def strategies(self) -> tuple[str, ...]:
@@ -152,7 +157,7 @@ class KillMatrix:
         n, v = self.p.shape
         out = self.cases.loc[np.repeat(np.arange(n), v)].reset_index(drop=True)
         out["variant"] = np.tile(np.asarray(self.variants, dtype=object), n)
-        for name in ("p", "crash", "timeout", "judged", "paper", "mean_diff_mm", "direction"):
+        for name in ("p", "crash", "timeout", "judged", "paper", "mean_diff_mm", "direction", "mean_log_ratio"):
             out[name] = getattr(self, name).reshape(-1)
         return out[list(KILL_MATRIX_COLUMNS)]
 
@@ -177,7 +182,8 @@ class KillMatrix:
 
         return cls(cases=cases, variants=variants, p=col("p", float), crash=col("crash", bool),
                    timeout=col("timeout", bool), judged=col("judged", bool), paper=col("paper", bool),
-                   mean_diff_mm=col("mean_diff_mm", float), direction=col("direction", object))
+                   mean_diff_mm=col("mean_diff_mm", float), direction=col("direction", object),
+                   mean_log_ratio=col("mean_log_ratio", float))
 
 
 def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), metric: str = "rms") -> KillMatrix:
@@ -214,7 +220,8 @@ def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
         "crash": failed & ~timeout, "timeout": timeout,
         "judged": (frame["verdict"] != Verdict.CANNOT_JUDGE.value).to_numpy(bool),
         "paper": frame["paper"].fillna(False).to_numpy(bool),
-        "mean_diff_mm": frame["mean_diff_mm"].astype(float), "direction": frame["direction"].astype(str)})
+        "mean_diff_mm": frame["mean_diff_mm"].astype(float), "direction": frame["direction"].astype(str),
+        "mean_log_ratio": frame["mean_log_ratio"].astype(float)})
     variants = ordered(frame["variant"], list(dict.fromkeys(results["variant"])))
     frame["variant"] = pd.Categorical(frame["variant"], categories=variants, ordered=True)
     frame = frame.sort_values(["variant"], kind="stable")
@@ -271,12 +278,16 @@ def suite_detects(p, crash, *, alpha: float = DEFAULT_ALPHA, method: str = "holm
 
 
 def judge_suite(km: KillMatrix, rows, *, alpha: float = DEFAULT_ALPHA, method: str = "holm",
-                timeouts_detect: bool = False) -> pd.DataFrame:
+                timeouts_detect: bool = False, rng: np.random.Generator | None = None) -> pd.DataFrame:
     """Judge one suite, any set of pool cases (row indices of ``km``), for every variant.
 
     Returns one row per variant: ``detected`` (the suite rule), ``rejecting`` (cases the
     multiplicity rule rejects), ``crashed`` (cases where the variant alone failed, counted as
-    detections) and ``paper`` (the paper rule: some case's flag).
+    detections), ``paper`` (the paper rule: some case's flag), and beside them the suite-level
+    pooling of :mod:`faultlab.stats.pooling`: ``pooled_p`` (two-sided sign-flip test over the
+    tested cases' mean log ratios; NaN with none), ``by_case`` / ``by_pool`` and
+    ``detected_pooled`` (the per-case minimum and the pooled test at ``alpha / 2`` each, crashes
+    detecting).  ``rng`` is needed only for a suite of more than 20 tested cases (Monte Carlo).
     """
     rows = np.asarray(rows, dtype=np.int64)
     if rows.size == 0 or len(set(rows.tolist())) != rows.size:
@@ -284,10 +295,19 @@ def judge_suite(km: KillMatrix, rows, *, alpha: float = DEFAULT_ALPHA, method: s
     p = km.p[rows].T                                          # (V, n)
     failed = _failures(km, timeouts_detect)[rows].T
     rejecting = suite_rejections(p, alpha=alpha, method=method)
+    means = km.mean_log_ratio[rows].T
+    pooled = np.full(len(km.variants), np.nan)
+    for j in range(len(km.variants)):
+        m = means[j][~np.isnan(means[j]) & ~np.isnan(p[j])]
+        if m.size:
+            pooled[j] = pooled_pvalues(m[None, :], rng=rng)[0][0]
+    both = suite_decisions(p, pooled, failed, alpha=alpha)
     return pd.DataFrame({"variant": list(km.variants),
                          "detected": failed.any(axis=1) | rejecting.any(axis=1),
                          "rejecting": rejecting.sum(axis=1), "crashed": failed.sum(axis=1),
-                         "paper": km.paper[rows].T.any(axis=1)})
+                         "paper": km.paper[rows].T.any(axis=1), "pooled_p": pooled,
+                         "by_case": both["by_case"].to_numpy(), "by_pool": both["by_pool"].to_numpy(),
+                         "detected_pooled": both["detected"].to_numpy()})
 
 
 def strong_cases(km: KillMatrix, n: int, *, alpha: float = DEFAULT_ALPHA, paper: bool = False,

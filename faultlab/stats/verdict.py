@@ -156,7 +156,8 @@ _MDE_SIMULATED_UP_TO = 12
 _BATCH_BUDGET = 2 ** 22
 
 _COLUMNS = ["suite", "run", "case", "fault", "verdict", "reason", "detected", "alternative", "direction", "n_reps",
-            "n_failed", "n_pairs", "mean_diff_mm", "median_diff_mm", "median_low_mm", "median_high_mm", "ratio",
+            "n_failed", "n_pairs", "mean_diff_mm", "mean_log_ratio", "median_diff_mm", "median_low_mm",
+            "median_high_mm", "ratio",
             "ratio_low", "ratio_high", "ci_coverage", "p", "p_min", "baseline_sd_mm", "mde_mm", "identical",
             "margin_mm", "p_equivalence"]
 
@@ -449,7 +450,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
         ``greater``), ``direction`` (:class:`~faultlab.vocabulary.Change` value: the sign of the
         mean difference over the usable pairs, ``none`` when it is 0 or there is none),
         ``n_reps`` (faulty jobs), ``n_failed`` (faulty jobs without a usable error),
-        ``n_pairs`` (usable pairs), ``mean_diff_mm``, ``median_diff_mm`` (over the usable pairs)
+        ``n_pairs`` (usable pairs), ``mean_diff_mm``, ``mean_log_ratio`` (mean of
+        ``log(faulty / baseline)``, the case's contribution to the pooled suite test of
+        :mod:`faultlab.stats.pooling`), ``median_diff_mm`` (over the usable pairs)
         with its order-statistic interval ``median_low_mm, median_high_mm`` (:func:`median_interval`
         at ``1 - alpha``, exact coverage ``ci_coverage``), ``ratio`` (median over the pairs of
         faulty / baseline error) with ``ratio_low, ratio_high`` (the same order statistics of the
@@ -514,11 +517,15 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     pairs["diff"] = np.where(pairs["pair_ok"], pairs[col].to_numpy(float) - pairs["base_value"].to_numpy(float),
                              np.nan)
     pairs["abs_diff"] = np.abs(pairs["diff"].to_numpy(float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_ratio = np.log(pairs[col].to_numpy(float) / pairs["base_value"].to_numpy(float))
+    pairs["log_ratio"] = np.where(pairs["pair_ok"].to_numpy(bool) & np.isfinite(log_ratio), log_ratio, np.nan)
     key = case_key + ["fault"]
     g = pairs.groupby(key, sort=True)
     table = g.agg(n_reps=("usable", "size"), n_usable=("usable", "sum"), all_base_paired=("base_usable", "all"),
                   n_pairs=("pair_ok", "sum"), mean_diff_mm=("diff", "mean"),
-                  median_diff_mm=("diff", "median"), max_abs_diff=("abs_diff", "max")).reset_index()
+                  median_diff_mm=("diff", "median"), max_abs_diff=("abs_diff", "max"),
+                  mean_log_ratio=("log_ratio", "mean")).reset_index()
     table["n_failed"] = table["n_reps"] - table["n_usable"]
     table = table.merge(base_stats.reset_index(), on=case_key, how="left")
     base_ok = (table["base_all_ok"].astype("boolean").fillna(False).to_numpy(bool)
@@ -602,6 +609,7 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     out["n_failed"] = n_failed
     out["n_pairs"] = n_pairs
     out["mean_diff_mm"] = table["mean_diff_mm"].to_numpy(float)
+    out["mean_log_ratio"] = table["mean_log_ratio"].to_numpy(float)
     out["median_diff_mm"] = table["median_diff_mm"].to_numpy(float)
     for name, values in eff.items():
         out[name] = values
