@@ -73,6 +73,12 @@ def test_study_run_and_report_on_a_tiny_pool(tmp_path, capsys):
     assert main(["study", "report", str(out), "--reports", str(rep2)]) == 0
     for name in ("kill_matrix.csv", "detection.csv", "scores.csv", "comparisons.csv"):
         assert (rep / name).read_bytes() == (rep2 / name).read_bytes(), name
+    # a saved report is evaluated again from its kill matrix alone (no store): the same tables
+    rep3 = tmp_path / "rep3"
+    assert main(["study", "report", str(rep), "--reports", str(rep3)]) == 0
+    for name in ("kill_matrix.csv", "detection.csv", "scores.csv", "comparisons.csv"):
+        assert (rep / name).read_bytes() == (rep3 / name).read_bytes(), name
+    assert (det["ci_high"] > det["ci_low"]).all()  # exact intervals: never zero width
 
 
 def test_study_run_refuses_too_few_repetitions_for_the_largest_size(tmp_path, capsys):
