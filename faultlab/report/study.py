@@ -38,7 +38,11 @@ def _pct(x: float) -> str:
 
 
 def _interval(rate: float, lo: float, hi: float) -> str:
-    return f"{_pct(rate)} ({100 * lo:.0f}-{100 * hi:.0f})"
+    """``rate % (lo-hi)`` in whole percent, with as many decimals as keep a non-zero width visible."""
+    digits = 0
+    while digits < 3 and hi > lo and f"{100 * lo:.{digits}f}" == f"{100 * hi:.{digits}f}":
+        digits += 1
+    return f"{_pct(rate)} ({100 * lo:.{digits}f}-{100 * hi:.{digits}f})"
 
 
 def _p(p: float) -> str:
