@@ -172,3 +172,10 @@ def test_a_killed_mutant_stops_early_an_equivalent_one_never_runs_and_a_rerun_re
     a.save(tmp_path / "saved")
     back = type(a).load(tmp_path / "saved")
     pd.testing.assert_frame_equal(back.scores, a.scores, check_dtype=False)
+
+
+def test_the_shipped_mutation_experiment_has_the_fewest_repetitions_its_two_sided_kills_need():
+    mexp = load_mutation_experiment("mutation")
+    assert mexp.direction == "either"
+    n = max(s.n_cases for s in mexp.experiment.suites)
+    assert mexp.experiment.repetitions == min_pairs(mexp.alpha / n, alternative="two-sided")
