@@ -14,7 +14,8 @@ from matplotlib.patches import Patch
 from faultlab.analysis.mutation import MutationAnalysis, analyse_mutation
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.pdf import table_pages, text_pages, write_pdf
-from faultlab.vocabulary import SUITE_ORDER, ordered
+from faultlab.stats.verdict import EQUIVALENCE_MARGIN_REL
+from faultlab.vocabulary import PAPER_DIRECTION, SUITE_ORDER, ordered
 
 __all__ = ["MATRIX_CLASSES", "markdown_table", "score_table", "matrix_figure", "write_mutation_report"]
 
@@ -109,7 +110,7 @@ def observed_equivalent_table(analysis: MutationAnalysis) -> pd.DataFrame:
 
 
 def _test_text(meta: dict) -> str:
-    if meta.get("direction", "worse") == "worse":
+    if meta.get("direction", PAPER_DIRECTION) == PAPER_DIRECTION:
         return ("exact one-sided paired sign-flip test (the paper's notion: the mutant makes the map worse; the "
                 "campaign's early stopping used it)")
     return "exact two-sided paired sign-flip test (the mutant changes the map error, worse or better)"
@@ -132,7 +133,8 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
           f"mutant when one case's {_test_text(meta)} rejects at alpha / n_cases (alpha = {meta['alpha']}, "
           f"Bonferroni over the suite's cases, valid under early stopping) or the mutant alone crashes or times out. "
           f"A survivor is 'equivalent' when two one-sided tests (TOST, the exact sign-flip test on the differences "
-          f"shifted by the margin, 10 % of the baseline's median error on the case) show its effect within the "
+          f"shifted by the margin, {100 * EQUIVALENCE_MARGIN_REL:g} % of the baseline's median error on the case) "
+          f"show its effect within the "
           f"margin on every case of the suite at alpha, else 'inconclusive'. A mutant whose maps are bit-identical "
           f"to the baseline's in every paired run is 'equivalent (observed)' and leaves the score's denominator. "
           f"{meta['n_jobs']} SLAM executions, {meta['runtime_s_sum']:.0f} s of SLAM time."
