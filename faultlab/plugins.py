@@ -11,8 +11,13 @@ and third-party ones declared by an installed distribution::
 An entry point loads to a subclass (instantiated without arguments), an instance, or an iterable
 of them.  faultlab declares its own built-ins in the group too; loading them again from there is
 recognised and skipped.  A plugin that fails to load is reported (a warning) and the others still
-load; names must be unique.  (Faults have their own registry, :mod:`faultlab.faults.registry`,
-because a fault is a record with provenance rather than a class.)
+load; names must be unique.
+
+Faults (``faultlab.faults``) load through the same loop, with their own rules: a fault is a
+record with provenance rather than a class, its name is ``provider/name`` and it must replace a
+known unit (:class:`faultlab.faults.discovery.FaultCatalogue` overrides the hooks :meth:`~PluginCatalogue.instances`,
+:meth:`~PluginCatalogue.is_builtin`, :meth:`~PluginCatalogue.problem`, :meth:`~PluginCatalogue.failure`
+and :meth:`~PluginCatalogue.collect`).
 """
 
 from __future__ import annotations
@@ -70,7 +75,12 @@ class PluginCatalogue:
     warning: type[Warning]
     result: type[PluginLoad] = PluginLoad
 
-    def _instances(self, obj) -> list:
+    def describe(self, ep: importlib.metadata.EntryPoint) -> str:
+        """Where a plugin comes from, for messages: ``"entry point NAME = VALUE"``."""
+        return f"entry point {ep.name} = {ep.value}"
+
+    def instances(self, obj) -> list:
+        """The plugin instances an entry point loaded to (TypeError if it is none of the accepted shapes)."""
         base = self.base
         if isinstance(obj, type) and issubclass(obj, base):
             return [obj()]
@@ -81,7 +91,12 @@ class PluginCatalogue:
                             f"got {type(obj).__name__}")
         return [o() if isinstance(o, type) and issubclass(o, base) else o for o in obj]
 
-    def _problem(self, item, taken: dict[str, str]) -> str | None:
+    def is_builtin(self, item) -> bool:
+        """True for faultlab's own declaration of a built-in (skipped, not a duplicate)."""
+        return type(item) in {type(b) for b in self.builtins}
+
+    def problem(self, item, taken: dict[str, str], source: str) -> str | None:
+        """What is wrong with a loaded item (None if nothing); ``taken``: name -> where it was defined."""
         if not isinstance(item, self.base):
             return f"yielded {type(item).__name__} {item!r}, not a {self.base.__name__}"
         name = getattr(item, "name", None)
@@ -93,6 +108,17 @@ class PluginCatalogue:
         if name in taken:
             return f"duplicate {self.kind.split()[-1]} name {name!r} (already defined by {taken[name]})"
         return None
+
+    def failure(self, plugin: str, source: str, error: str, *, loading: bool):
+        """The record of one failure: a plugin that did not load (``loading``) or an item it rejected."""
+        label = self.kind.replace(" ", "-")
+        if loading:
+            return f"{label} plugin {plugin!r} ({source}) failed to load: {error}"
+        return f"{label} plugin {plugin!r} ({source}): {error}"
+
+    def collect(self, items: list, sources: dict[str, str], errors: list) -> PluginLoad:
+        """What :meth:`load` returns, from the items in load order, their sources and the failures."""
+        return self.result(items=tuple(items), errors=tuple(errors))
 
     def load(self, *, group: str | None = None, warn: bool = True) -> PluginLoad:
         """Discover the third-party plugins (in entry-point name order).
@@ -107,34 +133,32 @@ class PluginCatalogue:
         Returns
         -------
         PluginLoad
-            An instance of :attr:`result`.
+            What :meth:`collect` makes of the result (an instance of :attr:`result`).
         """
-        builtin = {type(b) for b in self.builtins}
         taken = {b.name: "faultlab (built-in)" for b in self.builtins}
         items: list = []
-        errors: list[str] = []
-        label = self.kind.replace(" ", "-")
+        errors: list = []
         eps = importlib.metadata.entry_points(group=group or self.group)
-        for ep in sorted(eps, key=lambda e: (e.name, e.value)):
-            source = f"entry point {ep.name} = {ep.value}"
+        for ep in sorted(eps, key=lambda e: (e.name, e.value, self.describe(e))):
+            source = self.describe(ep)
             try:
-                loaded = self._instances(ep.load())
+                loaded = self.instances(ep.load())
             except Exception as exc:  # any import-time error of third-party code
-                errors.append(f"{label} plugin {ep.name!r} ({source}) failed to load: {type(exc).__name__}: {exc}")
+                errors.append(self.failure(ep.name, source, f"{type(exc).__name__}: {exc}", loading=True))
                 continue
             for item in loaded:
-                if type(item) in builtin:
+                if self.is_builtin(item):
                     continue  # faultlab's own declaration of its built-ins
-                problem = self._problem(item, taken)
+                problem = self.problem(item, taken, source)
                 if problem:
-                    errors.append(f"{label} plugin {ep.name!r} ({source}): {problem}")
+                    errors.append(self.failure(ep.name, source, problem, loading=False))
                     continue
                 taken[item.name] = source
                 items.append(item)
         if warn:
             for e in errors:
-                warnings.warn(e, self.warning, stacklevel=2)
-        return self.result(items=tuple(items), errors=tuple(errors))
+                warnings.warn(str(e), self.warning, stacklevel=2)
+        return self.collect(items, {item.name: taken[item.name] for item in items}, errors)
 
     def all(self, *, plugins: bool = True) -> list:
         """The built-ins, then the plugins."""

@@ -7,12 +7,14 @@ layers import it from here.  Orders are those of the paper's Table II (Sec. VII)
 from __future__ import annotations
 
 from enum import StrEnum
+from types import MappingProxyType
 
 __all__ = [
     "BASELINE",
     "REPLICA",
     "UNMODIFIED",
-    "SUITE_KINDS",
+    "PAPER_PROTOCOL",
+    "MUTANT_PREFIX",
     "SUITE_ORDER",
     "PAPER_FAULTS",
     "METRICS",
@@ -40,14 +42,18 @@ REPLICA = "baseline_replica"
 #: Variant names that mean "no fault" (reserved: no fault may use them).
 UNMODIFIED: tuple[str, ...] = (BASELINE, REPLICA)
 
-#: Suite builders: the paper's three in the order it introduces them (Sec. VI), then the
-#: combinatorial strategies (base choice, t-wise with the strength in the name, effect-guided).
-SUITE_KINDS: tuple[str, ...] = ("systematic", "random", "fixed", "base-choice", "pairwise", "3-wise", "4-wise",
-                                "effect-guided")
+#: Prefix of the variant name of a mutant of the reference's units: ``"mutant:<id>"``.
+MUTANT_PREFIX = "mutant:"
 
-#: Suite order of reports: the paper's Table II, then the combinatorial strategies.
+#: Suite order of reports: the paper's Table II, then the combinatorial strategies (the strategies
+#: themselves are registered in :mod:`faultlab.space.registry`; one not named here is listed last).
 SUITE_ORDER: tuple[str, ...] = ("systematic", "fixed", "random", "base-choice", "pairwise", "3-wise", "4-wise",
                                 "effect-guided")
+
+#: The paper's protocol (Sec. VII-A), by experiment-file key: steps per case, particles of its
+#: FastSLAM and evaluation runs.  The defaults of a scenario and of FastSLAM are the paper's; a
+#: campaign with fewer is *reduced* (:mod:`faultlab.analysis.fidelity`).
+PAPER_PROTOCOL = MappingProxyType({"n_steps": 1000, "particles": 200, "runs": 3})
 
 #: The paper's three injected faults (Sec. VII-A), in Table II order.
 PAPER_FAULTS: tuple[str, ...] = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")

@@ -44,7 +44,7 @@ from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import load_metadata, load_results
 from faultlab.stats.paper import RAW_CSV, load_paper_raw, resolve_data_path
-from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, JobStatus
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, PAPER_PROTOCOL, SUITE_ORDER, JobStatus
 
 __all__ = ["Verdict", "Fidelity", "FIDELITY", "FIDELITY_CSV", "FIDELITY_JSON", "DEFAULT_FACTOR",
            "DEFAULT_N_BOOT", "DEFAULT_MIN_N", "compare_distributions", "compare_with_paper", "fidelity"]
@@ -258,10 +258,6 @@ def compare_with_paper(results: pd.DataFrame, paper: pd.DataFrame, *, metadata: 
                     campaign=_campaign(metadata or {}), table=FIDELITY.conform(table))
 
 
-#: The paper's protocol (Sec. VII-A): what a campaign is "reduced" against.
-_PAPER_PROTOCOL = {"n_steps": 1000, "particles": 200, "runs": 3}
-
-
 def _campaign(metadata: Mapping) -> dict:
     exp = dict(metadata.get("experiment") or {})
     slam = dict(exp.get("slam") or {})
@@ -270,7 +266,7 @@ def _campaign(metadata: Mapping) -> dict:
            "profile": str(slam.get("profile", "reference")) if slam.get("name") == "fastslam" else "",
            "fov_bug": bool(exp.get("fov_bug", False)),
            "n_steps": exp.get("n_steps"), "particles": slam.get("particles"), "runs": exp.get("runs")}
-    out["reduced"] = any(isinstance(out[k], int) and out[k] < v for k, v in _PAPER_PROTOCOL.items())
+    out["reduced"] = any(isinstance(out[k], int) and out[k] < v for k, v in PAPER_PROTOCOL.items())
     return out
 
 

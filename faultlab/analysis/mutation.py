@@ -5,7 +5,7 @@ Running (:func:`run_mutation`)
 A mutation experiment is an ordinary experiment file plus a ``[mutation]`` table selecting the
 mutants (``units``, ``operators``, ``ids``, ``sample``, ``seed``; all optional: every live
 mutant) and the family-wise level ``alpha`` (default :data:`~faultlab.vocabulary.DEFAULT_ALPHA`).  Its variants are ``baseline`` and
-``mutant:<id>`` for every selected live mutant (:mod:`faultlab.mutation.campaign`); the campaign
+``mutant:<id>`` for every selected live mutant (:mod:`faultlab.mutation.variants`); the campaign
 is stored in the runner's results store (:class:`~faultlab.runner.store.ResultStore`), one row
 per job, seeds as in any campaign (repetition k of a case uses the same SLAM seed for every
 variant: common random numbers), so it resumes like ``faultlab run``.  Stillborn and equivalent
@@ -55,7 +55,7 @@ from faultlab.analysis.bundle import TableBundle
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.mutation.campaign import MutantSelection, mutant_variant, select_mutants
+from faultlab.mutation.variants import MutantSelection, mutant_variant, select_mutants
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.runner.execute import _row, _stream, prepare_cases
 from faultlab.runner.experiment import Experiment, parse_experiment
@@ -156,7 +156,7 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
 
 def selection_from_table(table: dict, *, source: str) -> MutantSelection:
     """The mutants a ``[mutation]`` table selects (``units``, ``operators``, ``ids``, ``sample``,
-    ``seed``; see :func:`~faultlab.mutation.campaign.select_mutants`); ConfigError if none is live."""
+    ``seed``; see :func:`~faultlab.mutation.variants.select_mutants`); ConfigError if none is live."""
     unknown = set(table) - set(_MUTATION_KEYS)
     if unknown:
         raise ConfigError(f"{source}: [mutation]: unknown key(s) {sorted(unknown)}; known: {', '.join(_MUTATION_KEYS)}")

@@ -28,7 +28,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from faultlab.analysis.campaign import count_expected_jobs, read_rule, read_space
+from faultlab.analysis.metadata import count_expected_jobs, read_rule, read_space
 from faultlab.analysis.schema import (
     BY_SUITE,
     CASE_COMPARISONS,

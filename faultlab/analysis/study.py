@@ -46,12 +46,12 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.campaign import count_expected_jobs, read_rule
+from faultlab.analysis.metadata import count_expected_jobs, read_rule
 from faultlab.analysis.mutation import selection_from_table
 from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.mutation.campaign import MutantSelection, is_mutant_variant, mutant_id_of, mutant_variant
+from faultlab.mutation.variants import MutantSelection, is_mutant_variant, mutant_id_of, mutant_variant
 from faultlab.runner.execute import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
 from faultlab.runner.store import load_metadata, load_results

@@ -7,10 +7,9 @@ import argparse
 from faultlab.cli.options import positive_int
 from faultlab.report.casefig import save_case_png
 from faultlab.scenario.files import write_suite
-from faultlab.space.coverage import suite_criteria
+from faultlab.space.registry import suite_criteria, suite_kinds
 from faultlab.space.parameters import load_space, table1_space
 from faultlab.space.settings import read_class_weights
-from faultlab.vocabulary import SUITE_KINDS
 
 __all__ = ["register", "handler"]
 
@@ -33,7 +32,7 @@ def register(subparsers) -> None:
                     "the class coverage table and the pairwise coverage (and the base-choice or t-wise "
                     "coverage of those suites).",
     )
-    p.add_argument("--suite", choices=SUITE_KINDS, default="systematic",
+    p.add_argument("--suite", choices=suite_kinds(), default="systematic",
                    help="suite kind (default: systematic); pairwise and <t>-wise cover every combination of "
                         "classes of any t parameters, base-choice varies one parameter of a base case at a "
                         "time, effect-guided chooses classes by weight after covering each once")

@@ -3,7 +3,7 @@
 Built-in faults (the paper's three, Sec. VII-A, plus realistic particle-filter
 SLAM mistakes) live in :mod:`faultlab.faults.builtin`; third-party faults are
 discovered through the entry-point group ``faultlab.faults``
-(:func:`load_plugins`).  A fault is applied per SLAM instance
+(:mod:`faultlab.faults.discovery`).  A fault is applied per SLAM instance
 (:meth:`Fault.apply` returns a new instance) and never leaks into the
 reference.  :func:`check_faults` flags equivalent mutants.
 
@@ -20,30 +20,19 @@ from faultlab.faults.check import (
     check_scenario,
     unit_outputs,
 )
-from faultlab.faults.fault import Fault, UnitExample, apply_faults, step_names
-from faultlab.faults.registry import (
-    ENTRY_POINT_GROUP,
+from faultlab.faults.applicability import (
     Applicability,
     FaultNotApplicableWarning,
     NotApplicable,
     applicable_faults,
     fault_applies,
-    known_steps,
-    list_slams,
     not_applicable,
     slam_units,
-    FaultListing,
-    PluginFailure,
-    PluginReport,
-    PluginWarning,
-    all_faults,
-    builtin_faults,
-    get_fault,
-    list_faults,
-    load_plugins,
-    resolve_fault,
-    resolve_variant,
 )
+from faultlab.faults.discovery import ENTRY_POINT_GROUP, PluginFailure, PluginReport, PluginWarning, load_plugins
+from faultlab.faults.fault import Fault, UnitExample, apply_faults, known_steps, step_names
+from faultlab.faults.registry import FaultListing, all_faults, builtin_faults, get_fault, list_faults, resolve_fault
+from faultlab.faults.slamlisting import list_slams
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -60,7 +49,6 @@ __all__ = [
     "list_faults",
     "load_plugins",
     "resolve_fault",
-    "resolve_variant",
     "step_names",
     "CheckStatus",
     "FaultCheck",

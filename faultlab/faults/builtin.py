@@ -9,7 +9,7 @@ which the faulty unit's output differs from the reference unit's (a
 unit-level "killed mutant" check, run by the tests).
 
 Randomness: a fault that replaces a random unit (``sample_controls``,
-``resample``: :data:`faultlab.slam.units.STREAM_UNITS`) draws only from the
+``resample``: :data:`faultlab.slam.contract.STREAM_UNITS`) draws only from the
 ``rng`` it is given, which is that unit's own stream; its different use of
 randomness (``naive_resampling`` draws N uniforms per update,
 ``shared_control_noise`` two normals per step) therefore leaves every other
@@ -30,7 +30,8 @@ import numpy as np
 
 from faultlab.faults.fault import Fault, UnitExample
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlamConfig
-from faultlab.slam.units import ParticleState, shallow_copy_ancestors
+from faultlab.slam.paperunits import shallow_copy_ancestors
+from faultlab.slam.particles import ParticleState
 
 __all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors", "PAPER_ALIASING"]
 
@@ -216,7 +217,7 @@ MOTION_SIGN_ERROR = Fault(
 # --------------------------------------------------------------------------- realistic faults
 
 #: Ancestors that an in-place resampling loop over a shallow list copy really copies (see
-#: :func:`faultlab.slam.units.shallow_copy_ancestors`).
+#: :func:`faultlab.slam.paperunits.shallow_copy_ancestors`).
 in_place_ancestors = shallow_copy_ancestors
 
 

@@ -32,7 +32,8 @@ import numpy as np
 
 from faultlab.errors import FaultError
 from faultlab.faults.fault import Fault, UnitExample
-from faultlab.faults.registry import all_faults, load_plugins, resolve_fault
+from faultlab.faults.discovery import load_plugins
+from faultlab.faults.registry import all_faults, resolve_fault
 from faultlab.metrics import map_errors
 from faultlab.scenario import fixed_case_scenario
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig

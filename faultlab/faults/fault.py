@@ -21,18 +21,18 @@ The contract a replacement must honour:
   pickled to worker processes;
 * in a batch of repetitions (:meth:`faultlab.slam.FastSlam.reset_batch`) it sees the particles
   the unit's kind says (:mod:`faultlab.slam.units`, "Batched repetitions"): a replacement of a
-  *filter unit* (:data:`~faultlab.slam.units.FILTER_UNITS`: ``sample_controls``,
+  *filter unit* (:data:`~faultlab.slam.contract.FILTER_UNITS`: ``sample_controls``,
   ``combine_weights``, ``effective_sample_size``, ``resample``, ``apply_resample``,
   ``extract_map``) is called once per repetition with that repetition's N particles and its
   own stream, exactly as in a single run; a replacement of a *particle unit*
-  (:data:`~faultlab.slam.units.PARTICLE_UNITS`: ``motion_model``, ``wrap_heading``,
+  (:data:`~faultlab.slam.contract.PARTICLE_UNITS`: ``motion_model``, ``wrap_heading``,
   ``wrap_bearing``, ``init_landmarks``, ``classify_new``, ``predict_measurement``,
   ``innovation``, ``innovation_covariance``, ``log_likelihood``, ``ekf_update``) may receive the
   particles of several repetitions stacked along the particle axis and must treat every
   particle independently (row ``i`` of its outputs from row ``i`` of its per-particle inputs).
   A particle-unit replacement written for one filter that looks across particles (a sum, mean,
   maximum or normalisation over the particle axis, an index such as ``poses[0]``) declares so
-  with :func:`faultlab.slam.units.filter_wise`; it is then called once per repetition too.
+  with :func:`faultlab.slam.contract.filter_wise`; it is then called once per repetition too.
   Written this way, a fault gives every repetition of a batch bit for bit its single-run result.
 
 Names: built-in faults have lower-case ``snake_case`` names; third-party faults ``provider/name``
@@ -51,9 +51,10 @@ from typing import Any
 
 from faultlab.errors import FaultError
 from faultlab.slam.fastslam import FastSlamSteps
+from faultlab.slam.registry import BUILTIN_SLAMS
 from faultlab.vocabulary import UNMODIFIED
 
-__all__ = ["Fault", "UnitExample", "apply_faults", "step_names"]
+__all__ = ["Fault", "UnitExample", "apply_faults", "step_names", "known_steps"]
 
 _BUILTIN_NAME = re.compile(r"[a-z][a-z0-9_]*")
 _PLUGIN_NAME = re.compile(r"[a-z0-9][a-z0-9_.-]*/[a-z0-9][a-z0-9_.-]*")
@@ -77,6 +78,14 @@ def step_names(steps: type = FastSlamSteps) -> tuple[str, ...]:
     if not (isinstance(steps, type) and dataclasses.is_dataclass(steps)):
         raise FaultError(f"step_names: steps must be a steps dataclass type (e.g. FastSlamSteps), got {steps!r}")
     return tuple(f.name for f in dataclasses.fields(steps))
+
+
+def known_steps() -> tuple[str, ...]:
+    """Every unit of every built-in SLAM (the steps a fault may replace), FastSLAM 1.0's first."""
+    names = list(step_names())
+    for kind in BUILTIN_SLAMS.values():
+        names += [u for u in kind.units if u not in names]
+    return tuple(names)
 
 
 @dataclass(frozen=True, eq=False)

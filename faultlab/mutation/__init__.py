@@ -7,7 +7,7 @@ mutates the *units* of a SLAM (the fields of its steps dataclass, see :mod:`faul
 in process, one unit per mutant, so a mutant is just another fault and runs with the same seeds
 as the baseline.
 
-* :mod:`~faultlab.mutation.operator` -- the :class:`MutationOperator` contract (libcst trees);
+* :mod:`~faultlab.mutation.operatorbase` -- the :class:`MutationOperator` contract (libcst trees);
   :mod:`~faultlab.mutation.operators` -- the built-in operators, classic and numpy-aware;
   :mod:`~faultlab.mutation.registry` -- operators by name, plugins (entry-point group
   ``faultlab.mutation_operators``).
@@ -31,7 +31,7 @@ with warnings.catch_warnings():  # libcst 1.0 imports mypy_extensions.TypedDict,
 from faultlab.mutation.catalogue import Catalogue, cache_dir, list_mutants, mutant_catalogue, show_mutant
 from faultlab.mutation.examples import record_unit_examples, unit_examples
 from faultlab.mutation.mutant import Mutant, MutantSet, build_mutant_unit, generate_mutants, mutant_fault
-from faultlab.mutation.operator import MutationOperator, MutationPoint, NodeOperator, OperatorExample
+from faultlab.mutation.operatorbase import MutationOperator, MutationPoint, NodeOperator, OperatorExample
 from faultlab.mutation.operators import BUILTIN_OPERATORS
 from faultlab.mutation.outcome import SCREENED_OUT, MutantOutcome
 from faultlab.mutation.registry import (

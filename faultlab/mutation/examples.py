@@ -35,7 +35,7 @@ from faultlab.faults.fault import UnitExample
 from faultlab.mutation.source import unit_functions
 from faultlab.slam.fastslam import FastSlam, FastSlamConfig, FastSlamSteps
 from faultlab.slam.protocol import Observations
-from faultlab.slam.units import ParticleState
+from faultlab.slam.particles import ParticleState
 
 __all__ = [
     "EXAMPLE_PARTICLES",

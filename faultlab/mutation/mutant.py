@@ -33,7 +33,7 @@ from libcst.metadata import MetadataWrapper, PositionProvider
 
 from faultlab.errors import FaultError
 from faultlab.faults.fault import Fault
-from faultlab.mutation.operator import MutationOperator, MutationPoint, node_code
+from faultlab.mutation.operatorbase import MutationOperator, MutationPoint, node_code
 from faultlab.mutation.registry import all_operators, get_operator
 from faultlab.mutation.source import FunctionSource, UnitSource, unit_source, unit_sources
 

@@ -15,7 +15,7 @@ from collections.abc import Iterable
 
 import libcst as cst
 
-from faultlab.mutation.operator import (
+from faultlab.mutation.operatorbase import (
     MATH_NAMES,
     NUMPY_NAMES,
     MutationOperator,

@@ -6,7 +6,7 @@ A distribution adds operators by declaring an entry point in the group
     [project.entry-points."faultlab.mutation_operators"]
     mylab = "mylab.operators:OPERATORS"
 
-The entry point loads to a :class:`~faultlab.mutation.operator.MutationOperator` subclass or
+The entry point loads to a :class:`~faultlab.mutation.operatorbase.MutationOperator` subclass or
 instance, or an iterable of them.  Operator names must be lower-case ``snake_case`` and unique
 (they appear in mutant ids).  faultlab declares its own built-ins in this group too; loading them
 again from there is recognised and skipped.  A plugin that fails to load is reported (a warning)
@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from faultlab.errors import FaultError
-from faultlab.mutation.operator import MutationOperator
+from faultlab.mutation.operatorbase import MutationOperator
 from faultlab.mutation.operators import BUILTIN_OPERATORS
 from faultlab.plugins import PluginCatalogue, PluginLoad
 

@@ -20,6 +20,7 @@ from faultlab.analysis.ablation import AblationResult
 from faultlab.analysis.fidelity import FIDELITY, FIDELITY_CSV, Fidelity, Verdict
 from faultlab.report.pdf import table_pages, text_pages
 from faultlab.report.tables import format_mm, md_table, suite_label, variant_label
+from faultlab.vocabulary import PAPER_PROTOCOL
 
 __all__ = ["FidelityFiles", "fidelity_markdown", "fidelity_pages", "write_fidelity", "FIDELITY_MD", "FIDELITY_TITLE"]
 
@@ -52,6 +53,10 @@ def _p_text(p: float) -> str:
     return f"{p:.2g}"
 
 
+#: How the campaign text names each quantity of the paper's protocol.
+_PROTOCOL_WORDS = {"n_steps": "steps", "particles": "particles", "runs": "runs"}
+
+
 def _campaign_text(fid: Fidelity) -> list[str]:
     c = fid.campaign
     what = (f"SLAM `{c.get('slam')}`" + (f", profile `{c['profile']}`" if c.get("profile") else "")
@@ -59,11 +64,11 @@ def _campaign_text(fid: Fidelity) -> list[str]:
               f"{c.get('n_steps')} steps per case, {c.get('particles')} particles")
     lines = [f"This run: {what}."]
     if c.get("reduced"):
-        paper = {"n_steps": (1000, "steps"), "particles": (200, "particles"), "runs": (3, "runs")}
+        paper = {k: (PAPER_PROTOCOL[k], what) for k, what in _PROTOCOL_WORDS.items()}
         short = [f"{c[k]} {what.removesuffix('s') if c[k] == 1 else what} instead of {n}"
                  for k, (n, what) in paper.items() if isinstance(c.get(k), int) and c[k] < n]
         lines += ["", f"**REDUCED configuration** ({', '.join(short)}): fewer steps, particles or runs than the "
-                      "paper's protocol (1000 steps, 200 particles, 3 runs)."]
+                      f"paper's protocol ({', '.join(f'{n} {what}' for n, what in paper.values())})."]
         if any(isinstance(c.get(k), int) and c[k] < paper[k][0] for k in ("n_steps", "particles")):
             lines[-1] += (" Map errors grow with the length of a trace, so sizes are compared with the paper's "
                           "full-length runs only as an indication.")

@@ -27,9 +27,12 @@ PAGE_SIZE = (11.69, 8.27)
 
 def suite_palette(suites) -> dict[str, tuple]:
     """One colour per suite (seaborn's colour-blind palette), stable across figures."""
-    base = sns.color_palette("colorblind", 8)
-    fixed = {"systematic": base[0], "random": base[1], "fixed": base[2]}
-    extra = iter(base[3:])
+    suites = list(suites)
+    fixed_names = ("systematic", "random", "fixed")
+    n_other = sum(s not in fixed_names for s in suites)
+    base = sns.color_palette("colorblind", max(8, len(fixed_names) + n_other))  # any number of strategies
+    fixed = dict(zip(fixed_names, base))
+    extra = iter(base[len(fixed_names):])
     return {s: fixed.get(s) or next(extra) for s in suites}
 
 

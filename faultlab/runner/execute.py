@@ -58,13 +58,14 @@ from joblib import Parallel, delayed, parallel_config
 from joblib.externals.loky.process_executor import BrokenProcessPool, ProcessPoolExecutor
 
 from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
-from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, resolve_variant, slam_units
+from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, slam_units
 from faultlab.metrics import map_errors
 from faultlab.runner.experiment import Experiment, load_experiment
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, batch_jobs, expand_jobs
 from faultlab.runner.progress import format_duration
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import ID_COLUMNS, ResultStore, case_path, store_lock
+from faultlab.runner.variants import resolve_variant
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
 from faultlab.slam.protocol import Estimate, SlamAdapter, association_of, run_slam, run_slam_batch

@@ -44,15 +44,15 @@ import numpy as np
 from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
-from faultlab.faults import resolve_variant
 from faultlab.metrics.detection import FAMILIES, RULES, DetectionRule
+from faultlab.runner.variants import resolve_variant
 from faultlab.scenario.config import DEFAULT_MIN_DISTANCE, DEFAULT_N_STEPS, DEFAULT_SENSOR_RANGE
 from faultlab.slam.fastslam import FastSlamConfig
 from faultlab.slam.profiles import DEFAULT_PROFILE
 from faultlab.slam.protocol import SlamAdapter
 from faultlab.slam.registry import build_slam, get_slam_kind, normalise_options
-from faultlab.space import build_suite, space_from_mapping, table1_space
-from faultlab.vocabulary import BASELINE, DIRECTIONS, KNOWN_ASSOCIATION, METRICS, SUITE_KINDS, UNKNOWN_ASSOCIATION
+from faultlab.space import build_suite, space_from_mapping, suite_kinds, table1_space
+from faultlab.vocabulary import BASELINE, DIRECTIONS, KNOWN_ASSOCIATION, METRICS, UNKNOWN_ASSOCIATION
 
 __all__ = [
     "Experiment",
@@ -324,9 +324,9 @@ def _parse_suites(top: Table, source: str) -> tuple[SuiteSpec, ...]:
     if not top.has("suites"):
         return Experiment.__dataclass_fields__["suites"].default
     t = top.table("suites")
-    t.check_unknown(SUITE_KINDS)
+    t.check_unknown(suite_kinds())
     if not t.data:
-        raise top.error("suites", f"must name at least one suite ({', '.join(SUITE_KINDS)})")
+        raise top.error("suites", f"must name at least one suite ({', '.join(suite_kinds())})")
     out = []
     for kind, v in t.data.items():
         if v == "auto":

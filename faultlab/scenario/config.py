@@ -6,10 +6,11 @@ import math
 from dataclasses import dataclass
 
 from faultlab.space.case import CaseSpec
+from faultlab.vocabulary import PAPER_PROTOCOL
 
 __all__ = ["ScenarioConfig", "DEFAULT_N_STEPS", "DEFAULT_SENSOR_RANGE", "DEFAULT_MIN_DISTANCE"]
 
-DEFAULT_N_STEPS = 1000
+DEFAULT_N_STEPS: int = PAPER_PROTOCOL["n_steps"]
 DEFAULT_SENSOR_RANGE = 2.0  # m
 DEFAULT_MIN_DISTANCE = 0.1  # m, Sec. VI-A: draws closer than this to another landmark are rejected
 

@@ -14,7 +14,7 @@ from faultlab.scenario.suite import draw_suite, generate_case
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS, CaseSpec
 from faultlab.space.coverage import Coverage, coverage
 from faultlab.space.parameters import ParameterSpace, table1_space
-from faultlab.vocabulary import SUITE_KINDS
+from faultlab.space.registry import get_strategy
 
 __all__ = ["SuiteFiles", "write_suite", "cases_frame"]
 
@@ -90,8 +90,7 @@ def write_suite(kind: str, *, seed: int, out: str | Path, run: int = 1, n_cases:
     -------
     SuiteFiles
     """
-    if kind not in SUITE_KINDS:
-        raise ConfigError(f"unknown suite kind {kind!r} (expected one of {', '.join(SUITE_KINDS)})")
+    get_strategy(kind)  # ConfigError naming the known kinds
     if n_steps < 1:
         raise ConfigError(f"n_steps must be at least 1, got {n_steps}")
     if run < 1:

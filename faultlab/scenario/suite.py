@@ -18,7 +18,7 @@ from faultlab.scenario.model import Scenario
 from faultlab.seeds import case_seed, suite_seed_sequence
 from faultlab.space.case import CaseSpec
 from faultlab.space.parameters import ParameterSpace
-from faultlab.space.suites import build_suite
+from faultlab.space.registry import build_suite
 
 __all__ = ["SuiteCase", "draw_suite", "generate_case"]
 
@@ -54,7 +54,7 @@ def draw_suite(kind: str, space: ParameterSpace, *, root_seed: int, run: int = 1
     Parameters
     ----------
     kind : str
-        A suite kind (:data:`faultlab.vocabulary.SUITE_KINDS`).
+        A suite kind (:func:`faultlab.space.registry.suite_kinds`).
     space : ParameterSpace
     root_seed : int
         The campaign's root seed.

@@ -8,7 +8,7 @@ AAAI 2002 and IJCAI 2003; Thrun, Burgard & Fox, *Probabilistic Robotics*, Sec. 1
 Table 13.3).  Built by name with ``association = "unknown"`` in the ``[slam]`` table of ``fastslam``
 or ``fastslam2`` (:mod:`faultlab.slam.registry`); the settings are
 :class:`~faultlab.slam.FastSlamConfig`'s, with ``new_landmark_sigmas`` giving ``p0``
-(:func:`~faultlab.slam.units.new_landmark_log_likelihood`).
+(:func:`~faultlab.slam.associationunits.new_landmark_log_likelihood`).
 
 Association, for all ``N`` particles, ``k`` observations and the ``L`` landmark slots at once::
 
@@ -21,7 +21,7 @@ Association, for all ``N`` particles, ``k`` observations and the ``L`` landmark 
 Only the landmarks whose predicted range is within ``new_landmark_sigmas`` standard deviations of
 an observed range take part (the others cannot beat ``p0``: an exact gate, see
 :meth:`_UnknownAssociationSlam._candidates`), so L above is the number of candidates.
-The per-particle maps differ in size, so they are stored padded (:class:`~faultlab.slam.units.AssociationState`:
+The per-particle maps differ in size, so they are stored padded (:class:`~faultlab.slam.associationunits.AssociationState`:
 (N, cap) slots and the number of landmarks of each particle); padding slots take a placeholder
 landmark 1 m ahead of the particle (finite arithmetic) and are masked out by ``associate``.  The
 work is O(N k L) per step: meant for the small and medium maps of Table I.
@@ -38,13 +38,13 @@ FastSLAM 1.0 (:class:`FastSlamUnknown`) then runs, per step::
 
 FastSLAM 2.0 (:class:`FastSlam2Unknown`) associates at the noise-free prediction, draws the pose
 from the proposal built from the associated landmarks (the known-association units of
-:mod:`faultlab.slam.units2`, with ``known`` = associated), weights by the proposal's normaliser
+:mod:`faultlab.slam.ekfunits`, with ``known`` = associated), weights by the proposal's normaliser
 with ``log_p0`` for the new landmarks, and updates and creates landmarks from the sampled pose.
 Variant: Table 13.3 computes one proposal per candidate landmark of one observation; here, as
 in the known-association filter, the associated observations of a step enter one joint proposal.
 
 The estimate is the highest-weight particle's map, labelled ``0 .. M - 1`` in order of creation
-(:func:`~faultlab.slam.units.extract_unlabelled_map`); it is scored by the earth mover's distance.
+(:func:`~faultlab.slam.associationunits.extract_unlabelled_map`); it is scored by the earth mover's distance.
 Randomness: one stream per random unit (``sample_controls`` or ``sample_proposal``, and
 ``resample``), as in the known-association filters.  Repetitions run one at a time
 (``supports_batch = False``): the batched storage of :class:`~faultlab.slam.FastSlam` relies on
@@ -58,13 +58,15 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
+from faultlab.slam import associationunits as _associationunits
+from faultlab.slam import contract as _contract
 from faultlab.slam import units as _units
 from faultlab.slam.bookkeeping import (ParticleFilterSlam, UnitTable, grown_capacity, linearise, normalise_log_weights,
                                        sample_pose)
 from faultlab.slam.fastslam import FastSlamConfig, FastSlamSteps
 from faultlab.slam.fastslam2 import RANDOM_UNITS, FastSlam2Steps
 from faultlab.slam.protocol import Observations
-from faultlab.slam.units import NEW_LANDMARK, AssociationState
+from faultlab.slam.associationunits import NEW_LANDMARK, AssociationState
 from faultlab.vocabulary import UNKNOWN_ASSOCIATION
 
 __all__ = ["FastSlamUnknownSteps", "FastSlam2UnknownSteps", "REFERENCE_STEPS", "REFERENCE_STEPS_2",
@@ -76,8 +78,8 @@ def _without_ids(known: type, name: str) -> type:
 
     They are ``known``'s, in its order, except the three that need landmark ids: ``classify_new``
     goes (the association decides what is new), ``associate`` comes after ``log_likelihood``, and
-    ``apply_resample`` and ``extract_map`` (the id-aligned :class:`~faultlab.slam.units.ParticleState`)
-    become ``resample_maps`` and ``extract_unlabelled_map`` (:class:`~faultlab.slam.units.AssociationState`).
+    ``apply_resample`` and ``extract_map`` (the id-aligned :class:`~faultlab.slam.particles.ParticleState`)
+    become ``resample_maps`` and ``extract_unlabelled_map`` (:class:`~faultlab.slam.associationunits.AssociationState`).
     """
     units = []
     for f in fields(known):
@@ -86,7 +88,7 @@ def _without_ids(known: type, name: str) -> type:
         unit = _ID_UNITS.get(f.name, (f.name, f.default))
         units.append((unit[0], Callable, field(default=unit[1])))
         if f.name == "log_likelihood":
-            units.append(("associate", Callable, field(default=_units.associate)))
+            units.append(("associate", Callable, field(default=_associationunits.associate)))
     doc = (f"The replaceable units of {known.__name__} with unknown data association: the same units without "
            f"``classify_new``, with ``associate``, ``resample_maps`` and ``extract_unlabelled_map`` (call order: "
            f"the module docstring).")
@@ -95,8 +97,8 @@ def _without_ids(known: type, name: str) -> type:
 
 
 #: The units of the known-association tables that the unknown-association ones replace.
-_ID_UNITS = {"apply_resample": ("resample_maps", _units.resample_maps),
-             "extract_map": ("extract_unlabelled_map", _units.extract_unlabelled_map)}
+_ID_UNITS = {"apply_resample": ("resample_maps", _associationunits.resample_maps),
+             "extract_map": ("extract_unlabelled_map", _associationunits.extract_unlabelled_map)}
 
 #: The units of FastSLAM 1.0 with unknown data association.
 FastSlamUnknownSteps = _without_ids(FastSlamSteps, "FastSlamUnknownSteps")
@@ -113,7 +115,7 @@ REFERENCE_STEPS_2 = FastSlam2UnknownSteps()
 class Association:
     """One step's association and the quantities of the associated pairs (all (N, k, ...)).
 
-    ``assoc`` is the slot or :data:`~faultlab.slam.units.NEW_LANDMARK`; the other arrays hold, for
+    ``assoc`` is the slot or :data:`~faultlab.slam.associationunits.NEW_LANDMARK`; the other arrays hold, for
     an associated pair, its landmark's mean, covariance, predicted measurement Jacobian,
     innovation covariance, innovation and log likelihood (for a new pair: those of slot 0 or of
     the placeholder 1 m ahead of the particle, meaningless and masked by the caller).
@@ -269,7 +271,7 @@ class FastSlamUnknown(_UnknownAssociationSlam):
     name = "fastslam1_unknown"
     steps_type = FastSlamUnknownSteps
     reference_steps = REFERENCE_STEPS
-    random_units = _units.STREAM_UNITS
+    random_units = _contract.STREAM_UNITS
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
         st, u, u_n, k, empty = self._begin_step(control, observations)

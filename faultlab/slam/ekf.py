@@ -35,7 +35,7 @@ covariance update per step instead of k rank-2 updates.
 
 The units are the fields of :class:`EkfSlamSteps`; the ones shared with FastSLAM 1.0 have its
 signatures, called with ``N = 1`` (see :mod:`faultlab.slam.units`), the others are documented in
-:mod:`faultlab.slam.units2`.  EKF-SLAM is deterministic: ``reset`` accepts an ``rng`` for the
+:mod:`faultlab.slam.ekfunits`.  EKF-SLAM is deterministic: ``reset`` accepts an ``rng`` for the
 protocol and draws nothing from it.  Memory is O(L^2) (one (D, D) covariance) and a step with
 ``k`` observations costs O(L^2 k): the largest Table I maps (6000 landmarks) are out of reach.
 """
@@ -50,7 +50,7 @@ from threadpoolctl import ThreadpoolController
 
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
-from faultlab.slam import units2 as _units2
+from faultlab.slam import ekfunits as _ekfunits
 from faultlab.slam.bookkeeping import LandmarkIndex, UnitSlam, UnitTable, step_kind
 from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.protocol import Estimate, Observations
@@ -88,16 +88,16 @@ class EkfSlamSteps(UnitTable):
     motion_model: Callable = _units.motion_model
     wrap_heading: Callable = _units.wrap_heading
     wrap_bearing: Callable = _units.wrap_bearing
-    motion_jacobians: Callable = _units2.motion_jacobians
-    predict_covariance: Callable = _units2.predict_covariance
+    motion_jacobians: Callable = _ekfunits.motion_jacobians
+    predict_covariance: Callable = _ekfunits.predict_covariance
     predict_measurement: Callable = _units.predict_measurement
-    pose_jacobian: Callable = _units2.pose_jacobian
+    pose_jacobian: Callable = _ekfunits.pose_jacobian
     innovation: Callable = _units.innovation
-    cross_covariance: Callable = _units2.cross_covariance
-    joint_innovation_covariance: Callable = _units2.joint_innovation_covariance
-    kalman_update: Callable = _units2.kalman_update
+    cross_covariance: Callable = _ekfunits.cross_covariance
+    joint_innovation_covariance: Callable = _ekfunits.joint_innovation_covariance
+    kalman_update: Callable = _ekfunits.kalman_update
     init_landmarks: Callable = _units.init_landmarks
-    augment_state: Callable = _units2.augment_state
+    augment_state: Callable = _ekfunits.augment_state
 
 
 #: The reference EKF-SLAM units.

@@ -43,7 +43,7 @@ extract_map            ``(state) -> ids (M,), xy (M,2)``
 Random streams (common random numbers by unit)
 ----------------------------------------------
 The units that draw random numbers are listed in
-:data:`faultlab.slam.units.STREAM_UNITS` (``sample_controls`` and ``resample``).
+:data:`faultlab.slam.contract.STREAM_UNITS` (``sample_controls`` and ``resample``).
 :meth:`FastSlam.reset` derives one generator per such unit from the SLAM's
 ``rng`` with :func:`faultlab.slam.streams.unit_streams` (keyed by the unit's
 name), and every call of a unit receives its *own* stream as ``rng``.  A fault
@@ -125,11 +125,11 @@ repetitions of a test case see the same controls and observations, so the
 landmark columns align: filter ``b`` is rows ``b N .. (b + 1) N - 1`` of the
 poses and weights and particles ``b N ..`` of the storage buffers, with its own
 ancestry rows (numbered from 0 within the filter), lineage and owner.  The
-particle units (:data:`faultlab.slam.units.PARTICLE_UNITS`) run once per step
+particle units (:data:`faultlab.slam.contract.PARTICLE_UNITS`) run once per step
 on all ``K N`` particles (in blocks of at most :attr:`FastSlam.block_pairs`
 particle-observation pairs), which removes the per-call overhead of ``K``
 small calls; the per-filter units
-(:data:`faultlab.slam.units.FILTER_UNITS`: ``sample_controls``,
+(:data:`faultlab.slam.contract.FILTER_UNITS`: ``sample_controls``,
 ``combine_weights``, ``effective_sample_size``, ``resample``,
 ``apply_resample``, ``extract_map``) and the weight normalisation run once per
 filter, each filter with its own streams derived from its own generator.  Every
@@ -137,7 +137,7 @@ elementwise result is computed by the same operations on the same values as in
 a single filter, so repetition ``b`` is bit-identical to a filter reset with
 the same generator (tested for the reference and every built-in fault).
 :meth:`FastSlam.reset` is the batch of one: the single-filter path is this
-same code.  Which units see which particles, and the :func:`~faultlab.slam.units.filter_wise`
+same code.  Which units see which particles, and the :func:`~faultlab.slam.contract.filter_wise`
 fallback for a particle unit that looks across particles, are documented in
 :mod:`faultlab.slam.units`.
 
@@ -163,15 +163,17 @@ import numpy as np
 
 from faultlab.config import Option
 from faultlab.errors import SlamInputError, SlamOutputError
+from faultlab.slam import associationunits as _associationunits
 from faultlab.slam import units as _units
 from faultlab.slam.bookkeeping import (UnitSlam, UnitTable, best_estimate, grown_capacity, normalise_log_weights,
                                        resample_tail, step_kind)
+from faultlab.slam.contract import STREAM_UNITS
 from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.sharing import correct_in_sharer_order
-from faultlab.slam.units import STREAM_UNITS, ParticleState, landmark_rows
+from faultlab.slam.particles import ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
-from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION
+from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION, PAPER_PROTOCOL
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
            "landmark_rows", "materialise_particles", "BatchUnsupported"]
@@ -197,11 +199,11 @@ class FastSlamConfig(NoiseConfig):
     new_landmark_sigmas : float
         Unknown association only: an observation starts a new landmark when its best landmark's
         likelihood is below that of an innovation this many standard deviations long under the
-        measurement noise (:func:`faultlab.slam.units.new_landmark_log_likelihood`), >= 0.
+        measurement noise (:func:`faultlab.slam.associationunits.new_landmark_log_likelihood`), >= 0.
         Left out of the options while at its default.
     """
 
-    n_particles: int = 200
+    n_particles: int = PAPER_PROTOCOL["particles"]
     resample_ratio: float = 1.5
     association: str = KNOWN_ASSOCIATION
     new_landmark_sigmas: float = 3.0
@@ -217,8 +219,8 @@ class FastSlamConfig(NoiseConfig):
 
     @property
     def log_p0(self) -> float:
-        """The new-landmark log likelihood of unknown association (:func:`~faultlab.slam.units.new_landmark_log_likelihood`)."""
-        return _units.new_landmark_log_likelihood(self.Q, self.new_landmark_sigmas)
+        """The new-landmark log likelihood of unknown association (:func:`~faultlab.slam.associationunits.new_landmark_log_likelihood`)."""
+        return _associationunits.new_landmark_log_likelihood(self.Q, self.new_landmark_sigmas)
 
 
 @dataclass(frozen=True)
@@ -232,7 +234,7 @@ class FastSlamSteps(UnitTable):
     "Random streams" in the module docstring).
     """
 
-    #: Units that draw random numbers, each from its own stream (:data:`faultlab.slam.units.STREAM_UNITS`).
+    #: Units that draw random numbers, each from its own stream (:data:`faultlab.slam.contract.STREAM_UNITS`).
     stream_units: ClassVar[tuple[str, ...]] = STREAM_UNITS
 
     sample_controls: Callable = _units.sample_controls
@@ -289,7 +291,7 @@ def materialise_particles(st: ParticleState) -> Particles:
 
 
 #: Positions of the per-particle arguments (leading axis = particles) of each particle unit; the
-#: batched filter slices these when a replacement is marked :func:`~faultlab.slam.units.filter_wise`.
+#: batched filter slices these when a replacement is marked :func:`~faultlab.slam.contract.filter_wise`.
 _PARTICLE_ARGS: dict[str, tuple[int, ...]] = {
     "motion_model": (0, 1),
     "init_landmarks": (0,),

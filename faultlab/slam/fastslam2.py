@@ -40,7 +40,7 @@ One update (:meth:`FastSlam2.update`) runs, for all ``N`` particles and ``k`` ob
 
 Variant: the proposal is computed in control space (the pose is linear in the control noise, so
 this is Table 13.2's pose-space Gaussian exactly, and it stays defined although the motion noise
-has rank 2; see :mod:`faultlab.slam.units2`), and a step's observations of known landmarks enter
+has rank 2; see :mod:`faultlab.slam.ekfunits`), and a step's observations of known landmarks enter
 it *jointly*, linearised at the noise-free prediction, with the joint likelihood as the weight
 (Montemerlo's sequential variant re-linearises after each observation).  Without known landmarks
 the proposal is FastSLAM 1.0's motion noise, draw for draw.
@@ -50,7 +50,7 @@ Randomness: ``reset`` derives one stream per randomness-consuming unit (``sample
 changes the draws of the other.
 
 Units: the fields of :class:`FastSlam2Steps`; those shared with FastSLAM 1.0 are documented in
-:mod:`faultlab.slam.units`, the others in :mod:`faultlab.slam.units2`.
+:mod:`faultlab.slam.units`, the others in :mod:`faultlab.slam.ekfunits`.
 """
 
 from __future__ import annotations
@@ -60,13 +60,14 @@ from typing import Callable
 
 import numpy as np
 
+from faultlab.slam import particles as _particles
 from faultlab.slam import units as _units
-from faultlab.slam import units2 as _units2
+from faultlab.slam import ekfunits as _ekfunits
 from faultlab.slam.bookkeeping import (LandmarkIndex, ParticleFilterSlam, UnitTable, grown_capacity, linearise,
                                        normalise_log_weights, sample_pose)
 from faultlab.slam.fastslam import FastSlamConfig, Particles, materialise_particles
 from faultlab.slam.protocol import Observations
-from faultlab.slam.units import ParticleState
+from faultlab.slam.particles import ParticleState
 
 __all__ = ["FastSlam2Steps", "REFERENCE_STEPS", "RANDOM_UNITS", "FastSlam2"]
 
@@ -81,19 +82,19 @@ class FastSlam2Steps(UnitTable):
     motion_model: Callable = _units.motion_model
     wrap_heading: Callable = _units.wrap_heading
     wrap_bearing: Callable = _units.wrap_bearing
-    motion_jacobians: Callable = _units2.motion_jacobians
+    motion_jacobians: Callable = _ekfunits.motion_jacobians
     classify_new: Callable = _units.classify_new
     init_landmarks: Callable = _units.init_landmarks
     predict_measurement: Callable = _units.predict_measurement
-    pose_jacobian: Callable = _units2.pose_jacobian
+    pose_jacobian: Callable = _ekfunits.pose_jacobian
     innovation: Callable = _units.innovation
     innovation_covariance: Callable = _units.innovation_covariance
     log_likelihood: Callable = _units.log_likelihood
-    proposal_information: Callable = _units2.proposal_information
-    proposal: Callable = _units2.proposal
-    sample_proposal: Callable = _units2.sample_proposal
+    proposal_information: Callable = _ekfunits.proposal_information
+    proposal: Callable = _ekfunits.proposal
+    sample_proposal: Callable = _ekfunits.sample_proposal
     combine_weights: Callable = _units.combine_weights
-    proposal_correction: Callable = _units2.proposal_correction
+    proposal_correction: Callable = _ekfunits.proposal_correction
     ekf_update: Callable = _units.ekf_update
     effective_sample_size: Callable = _units.effective_sample_size
     resample: Callable = _units.resample
@@ -205,8 +206,8 @@ class FastSlam2(ParticleFilterSlam):
         if new_cap is None:
             return st
         n, C = st.n_particles, st.n_landmarks
-        mu, P = _units.empty_means(n, new_cap), _units.empty_covariances(n, new_cap)
-        anc = _units.initial_ancestry(n, new_cap)
+        mu, P = _particles.empty_means(n, new_cap), _particles.empty_covariances(n, new_cap)
+        anc = _particles.initial_ancestry(n, new_cap)
         mu[:, :C], P[:, :C], anc[:, :C] = st.mu[:, :C], st.P[:, :C], st.anc[:, :C]
         return st.replace(mu=mu, P=P, anc=anc)
 
@@ -215,7 +216,7 @@ class FastSlam2(ParticleFilterSlam):
 
         First applies any pending resampling to the ancestry (``anc = anc[lineage]``), so that
         particle ``i`` reads and later rewrites ancestry row ``i``.  With the reference storage
-        layout (component-major, particle-fastest: :func:`faultlab.slam.units.empty_means`) the
+        layout (component-major, particle-fastest: :func:`faultlab.slam.particles.empty_means`) the
         gather reads contiguous runs and returns views of (2, k, N) / (2, 2, k, N) buffers, the
         layout of the reference units' outputs; any other layout is gathered element by element.
         """

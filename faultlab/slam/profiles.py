@@ -27,8 +27,10 @@ from functools import partial
 from typing import NamedTuple
 
 from faultlab.errors import ConfigError
+from faultlab.slam import paperunits
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig, FastSlamSteps
+from faultlab.vocabulary import PAPER_PROTOCOL
 
 __all__ = ["DEFAULT_PROFILE", "Difference", "Profile", "PROFILES", "get_profile", "profile_names", "differences_markdown",
            "PAPER_LENGTH_UNIT", "PAPER_CONFIG", "PAPER_STEPS", "PAPER_NO_ALIASING_STEPS", "Ablation", "Arm",
@@ -90,24 +92,24 @@ PAPER_LENGTH_UNIT = 0.1
 
 #: The paper's filter settings in SI: 200 particles; Q = diag(3.0, 10 deg)^2 and R = diag(1.0, 20 deg)^2 in
 #: filter units are diag(0.3 m, 10 deg)^2 and diag(0.1 m, 20 deg)^2; resampling when N_eff < N / 1.5.
-PAPER_CONFIG = FastSlamConfig(n_particles=200, std_v=1.0 * PAPER_LENGTH_UNIT, std_omega=math.radians(20.0),
+PAPER_CONFIG = FastSlamConfig(n_particles=PAPER_PROTOCOL["particles"], std_v=1.0 * PAPER_LENGTH_UNIT, std_omega=math.radians(20.0),
                               std_range=3.0 * PAPER_LENGTH_UNIT, std_bearing=math.radians(10.0),
                               resample_ratio=1.5)
 
 #: The paper's units, deep copies at resampling (every particle keeps its own landmarks).
 PAPER_NO_ALIASING_STEPS = FastSlamSteps(
-    classify_new=partial(U.classify_new_near_zero_x, tolerance=0.01 * PAPER_LENGTH_UNIT),
-    predict_measurement=U.predict_measurement_wrapped,
-    log_likelihood=U.log_likelihood_wrapped,
-    combine_weights=partial(U.combine_weights_linear, length_unit=PAPER_LENGTH_UNIT),
-    resample=U.resample_stratified,
-    extract_map=partial(U.extract_map_closest_to_mean, resolution=0.001),
+    classify_new=partial(paperunits.classify_new_near_zero_x, tolerance=0.01 * PAPER_LENGTH_UNIT),
+    predict_measurement=paperunits.predict_measurement_wrapped,
+    log_likelihood=paperunits.log_likelihood_wrapped,
+    combine_weights=partial(paperunits.combine_weights_linear, length_unit=PAPER_LENGTH_UNIT),
+    resample=paperunits.resample_stratified,
+    extract_map=partial(paperunits.extract_map_closest_to_mean, resolution=0.001),
 )
 
 #: The paper's units as it ran them: resampled particles share landmark arrays.
 PAPER_STEPS = FastSlamSteps(**{**{name: getattr(PAPER_NO_ALIASING_STEPS, name)
                                   for name in FastSlamSteps.unit_names()},
-                               "apply_resample": U.apply_resample_aliased})
+                               "apply_resample": paperunits.apply_resample_aliased})
 
 
 def _rows(*rows: tuple[str, str, str, str]) -> tuple[Difference, ...]:

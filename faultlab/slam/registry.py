@@ -6,7 +6,7 @@ keyword arguments.  A built-in SLAM with settings has a config class with
 ``from_options(mapping, *, where)`` and ``to_options()`` (the file's keys and units), which is
 the one place its keys, defaults and bounds are defined.  A built-in SLAM written as replaceable
 units names its steps table (:attr:`SlamKind.steps`), whose fields are the units a fault can
-replace (:func:`faultlab.faults.registry.applicable_faults`).
+replace (:func:`faultlab.faults.applicability.applicable_faults`).
 
 ``fastslam`` and ``fastslam2`` take ``association = "unknown"``: the ids are hidden and the filter
 associates observations itself (:mod:`faultlab.slam.association`; :attr:`SlamKind.unknown` is the

@@ -1,7 +1,7 @@
 """The correction step for particles that share landmark storage and update it one after another.
 
 A FastSLAM written as a loop over particle objects that resamples by shallow copies (the paper's
-filter, PythonRobotics' ``fast_slam1.py``; :func:`faultlab.slam.units.apply_resample_aliased`)
+filter, PythonRobotics' ``fast_slam1.py``; :func:`faultlab.slam.paperunits.apply_resample_aliased`)
 leaves several particles holding the *same* landmark arrays.  Its update loop then applies every
 observation of a shared landmark once per sharer, in particle order, each sharer starting from the
 previous sharer's result: the first sharer may initialise the landmark, the next ones update that

@@ -9,7 +9,6 @@ from faultlab.space.coverage import (
     TupleCoverage,
     base_choice_coverage,
     coverage,
-    suite_criteria,
     t_wise_coverage,
 )
 from faultlab.space.parameters import (
@@ -26,12 +25,21 @@ from faultlab.space.settings import read_class_weights, weights_frame, weights_f
 from faultlab.space.strategies import (
     base_choice_suite,
     effect_guided_suite,
-    min_suite_size,
     t_wise_kind,
     t_wise_strength,
     t_wise_suite,
 )
-from faultlab.space.suites import build_suite, fixed_suite, random_suite, systematic_suite
+from faultlab.space.registry import (
+    STRATEGIES,
+    SUITE_KINDS,
+    SuiteStrategy,
+    build_suite,
+    get_strategy,
+    min_suite_size,
+    suite_criteria,
+    suite_kinds,
+)
+from faultlab.space.suites import fixed_suite, random_suite, systematic_suite
 
 __all__ = [
     "CaseSpec",
@@ -57,6 +65,11 @@ __all__ = [
     "base_choice_coverage",
     "suite_criteria",
     "build_suite",
+    "STRATEGIES",
+    "SUITE_KINDS",
+    "SuiteStrategy",
+    "get_strategy",
+    "suite_kinds",
     "systematic_suite",
     "random_suite",
     "fixed_suite",

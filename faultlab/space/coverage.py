@@ -24,7 +24,7 @@ from faultlab.errors import ConfigError
 from faultlab.space.case import CaseSpec
 from faultlab.space.covering import uncovered_tuples
 from faultlab.space.parameters import ParameterSpace
-from faultlab.space.strategies import base_choice_rows, t_wise_kind, t_wise_strength
+from faultlab.space.strategies import base_choice_rows, t_wise_kind
 
 __all__ = [
     "ParameterCoverage",
@@ -35,7 +35,6 @@ __all__ = [
     "t_wise_coverage",
     "BaseChoiceCoverage",
     "base_choice_coverage",
-    "suite_criteria",
 ]
 
 
@@ -301,25 +300,3 @@ def base_choice_coverage(cases: Iterable[CaseSpec], space: ParameterSpace,
                               covered=len(wanted) - len(uncovered), total=len(wanted),
                               base_case=bool(np.any(~diff.any(axis=1))) if len(got) else False,
                               uncovered=uncovered, excluded=tuple(excluded))
-
-
-def suite_criteria(kind: str, cases: Iterable[CaseSpec], space: ParameterSpace) -> tuple:
-    """The coverage measures worth printing beside the class coverage of a suite of ``kind``.
-
-    Base choice: its base-choice coverage; t-wise: its t-wise coverage; every kind: pairwise
-    coverage (once), the common yardstick of the combinatorial strategies.
-
-    Returns
-    -------
-    tuple of TupleCoverage / BaseChoiceCoverage
-    """
-    cases = list(cases)
-    out: list = []
-    if kind == "base-choice":
-        out.append(base_choice_coverage(cases, space))
-    t = t_wise_strength(kind)
-    if t != 2:
-        out.append(t_wise_coverage(cases, space, 2))
-    if t is not None:
-        out.append(t_wise_coverage(cases, space, t))
-    return tuple(out)

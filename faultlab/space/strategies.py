@@ -46,7 +46,6 @@ __all__ = [
     "base_choice_suite",
     "t_wise_suite",
     "effect_guided_suite",
-    "min_suite_size",
 ]
 
 _T_WISE = re.compile(r"^([1-9][0-9]*)-wise$")
@@ -164,18 +163,6 @@ def base_choice_suite(space: ParameterSpace, *, rng: np.random.Generator, n_case
 # t-wise
 # ---------------------------------------------------------------------------
 
-def min_suite_size(kind: str, space: ParameterSpace) -> int | None:
-    """The smallest size a builder accepts for ``kind`` (None where any size >= 1 goes)."""
-    if kind == "systematic":
-        return space.min_cases
-    if kind == "base-choice":
-        return len(base_choice_rows(space)[0])
-    t = t_wise_strength(kind)
-    if t is not None:
-        return len(covering_array(space.structure, t))
-    return None
-
-
 def t_wise_suite(space: ParameterSpace, *, rng: np.random.Generator, strength: int = 2,
                  n_cases: int | None = None) -> list[CaseSpec]:
     """t-wise suite: every feasible combination of classes of any ``strength`` parameters.
@@ -193,7 +180,7 @@ def t_wise_suite(space: ParameterSpace, *, rng: np.random.Generator, strength: i
     strength : int
         t, from 2 to the number of parameters.
     n_cases : int, optional
-        Default and minimum: the number of covering rows (:func:`min_suite_size`; for Table I
+        Default and minimum: the number of covering rows (:func:`faultlab.space.registry.min_suite_size`; for Table I
         with covertable 3.2: pairwise 20, 3-wise 82, 4-wise 292 cases).  Extra cases greedily
         cover (t+1)-tuples, then (t+2)-tuples, ...
 

@@ -1,5 +1,6 @@
-"""Suite builders: *systematic* (Sec. VI), *random* and *fixed* (Sec. VII-C control suites), and
-the dispatch to every suite kind (:data:`faultlab.vocabulary.SUITE_KINDS`).
+"""Suite builders: *systematic* (Sec. VI), *random* and *fixed* (Sec. VII-C control suites).
+
+:func:`faultlab.space.registry.build_suite` dispatches to every registered strategy.
 
 The combinatorial strategies (base choice, t-wise, effect-guided) live in
 :mod:`faultlab.space.strategies`.
@@ -12,11 +13,9 @@ import numpy as np
 from faultlab.errors import ConfigError
 from faultlab.space.case import FIXED_VALUES, CaseSpec
 from faultlab.space.choice import check_rng, each_choice_cases
-from faultlab.space.parameters import ParameterSpace, table1_space
-from faultlab.space.strategies import base_choice_suite, effect_guided_suite, t_wise_strength, t_wise_suite
-from faultlab.vocabulary import SUITE_KINDS
+from faultlab.space.parameters import ParameterSpace
 
-__all__ = ["SUITE_KINDS", "build_suite", "systematic_suite", "random_suite", "fixed_suite"]
+__all__ = ["systematic_suite", "random_suite", "fixed_suite"]
 
 #: Draws of a whole case before the random suite gives up on the constraints.
 _MAX_REJECTIONS = 10_000
@@ -103,47 +102,3 @@ def _n_control(space: ParameterSpace, n_cases: int | None) -> int:
     if n < 1:
         raise ConfigError(f"a suite needs at least one case, got n_cases={n}")
     return n
-
-
-def build_suite(kind: str, space: ParameterSpace | None = None, *, rng: np.random.Generator,
-                n_cases: int | None = None) -> list[CaseSpec]:
-    """Build a suite of :class:`CaseSpec` s.
-
-    Parameters
-    ----------
-    kind : str
-        One of :data:`~faultlab.vocabulary.SUITE_KINDS`: ``systematic``, ``random``, ``fixed``,
-        ``base-choice``, ``pairwise``, ``<t>-wise`` (e.g. ``3-wise``), ``effect-guided``.
-        Base classes and class weights come from the space (``[base]``, ``[weights]``).
-    space : ParameterSpace, optional
-        Table I when None.
-    rng : numpy.random.Generator
-        The only source of randomness (unused by ``fixed``).
-    n_cases : int, optional
-        Number of cases; default: the builder's choice (``space.min_cases``, 5 with Table I,
-        for systematic, random, fixed and effect-guided; the covering rows for base-choice and
-        t-wise).
-
-    Raises
-    ------
-    ConfigError
-        Unknown kind, or too few cases.
-    """
-    space = space or table1_space()
-    if kind not in SUITE_KINDS:
-        raise ConfigError(f"unknown suite kind {kind!r} (expected one of {', '.join(SUITE_KINDS)})")
-    check_rng(rng)
-    if kind == "systematic":
-        return systematic_suite(space, rng=rng, n_cases=n_cases)
-    if kind == "random":
-        return random_suite(space, rng=rng, n_cases=n_cases)
-    if kind == "fixed":
-        return fixed_suite(space, n_cases=n_cases)
-    if kind == "base-choice":
-        return base_choice_suite(space, rng=rng, n_cases=n_cases)
-    if kind == "effect-guided":
-        return effect_guided_suite(space, rng=rng, n_cases=n_cases)
-    strength = t_wise_strength(kind)
-    if strength is not None:
-        return t_wise_suite(space, rng=rng, strength=strength, n_cases=n_cases)
-    raise ConfigError(f"suite kind {kind!r} has no builder")  # a name added to SUITE_KINDS only

@@ -8,7 +8,7 @@ import pytest
 
 from faultlab.analysis.study import StudySpec, load_study_experiment, sampled_load, study_spec
 from faultlab.errors import ConfigError
-from faultlab.mutation.campaign import is_mutant_variant
+from faultlab.mutation.variants import is_mutant_variant
 from faultlab.stats.verdict import min_pairs
 from faultlab.vocabulary import PAPER_FAULTS
 

@@ -307,12 +307,12 @@ def test_faults_do_not_modify_their_inputs():
 
 
 def test_paper_aliasing_is_the_paper_profiles_shallow_copy_resampling():
-    from faultlab.slam import units as U
+    from faultlab.slam import paperunits
 
     st0 = _state(6)
     idx = np.array([2, 0, 0, 5, 3, 3])
     out = faulty("paper_aliasing")(st0, idx)
-    ref = U.apply_resample_aliased(st0, idx)
+    ref = paperunits.apply_resample_aliased(st0, idx)
     eff = np.array([2, 2, 2, 5, 5, 5])  # slots 0 and 3 were overwritten before 1, 2 and 4, 5 read them
     np.testing.assert_array_equal(in_place_ancestors(idx), eff)
     for a in (out, ref):

@@ -13,7 +13,7 @@ from faultlab.faults import UnitExample
 from faultlab.faults.check import CheckStatus, check_faults
 from faultlab.mutation.examples import unit_examples
 from faultlab.mutation.mutant import generate_mutants, mutant_fault
-from faultlab.mutation.operator import NodeOperator
+from faultlab.mutation.operatorbase import NodeOperator
 from faultlab.mutation.operators import BUILTIN_OPERATORS
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.mutation.screening import _alarm_handler, _call, screen_mutants, unit_fingerprint

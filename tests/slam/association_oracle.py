@@ -5,7 +5,7 @@ new-landmark likelihood ``p0`` (Probabilistic Robotics, Sec. 13.6), with one Pyt
 particle holding a *list* of landmark EKFs and explicit loops over particles, observations and
 landmarks: every landmark of a particle is compared with every observation (no gate), 2 x 2
 algebra uses ``np.linalg``, the weights are linear and normalised every step.  The only rule
-beyond the textbook is the one :func:`faultlab.slam.units.associate` documents: a landmark takes
+beyond the textbook is the one :func:`faultlab.slam.associationunits.associate` documents: a landmark takes
 at most one observation per step (the most likely one, ties to the lowest index), the others
 start new landmarks.
 

@@ -16,49 +16,18 @@ from faultlab.scenario import generate_scenario
 from faultlab.slam import Observations, run_slam
 from faultlab.slam.association import (FastSlam2Unknown, FastSlam2UnknownSteps, FastSlamUnknown,
                                        FastSlamUnknownSteps)
+from faultlab.slam.associationunits import NEW_LANDMARK
 from faultlab.slam.fastslam import FastSlam, FastSlamConfig
 from faultlab.slam.protocol import HIDDEN_ID
 from faultlab.slam.registry import build_slam
-from faultlab.slam.units import NEW_LANDMARK, associate, new_landmark_log_likelihood
 from faultlab.space import FIXED_VALUES, CaseSpec
-from tests.slam.association_oracle import OracleFastSlamUnknown, associate_particle, log_p0
+from tests.slam.association_oracle import OracleFastSlamUnknown, associate_particle
 
 UNKNOWN = FastSlamConfig(association="unknown")
 
 
 def _scenario(seed=1, n_steps=40, **values):
     return generate_scenario(CaseSpec({**FIXED_VALUES, **values}), rng=np.random.default_rng(seed), n_steps=n_steps)
-
-
-# -- the association unit on hand-built cases -------------------------------------------------------
-
-
-def test_new_landmark_log_likelihood_is_the_gaussian_density_at_that_distance():
-    Q = np.diag([0.04, 0.01])
-    assert new_landmark_log_likelihood(Q, 2.0) == pytest.approx(log_p0(Q, 2.0), abs=1e-12)
-    # at distance 0 it is the density's peak, 1 / (2 pi sqrt(det Q))
-    assert math.exp(new_landmark_log_likelihood(Q, 0.0)) == pytest.approx(1 / (2 * math.pi * 0.02))
-
-
-def test_a_particle_without_landmarks_creates_one_per_observation():
-    out = associate(np.zeros((2, 3, 4)), np.zeros((2, 4), dtype=bool), -5.0)
-    assert (out == NEW_LANDMARK).all() and out.shape == (2, 3)
-
-
-def test_best_likelihood_below_p0_creates_a_landmark_and_invalid_slots_never_win():
-    ll = np.array([[[-1.0, -9.0, 50.0],      # slot 2 is padding: ignored although most likely
-                    [-9.0, -7.0, 50.0]]])    # best valid -7 < p0 = -6: new
-    valid = np.array([[True, True, False]])
-    assert associate(ll, valid, -6.0).tolist() == [[0, NEW_LANDMARK]]
-    assert associate(ll, valid, -8.0).tolist() == [[0, 1]]
-
-
-def test_one_observation_per_landmark_the_most_likely_keeps_it():
-    ll = np.array([[[-1.0, -3.0], [-0.5, -2.0], [-4.0, -1.0]]])  # observations 0 and 1 both prefer slot 0
-    out = associate(ll, np.ones((1, 2), dtype=bool), -10.0)
-    assert out.tolist() == [[NEW_LANDMARK, 0, 1]]
-    tie = associate(np.array([[[-1.0], [-1.0]]]), np.ones((1, 1), dtype=bool), -10.0)
-    assert tie.tolist() == [[0, NEW_LANDMARK]]  # exact tie: the lower observation index
 
 
 def _filter(n=1, **kw):

@@ -28,8 +28,8 @@ from faultlab.slam import (
 )
 from faultlab.slam import units as _units
 from faultlab.slam.fastslam import BatchUnsupported
+from faultlab.slam.contract import FILTER_UNITS, PARTICLE_UNITS, STREAM_UNITS, filter_wise
 from faultlab.slam.profiles import get_profile
-from faultlab.slam.units import FILTER_UNITS, PARTICLE_UNITS, STREAM_UNITS, filter_wise
 
 N = 24
 CFG = FastSlamConfig(n_particles=N)
@@ -332,12 +332,24 @@ def test_a_sample_of_live_mutants_batched_is_bit_identical_to_single_runs(scenar
 
     A mutant whose single runs are not reproducible (e.g. it reads a work array it no longer fills,
     i.e. uninitialised memory) is not a batching difference; it is recognised by running every single
-    run twice, with other allocations in between, and left out of the comparison.
+    run twice, with other allocations in between, and once more built against poisoned numpy (work
+    arrays NaN-filled, as the screening builds it), and left out of the comparison.
     """
     import random
 
     from faultlab.mutation import mutant_catalogue, mutant_fault
+    from faultlab.mutation.source import unit_source
     from faultlab.slam import FastSlamSteps
+
+    def poisoned(mutant):
+        source = unit_source(mutant.unit, getattr(FastSlamSteps(), mutant.unit), FastSlamSteps)
+        unit = source.build({mutant.function: mutant.mutated_source}, poison=True)
+
+        def make():
+            slam = FastSlam(CFG)
+            return slam.with_steps(dataclasses.replace(slam.steps, **{mutant.unit: unit}))
+
+        return make
 
     live = list(mutant_catalogue("fastslam", cache=False).report.live())
     sample = random.Random(0).sample(live, 30)
@@ -352,8 +364,9 @@ def test_a_sample_of_live_mutants_batched_is_bit_identical_to_single_runs(scenar
         first = [single(make, scenario, s) for s in seeds]
         np.ones((4096, 64)) @ np.ones((64, 64))  # other allocations in between
         second = [single(make, scenario, s) for s in seeds]
-        if not all(_outcomes_equal(a, b) for a, b in zip(first, second)):
-            continue  # not reproducible on its own
+        third = [single(poisoned(mutant), scenario, s) for s in seeds]
+        if not all(_outcomes_equal(a, b) and _outcomes_equal(a, c) for a, b, c in zip(first, second, third)):
+            continue  # not reproducible on its own: it reads memory it never wrote
         compared += 1
         try:
             got = batched(make, scenario, seeds)

@@ -19,7 +19,7 @@ from faultlab.faults.builtin import BUILTIN_FAULTS
 from faultlab.faults.check import check_scenario, estimates_identical
 from faultlab.slam import REFERENCE_STEPS, FastSlam, FastSlamConfig, FastSlamSteps, run_slam
 from faultlab.slam.streams import unit_streams
-from faultlab.slam.units import STREAM_UNITS
+from faultlab.slam.contract import STREAM_UNITS
 
 CFG = FastSlamConfig(n_particles=40)
 SEED = 11

@@ -18,6 +18,7 @@ from faultlab.slam import (
     Observations,
     run_slam,
 )
+from faultlab.slam import particles as _particles
 from faultlab.slam import units as _units
 from faultlab.space.case import FIXED_VALUES, CaseSpec
 
@@ -333,7 +334,7 @@ def test_storage_owned_by_a_permutation_or_in_another_layout_is_equivalent():
         return _units.apply_resample(state, idx).replace(owner=perm.copy())
 
     def plain_arrays(state, idx):  # deep copy into ordinary C-ordered arrays
-        rows = _units.landmark_rows(state, np.arange(state.mu.shape[1]))[idx]
+        rows = _particles.landmark_rows(state, np.arange(state.mu.shape[1]))[idx]
         cols = np.arange(state.mu.shape[1])[None, :]
         n = state.n_particles
         return state.replace(poses=state.poses[idx], logw=np.full(n, -math.log(n)),

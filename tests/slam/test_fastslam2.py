@@ -22,6 +22,7 @@ from faultlab.slam import (
     Observations,
     run_slam,
 )
+from faultlab.slam import particles
 from faultlab.slam import units as U
 from faultlab.slam.fastslam2 import RANDOM_UNITS
 from faultlab.space import FIXED_VALUES, CaseSpec
@@ -336,7 +337,7 @@ def test_storage_in_another_layout_or_owned_by_a_permutation_is_equivalent():
         return U.apply_resample(state, idx).replace(owner=perm.copy())
 
     def plain_arrays(state, idx):
-        rows = U.landmark_rows(state, np.arange(state.mu.shape[1]))[idx]
+        rows = particles.landmark_rows(state, np.arange(state.mu.shape[1]))[idx]
         cols = np.arange(state.mu.shape[1])[None, :]
         n = state.n_particles
         return state.replace(poses=state.poses[idx], logw=np.full(n, -math.log(n)),

@@ -14,6 +14,8 @@ from faultlab.faults import get_fault
 from faultlab.metrics import map_errors
 from faultlab.scenario import generate_scenario
 from faultlab.slam import REFERENCE_STEPS, FastSlam, FastSlamConfig, Observations, run_slam
+from faultlab.slam import paperunits
+from faultlab.slam import particles
 from faultlab.slam import units as U
 from faultlab.slam.profiles import (
     PAPER_CONFIG,
@@ -47,9 +49,9 @@ def test_which_units_each_profile_replaces():
     assert set(get_profile("paper_no_aliasing").steps.replaced()) == PAPER_UNITS
     paper = get_profile("paper").steps
     assert set(paper.replaced()) == PAPER_UNITS | {"apply_resample"}
-    assert paper.apply_resample is U.apply_resample_aliased
-    assert paper.predict_measurement is U.predict_measurement_wrapped
-    assert paper.log_likelihood is U.log_likelihood_wrapped
+    assert paper.apply_resample is paperunits.apply_resample_aliased
+    assert paper.predict_measurement is paperunits.predict_measurement_wrapped
+    assert paper.log_likelihood is paperunits.log_likelihood_wrapped
 
 
 def test_paper_config_is_the_packages_filter_noise_in_si():
@@ -65,7 +67,7 @@ def test_paper_units_use_the_packages_constants_converted_to_metres():
     steps = get_profile("paper").steps
     mu = np.array([[[0.0009, 1.0], [-0.0011, 1.0], [0.005, 1.0]]])
     np.testing.assert_array_equal(steps.classify_new(np.ones(3, bool), mu), [[True, False, False]])  # 0.01 dm
-    state = U.ParticleState.initial(np.zeros(3), 2, capacity=2)
+    state = particles.ParticleState.initial(np.zeros(3), 2, capacity=2)
     state.mu[:, 0] = [[1.23456, -0.00049], [1.23456, -0.00049]]
     _, xy = steps.extract_map(state.replace(ids=np.array([3])))
     np.testing.assert_allclose(xy, [[1.235, -0.0]], atol=1e-12)  # whole millimetres

@@ -23,7 +23,7 @@ from faultlab.space import (
     table1_space,
 )
 from faultlab.space.coverage import class_matrix
-from faultlab.vocabulary import SUITE_KINDS
+from faultlab.space import SUITE_KINDS
 
 from tests.space.test_constraints import _forbidden_by_hand
 from tests.space.test_covering import brute_force_missing

@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from faultlab.errors import ConfigError
-from faultlab.vocabulary import SUITE_KINDS
+from faultlab.space import SUITE_KINDS
 from faultlab.space import (
     FIXED_VALUES,
     PARAMETER_NAMES,

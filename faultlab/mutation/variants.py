@@ -3,7 +3,7 @@
 A variant ``"mutant:<id>"`` (e.g. ``"mutant:motion_model:arithmetic:1"``) is the mutant of the
 reference FastSLAM's units with that id, as a :class:`~faultlab.faults.Fault`
 (:func:`~faultlab.mutation.mutant.mutant_fault`, picklable: workers rebuild the unit from source).
-:func:`faultlab.faults.registry.resolve_variant` hands such names to :func:`resolve_mutant_variant`.
+:func:`faultlab.runner.variants.resolve_variant` hands such names to :func:`resolve_mutant_variant`.
 
 :func:`select_mutants` picks the mutants of a campaign from the screened catalogue by unit,
 operator and id; only live mutants run (a duplicate is represented by the mutant it duplicates,
@@ -24,12 +24,11 @@ from faultlab.faults.fault import Fault
 from faultlab.mutation.mutant import _operator_mutants, _parse_id, mutant_fault
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.mutation.source import unit_source
+from faultlab.vocabulary import MUTANT_PREFIX
 
 __all__ = ["MUTANT_PREFIX", "MutantSelection", "is_mutant_variant", "mutant_variant", "mutant_id_of",
            "resolve_mutant_variant", "select_mutants"]
 
-#: Prefix of a mutant's variant name in an experiment.
-MUTANT_PREFIX = "mutant:"
 #: The SLAM whose units mutant variants belong to.
 MUTANT_SLAM = "fastslam"
 

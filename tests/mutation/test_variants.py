@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from faultlab.errors import FaultError
-from faultlab.faults.registry import resolve_variant
-from faultlab.mutation.campaign import (is_mutant_variant, mutant_id_of, mutant_variant, resolve_mutant_variant,
+from faultlab.mutation.variants import (is_mutant_variant, mutant_id_of, mutant_variant, resolve_mutant_variant,
                                         select_mutants, _catalogue)
+from faultlab.runner.variants import resolve_variant
 from faultlab.slam import FastSlam
 
 SIGN_FLIP = "motion_model:arithmetic:9"  # wrap(th + u[:, 1]) -> wrap(th - u[:, 1])

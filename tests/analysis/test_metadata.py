@@ -2,7 +2,7 @@
 
 import pytest
 
-from faultlab.analysis.campaign import count_expected_jobs, read_rule, read_space
+from faultlab.analysis.metadata import count_expected_jobs, read_rule, read_space
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.space import table1_space
 from faultlab.stats import DetectionRule

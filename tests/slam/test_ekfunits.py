@@ -1,4 +1,4 @@
-"""The EKF-SLAM and FastSLAM 2.0 units against independent computations (faultlab.slam.units2)."""
+"""The EKF-SLAM and FastSLAM 2.0 units against independent computations (faultlab.slam.ekfunits)."""
 
 import math
 
@@ -10,7 +10,7 @@ from scipy.stats import multivariate_normal
 
 from faultlab.slam import FastSlamConfig
 from faultlab.slam import units as U
-from faultlab.slam import units2 as U2
+from faultlab.slam import ekfunits as U2
 
 Q = FastSlamConfig().Q
 M = np.diag([0.1 ** 2, math.radians(20) ** 2])

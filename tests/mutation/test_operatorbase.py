@@ -3,7 +3,7 @@
 import libcst as cst
 import pytest
 
-from faultlab.mutation.operator import (
+from faultlab.mutation.operatorbase import (
     MutationOperator,
     MutationPoint,
     NodeOperator,
