@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import add_execution_options, positive_int
+from faultlab.cli.options import add_examples, add_execution_options, positive_int
 
 __all__ = ["register", "handler"]
 
@@ -14,8 +14,10 @@ def register(subparsers) -> None:
         "calibrate", help="measure the detection rules' false-alarm rates on an A/A campaign",
         description="Run the paper's protocol with the variants baseline and baseline_replica (the unmodified "
                     "SLAM with independent seeds) and K repetitions per case, then print per rule and suite "
-                    "the empirical false-alarm rate with an interval clustered by case, and whether the "
-                    "statistical rule's rate is at most alpha. Rerunning resumes.")
+                    "the empirical false-alarm rate with an interval clustered by case, then the statistical rule's "
+                    "per-case A/A rate with its Clopper-Pearson interval and the check: exit 3 when the rule "
+                    "rejects too often (lower bound above alpha), 4 for an underpowered calibration (upper "
+                    "bound not below 2 alpha), 0 otherwise. Rerunning resumes; --check DIR runs nothing.")
     p.add_argument("--quick", action="store_true",
                    help="smoke version: 1 run, small suites, K = 6, 200 steps, 60 particles")
     p.add_argument("--out", default=None, help="results directory (default: results/calibrate[-quick])")
@@ -27,6 +29,8 @@ def register(subparsers) -> None:
     p.add_argument("--repetitions", type=positive_int, default=None, metavar="K",
                    help="SLAM repetitions per case (default 10; 6 with --quick)")
     add_execution_options(p)
+    add_examples(p, ["faultlab calibrate --quick --out results/calibrate-quick",
+                     "nice -n 10 faultlab calibrate --out results/calibrate --reports results/calibrate/report"])
     p.set_defaults(func=handler)
 
 
@@ -34,7 +38,8 @@ def handler(args: argparse.Namespace) -> int:
     """Exit 0 when calibrated, 3 when miscalibrated (or nothing could be judged), 4 when underpowered."""
     from pathlib import Path
 
-    from faultlab.report.calibrate import EXIT_CODES, calibrate, check_saved, format_calibration
+    from faultlab.analysis.calibration import EXIT_CODES, assess_calibration, check_saved, format_calibration
+    from faultlab.campaigns.calibrate import calibrate
 
     if args.check is not None:
         rates, check, rule = check_saved(args.check)
@@ -43,8 +48,12 @@ def handler(args: argparse.Namespace) -> int:
             Path(args.reports).mkdir(parents=True, exist_ok=True)
             rates.to_csv(Path(args.reports) / "calibration.csv", index=False)
         return EXIT_CODES[check.status]
-    result = calibrate(out=args.out, reports=args.reports, quick=args.quick, repetitions=args.repetitions,
-                       jobs=args.jobs, backend=args.backend, force_new=args.force_new,
-                       progress=not args.no_progress)
+    run = calibrate(out=args.out, quick=args.quick, repetitions=args.repetitions, jobs=args.jobs,
+                    backend=args.backend, force_new=args.force_new, progress=not args.no_progress)
+    print(run)
+    result = assess_calibration(run.out)
+    if args.reports is not None:
+        result.analysis.save(args.reports)
+        result.rates.to_csv(Path(args.reports) / "calibration.csv", index=False)
     print(result)
     return EXIT_CODES[result.check.status]

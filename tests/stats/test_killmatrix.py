@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import pandas as pd
@@ -14,10 +15,11 @@ from statsmodels.stats.multitest import multipletests
 
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.metrics.detection import DetectionRule
-from faultlab.stats.killmatrix import (KillMatrix, bootstrap_probabilities, compare_scores, detection_probability,
-                                       detection_table, draw_suites, evaluate_suites, judge_suite, kill_matrix,
-                                       score_table,
-                                       strong_cases, suite_detects, suite_rejections)
+from faultlab.stats.killmatrix import (KillMatrix, StudySpec, bootstrap_probabilities, compare_scores,
+                                       detection_probability, detection_table, draw_suites, evaluate_suites,
+                                       judge_suite, kill_matrix, score_table, strong_cases, study_spec,
+                                       suite_detects, suite_kills, suite_rejections)
+from faultlab.stats.verdict import min_pairs
 
 ALPHA = 0.05
 
@@ -317,3 +319,53 @@ def test_judge_suite_pools_a_diffuse_effect_the_per_case_minimum_misses():
     assert not j.loc["diffuse", "detected"] and j.loc["diffuse", "detected_pooled"]
     assert j.loc["diffuse", "by_pool"] and not j.loc["diffuse", "by_case"]
     assert not j.loc["none", "detected_pooled"]
+
+# -- the per-case kill of a mutation campaign, the [study] table --------------------------------
+
+
+def _kill_frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) -> pd.DataFrame:
+    rng = np.random.default_rng(0)
+    base = 100 + rng.random(k) * 10
+    rows = [dict(run=1, suite="fixed", case=case, variant="baseline", rep=r, status="ok", rms_mm=base[r],
+                 emd_mm=base[r]) for r in range(k)]
+    for v, d in diffs.items():
+        for r in range(k):
+            st = (status or {}).get(v, "ok")
+            rows.append(dict(run=1, suite="fixed", case=case, variant=v, rep=r, status=st,
+                             rms_mm=base[r] + d[r] if st == "ok" else math.nan, emd_mm=math.nan))
+    return pd.DataFrame(rows)
+
+
+def test_case_kill_classes_follow_the_exact_paired_test_at_the_case_level():
+    k = 7  # 2^-7 = 0.0078 <= 0.01
+    df = _kill_frame({"mutant:a": np.full(k, 50.0), "mutant:b": np.array([50.0] * 6 + [-5.0]),
+                 "mutant:c": np.zeros(k), "mutant:d": np.zeros(k), "mutant:e": np.zeros(k)},
+                k, status={"mutant:d": "crash", "mutant:e": "timeout"})
+    kills = suite_kills(df, case_alpha=0.01, direction="worse").set_index("fault")["kill"]
+    # b: sum 295; only b itself and the all-positive pattern (305) reach it: p = 2/128 = 0.0156 > 0.01
+    assert kills.to_dict() == {"mutant:a": "killed", "mutant:b": "", "mutant:c": "", "mutant:d": "crash",
+                               "mutant:e": "timeout"}
+    assert suite_kills(df, case_alpha=0.02, direction="worse").set_index("fault")["kill"]["mutant:b"] == "killed"
+    # two-sided (the default) at 0.01 needs K = 8: with K = 7 no case can be judged
+    two = suite_kills(df, case_alpha=0.01).set_index("fault")
+    assert two.loc["mutant:a", "kill"] == "" and two.loc["mutant:a", "reason"] == "too_few_pairs"
+
+
+def test_a_mutant_that_only_improves_is_killed_by_the_two_sided_case_rule():
+    k = min_pairs(0.01, alternative="two-sided")
+    assert k == 8
+    df = _kill_frame({"mutant:better": np.full(k, -50.0), "mutant:worse": np.full(k, 50.0)}, k)
+    two = suite_kills(df, case_alpha=0.01).set_index("fault")
+    assert two.loc["mutant:better", "kill"] == "killed" and two.loc["mutant:better", "direction"] == "better"
+    assert two.loc["mutant:worse", "kill"] == "killed" and two.loc["mutant:worse", "direction"] == "worse"
+    assert two.loc["mutant:better", "p"] == 2.0 ** -7
+    one = suite_kills(df, case_alpha=0.01, direction="worse").set_index("fault")
+    assert one.loc["mutant:better", "kill"] == "" and one.loc["mutant:worse", "kill"] == "killed"
+
+
+def test_study_spec_defaults_and_types():
+    assert study_spec({}, source="x") == StudySpec()
+    with pytest.raises(ConfigError, match="x: study.alpha must lie in"):
+        study_spec({"alpha": 1.5}, source="x")
+    with pytest.raises(ConfigError, match="study.timeouts_detect must be true or false"):
+        study_spec({"timeouts_detect": "no"}, source="x")
