@@ -134,12 +134,17 @@ class DetectionRule:
         """The rule as the ``[detection]`` table of an experiment file.
 
         The keys beyond the paper's thresholds appear only where they differ from their defaults,
-        so an experiment of the paper's rule keeps the hash (and resumable store) it always had.
+        so an experiment of the paper's rule keeps the hash (and resumable store) it always had;
+        the statistical rule always records its ``direction`` (a stored rule without one was run
+        one-sided, before the two-sided default, and is read back so:
+        :func:`faultlab.analysis.metadata.read_rule`).
         """
         out = {"abs_mm": self.abs_mm, "rel": self.rel}
         for name in ("rule", "alpha", "family", "direction"):
             if getattr(self, name) != DetectionRule.__dataclass_fields__[name].default:
                 out[name] = getattr(self, name)
+        if self.statistical:  # always recorded: a stored rule without it predates the two-sided default
+            out["direction"] = self.direction
         return out
 
 

@@ -104,7 +104,7 @@ def slam_markdown(c: SlamComparison, *, figure: str = "slams.png") -> str:
     lines += ["", "## Fault sensitivity", "",
               f"Per SLAM and fault: the cases on which the campaign's rule (`{rule.get('rule', 'paper')}`) detects "
               f"the fault, among the cases it could judge, with Clopper-Pearson intervals.  The statistical rule "
-              f"is an exact {'one-sided' if rule.get('direction') == 'worse' else 'two-sided'} sign-flip test of "
+              f"is an exact {'two-sided' if rule.get('direction') == 'either' else 'one-sided'} sign-flip test of "
               f"the K paired differences faulty - baseline (repetition r "
               f"of both uses the same SLAM seed) at alpha = {rule.get('alpha', DEFAULT_ALPHA):g}, multiplicity family "
               f"`{rule.get('family', 'fault')}` (`faultlab.stats.verdict`).  Beside it, the share of single "

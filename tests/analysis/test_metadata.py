@@ -36,3 +36,11 @@ def test_the_stored_space_overrides_table1():
     assert space["map_size"].class_names == ("small", "big")
     with pytest.raises(ConfigError, match="paper.toml \\[space\\]"):
         read_space({"experiment_source": "paper.toml", "experiment": {"space": {"map_size": {"nope": 1}}}})
+
+
+def test_a_statistical_rule_stored_without_a_direction_is_read_as_it_ran_one_sided():
+    old = read_rule({"detection": {"abs_mm": 250.0, "rel": 0.25, "rule": "statistical"}})[0]
+    assert old.direction == "worse"
+    new = DetectionRule(rule="statistical")
+    assert new.to_dict()["direction"] == "either" and read_rule({"detection": new.to_dict()})[0] == new
+    assert "direction" not in DetectionRule().to_dict()  # the paper rule's hash is unchanged

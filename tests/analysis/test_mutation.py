@@ -88,6 +88,3 @@ def test_survivors_split_into_equivalent_and_inconclusive_and_identical_maps_lea
     s = mutation_scores(o.reset_index()).set_index(["suite", "by", "group"]).loc[("fixed", "all", "all")]
     assert (s["killed"], s["judged"], s["equivalent_observed"]) == (1, 3, 1)
     assert (s["survived_equivalent"], s["survived_inconclusive"]) == (1, 1)
-=======
-from faultlab.analysis.mutation import clopper_pearson, compare_suites, mutation_scores
->>>>>>> main

@@ -109,7 +109,7 @@ def test_case_level_pages_state_test_alpha_family_and_what_could_not_be_judged()
     res = res[res["variant"].isin(["baseline", "motion_sign_error"])]
     replica = res[res["variant"] == "baseline"].assign(variant=REPLICA)
     replica = replica.assign(rms_mm=replica["rms_mm"] + 3.0 * ((replica["rep"] + replica["case"]) % 3))
-    meta = {"detection": {"rule": "statistical", "alpha": 0.05, "family": "suite_fault"}}
+    meta = {"detection": {"rule": "statistical", "alpha": 0.05, "family": "suite_fault", "direction": "either"}}
     import pandas as pd
 
     a = Analysis.from_frame(pd.concat([res, replica], ignore_index=True), meta, paper=False)
