@@ -10,13 +10,14 @@ a resumed campaign batches only the missing repetitions.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
+from typing import Callable, Iterator, Mapping, Sequence
 
 from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
 from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, slam_units
@@ -27,14 +28,16 @@ from faultlab.runner.experiment import Experiment, load_experiment
 from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import format_duration
 from faultlab.runner.progress import progress as show_progress
-from faultlab.runner.store import ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, store_lock
+from faultlab.runner.staging import STOPS_KEY, look_at_pairs, stage_jobs
+from faultlab.runner.store import (ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, load_results,
+                                   store_lock)
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
 from faultlab.slam.protocol import SlamAdapter, association_of
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.vocabulary import UNKNOWN_ASSOCIATION, JobStatus
 
-__all__ = ["CaseInfo", "RunSummary", "prepare_cases", "result_row", "run_experiment"]
+__all__ = ["CaseInfo", "RunSummary", "prepare_cases", "result_row", "run_experiment", "store_session"]
 
 
 @dataclass(frozen=True)
@@ -62,7 +65,7 @@ class RunSummary:
     results : Path
         The SQLite store (read it with :func:`faultlab.runner.load_results`).
     n_jobs : int
-        Jobs of the experiment.
+        Jobs of the experiment (with ``[adaptive]`` repetitions: those its stages needed).
     counts : mapping
         Rows per status (ok, crash, timeout) in the whole store.
     n_new : int
@@ -93,32 +96,36 @@ class RunSummary:
 
 
 
-def prepare_cases(experiment: Experiment, out: str | Path) -> list[CaseInfo]:
+def prepare_cases(experiment: Experiment, out: str | Path, *,
+                  drawn: Sequence[SuiteCase] | None = None) -> list[CaseInfo]:
     """Generate and save every test case of ``experiment`` (idempotent).
 
     Cases come from the one case pipeline (:func:`faultlab.scenario.suite.draw_suite`,
     :func:`~faultlab.scenario.suite.generate_case`), so they are exactly those
     ``faultlab generate`` writes for the same seed, suite and run.  A case already on disk is
     loaded and checked against the experiment (seed and parameter values) instead of being
-    regenerated.
+    regenerated.  ``drawn`` replaces the suites' draws by given cases (a designed experiment,
+    :mod:`faultlab.space.design`); they are generated from their own seeds the same way.
 
     Raises
     ------
     ResultsError
         If a saved case belongs to another experiment.
     """
-    space = experiment.parameter_space()
+    if drawn is None:
+        space = experiment.parameter_space()
+        drawn = [case for run in range(1, experiment.runs + 1) for suite in experiment.suites
+                 for case in draw_suite(suite.kind, space, root_seed=experiment.seed, run=run,
+                                        n_cases=suite.n_cases)]
     infos: list[CaseInfo] = []
-    for run in range(1, experiment.runs + 1):
-        for suite in experiment.suites:
-            for case in draw_suite(suite.kind, space, root_seed=experiment.seed, run=run, n_cases=suite.n_cases):
-                path = case_path(out, run, suite.kind, case.case)
-                scenario = _saved_case(path, case, experiment)
-                if scenario is None:
-                    scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
-                                             min_distance=experiment.min_distance, fov_bug=experiment.fov_bug)
-                    save_scenario(scenario, path)
-                infos.append(_case_info(case, path, scenario))
+    for case in drawn:
+        path = case_path(out, case.run, case.suite, case.case)
+        scenario = _saved_case(path, case, experiment)
+        if scenario is None:
+            scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
+                                     min_distance=experiment.min_distance, fov_bug=experiment.fov_bug)
+            save_scenario(scenario, path)
+        infos.append(_case_info(case, path, scenario))
     return infos
 
 
@@ -153,7 +160,8 @@ def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable
     """Build the SUT and apply every fault once in the parent: configuration errors fail fast.
 
     A fault that replaces a unit the SUT does not have (:func:`faultlab.faults.not_applicable`:
-    e.g. a resampling fault and EKF-SLAM, or any fault and dead reckoning) does not apply: its
+    e.g. a resampling fault and EKF-SLAM, or any fault and dead reckoning), or a hardware limit whose
+    option the SUT does not have (a particle budget and EKF-SLAM), does not apply: its
     variant is skipped with a :class:`~faultlab.faults.FaultNotApplicableWarning` naming fault,
     unit and SLAM, and returned so that the caller drops its jobs and records it in the store.
     Returns the built SUT (without fault) and the skipped variants.
@@ -177,7 +185,7 @@ def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable
         fault = resolve_variant(variant)  # known: parse_experiment checked every name
         if fault is None:
             continue
-        reason = not_applicable(fault, experiment.slam.name, units=units)
+        reason = not_applicable(fault, experiment.slam.name, units=units, options=dict(experiment.slam.options))
         if reason is not None:
             reason = dataclasses.replace(reason, fault=variant)  # as the experiment names it
             warnings.warn(f"{experiment.source}: variants[{i}] skipped: {reason}", FaultNotApplicableWarning,
@@ -209,9 +217,31 @@ def result_row(case: CaseInfo, res: JobResult) -> dict:
     return row
 
 
+@contextlib.contextmanager
+def store_session(store: ResultStore, session: int, *, t0: float) -> Iterator[dict]:
+    """End ``session`` when the block ends: ``complete``, or ``interrupted`` if it raised.
+
+    Yields a dict whose ``n_new`` the block keeps up to date.  If ending the session fails while
+    the block is already failing (the disk is full: the store cannot take the final update
+    either), the block's error is the one raised; the session is then closed as ``killed`` when
+    the store is next opened.
+    """
+    ended = {"n_new": 0}
+    try:
+        yield ended
+    except BaseException:
+        with contextlib.suppress(FaultlabError):
+            store.end_session(session, state="interrupted", n_new=ended["n_new"],
+                              wall_time_s=time.perf_counter() - t0)
+        raise
+    store.end_session(session, state="complete", n_new=ended["n_new"], wall_time_s=time.perf_counter() - t0)
+
+
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
-                   batch_size: int | None = None) -> RunSummary:
+                   batch_size: int | None = None, look=None,
+                   on_start: Callable[[], None] | None = None,
+                   cases: Sequence[SuiteCase] | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
 
     Parameters
@@ -241,6 +271,18 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         repetitions of a (case, variant) per job (default: all that are missing from the store;
         1: one repetition per job).  The results are the same whatever the batch size, except
         ``runtime_s``.
+    look : callable, optional
+        The stopping rule of an experiment with ``[adaptive]`` repetitions
+        (:func:`faultlab.stats.sequential.interim_look`; required then, ignored otherwise).  The
+        repetitions run in stages (:mod:`faultlab.runner.staging`): a stage's jobs only for the
+        pairs still running, each stage in its own session.
+    on_start : callable, optional
+        Called once every check passed and the store is open, before the first write to ``out``
+        (a driver writing files of its own next to the store writes them there, so that a refused
+        run writes nothing).
+    cases : sequence of SuiteCase, optional
+        Run these cases instead of drawing the experiment's suites (a designed experiment); their
+        scenarios are generated from their own seeds and checked on a resume like drawn ones.
 
     Returns
     -------
@@ -261,39 +303,76 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     if batch_size is not None and (isinstance(batch_size, bool) or not isinstance(batch_size, int)
                                    or batch_size < 1):
         raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")
+    if experiment.adaptive is not None and look is None:
+        raise ConfigError(f"{experiment.source}: [adaptive] repetitions need the stopping rule: pass "
+                          f"look=faultlab.stats.sequential.interim_look (the CLI does)")
     t0 = time.perf_counter()
     out = Path(out)
     sut, skipped = _preflight(experiment)
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
+        if on_start is not None:
+            on_start()
         store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
-        cases = prepare_cases(experiment, out)
-        info = {(c.run, c.suite, c.case): c for c in cases}
-        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases))
+        prepared = prepare_cases(experiment, out, drawn=cases)
+        info = {(c.run, c.suite, c.case): c for c in prepared}
+        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in prepared))
         if skipped:  # variants whose fault does not apply to the SLAM have no jobs
             names = {r.fault for r in skipped}
             specs = [s for s in specs if s.key.variant not in names]
-        done = store.done_keys()
-        todo = [s for s in specs if s.key.astuple() not in done]
-        # the missing repetitions of a (case, variant) run as one batched SLAM if the SUT can
-        batches = batch_jobs(todo, size=batch_size if getattr(sut, "supports_batch", False) else 1)
-        batches.sort(key=lambda b: (-b.cost, b.keys))  # longest first: shorter tail on few workers
+        design = experiment.adaptive
+        stages = range(len(design.stages)) if design is not None else [None]
+        n_needed, n_new, running = 0, 0, None
+        for stage in stages:
+            if stage is None:
+                todo_specs = specs
+            else:
+                if stage > 0:
+                    decisions = look_at_pairs(load_results(out), design=design, upto=design.stages[stage - 1],
+                                              metric=experiment.metric, look=look)
+                    if running is not None:  # a pair stopped at an earlier look stays stopped
+                        decisions = {k: d for k, d in decisions.items() if k in running}
+                    running = {k for k, d in decisions.items() if d == "continue"}
+                    store.set_meta(STOPS_KEY, _stops(decisions, design, stage, store.meta.get(STOPS_KEY, [])))
+                todo_specs = stage_jobs(specs, design=design, stage=stage, running=running)
+            n_needed += len(todo_specs)
+            n_new += _run_specs(store, todo_specs, info, sut, jobs=jobs, backend=backend, batch_size=batch_size,
+                                progress=progress, t0=t0)
         counts = {s.value: 0 for s in JobStatus} | store.status_counts()
-        session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
-        n_new, state = 0, "interrupted"
-        try:
-            with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
-                               enabled=progress,
-                               counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
-                for res in stream_results(batches, jobs=jobs, backend=backend):
-                    k = res.key
-                    store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
-                    n_new += 1
-                    counts[res.status.value] = counts.get(res.status.value, 0) + 1
-                    bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
-            state = "complete"
-        finally:
-            store.end_session(session, state=state, n_new=n_new, wall_time_s=time.perf_counter() - t0)
-        counts = {s.value: 0 for s in JobStatus} | store.status_counts()
-        return RunSummary(out=out, results=store.path, n_jobs=len(specs), counts=counts, n_new=n_new,
-                          n_skipped=len(specs) - len(todo), wall_time_s=time.perf_counter() - t0,
+        n_stored = sum(counts.values())
+        return RunSummary(out=out, results=store.path, n_jobs=n_needed, counts=counts, n_new=n_new,
+                          n_skipped=n_stored - n_new, wall_time_s=time.perf_counter() - t0,
                           experiment_hash=experiment.hash)
+
+
+def _stops(decisions: dict, design, stage: int, previous: list) -> list[dict]:
+    """Stopped pairs for the store: earlier stops kept, this look's stops added (sorted, JSON-ready)."""
+    seen = {(e["run"], e["suite"], e["case"], e["variant"]) for e in previous}
+    new = [{"run": int(k[0]), "suite": k[1], "case": int(k[2]), "variant": k[3],
+            "repetitions": design.stages[stage - 1], "reason": d}
+           for k, d in sorted(decisions.items()) if d != "continue" and k not in seen]
+    return sorted(previous + new, key=lambda e: (e["run"], e["suite"], e["case"], e["variant"]))
+
+
+def _run_specs(store, specs: list, info: dict, sut, *, jobs: int, backend: str, batch_size, progress: bool,
+               t0: float) -> int:
+    """Run the jobs of ``specs`` missing from ``store`` in one session; the number of rows written."""
+    done = store.done_keys()
+    todo = [s for s in specs if s.key.astuple() not in done]
+    # the missing repetitions of a (case, variant) run as one batched SLAM if the SUT can
+    batches = batch_jobs(todo, size=batch_size if getattr(sut, "supports_batch", False) else 1)
+    batches.sort(key=lambda b: (-b.cost, b.keys))  # longest first: shorter tail on few workers
+    counts = {s.value: 0 for s in JobStatus} | store.status_counts()
+    session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
+    n_new = 0
+    with store_session(store, session, t0=t0) as ended:
+        with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
+                           enabled=progress,
+                           counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
+            for res in stream_results(batches, jobs=jobs, backend=backend):
+                k = res.key
+                store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
+                n_new += 1
+                ended["n_new"] = n_new
+                counts[res.status.value] = counts.get(res.status.value, 0) + 1
+                bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
+    return n_new

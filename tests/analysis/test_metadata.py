@@ -44,3 +44,23 @@ def test_a_statistical_rule_stored_without_a_direction_is_read_as_it_ran_one_sid
     new = DetectionRule(rule="statistical")
     assert new.to_dict()["direction"] == "either" and read_rule({"detection": new.to_dict()})[0] == new
     assert "direction" not in DetectionRule().to_dict()  # the paper rule's hash is unchanged
+
+
+def test_expected_jobs_and_summary_of_adaptive_repetitions():
+    # 1 run, 2 cases, baseline + a + b, K = 4 in stages 2 + 2.  Case 1: a stops after 2, b runs
+    # on, so the baseline runs 4: 2 + 4 + 4 = 10 jobs.  Case 2: a and b stop after 2, so does the
+    # baseline: 6 jobs.  16 of the fixed design's 24.
+    from faultlab.analysis.metadata import adaptive_summary
+
+    exp = {"runs": 1, "suites": [["fixed", 2]], "variants": ["baseline", "a", "b"], "repetitions": 4,
+           "adaptive": {"stages": [2, 4], "level": 0.05, "alternative": "greater", "futility": 0.5}}
+    stops = [{"run": 1, "suite": "fixed", "case": 1, "variant": "a", "repetitions": 2, "reason": "futile"},
+             {"run": 1, "suite": "fixed", "case": 2, "variant": "a", "repetitions": 2, "reason": "futile"},
+             {"run": 1, "suite": "fixed", "case": 2, "variant": "b", "repetitions": 2, "reason": "curtailed"}]
+    meta = {"experiment": exp, "adaptive_stops": stops}
+    assert count_expected_jobs(meta) == 16
+    assert count_expected_jobs(meta, adaptive=False) == 24
+    text = adaptive_summary(meta)
+    assert "3 (case, variant) pair(s) stopped early (1 curtailed, 2 futile)" in text
+    assert "16 of the fixed design's 24 executions (33.3 % saved)" in text
+    assert adaptive_summary({"experiment": {k: v for k, v in exp.items() if k != "adaptive"}}) is None

@@ -1,5 +1,6 @@
 """run_experiment: cases, jobs, store, resumption, skipped variants, every built-in SLAM."""
 
+import dataclasses
 import json
 import math
 import sqlite3
@@ -15,7 +16,7 @@ from faultlab.faults import FaultNotApplicableWarning
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY
 from faultlab.runner.jobs import expand_jobs
 from faultlab.seeds import case_seed, slam_seed, suite_seed_sequence
-from faultlab.scenario import generate_scenario, load_scenario
+from faultlab.scenario import generate_scenario, load_scenario, save_scenario
 from faultlab.space import build_suite
 from tests.runner.suts import SUTS, fastslam_batches, one_case, without_runtime, write_experiment
 
@@ -129,13 +130,22 @@ def test_prepare_cases_reproducible_idempotent_and_verified(tmp_path):
     np.testing.assert_array_equal(load_scenario(path).true_poses, before.true_poses)
     assert case_path(tmp_path / "out", 1, "random", 1).stat().st_mtime_ns == mtime
 
-    # a saved case of another experiment is refused
-    js = path.with_suffix(".json")
-    meta = json.loads(js.read_text())
-    meta["seed"] = 1
-    js.write_text(json.dumps(meta))
+    # a saved case of another experiment (another seed, intact files) is refused
+    save_scenario(dataclasses.replace(before, seed=1), path)
     with pytest.raises(ResultsError, match="does not match"):
         prepare_cases(exp, tmp_path / "out")
+
+    # a damaged case (an edited .json, a truncated .npz) is regenerated from its seed
+    js = path.with_suffix(".json")
+    meta = json.loads(js.read_text())
+    meta["seed"] = 12345
+    js.write_text(json.dumps(meta))
+    npz = case_path(tmp_path / "out", 1, "random", 1)
+    intact = npz.read_bytes()
+    npz.write_bytes(intact[:len(intact) // 3])
+    assert prepare_cases(exp, tmp_path / "out") == infos
+    assert npz.read_bytes() == intact
+    np.testing.assert_array_equal(load_scenario(path).true_poses, before.true_poses)
 
 
 def test_malformed_experiment_refused_before_any_work(tmp_path):
@@ -301,3 +311,28 @@ def test_a_slam_without_ids_is_scored_by_emd(tmp_path):
     seed = slam_seed(exp.seed, int(row.run), row.suite, int(row.case), int(row.rep))
     est = run_slam(exp.slam.build(), sc, rng=np.random.default_rng(seed))
     assert row.emd_mm == pytest.approx(1000 * earth_movers_distance(sc.landmarks, est.landmarks))
+
+
+def test_given_cases_replace_the_suites_draws_and_are_checked_on_resume(tmp_path):
+    """A designed experiment passes its cases: each is generated from its own seed and run for every variant."""
+    import dataclasses
+
+    from faultlab.runner import load_experiment, load_results
+    from faultlab.scenario.suite import SuiteCase
+    from faultlab.space import FIXED_VALUES, CaseSpec, table1_space
+
+    exp = load_experiment(write_experiment(tmp_path / "e.toml"))
+    values = [dict(FIXED_VALUES, map_size=9.0), dict(FIXED_VALUES, map_size=30.0, step_size=120.0)]
+    cases = [SuiteCase(run=1, suite="morris", case=i, spec=CaseSpec(v, table1_space().classify(v)),
+                       seed=case_seed(exp.seed, 1, "morris", i)) for i, v in enumerate(values, start=1)]
+    out = tmp_path / "out"
+    summary = run_experiment(exp, out, jobs=1, backend="threading", progress=False, cases=cases)
+    res = load_results(out)
+    assert summary.n_jobs == 2 * len(exp.variants) * exp.repetitions == len(res)
+    assert set(res["suite"]) == {"morris"}
+    got = res.drop_duplicates("case").set_index("case")
+    assert got.loc[1, "map_size"] == 9.0 and got.loc[2, "step_size"] == 120.0
+    assert load_scenario(out / "cases" / "run1" / "morris" / "case2.npz").seed == cases[1].seed
+    changed = [dataclasses.replace(cases[0], spec=CaseSpec(dict(values[0], map_size=10.0)))]
+    with pytest.raises(ResultsError, match="does not match"):
+        run_experiment(exp, out, jobs=1, backend="threading", progress=False, cases=changed)
