@@ -72,7 +72,7 @@ from faultlab.stats.comparison import compare_suite_rates
 from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.stats.effects import fit_effects, validate_parameters
 from faultlab.stats.oracle import oracle_detections
-from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, paper_table, resolve_data_path
+from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, data_label, paper_table, resolve_data_path
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
 from faultlab.space.case import PARAMETER_NAMES
 from faultlab.vocabulary import REPLICA, SUITE_ORDER, JobStatus, ordered
@@ -128,8 +128,9 @@ class Analysis:
         The results store's metadata (:func:`faultlab.runner.load_metadata`), JSON-shaped.
     equivalent_faults : tuple of str
         Faults whose every result equals the baseline's (:func:`faultlab.stats.find_identical_faults`).
-    paper_raw, paper_reported : Path or None
-        The paper's data files the paper tables were computed from (None: no paper data).
+    paper_raw, paper_reported : str or None
+        The paper's data files the paper tables were computed from, named without a machine path
+        (:func:`faultlab.stats.paper.data_label`; None: no paper data).
     notes : tuple of Note
         What could not be computed, and why; caveats.
 
@@ -147,8 +148,8 @@ class Analysis:
     parameters: tuple[str, ...] | None
     metadata: dict
     equivalent_faults: tuple[str, ...]
-    paper_raw: Path | None
-    paper_reported: Path | None
+    paper_raw: str | None
+    paper_reported: str | None
     notes: tuple[Note, ...]
     jobs: pd.DataFrame
     cases: pd.DataFrame
@@ -211,7 +212,7 @@ class Analysis:
             ``alpha`` outside (0, 1) or an unknown parameter.
         """
         _check_input(results, alpha)
-        metadata = _json_shaped(dict(metadata or {}))
+        metadata = _portable_metadata(_json_shaped(dict(metadata or {})))
         metric = judged_metric(metadata, metric)
         rep = _shown_repetition(results, rep)
         parameters = None if parameters is None else validate_parameters(parameters)
@@ -236,8 +237,8 @@ class Analysis:
         return cls(
             rule=rule, alpha=float(alpha), rep=rep, parameters=parameters, metadata=metadata,
             equivalent_faults=equivalent,
-            paper_raw=None if paper_tab is None else paper_tab.raw_path,
-            paper_reported=None if paper_tab is None else paper_tab.reported_path,
+            paper_raw=None if paper_tab is None else data_label(paper_tab.raw_path),
+            paper_reported=None if paper_tab is None else data_label(paper_tab.reported_path),
             notes=tuple(n for n in notes if n is not None),
             cases=cases,
             detection_rates=detection_rate_table(rates, None if paper_tab is None else paper_tab.rates),
@@ -349,9 +350,10 @@ class Analysis:
             scalars = dict(
                 rule=DetectionRule(**data["rule"]), alpha=float(data["alpha"]), rep=int(data["rep"]),
                 parameters=None if data["parameters"] is None else tuple(data["parameters"]),
-                metadata=data["metadata"], equivalent_faults=tuple(data["equivalent_faults"]),
-                paper_raw=None if data["paper_raw"] is None else Path(data["paper_raw"]),
-                paper_reported=None if data["paper_reported"] is None else Path(data["paper_reported"]),
+                metadata=_portable_metadata(data["metadata"]), equivalent_faults=tuple(data["equivalent_faults"]),
+                # analyses saved with machine paths load with portable names
+                paper_raw=None if data["paper_raw"] is None else data_label(data["paper_raw"]),
+                paper_reported=None if data["paper_reported"] is None else data_label(data["paper_reported"]),
                 notes=tuple(Note(n["topic"], n["text"]) for n in data["notes"]))
         except (KeyError, TypeError, ValueError, FaultlabError) as exc:
             raise ResultsError(f"{path}: malformed saved analysis ({type(exc).__name__}: {exc})") from exc
@@ -368,8 +370,8 @@ class Analysis:
             "parameters": None if self.parameters is None else list(self.parameters),
             "metadata": self.metadata,
             "equivalent_faults": list(self.equivalent_faults),
-            "paper_raw": None if self.paper_raw is None else str(self.paper_raw),
-            "paper_reported": None if self.paper_reported is None else str(self.paper_reported),
+            "paper_raw": self.paper_raw,
+            "paper_reported": self.paper_reported,
             "notes": [{"topic": n.topic, "text": n.text} for n in self.notes],
         }
 
@@ -422,6 +424,23 @@ def _json_shaped(value):
         raise TypeError(f"metadata value {v!r} ({type(v).__name__}) cannot be saved as JSON")
 
     return json.loads(json.dumps(value, default=default, allow_nan=True))
+
+
+def _portable_metadata(metadata: dict) -> dict:
+    """``metadata`` with its store ``path`` free of machine paths.
+
+    An absolute path becomes relative to the working directory when it lies below it, else its
+    last two parts (``<results directory>/results.sqlite``).
+    """
+    path = metadata.get("path")
+    if not isinstance(path, str) or not Path(path).is_absolute():
+        return metadata
+    p = Path(path)
+    try:
+        portable = p.relative_to(Path.cwd())
+    except ValueError:
+        portable = Path(*p.parts[-2:])
+    return metadata | {"path": portable.as_posix()}
 
 
 def _check_input(results: pd.DataFrame, alpha: float) -> None:
