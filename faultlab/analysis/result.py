@@ -212,7 +212,7 @@ class Analysis:
             ``alpha`` outside (0, 1) or an unknown parameter.
         """
         _check_input(results, alpha)
-        metadata = _portable_metadata(_json_shaped(dict(metadata or {})))
+        metadata = _json_shaped(dict(metadata or {}))
         metric = judged_metric(metadata, metric)
         rep = _shown_repetition(results, rep)
         parameters = None if parameters is None else validate_parameters(parameters)
@@ -368,7 +368,7 @@ class Analysis:
             "alpha": self.alpha,
             "rep": self.rep,
             "parameters": None if self.parameters is None else list(self.parameters),
-            "metadata": self.metadata,
+            "metadata": _portable_metadata(self.metadata),  # what is saved names no machine path
             "equivalent_faults": list(self.equivalent_faults),
             "paper_raw": self.paper_raw,
             "paper_reported": self.paper_reported,

@@ -248,9 +248,9 @@ def test_analyse_reads_the_store_and_its_rule(tmp_path):
     store = tmp_path / "store"
     shutil.copytree(STORE, store)
     a = analyse(store, paper=False)
-    stored = json.loads(json.dumps(load_metadata(store)))
-    assert a.rule == DetectionRule() and a.n_rows == 180 and a.metadata == stored | {"path": "store/results.sqlite"}
-    assert stored["path"] == str(store / "results.sqlite")  # the analysis keeps no machine path
+    assert a.rule == DetectionRule() and a.n_rows == 180 and a.metadata == json.loads(json.dumps(load_metadata(store)))
+    a.save(tmp_path / "saved")  # the live analysis knows where its store is; the saved one names no machine path
+    assert json.loads((tmp_path / "saved" / "analysis.json").read_text())["metadata"]["path"] == "store/results.sqlite"
     with sqlite3.connect(store / "results.sqlite") as conn:
         conn.execute("UPDATE meta SET value = ? WHERE key = 'detection'", (json.dumps(STRICT["detection"]),))
     conn.close()
