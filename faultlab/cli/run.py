@@ -29,7 +29,8 @@ def register(subparsers) -> None:
                    help="record only these map errors, e.g. rms (default: the experiment's metrics option, "
                         "both rms and emd unless it says otherwise); the others are stored as NaN and cost nothing")
     add_execution_options(p)
-    add_examples(p, ["faultlab run smoke --out results/smoke", "faultlab run paper --metrics rms", "nice -n 10 faultlab run paper --out results/paper --jobs 2",
+    add_examples(p, ["faultlab run smoke --out results/smoke --metrics rms",
+                     "nice -n 10 faultlab run paper --out results/paper --jobs 2",
                      "faultlab run my-campaign.toml --out results/mine --backend dask"])
     p.set_defaults(func=handler)
 
