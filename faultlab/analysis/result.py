@@ -75,7 +75,7 @@ from faultlab.stats.oracle import oracle_detections
 from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, data_label, paper_table, resolve_data_path
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
 from faultlab.space.case import PARAMETER_NAMES
-from faultlab.vocabulary import REPLICA, SUITE_ORDER, JobStatus, ordered
+from faultlab.vocabulary import DEFAULT_ALPHA, REPLICA, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["Analysis", "Note", "analyse", "FORMAT_VERSION", "JSON_FILE", "BEYOND_THE_PAPER"]
 
@@ -176,7 +176,7 @@ class Analysis:
     # ------------------------------------------------------------------ construction
 
     @classmethod
-    def from_frame(cls, results: pd.DataFrame, metadata: Mapping | None = None, *, alpha: float = 0.05,
+    def from_frame(cls, results: pd.DataFrame, metadata: Mapping | None = None, *, alpha: float = DEFAULT_ALPHA,
                    paper: bool = True, paper_raw: str | Path | None = None,
                    paper_reported: str | Path | None = None, rep: int | None = None,
                    parameters: Sequence[str] | None = None, metric: str | None = None) -> "Analysis":
@@ -380,7 +380,7 @@ _TABLE_NAMES = tuple(s.name for s in TABLES)
 assert set(_TABLE_NAMES) <= {f.name for f in fields(Analysis)}, "every table of the schema is an Analysis field"
 
 
-def analyse(results_dir: str | Path, *, alpha: float = 0.05, paper: bool = True,
+def analyse(results_dir: str | Path, *, alpha: float = DEFAULT_ALPHA, paper: bool = True,
             paper_raw: str | Path | None = None, paper_reported: str | Path | None = None,
             rep: int | None = None, parameters: Sequence[str] | None = None,
             metric: str | None = None) -> Analysis:
@@ -489,7 +489,7 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
     notes = []
     verdicts, v_note = _guarded(CASE_VERDICTS, lambda: rule_verdicts(results, pairs, rule=rule, metric=metric),
                                 "Per-case verdicts")
-    test = (f"exact one-sided paired sign-flip test over the K repetitions on the {metric.upper()} error, "
+    test = (f"{rule.test_name} over the K repetitions on the {metric.upper()} error, "
             f"Holm within the family '{rule.family}', alpha = {rule.alpha:g}" if rule.statistical else
             f"the paper's thresholds ({rule.abs_mm:g} mm and {100 * rule.rel:g} %) on the {metric.upper()} error "
             f"per repetition, a case detected when a strict majority of its judged repetitions detect")
@@ -628,5 +628,3 @@ def _beyond_the_paper(results: pd.DataFrame, pairs: pd.DataFrame, rates: pd.Data
     tables = {"false_alarms": fa, "oracle": orc, "oracle_summary": oracle_summary_table(orc),
               "suite_comparisons": cmp, "parameter_effects": eff}
     return tables, [n for n in (fa_note, orc_note, cmp_note, eff_note) if n is not None]
-
-
