@@ -82,3 +82,43 @@ def test_study_run_refuses_too_few_repetitions_for_the_largest_size(tmp_path, ca
     err = capsys.readouterr().err
     assert "repetitions = 5 is too few" in err and "K = 6" in err
     assert not (tmp_path / "o").exists()
+
+
+def test_study_plan_writes_the_plan_of_a_tiny_study(tmp_path, capsys):
+    from faultlab.stats.planning import plan_study
+
+    from faultlab.analysis.planning import execution_cost
+
+    (tmp_path / "tiny.toml").write_text(TINY)
+    store = "reports/mutation/store"
+    rc = main(["study", "plan", str(tmp_path / "tiny.toml"), "--cost-store", store, "--budget-hours", "0.5",
+               "--reports", str(tmp_path / "plan")])
+    assert rc == 0
+    text = (tmp_path / "plan" / "plan.md").read_text()
+    assert text in capsys.readouterr().out
+    # the file's 2 strategies (1 pair), 2 faults, largest size 2 and the store's mean runtime
+    plan = plan_study("strategies", strategies=2, faults=2, max_suite=2,
+                      seconds_per_execution=execution_cost(store).seconds, budget_hours=0.5)
+    assert f"| pool cases per strategy | {plan.needed.cases} |" in text
+    assert f"| mutants | {plan.needed.mutants} |" in text
+    assert f"| SLAM executions | {plan.needed.executions:,} |" in text
+    assert "alpha / 1 = 0.05" in text and "/tmp" not in text
+
+
+def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
+    rc = main(["study", "plan", "mutation", "--cost-store", str(tmp_path / "nowhere")])
+    assert rc != 0
+    assert "nowhere" in capsys.readouterr().err
+    assert not (tmp_path / "nowhere").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("study, folder", [("study", "study"), ("mutation", "mutation")])
+def test_the_committed_plan_is_what_the_verb_renders(study, folder, tmp_path, capsys):
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    assert main(["study", "plan", study, "--cost-store", str(repo / "reports/paper-k10/store"),
+                 "--reports", str(tmp_path)]) == 0
+    rendered = (tmp_path / "plan.md").read_text().replace(str(repo) + "/", "")
+    assert rendered == (repo / "reports" / folder / "plan.md").read_text()
