@@ -26,13 +26,14 @@ from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results
 from faultlab.stats.cases import detectable_difference
 from faultlab.stats.killmatrix import (StudySpec, compare_scores, detection_table, evaluate_suites, kill_matrix,
-                                       score_table, study_spec)
+                                       score_table, study_spec, WHOLE_COLUMNS, whole_suite_table,
+                                       whole_suites)
 from faultlab.vocabulary import PAPER_FAULTS
 
 __all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study"]
 
 #: Tables of a :class:`StudyAnalysis`, saved as ``<name>.csv``.
-STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power")
+STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power", "whole")
 _META_FILE = "study_meta.json"
 
 
@@ -55,6 +56,9 @@ class StudyAnalysis(TableBundle):
         of a drawn-suite rate and the smallest difference in a size-1 detection probability (a
         share of pool cases) between this and every other pool that a two-sample test detects
         with 80 % power at 0.05, at rates 0.5 and 0.1.
+    whole : DataFrame
+        :func:`~faultlab.stats.killmatrix.whole_suite_table` of the strategies in ``[study] whole``:
+        each evaluation run's generated suite (e.g. a whole pairwise covering array) judged whole.
     meta : dict
         Settings, mutants, run time per session, sampled machine load, SLAM time, job counts.
     """
@@ -64,6 +68,7 @@ class StudyAnalysis(TableBundle):
     scores: pd.DataFrame
     comparisons: pd.DataFrame
     power: pd.DataFrame
+    whole: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(WHOLE_COLUMNS)))
     meta: dict = field(default_factory=dict)
 
     TABLES = STUDY_TABLES
@@ -139,5 +144,9 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     }
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
+                         whole=whole_suite_table(whole_suites(km, spec.whole, alpha=spec.alpha,
+                                                              method=spec.multiplicity,
+                                                              timeouts_detect=spec.timeouts_detect),
+                                                 mutants=mutants, alpha=spec.alpha),
                          meta=meta_out)
 

@@ -35,6 +35,7 @@ sizes = [1, 2]
 draws = 300
 bootstrap = 100
 seed = 1
+whole = ["random"]
 """
 
 
@@ -68,11 +69,38 @@ def test_study_run_and_report_on_a_tiny_pool(tmp_path, capsys):
     md = (rep / "study.md").read_text()
     assert "## Power" in md and "bootstrap" in md
 
+    # the whole random suite (its 3 cases) judged by Holm over its cases (statsmodels), crashes detect
+    from statsmodels.stats.multitest import multipletests
+    from statsmodels.stats.proportion import proportion_confint
+
+    whole = pd.read_csv(rep / "whole.csv")
+    assert set(whole["strategy"]) == {"random"} and "## Whole generated suites" in md
+    for variant in km["variant"].unique():
+        cases = km[(km["strategy"] == "random") & (km["variant"] == variant)]
+        holm = multipletests(cases["p"].fillna(1.0), alpha=0.05, method="holm")[0]
+        detected = bool(cases["crash"].any() or holm.any())
+        row = whole[whole["variant"] == variant].iloc[0]
+        assert (row["suites"], row["detected"], row["size"]) == (1, int(detected), 3)
+        lo, hi = proportion_confint(int(detected), 1, alpha=0.05, method="beta")
+        assert (row["ci_low"], row["ci_high"]) == pytest.approx((lo, hi))
+    assert "mutation score" in set(whole["variant"])
+
     # the report is a pure function of the store: the same tables again
     rep2 = tmp_path / "rep2"
     assert main(["study", "report", str(out), "--reports", str(rep2)]) == 0
     for name in ("kill_matrix.csv", "detection.csv", "scores.csv", "comparisons.csv"):
         assert (rep / name).read_bytes() == (rep2 / name).read_bytes(), name
+
+
+def test_study_run_refuses_a_whole_suite_its_repetitions_cannot_judge(tmp_path, capsys):
+    exp = tmp_path / "tiny.toml"
+    exp.write_text(TINY.replace('whole = ["random"]', 'whole = ["systematic"]'))   # 5 cases: 0.05 / 5 needs K = 7
+    assert main(["study", "run", str(exp), "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err
+    assert "repetitions = 6 is too few" in err and "K = 7" in err
+    exp.write_text(TINY.replace('whole = ["random"]', 'whole = ["pairwise"]'))
+    assert main(["study", "run", str(exp), "--out", str(tmp_path / "o")]) == 1
+    assert "study.whole" in capsys.readouterr().err and not (tmp_path / "o").exists()
 
 
 def test_study_run_refuses_too_few_repetitions_for_the_largest_size(tmp_path, capsys):
@@ -90,7 +118,9 @@ def test_study_plan_writes_the_plan_of_a_tiny_study(tmp_path, capsys):
     from faultlab.analysis.planning import execution_cost
 
     (tmp_path / "tiny.toml").write_text(TINY)
-    store = "reports/mutation/store"
+    from pathlib import Path
+
+    store = str(Path(__file__).resolve().parents[2] / "reports/mutation/store")
     rc = main(["study", "plan", str(tmp_path / "tiny.toml"), "--cost-store", store, "--budget-hours", "0.5",
                "--reports", str(tmp_path / "plan")])
     assert rc == 0
@@ -102,7 +132,7 @@ def test_study_plan_writes_the_plan_of_a_tiny_study(tmp_path, capsys):
     assert f"| pool cases per strategy | {plan.needed.cases} |" in text
     assert f"| mutants | {plan.needed.mutants} |" in text
     assert f"| SLAM executions | {plan.needed.executions:,} |" in text
-    assert "alpha / 1 = 0.05" in text and "/tmp" not in text
+    assert "alpha / 1 = 0.05" in text and str(tmp_path) not in text
 
 
 def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
