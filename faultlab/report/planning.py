@@ -62,6 +62,8 @@ def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost, cost_sour
               f"- The study's settings: {settings}."
               + ("" if same_settings else " They differ from the cost store's: the cost is that of the store's "
                  "settings, i.e. the plan is for a study run at them.")]
+    lines.append("- K is the number of repetitions a case may need; a campaign with adaptive repetitions stops a "
+                 "case earlier when its verdict is settled, so the executions are an upper bound.")
     if plan.kind == "mutation":
         lines.append("- Mutation executions are an upper bound: the campaign stops a mutant's suite at its first kill.")
     lines += ["", "## Scale needed for the targets", "", "| | |", "|---|---|", *_scale_rows(plan, plan.needed), ""]

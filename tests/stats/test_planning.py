@@ -154,13 +154,10 @@ def test_the_largest_fitting_scale_is_no_worse_than_any_other_fitting_scale():
 
 
 @settings(max_examples=15, deadline=None)
-@given(target=st.floats(0.1, 0.4), smaller=st.floats(0.5, 0.95))
-def test_smaller_targets_never_need_a_smaller_scale(target, smaller):
-    big = plan_study("strategies", strategies=3, faults=2, target_detection=target, target_score=target,
-                     seconds_per_execution=1.0)
-    small = plan_study("strategies", strategies=3, faults=2, target_detection=target * smaller,
-                       target_score=target * smaller, seconds_per_execution=1.0)
-    assert small.needed.cases >= big.needed.cases and small.needed.mutants >= big.needed.mutants
+@given(target=st.floats(0.1, 0.4), smaller=st.floats(0.6, 0.95), alpha=st.sampled_from([0.05, 0.05 / 6]))
+def test_smaller_targets_never_need_fewer_cases_or_mutants(target, smaller, alpha):
+    assert pool_for_detection(target * smaller, alpha=alpha) >= pool_for_detection(target, alpha=alpha)
+    assert mutants_for_score(target * smaller, alpha=alpha) >= mutants_for_score(target, alpha=alpha)
 
 
 def test_plan_refuses_what_it_cannot_plan():
