@@ -61,6 +61,8 @@ def register(subparsers) -> None:
     plan.add_argument("--cores", type=positive_int, default=2, help="cores of the budget (default: 2)")
     plan.add_argument("--cost-store", default="reports/paper-k10/store",
                       help="store whose mean runtime per execution is the cost (default: reports/paper-k10/store)")
+    plan.add_argument("--seconds-per-execution", type=float, default=None,
+                      help="assume this cost of one SLAM execution instead of measuring it from --cost-store")
     plan.add_argument("--reports", default=None, help="also write plan.md into this directory")
     add_examples(plan, ["faultlab study plan study --reports reports/study",
                         "faultlab study plan mutation --reports reports/mutation",
@@ -90,15 +92,19 @@ def _plan(args: argparse.Namespace) -> int:
     from faultlab.analysis.planning import execution_cost
     from faultlab.config import read_toml
     from faultlab.data import resolve_experiment
+    from faultlab.errors import ConfigError
     from faultlab.report.planning import PLAN_FILE, plan_markdown
     from faultlab.mutation.variants import is_mutant_variant
     from faultlab.stats.planning import plan_study
     from faultlab.vocabulary import BASELINE
 
     data, _ = read_toml(resolve_experiment(args.study, what="study file"), what="study file")
-    cost = execution_cost(args.cost_store)
+    if args.seconds_per_execution is not None and not args.seconds_per_execution > 0:
+        raise ConfigError(f"--seconds-per-execution must be positive, got {args.seconds_per_execution}")
+    cost = execution_cost(args.cost_store) if args.seconds_per_execution is None else None
+    seconds = cost.seconds if cost is not None else args.seconds_per_execution
     common = dict(target_detection=args.target_detection_pp / 100, target_score=args.target_score_pp / 100,
-                  power=args.power, reverse=args.reverse_discordance, seconds_per_execution=cost.seconds,
+                  power=args.power, reverse=args.reverse_discordance, seconds_per_execution=seconds,
                   budget_hours=args.budget_hours, cores=args.cores)
     if "study" in data:
         from faultlab.campaigns.study import load_study_experiment
@@ -118,7 +124,7 @@ def _plan(args: argparse.Namespace) -> int:
     particles = dict(exp.slam.options).get("particles")
     settings = f"{exp.slam.name}, {particles} particles, {exp.n_steps} active steps"
     text = plan_markdown(plan, study=Path(args.study).stem, cost=cost, cost_source=str(args.cost_store),
-                         settings=settings, same_settings=(particles, exp.n_steps, exp.slam.name) ==
+                         settings=settings, same_settings=cost is None or (particles, exp.n_steps, exp.slam.name) ==
                          (cost.particles, cost.n_steps, cost.slam))
     print(text)
     if args.reports is not None:

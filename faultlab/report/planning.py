@@ -34,10 +34,11 @@ def _scale_rows(plan: StudyPlan, scale: StudyScale) -> list[str]:
     return rows
 
 
-def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost, cost_source: str,
+def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, cost_source: str,
                   settings: str, same_settings: bool = True) -> str:
     """The plan of ``study`` (its name), with the cost's provenance and the study's SLAM ``settings``
-    (``same_settings``: whether they are those the cost was measured at)."""
+    (``same_settings``: whether they are those the cost was measured at); ``cost`` None: the plan's
+    seconds per execution are an assumption."""
     a = plan.comparison_alpha
     side = "two-sided" if plan.sides == 2 else "one-sided"
     lines = [f"# Power plan: {study} ({plan.kind} study)", "",
@@ -56,9 +57,10 @@ def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost, cost_sour
               f"- Repetitions: a case of a family of {plan.case_family} cases is judged at alpha / "
               f"{plan.case_family}; the {side} exact sign-flip test reaches it from K = {plan.needed.repetitions}.",
               "", "## Cost", "",
-              f"- {cost.seconds:.2f} s per execution: mean of {cost.jobs} executions in `{cost_source}` "
-              f"({cost.slam}, {cost.particles} particles, {cost.n_steps} active steps; the machine's load when "
-              f"they ran is not recorded, so this is a noisy figure).",
+              (f"- {cost.seconds:.2f} s per execution: mean of {cost.jobs} executions in `{cost_source}` "
+               f"({cost.slam}, {cost.particles} particles, {cost.n_steps} active steps; the machine's load when "
+               f"they ran is not recorded, so this is a noisy figure)." if cost is not None else
+               f"- {plan.seconds_per_execution:.2f} s per execution: a stated assumption, not measured here."),
               f"- The study's settings: {settings}."
               + ("" if same_settings else " They differ from the cost store's: the cost is that of the store's "
                  "settings, i.e. the plan is for a study run at them.")]

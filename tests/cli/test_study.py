@@ -135,6 +135,20 @@ def test_study_plan_writes_the_plan_of_a_tiny_study(tmp_path, capsys):
     assert "alpha / 1 = 0.05" in text and str(tmp_path) not in text
 
 
+def test_study_plan_with_an_assumed_cost_says_so(tmp_path, capsys):
+    from faultlab.stats.planning import plan_study
+
+    (tmp_path / "tiny.toml").write_text(TINY)
+    assert main(["study", "plan", str(tmp_path / "tiny.toml"), "--seconds-per-execution", "2.5",
+                 "--cost-store", str(tmp_path / "nowhere")]) == 0
+    out = capsys.readouterr().out
+    plan = plan_study("strategies", strategies=2, faults=2, max_suite=2, seconds_per_execution=2.5)
+    assert "2.50 s per execution: a stated assumption" in out
+    assert f"| CPU hours | {plan.needed.cpu_hours:,.1f} |" in out
+    assert main(["study", "plan", str(tmp_path / "tiny.toml"), "--seconds-per-execution", "0"]) == 1
+    assert "--seconds-per-execution" in capsys.readouterr().err
+
+
 def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
     rc = main(["study", "plan", "mutation", "--cost-store", str(tmp_path / "nowhere")])
     assert rc != 0
