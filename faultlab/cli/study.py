@@ -112,7 +112,9 @@ def _plan(args: argparse.Namespace) -> int:
         sexp = load_study_experiment(args.study)
         exp = sexp.experiment
         faults = sum(1 for v in exp.variants if v != BASELINE and not is_mutant_variant(v))
-        plan = plan_study("strategies", strategies=len(exp.suites), faults=faults, max_suite=max(sexp.study.sizes),
+        # the largest family of cases judged: the largest drawn size or a whole generated suite
+        largest = max([*sexp.study.sizes, *(s.n_cases or 0 for s in exp.suites if s.kind in sexp.study.whole)])
+        plan = plan_study("strategies", strategies=len(exp.suites), faults=faults, max_suite=largest,
                           alpha=sexp.study.alpha, **common)
     else:
         from faultlab.campaigns.mutation import load_mutation_experiment

@@ -312,7 +312,8 @@ def plan_study(kind: str, *, strategies: int, faults: int = 0, suite_cases: int 
     suite_cases : int
         Cases per suite (mutation study; the paper's suites have 5).
     max_suite : int
-        Largest suite size drawn from a pool (strategies study): sets K and the smallest pool.
+        Largest suite judged (strategies study: the largest size drawn from a pool, or a whole
+        generated suite): sets K and the smallest pool.
     runs : int
         Evaluation runs (mutation study).
     target_detection, target_score : float
