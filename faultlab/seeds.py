@@ -12,10 +12,15 @@ a campaign (``faultlab run``) or on its own (``faultlab generate``):
   baseline comes from the fault, not from the SLAM's own noise) -- except the A/A control
   ``baseline_replica``, whose key ends in an extra ``REPLICA`` tag so that its seeds are
   independent of the baseline's;
+- a sensor fault (:mod:`faultlab.faults.sensor`) perturbs the stream of the job with SLAM seed ``s`` from
+  ``SeedSequence(entropy=s, spawn_key=(SENSOR, code(fault)))``, leaving the SLAM's own stream
+  ``default_rng(s)`` that of the baseline;
 - a strategies study (``faultlab study``) draws the suites of (strategy, size) from
   ``spawn_key=(STUDY, code("draw"), code(strategy), size)`` and resamples a strategy's pool for the
   bootstrap from ``spawn_key=(STUDY, code("bootstrap"), code(strategy))`` (the mutants from
-  ``code("mutants")``), so adding a strategy or a size changes no other draw.
+  ``code("mutants")``), so adding a strategy or a size changes no other draw;
+- an effects study (``faultlab effects``) draws its design of ``method`` (``"morris"``,
+  ``"sobol"``) from ``spawn_key=(DESIGN, code(method))``.
 
 ``code(name)`` is :func:`stable_code`, a 32-bit hash of the name, so adding, removing or
 reordering suites changes no other suite's draws.
@@ -27,10 +32,11 @@ import hashlib
 
 import numpy as np
 
-__all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed", "study_seed_sequence"]
+__all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed", "study_seed_sequence",
+           "sensor_seed_sequence", "design_seed_sequence"]
 
 # Spawn-key tags: what a seed is for.
-_SUITE, _CASE, _SLAM, _REPLICA, _STUDY = 1, 2, 3, 4, 5
+_SUITE, _CASE, _SLAM, _REPLICA, _STUDY, _SENSOR, _DESIGN = 1, 2, 3, 4, 5, 6, 7
 
 
 def stable_code(name: str) -> int:
@@ -72,3 +78,17 @@ def study_seed_sequence(root: int, purpose: str, *key: str | int) -> np.random.S
     """
     codes = tuple(stable_code(k) if isinstance(k, str) else int(k) for k in (purpose, *key))
     return np.random.SeedSequence(entropy=int(root), spawn_key=(_STUDY, *codes))
+
+
+def sensor_seed_sequence(slam_seed: int, fault: str) -> np.random.SeedSequence:
+    """The SeedSequence of a sensor fault's perturbation in the job whose SLAM seed is ``slam_seed``.
+
+    Keyed by the job's seed and the fault's name, separate from the SLAM's own stream
+    (``default_rng(slam_seed)``), which stays that of the baseline (common random numbers).
+    """
+    return np.random.SeedSequence(entropy=int(slam_seed), spawn_key=(_SENSOR, stable_code(fault)))
+
+
+def design_seed_sequence(root: int, method: str) -> np.random.SeedSequence:
+    """The SeedSequence an effects study's design of ``method`` (``"morris"``, ``"sobol"``) is drawn from."""
+    return np.random.SeedSequence(entropy=int(root), spawn_key=(_DESIGN, stable_code(method)))

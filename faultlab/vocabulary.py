@@ -22,6 +22,8 @@ __all__ = [
     "KNOWN_ASSOCIATION",
     "UNKNOWN_ASSOCIATION",
     "BACKENDS",
+    "EFFECTS_STAGES",
+    "EFFECTS_FILE",
     "JobStatus",
     "Outcome",
     "ordered",
@@ -62,6 +64,12 @@ METRICS: tuple[str, ...] = ("rms", "emd")
 KNOWN_ASSOCIATION = "known"
 UNKNOWN_ASSOCIATION = "unknown"
 ASSOCIATIONS: tuple[str, ...] = (KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION)
+
+#: The stages of an effects study (``faultlab effects``), in running order: Morris screening, then Sobol
+#: indices over the parameters it keeps; each is a results store ``OUT/<stage>`` and the suite label of its cases.
+EFFECTS_STAGES: tuple[str, ...] = ("morris", "sobol")
+#: File in an effects study's output directory recording its settings and the kept parameters.
+EFFECTS_FILE = "effects.json"
 
 #: Execution backends of the runner (joblib backends; dask and ray are optional extras).
 BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")

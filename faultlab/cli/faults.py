@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from faultlab.cli.options import add_examples
-from faultlab.faults import FaultListing, applicable_faults, check_faults, list_faults
+from faultlab.faults import FaultListing, applicable_faults, check_faults, list_faults, not_applicable
 
 __all__ = ["register"]
 
@@ -53,7 +53,9 @@ def _handler(args: argparse.Namespace) -> int:
     note = ""
     if args.slam is not None:
         fit = applicable_faults(args.slam, listing.faults)
-        listing = FaultListing(faults=fit.applicable, sources=listing.sources, errors=listing.errors)
+        sensor = tuple(f for f in listing.sensor_faults if not_applicable(f, args.slam) is None)
+        listing = FaultListing(faults=fit.applicable, sources=listing.sources, errors=listing.errors,
+                               sensor_faults=sensor)
         note = fit.summary() or f"all {len(fit.applicable)} faults apply to {fit.slam!r}"
     print(listing.format(verbose=args.verbose))
     if note:

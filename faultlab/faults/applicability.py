@@ -1,5 +1,8 @@
 """Which faults apply to which SLAM: a fault replaces one unit, so it applies to the SLAMs that have it.
 
+A sensor fault (:class:`~faultlab.faults.sensor.SensorFault`) perturbs the input stream and applies
+to every SLAM; a hardware limit applies to the SLAMs that have the option it changes.
+
 A fault replaces one unit (:attr:`Fault.step`), so it applies to exactly the SLAMs whose steps table
 has a unit of that name (the units shared by FastSLAM 1.0, FastSLAM 2.0 and EKF-SLAM have the same
 signatures, see :mod:`faultlab.slam.units`).  :func:`applicable_faults` splits a list of faults
@@ -15,6 +18,7 @@ from typing import Any
 
 from faultlab.faults.fault import Fault, step_names
 from faultlab.faults.registry import all_faults
+from faultlab.faults.sensor import SensorFault
 from faultlab.slam.registry import SlamKind, build_slam, get_slam_kind
 
 __all__ = ["slam_units", "NotApplicable", "FaultNotApplicableWarning", "Applicability", "not_applicable",
@@ -81,14 +85,20 @@ class NotApplicable:
         The SLAM (its name or import path).
     n_units : int
         How many replaceable units the SLAM has (0: none at all, e.g. dead reckoning).
+    reason : str
+        The reason in words when it is not a missing unit (a hardware limit on a SLAM without its
+        option); "" otherwise.
     """
 
     fault: str
     step: str
     slam: str
     n_units: int
+    reason: str = ""
 
     def __str__(self) -> str:
+        if self.reason:
+            return f"{self.reason} (SLAM {self.slam!r})"
         if self.n_units == 0:
             return (f"fault {self.fault!r} replaces unit {self.step!r}, but SLAM {self.slam!r} has no "
                     f"replaceable units")
@@ -96,11 +106,29 @@ class NotApplicable:
                 f"(it has {self.n_units} other units)")
 
 
-def not_applicable(fault: Fault, slam: Any, *, units: tuple[str, ...] | None = None) -> NotApplicable | None:
+def _slam_options(slam: Any) -> dict[str, Any]:
+    """The default options of a built-in SLAM (name or kind); {} for anything else."""
+    kind = slam if isinstance(slam, SlamKind) else (get_slam_kind(slam, where="slam") if isinstance(slam, str)
+                                                    else None)
+    return {} if kind is None else kind.options({}, where="slam")
+
+
+def not_applicable(fault: Fault | SensorFault, slam: Any, *, units: tuple[str, ...] | None = None,
+                   options: dict[str, Any] | None = None) -> NotApplicable | None:
     """Why ``fault`` does not apply to ``slam`` (see :func:`slam_units`), or None if it applies.
 
-    ``units`` (the SLAM's units, if already known) saves looking them up again.
+    ``units`` (the SLAM's units, if already known) saves looking them up again.  For a sensor
+    fault, ``options`` are the SLAM's options (default: a built-in SLAM's defaults); a stream fault
+    applies to every SLAM.
     """
+    if isinstance(fault, SensorFault):
+        if fault.option is None:
+            return None
+        reason = fault.not_applicable(_slam_options(slam) if options is None else options)
+        if reason is None:
+            return None
+        return NotApplicable(fault=fault.name, step=fault.step, slam=_slam_label(slam),
+                             n_units=len(slam_units(slam) if units is None else units), reason=reason)
     units = slam_units(slam) if units is None else tuple(units)
     if fault.step in units:
         return None

@@ -2,6 +2,9 @@
 
 The fault contract (:class:`~faultlab.faults.fault.Fault`) is documented in
 :mod:`faultlab.faults.fault`.  Built-in faults live in :mod:`faultlab.faults.builtin` and have plain names.
+Sensor and hardware faults (:class:`~faultlab.faults.sensor.SensorFault`, which perturb the input
+stream rather than a unit) share the name space: built-ins in :mod:`faultlab.faults.sensorfaults`,
+plugins in the entry-point group ``faultlab.sensor_faults``.
 Third-party faults have ``provider/name`` names and are discovered through the
 entry-point group ``faultlab.faults`` (:mod:`faultlab.faults.discovery`).  The variant
 name ``"baseline"`` is reserved for the unmodified reference.  Which faults apply to which SLAM:
@@ -19,9 +22,11 @@ from faultlab.errors import FaultError
 from faultlab.faults.builtin import BUILTIN_FAULTS
 from faultlab.faults.discovery import PluginFailure, PluginReport, load_plugins
 from faultlab.faults.fault import Fault
+from faultlab.faults.sensor import SensorFault, load_sensor_plugins
+from faultlab.faults.sensorfaults import BUILTIN_SENSOR_FAULTS
 from faultlab.vocabulary import BASELINE, UNMODIFIED
 
-__all__ = ["builtin_faults", "all_faults", "get_fault", "resolve_fault", "FaultListing", "list_faults"]
+__all__ = ["builtin_faults", "builtin_sensor_faults", "all_sensor_faults", "all_faults", "get_fault", "resolve_fault", "FaultListing", "list_faults"]
 
 
 # --------------------------------------------------------------------------- built-ins
@@ -29,6 +34,19 @@ __all__ = ["builtin_faults", "all_faults", "get_fault", "resolve_fault", "FaultL
 def builtin_faults() -> dict[str, Fault]:
     """The built-in faults by name, in registration order (the paper's three first)."""
     return {f.name: f for f in BUILTIN_FAULTS}
+
+
+def builtin_sensor_faults() -> dict[str, SensorFault]:
+    """The built-in sensor and hardware faults by name, in registration order."""
+    return {f.name: f for f in BUILTIN_SENSOR_FAULTS}
+
+
+def all_sensor_faults(*, plugins: bool = True, warn: bool = True) -> list[SensorFault]:
+    """Every sensor fault: the built-ins in registration order, then plugin sensor faults by name."""
+    faults = list(BUILTIN_SENSOR_FAULTS)
+    if plugins:
+        faults += list(load_sensor_plugins(warn=warn).faults)
+    return faults
 
 
 # --------------------------------------------------------------------------- look-up
@@ -45,8 +63,8 @@ def all_faults(*, plugins: bool = True, warn: bool = True) -> list[Fault]:
     return faults
 
 
-def get_fault(name: str) -> Fault:
-    """The registered fault called ``name`` (built-in, or ``provider/name`` from a plugin).
+def get_fault(name: str) -> Fault | SensorFault:
+    """The registered fault called ``name``: a code fault or a sensor fault, built-in or ``provider/name``.
 
     Raises
     ------
@@ -58,11 +76,11 @@ def get_fault(name: str) -> Fault:
         raise FaultError(f"fault name must be a string, got {type(name).__name__}")
     if name in UNMODIFIED:
         raise FaultError(f"{name!r} is the unmodified reference, not a fault")
-    builtins = builtin_faults()
+    builtins = builtin_faults() | builtin_sensor_faults()
     if name in builtins:
         return builtins[name]
     report = load_plugins(warn=False)
-    known = {**builtins, **report.by_name()}
+    known = {**builtins, **report.by_name(), **load_sensor_plugins(warn=False).by_name()}
     if name in known:
         return known[name]
     close = difflib.get_close_matches(name, list(known), n=3, cutoff=0.6)
@@ -73,21 +91,21 @@ def get_fault(name: str) -> Fault:
     raise FaultError(msg)
 
 
-def _import_fault(spec: str) -> Fault:
+def _import_fault(spec: str) -> Fault | SensorFault:
     obj = import_object(spec, what="fault import path", error=FaultError)
-    if not isinstance(obj, Fault):
-        raise FaultError(f"fault {spec!r} is a {type(obj).__name__}, not a faultlab.faults.Fault")
+    if not isinstance(obj, (Fault, SensorFault)):
+        raise FaultError(f"fault {spec!r} is a {type(obj).__name__}, not a faultlab.faults.Fault or SensorFault")
     return obj
 
 
-def resolve_fault(spec: str | Fault) -> Fault:
+def resolve_fault(spec: str | Fault | SensorFault) -> Fault | SensorFault:
     """A fault from a name (built-in or ``provider/name``) or a ``module:attr`` import path.
 
     Import paths let an experiment use a fault defined in a test module or any
     importable module without packaging it as a plugin.  A :class:`Fault`
     instance is returned unchanged.
     """
-    if isinstance(spec, Fault):
+    if isinstance(spec, (Fault, SensorFault)):
         return spec
     if isinstance(spec, str) and ":" in spec:
         return _import_fault(spec)
@@ -108,17 +126,21 @@ class FaultListing:
         Fault name -> ``"built-in"`` or the plugin entry point it came from.
     errors : tuple of PluginFailure
         Plugins (or plugin faults) that failed to load.
+    sensor_faults : tuple of SensorFault
+        The sensor and hardware faults, listed in their own section.
     """
 
     faults: tuple[Fault, ...]
     sources: Mapping[str, str]
-    errors: tuple[PluginFailure, ...] = ()
+    errors: tuple = ()
+    sensor_faults: tuple[SensorFault, ...] = ()
 
     def select(self, specs: Iterable[str]) -> "FaultListing":
         """The listing of the given faults (names or ``module:attr`` paths), in that order."""
-        faults = tuple(resolve_fault(s) for s in specs)
-        sources = {f.name: self.sources.get(f.name, "import path") for f in faults}
-        return FaultListing(faults=faults, sources=sources, errors=self.errors)
+        chosen = tuple(resolve_fault(s) for s in specs)
+        sources = {f.name: self.sources.get(f.name, "import path") for f in chosen}
+        return FaultListing(faults=tuple(f for f in chosen if isinstance(f, Fault)), sources=sources,
+                            errors=self.errors, sensor_faults=tuple(f for f in chosen if isinstance(f, SensorFault)))
 
     def rows(self) -> list[tuple[str, str, str, str]]:
         """``(name, step, origin, description)`` per fault."""
@@ -144,6 +166,15 @@ class FaultListing:
         n_plugin = sum(1 for f in self.faults if f.provider is not None)
         lines.append(f"{len(self.faults)} faults ({len(self.faults) - n_plugin} built-in, {n_plugin} from "
                      f"plugins); variant {BASELINE!r} is the unmodified reference")
+        if self.sensor_faults:
+            lines += ["", "Sensor and hardware faults (perturb what every SLAM is fed; ground truth untouched):"]
+            w0 = max(len(f.name) for f in self.sensor_faults)
+            for f in self.sensor_faults:
+                lines.append(f"{f.name.ljust(w0)}  {f.step}: {f.description}")
+                lines.append(f"{'':{w0}}  parameters: {f.parameter_text() or '-'}; origin: {f.origin}")
+                if verbose:
+                    lines.append(f"{'':{w0}}  {f.rationale} ({self.sources.get(f.name, '?')})")
+            lines.append(f"{len(self.sensor_faults)} sensor and hardware faults")
         lines += [f"error: {e}" for e in self.errors]
         return "\n".join(lines)
 
@@ -155,5 +186,9 @@ def list_faults(*, plugins: bool = True) -> FaultListing:
     """All faults with their sources and any plugin load errors (no warnings issued)."""
     builtins = builtin_faults()
     report = load_plugins(warn=False) if plugins else PluginReport()
-    sources = {name: "built-in" for name in builtins} | dict(report.sources)
-    return FaultListing(faults=(*builtins.values(), *report.faults), sources=sources, errors=report.errors)
+    sensor = load_sensor_plugins(warn=False) if plugins else None
+    sources = ({name: "built-in" for name in builtins} | {f.name: "built-in" for f in BUILTIN_SENSOR_FAULTS}
+               | dict(report.sources) | (dict(sensor.sources) if sensor else {}))
+    errors = (*report.errors, *(sensor.errors if sensor else ()))
+    return FaultListing(faults=(*builtins.values(), *report.faults), sources=sources, errors=errors,
+                        sensor_faults=(*BUILTIN_SENSOR_FAULTS, *(sensor.faults if sensor else ())))

@@ -524,31 +524,64 @@ def _suite_comparison_pages(analysis: Analysis) -> list[Figure]:
 
 
 def _effect_pages(analysis: Analysis) -> list[Figure]:
-    eff = analysis.parameter_effects
+    """The continuous effect analysis (:func:`faultlab.analysis.effects.campaign_effects`): per case the
+    baseline's difficulty and each fault's effect size, their mean over cases and, where the campaign is
+    large enough, the cluster-robust regression on the parameters; the size it would need otherwise."""
+    from faultlab.analysis.effects import campaign_effects
+    from faultlab.report.effects import response_label
+
+    jobs = analysis.this_run_jobs.drop(columns=["source"]).merge(analysis.cases, on=["run", "suite", "case"],
+                                                                 how="left")
+    metric = str(analysis.metadata.get("metric", "rms"))
+    try:
+        eff = campaign_effects(jobs, metric=metric, rule=analysis.rule, alpha=analysis.alpha)
+    except FaultlabError as exc:
+        return text_pages("Beyond the paper: which scenario parameters drive the map error and the faults",
+                          [f"Not available: {exc}"])
+    log_scale = eff["response"] != "difficulty"
     show = pd.DataFrame({
-        "fault": eff["fault"].map(variant_label),
+        "response": eff["response"].map(response_label),
         "term": eff["term"],
-        "detected/n": [f"{k}/{n}" for k, n in zip(eff["n_detected"], eff["n"])],
-        "odds ratio per SD": [_g3(v) for v in eff["odds_ratio"]],
-        "95 % CI": [("" if not math.isfinite(lo) else f"{lo:.3g}-{hi:.3g}")
-                    for lo, hi in zip(eff["or_low"], eff["or_high"])],
+        "cases": eff["n_cases"],
+        "estimate [95 % CI]": ["" if not math.isfinite(e) else f"{e:+.3g} [{lo:+.3g}, {hi:+.3g}]"
+                               for e, lo, hi in zip(eff["estimate"], eff["low"], eff["high"])],
+        "x error": ["" if not (ls and t == "(mean over cases)" and math.isfinite(e)) else f"{math.exp(e):.3g}"
+                    for ls, t, e in zip(log_scale, eff["term"], eff["estimate"])],
         "p": [_g3(p) for p in eff["p"]],
-        "note": eff["note"],
     })
-    return table_pages("Beyond the paper: which scenario parameters drive detection", show,
-                       fontsize=7.5, max_rows=34,
-                       note="Per fault, a binomial GLM (logistic regression) of 'detected' on "
-                            "the standardised scenario parameters; odds ratios per standard "
-                            "deviation. Also: python -m faultlab effects RESULTS.")
+    notes = sorted({n for n in eff["note"] if n.startswith("not fitted") or "too few cases" in n})
+    notes += _class_effect_notes(analysis)
+    pages = table_pages("Beyond the paper: which scenario parameters drive the map error and the faults", show,
+                        fontsize=7.5, max_rows=34,
+                        note="Continuous responses per case over its K repetitions: the baseline's difficulty "
+                             "(mean log map error) and each fault's effect size (mean log of faulty / baseline "
+                             "error, paired by SLAM seed); 'x error' is the geometric-mean factor. Mean over "
+                             "cases with its t interval; parameter rows: OLS per standard deviation, "
+                             "cluster-robust by case.")
+    if notes:
+        pages += text_pages("Parameter effects: what this campaign's size allows",
+                            [n[0].upper() + n[1:] + "." for n in notes]
+                            + ["Per-parameter rankings with intervals come from a designed experiment: "
+                               "faultlab effects run effects --quick (Morris screening, then Sobol indices; "
+                               "see reports/effects). The logistic view of detection: faultlab effects RESULTS."])
+    return pages
+
+
+def _class_effect_notes(analysis: Analysis) -> list[str]:
+    """Why no class-indicator logistic regression was fitted (when none was), one line per fault."""
+    e = analysis.class_effects
+    if not len(e) or not (e["term"] == "(model)").all():
+        return []
+    return [f"class-indicator logistic regression of detection, {variant_label(f)}: {n}"
+            for f, n in zip(e["fault"], e["note"])] + [
+        f"class-indicator logistic regressions need at least {MIN_EPV:g} events per predictor (cases are the unit, "
+        f"repetitions do not add events)"]
 
 
 def _class_effect_pages(analysis: Analysis) -> list[Figure]:
     e = analysis.class_effects
     if (e["term"] == "(model)").all():
-        return text_pages("Which classes drive detection (logistic regression over cases)",
-                          [f"- {variant_label(f)}: {n}" for f, n in zip(e["fault"], e["note"])]
-                          + [f"Class-indicator logistic regressions need at least {MIN_EPV:g} events per predictor; "
-                             "run more evaluation runs (cases are the unit, repetitions do not add events)."])
+        return []  # nothing fitted: the continuous effects page says why (_class_effect_notes)
     show = pd.DataFrame({
         "fault": e["fault"].map(variant_label), "term": e["term"],
         "detected/n": [f"{k}/{n}" for k, n in zip(e["n_detected"], e["n"])],

@@ -20,6 +20,11 @@ the batch's repetitions one at a time, so every row is still the one a single ru
 batch's wall-clock limit is ``timeout_s`` times its number of repetitions; past it, every
 repetition is recorded as ``timeout``.
 
+Sensor faults (:class:`~faultlab.faults.sensor.SensorFault`): the SLAM is fed the perturbed
+stream of its job (drawn from the job's seed, :func:`faultlab.seeds.sensor_seed_sequence`) while it
+is scored against the case's unperturbed ground truth; the SLAM's own generator is the baseline's.
+A hardware limit builds the SLAM with its option changed.
+
 The executors tune glibc's allocator once per worker process (:func:`tune_allocator`), so that the
 SLAM's large work arrays are reused instead of being mapped and unmapped at every allocation.
 """
@@ -28,6 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import dataclasses
 import math
 import os
 import platform
@@ -40,6 +46,7 @@ from typing import Iterator
 
 import numpy as np
 
+from faultlab.faults.sensor import SensorFault
 from faultlab.runner.variants import resolve_variant
 from faultlab.metrics import map_errors
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec
@@ -210,11 +217,27 @@ def _describe(exc: BaseException) -> str:
 
 
 def _build(spec: JobSpec) -> SlamAdapter:
-    """The SLAM under test of ``spec`` with its variant's fault applied."""
-    slam = spec.slam.build()
+    """The SLAM under test of ``spec`` with its variant's fault applied (a hardware limit sets its option)."""
     fault = resolve_variant(spec.key.variant)
+    if isinstance(fault, SensorFault):
+        options = fault.configure_options(dict(spec.slam.options))
+        return dataclasses.replace(spec.slam, options=tuple(options.items())).build()
+    slam = spec.slam.build()
     return slam if fault is None else fault.apply(slam)
 
+
+def _fed(spec: JobSpec, scenario: Scenario) -> Scenario:
+    """The scenario the SLAM of ``spec`` is fed: perturbed by a sensor fault (its own seed stream), else ``scenario``.
+
+    The metrics always score against ``scenario`` itself (the ground truth).
+    """
+    fault = resolve_variant(spec.key.variant)
+    return fault.perturb(scenario, seed=spec.seed) if isinstance(fault, SensorFault) else scenario
+
+
+def _perturbs_stream(spec: JobSpec) -> bool:
+    fault = resolve_variant(spec.key.variant)
+    return isinstance(fault, SensorFault) and fault.perturbs_stream
 
 def _score(key: JobKey, scenario: Scenario, estimate: Estimate, runtime: float, *, association: str) -> JobResult:
     """The ``ok`` result of an estimate, or ``crash`` if the metrics cannot score it.
@@ -246,8 +269,9 @@ def execute_job(spec: JobSpec) -> JobResult:
             with _alarm(spec.timeout_s):
                 deadline = time.monotonic() + spec.timeout_s
                 slam = _build(spec)
+                fed = _fed(spec, scenario)
                 with np.errstate(all="ignore"):  # a NaN estimate is reported as a crash row, not as warnings
-                    estimate = run_slam(_Guarded(slam, deadline), scenario,
+                    estimate = run_slam(_Guarded(slam, deadline), fed,
                                         rng=np.random.default_rng(spec.seed))
         finally:
             runtime = time.perf_counter() - t0
@@ -267,11 +291,12 @@ def execute_batch(batch: JobBatch) -> list[JobResult]:
     its own is a ``crash`` with its own message; an exception the batched SLAM cannot attribute
     to one repetition reruns every repetition alone with :func:`execute_job`.  Past the batch's
     limit (:attr:`JobBatch.timeout_s`) every repetition is a ``timeout``.  A SLAM without
-    ``supports_batch``, or a batch of one, runs job by job.
+    ``supports_batch``, a batch of one, or a sensor fault that perturbs the stream (each repetition
+    sees its own perturbed stream) runs job by job.
     """
     specs = batch.jobs
-    if len(specs) == 1:
-        return [execute_job(specs[0])]
+    if len(specs) == 1 or _perturbs_stream(specs[0]):  # a sensor fault feeds each repetition its own stream
+        return [execute_job(s) for s in specs]
     tune_allocator()
     warm_up()
     scenario = load_scenario(specs[0].case_path)

@@ -83,3 +83,24 @@ def test_faults_slam_lists_only_the_applicable_faults_and_says_why_others_are_le
     assert out.startswith("0 faults") and "do not apply to 'dead_reckoning': it has no replaceable units" in out
     assert main(["faults", "--slam", "nope"]) == 1
     assert "slam must be one of" in capsys.readouterr().err
+
+
+def test_faults_lists_the_sensor_faults_in_their_own_section(capsys):
+    from faultlab.faults import all_sensor_faults
+
+    assert main(["faults", "--no-plugins"]) == 0
+    out = capsys.readouterr().out
+    head, _, section = out.partition("Sensor and hardware faults")
+    sensor = all_sensor_faults(plugins=False)
+    for f in sensor:
+        assert f.description in section and f.description not in head
+        assert f.parameter_text() in section
+    assert f"{len(sensor)} sensor and hardware faults" in section
+
+
+def test_faults_for_a_slam_drops_a_hardware_limit_it_has_no_option_for(capsys):
+    assert main(["faults", "--no-plugins", "--slam", "ekf"]) == 0
+    section = capsys.readouterr().out.partition("Sensor and hardware faults")[2]
+    assert "obs_dropout" in section and "particle_budget" not in section
+    assert main(["faults", "--no-plugins", "--slam", "fastslam"]) == 0
+    assert "particle_budget" in capsys.readouterr().out

@@ -125,7 +125,10 @@ def test_case_level_pages_state_test_alpha_family_and_what_could_not_be_judged()
     sign = a.case_verdicts.query("fault == 'motion_sign_error'")
     assert np.allclose(sign["p"], 1 / 32) and np.allclose(sign["p_holm"], 4 / 32)
     assert (sign["verdict"] == "not_detected").all()
-    # the class-effect page says why nothing is fitted instead of showing an empty table
-    assert "Which classes drive detection (logistic regression over cases)" in titles
+    # no empty class-effect page: the continuous effects pages say why nothing is fitted, and what size would be
+    assert "Which classes drive detection (logistic regression over cases)" not in titles
+    assert "Beyond the paper: which scenario parameters drive the map error and the faults" in titles
+    assert "Parameter effects: what this campaign's size allows" in titles
     why = a.class_effects.query("fault == 'motion_sign_error'")["note"].iloc[0]
     assert why and why in text
+    assert "12 cases for 2 coefficients (1 varying parameters + intercept): the regression view needs about 20 cases" in text

@@ -1,0 +1,99 @@
+"""The robustness campaign: every sensor and hardware fault on FastSLAM 1.0, 2.0, EKF-SLAM and GTSAM.
+
+The protocol is the shipped experiment ``robustness`` (its variants: the baseline and every built-in
+sensor fault, :mod:`faultlab.faults.sensorfaults`); it runs once per SLAM of :data:`LABELS`, whose
+``[slam]`` tables are those of the cross-SLAM campaign (:data:`faultlab.campaigns.slams.SUTS`), one
+store per SLAM in ``out/<label>``.  A hardware limit a SLAM does not have an option for (the
+particle budget on EKF-SLAM and GTSAM) is skipped and recorded as not applicable.  The analysis is
+:func:`faultlab.analysis.robustness.robustness`, the rendering
+:func:`faultlab.report.robustness.write_robustness_report`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from faultlab.campaigns.slams import SUTS, slam_experiments
+from faultlab.errors import ConfigError
+from faultlab.runner import RunSummary, results_path, run_experiment
+
+__all__ = ["DEFAULT_EXPERIMENT", "LABELS", "RobustnessRun", "scale_overrides", "robustness_stores",
+           "run_robustness"]
+
+#: The shipped protocol.
+DEFAULT_EXPERIMENT = "robustness"
+#: The SLAMs under test (labels of :data:`faultlab.campaigns.slams.SUTS`).
+LABELS: tuple[str, ...] = ("fastslam1", "fastslam2", "ekf", "gtsam")
+
+
+def scale_overrides(*, cases: int | None = None, steps: int | None = None,
+                    repetitions: int | None = None) -> dict:
+    """Experiment keys that set the scale: random cases, active steps, repetitions K (None: the file's)."""
+    out: dict = {}
+    if cases is not None:
+        out["suites"] = {"random": int(cases)}
+    if steps is not None:
+        out["n_steps"] = int(steps)
+    if repetitions is not None:
+        out["repetitions"] = int(repetitions)
+    return out
+
+
+def robustness_stores(out: str | Path) -> dict[str, Path]:
+    """label -> store directory of every SLAM of :data:`LABELS` with a store in ``out``."""
+    out = Path(out)
+    return {label: out / label for label in LABELS if results_path(out / label).is_file()}
+
+
+@dataclass(frozen=True)
+class RobustnessRun:
+    """What :func:`run_robustness` ran: per SLAM its summary, and the SLAMs left out (not installed)."""
+
+    out: Path
+    summaries: dict[str, RunSummary]
+    not_installed: tuple[str, ...]
+
+    def __str__(self) -> str:
+        lines = [f"== {label}: {summary}" for label, summary in self.summaries.items()]
+        lines += [f"== {label}: skipped ({SUTS[label]['name']} is not installed)" for label in self.not_installed]
+        return "\n".join([*lines, f"stores in {self.out}"])
+
+
+def run_robustness(out: str | Path, *, experiment=DEFAULT_EXPERIMENT, overrides: dict | None = None,
+                   particles: int | None = None, only: list[str] | None = None, jobs: int = 2,
+                   backend: str = "loky", force_new: bool = False, progress: bool = True) -> RobustnessRun:
+    """Run (or resume) the robustness protocol on every SLAM of :data:`LABELS`.
+
+    Parameters
+    ----------
+    out : path
+        Directory of the stores (``out/<label>``).
+    experiment : path, shipped name or Experiment
+        The protocol (default the shipped ``robustness``).
+    overrides : dict, optional
+        Experiment keys replaced first (:func:`scale_overrides`).
+    particles : int, optional
+        Particles of the FastSLAMs (default: their ``[slam]`` table's).
+    only : list of str, optional
+        A subset of :data:`LABELS`.
+    jobs, backend, force_new, progress
+        Passed to :func:`faultlab.runner.run_experiment`.
+    """
+    unknown = sorted(set(only or ()) - set(LABELS))
+    if unknown:
+        raise ConfigError(f"unknown SLAM label(s) {unknown}; known: {', '.join(LABELS)}")
+    chosen = [label for label in LABELS if only is None or label in only]
+    experiments = {label: exp for label, exp in slam_experiments(experiment, overrides=overrides).items()
+                   if label in chosen}
+    out = Path(out)
+    summaries = {}
+    for label, exp in experiments.items():
+        if exp is None:
+            continue
+        if particles is not None and "particles" in dict(exp.slam.options):
+            exp = exp.replace(slam={"particles": int(particles)})
+        summaries[label] = run_experiment(exp, out / label, jobs=jobs, backend=backend, force_new=force_new,
+                                          progress=progress)
+    return RobustnessRun(out=out, summaries=summaries,
+                         not_installed=tuple(label for label, exp in experiments.items() if exp is None))
