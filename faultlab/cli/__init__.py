@@ -29,17 +29,13 @@ COMMAND_MODULES = (
     "faultlab.cli.generate",  # generate
     "faultlab.cli.faults",  # faults
     "faultlab.cli.slams",  # slams
-<<<<<<< HEAD
     "faultlab.cli.robustness",  # robustness run, robustness report
-    "faultlab.cli.stats",  # paper-table, effects
-=======
     "faultlab.cli.stats",  # paper-table
     "faultlab.cli.effects",  # effects design|run|report, effects RESULTS
->>>>>>> effects
     "faultlab.cli.calibrate",  # calibrate
     "faultlab.cli.mutate",  # mutate list, mutate show
     "faultlab.cli.metamorphic",  # metamorphic
-    "faultlab.cli.study",  # study run, study report
+    "faultlab.cli.study",  # study plan, study run, study report
     "faultlab.cli.adapter",  # adapter check
     "faultlab.cli.export",  # export
 )
