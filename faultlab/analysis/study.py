@@ -12,11 +12,13 @@ confidence intervals and the power statement.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
@@ -25,12 +27,13 @@ from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
 from faultlab.stats.cases import detectable_difference
-from faultlab.stats.killmatrix import (StudySpec, compare_scores, detection_table, evaluate_suites, kill_matrix,
-                                       score_table, study_spec, WHOLE_COLUMNS, whole_suite_table,
+from faultlab.stats.killmatrix import (WHOLE_COLUMNS, KillMatrix, StudySpec, compare_scores, detection_table,
+                                       evaluate_suites, kill_matrix, score_table, study_spec, whole_suite_table,
                                        whole_suites)
+from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import PAPER_FAULTS
 
-__all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study"]
+__all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]
 
 #: Tables of a :class:`StudyAnalysis`, saved as ``<name>.csv``.
 STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power", "whole")
@@ -101,13 +104,67 @@ def _of_run(by_id: dict, variants) -> dict:
     return {v: by_id[mutant_id_of(v)] for v in variants if mutant_id_of(v) in by_id}
 
 
+def _whole(km: KillMatrix, spec: StudySpec, mutants, *, k: int | None = None,
+           alternative: str = "greater") -> tuple[pd.DataFrame, dict]:
+    """:func:`whole_suite_table` of ``spec.whole``, leaving out (and listing, strategy -> K needed)
+    the strategies whose whole suites are too large for the stored K to reach alpha / n."""
+    skipped = {}
+    if k is not None:
+        for strategy in spec.whole:
+            rows = km.rows(strategy)
+            n = int(km.cases.iloc[rows].groupby("run").size().max()) if rows.size else 1
+            if k < min_pairs(spec.alpha / n, alternative=alternative):
+                skipped[strategy] = min_pairs(spec.alpha / n, alternative=alternative)
+    judged = whole_suites(km, [w for w in spec.whole if w not in skipped], alpha=spec.alpha,
+                          method=spec.multiplicity, timeouts_detect=spec.timeouts_detect)
+    return whole_suite_table(judged, mutants=mutants, alpha=spec.alpha), skipped
+
+
+def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
+    """A saved study analysis evaluated again from its kill matrix (``kill_matrix.csv`` and
+    ``study_meta.json``), without the store: the suite draws, intervals and comparisons are
+    recomputed by the current code; the kill matrix's p values keep the sidedness they were
+    computed with (``alternative`` in the meta; one-sided for an analysis saved before it was recorded).
+    """
+    d = Path(directory)
+    try:
+        frame = pd.read_csv(d / "kill_matrix.csv", keep_default_na=False, na_values=[""])
+        meta = json.loads((d / _META_FILE).read_text())
+    except (OSError, ValueError) as exc:
+        raise ResultsError(f"{d}: not a saved study analysis ({exc})") from exc
+    alternative = meta.get("alternative", "greater")
+    if "direction" not in frame.columns:
+        diff = frame["mean_diff_mm"].to_numpy(float)
+        frame["direction"] = np.where(diff > 0, "worse", np.where(diff < 0, "better", "none"))
+    if "mean_log_ratio" not in frame.columns:  # not recorded by the analysis that saved it
+        frame["mean_log_ratio"] = np.nan
+    km = KillMatrix.from_frame(frame)
+    spec = study_spec(meta["study"], source=str(d / _META_FILE))
+    mutants = tuple(v for v in km.variants if is_mutant_variant(v))
+    ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
+                         alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
+                         timeouts_detect=spec.timeouts_detect)
+    detection = detection_table(ev, km.variants)
+    detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
+    whole, skipped = _whole(km, spec, mutants, k=meta.get("repetitions"), alternative=alternative)
+    meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {}),
+                   "whole_not_evaluated": skipped}
+    return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
+                         comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
+                         whole=whole, meta=meta)
+
+
 def analyse_study(out: str | Path) -> StudyAnalysis:
     """The study's analysis from its output directory (runs nothing).
 
     Reads the store and ``study.json`` (written by :func:`faultlab.campaigns.study.run_study`), builds the kill matrix and
     evaluates suites of every size from every strategy's pool (:mod:`faultlab.stats.killmatrix`).
+    A directory holding a saved analysis instead (``kill_matrix.csv`` and ``study_meta.json``, no
+    ``study.json``) is evaluated again from its kill matrix (:func:`reanalyse_saved_study`).
     """
     out = Path(out)
+    if not (out / STUDY_FILE).exists() and (out / _META_FILE).exists():
+        return reanalyse_saved_study(out)
     try:
         info = json.loads((out / STUDY_FILE).read_text())
     except (OSError, ValueError) as exc:
@@ -117,6 +174,16 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     meta = load_metadata(out)
     rule, _ = read_rule(meta)
     exp = meta["experiment"]
+    # sizes whose per-case level alpha / n the stored K cannot reach with the rule's sidedness are not
+    # evaluated (every such suite would detect by crashes only) and are listed in the meta
+    alternative = alternative_of(rule.direction)
+    k = int(exp["repetitions"])
+    too_large = {int(n): min_pairs(spec.alpha / n, alternative=alternative) for n in spec.sizes
+                 if k < min_pairs(spec.alpha / n, alternative=alternative)}
+    if len(too_large) == len(spec.sizes):
+        raise ResultsError(f"{out}: K = {k} repetitions reach no suite size's per-case level with the "
+                           f"{alternative} test (sizes {list(spec.sizes)})")
+    spec = dataclasses.replace(spec, sizes=tuple(n for n in spec.sizes if n not in too_large))
     km = kill_matrix(results, rule=rule, metric=exp.get("metric", "rms"))
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))
     ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
@@ -124,6 +191,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
                          timeouts_detect=spec.timeouts_detect)
     detection = detection_table(ev, km.variants)
     detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
+    whole, whole_skipped = _whole(km, spec, mutants, k=k, alternative=alternative)
     status = results["status"].astype(str).value_counts().to_dict()
     sessions = settle_sessions(info.get("sessions", []), load_sessions(out))
     meta_out = {
@@ -139,14 +207,12 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "wall_time_s": float(sum(s.get("wall_time_s") or 0.0 for s in sessions)),
         "load": _load_summary(sessions), "complete": int(meta["n_rows"]) == count_expected_jobs(meta),
         "cannot_judge_cases": int((~km.judged).any(axis=1).sum()),
+        "alternative": alternative, "sizes_not_evaluated": {str(n): need for n, need in too_large.items()},
+        "whole_not_evaluated": whole_skipped,
         "crash_cases": {v: int(n) for v, n in zip(km.variants, km.crash.sum(axis=0)) if n},
         "timeout_cases": {v: int(n) for v, n in zip(km.variants, km.timeout.sum(axis=0)) if n},
     }
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole_suite_table(whole_suites(km, spec.whole, alpha=spec.alpha,
-                                                              method=spec.multiplicity,
-                                                              timeouts_detect=spec.timeouts_detect),
-                                                 mutants=mutants, alpha=spec.alpha),
-                         meta=meta_out)
+                         whole=whole, meta=meta_out)
 

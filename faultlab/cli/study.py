@@ -88,6 +88,13 @@ def _report(args: argparse.Namespace) -> int:
     return print_paths(write_study_report(args.results, reports))
 
 
+def _sides(exp) -> int:
+    """Sides of the per-case sign-flip test of ``exp``'s detection rule (its declared direction)."""
+    from faultlab.stats.verdict import alternative_of
+
+    return 2 if alternative_of(exp.detection.direction) == "two-sided" else 1
+
+
 def _plan(args: argparse.Namespace) -> int:
     from faultlab.analysis.planning import execution_cost
     from faultlab.config import read_toml
@@ -115,14 +122,14 @@ def _plan(args: argparse.Namespace) -> int:
         # the largest family of cases judged: the largest drawn size or a whole generated suite
         largest = max([*sexp.study.sizes, *(s.n_cases or 0 for s in exp.suites if s.kind in sexp.study.whole)])
         plan = plan_study("strategies", strategies=len(exp.suites), faults=faults, max_suite=largest,
-                          alpha=sexp.study.alpha, **common)
+                          alpha=sexp.study.alpha, sides=_sides(exp), **common)
     else:
         from faultlab.campaigns.mutation import load_mutation_experiment
 
         mexp = load_mutation_experiment(args.study)
         exp = mexp.experiment
         plan = plan_study("mutation", strategies=len(exp.suites), suite_cases=max(s.n_cases or 0 for s in exp.suites),
-                          runs=exp.runs, alpha=mexp.alpha, **common)
+                          runs=exp.runs, alpha=mexp.alpha, sides=_sides(exp), **common)
     particles = dict(exp.slam.options).get("particles")
     settings = f"{exp.slam.name}, {particles} particles, {exp.n_steps} active steps"
     text = plan_markdown(plan, study=Path(args.study).stem, cost=cost, cost_source=str(args.cost_store),

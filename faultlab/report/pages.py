@@ -41,7 +41,7 @@ from faultlab.runner.store import case_path
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
 from faultlab.stats.class_effects import MIN_EPV
-from faultlab.stats.verdict import min_pairs
+from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import JobStatus
 
 __all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "title_pages", "table2_pages", "rates_pages", "comparison_pages",
@@ -392,7 +392,7 @@ def _false_alarm_pages(analysis: Analysis) -> list[Figure]:
 def _verdict_test(analysis: Analysis) -> str:
     rule = analysis.rule
     if rule.statistical:
-        return (f"Test: exact one-sided paired sign-flip test over each case's K repetitions; alpha = "
+        return (f"Test: {rule.test_name} over each case's K repetitions; alpha = "
                 f"{rule.alpha:g}; Holm within the multiplicity family '{rule.family}'.")
     return ("Test: the paper's thresholds per repetition; a case is detected when a strict majority of its "
             "judged repetitions detect ('share': detecting / judged repetitions); no multiplicity correction "
@@ -406,16 +406,30 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
         "fault": v["fault"].map(variant_label), "verdict": v["verdict"].str.replace("_", " "),
         "reason": v["reason"].str.replace("_", " "), "K": v["n_reps"], "judged": v["n_judged"],
         "share": [format_pct(x) for x in v["share"]], "p": [_g3(x) for x in v["p"]],
-        "p (Holm)": [_g3(x) for x in v["p_holm"]], "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
+        "p (Holm)": [_g3(x) for x in v["p_holm"]], "change": v["direction"].fillna(""),
+        "median diff mm [CI]": [_effect(m, lo, hi, "{:.0f}") for m, lo, hi in
+                                zip(v["median_diff_mm"], v["median_low_mm"], v["median_high_mm"])],
+        "ratio [CI]": [_effect(m, lo, hi, "{:.2f}") for m, lo, hi in zip(v["ratio"], v["ratio_low"], v["ratio_high"])],
+        "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
     })
     cannot = int((v["verdict"] == "cannot_judge").sum())
     return table_pages(f"Per-case verdicts ({analysis.rule.rule} rule)", _frame_text(show), fontsize=7,
                        max_rows=34,
                        note=f"{_verdict_test(analysis)} A crash or timeout of the faulty variant alone counts "
                             f"as detected. {cannot} case(s) cannot be judged (baseline failed or too few "
-                            f"pairs: K >= {min_pairs(analysis.rule.alpha)} needed at alpha = "
-                            f"{analysis.rule.alpha:g}); they are not misses. MDE: smallest shift of the paired "
-                            f"differences the exact test detects with 80 % power.")
+                            f"pairs: K >= {min_pairs(analysis.rule.alpha, alternative=alternative_of(analysis.rule.direction))} "
+                            f"needed at alpha = {analysis.rule.alpha:g}); they are not misses. Change: sign of the "
+                            f"mean paired difference; effect: median difference (mm) and median ratio faulty / "
+                            f"baseline with order-statistic intervals (coverage >= 1 - alpha where K allows). MDE: "
+                            f"smallest shift of the paired differences the decision's test (its sidedness, Holm's "
+                            f"first step alpha / m over the family) detects with 80 % power.")
+
+
+def _effect(mid: float, lo: float, hi: float, fmt: str) -> str:
+    if not np.isfinite(mid):
+        return ""
+    text = fmt.format(mid)
+    return text if not (np.isfinite(lo) and np.isfinite(hi)) else f"{text} [{fmt.format(lo)}, {fmt.format(hi)}]"
 
 
 def _case_rate_pages(analysis: Analysis) -> list[Figure]:
