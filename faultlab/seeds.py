@@ -18,7 +18,9 @@ a campaign (``faultlab run``) or on its own (``faultlab generate``):
 - a strategies study (``faultlab study``) draws the suites of (strategy, size) from
   ``spawn_key=(STUDY, code("draw"), code(strategy), size)`` and resamples a strategy's pool for the
   bootstrap from ``spawn_key=(STUDY, code("bootstrap"), code(strategy))`` (the mutants from
-  ``code("mutants")``), so adding a strategy or a size changes no other draw.
+  ``code("mutants")``), so adding a strategy or a size changes no other draw;
+- an effects study (``faultlab effects``) draws its design of ``method`` (``"morris"``,
+  ``"sobol"``) from ``spawn_key=(DESIGN, code(method))``.
 
 ``code(name)`` is :func:`stable_code`, a 32-bit hash of the name, so adding, removing or
 reordering suites changes no other suite's draws.
@@ -30,10 +32,11 @@ import hashlib
 
 import numpy as np
 
-__all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed", "study_seed_sequence", "sensor_seed_sequence"]
+__all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed", "study_seed_sequence",
+           "sensor_seed_sequence", "design_seed_sequence"]
 
 # Spawn-key tags: what a seed is for.
-_SUITE, _CASE, _SLAM, _REPLICA, _STUDY, _SENSOR = 1, 2, 3, 4, 5, 6
+_SUITE, _CASE, _SLAM, _REPLICA, _STUDY, _SENSOR, _DESIGN = 1, 2, 3, 4, 5, 6, 7
 
 
 def stable_code(name: str) -> int:
@@ -84,3 +87,8 @@ def sensor_seed_sequence(slam_seed: int, fault: str) -> np.random.SeedSequence:
     (``default_rng(slam_seed)``), which stays that of the baseline (common random numbers).
     """
     return np.random.SeedSequence(entropy=int(slam_seed), spawn_key=(_SENSOR, stable_code(fault)))
+
+
+def design_seed_sequence(root: int, method: str) -> np.random.SeedSequence:
+    """The SeedSequence an effects study's design of ``method`` (``"morris"``, ``"sobol"``) is drawn from."""
+    return np.random.SeedSequence(entropy=int(root), spawn_key=(_DESIGN, stable_code(method)))

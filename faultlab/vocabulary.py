@@ -22,7 +22,14 @@ __all__ = [
     "KNOWN_ASSOCIATION",
     "UNKNOWN_ASSOCIATION",
     "BACKENDS",
+    "DEFAULT_ALPHA",
+    "DIRECTIONS",
+    "DEFAULT_DIRECTION",
+    "PAPER_DIRECTION",
+    "EFFECTS_STAGES",
+    "EFFECTS_FILE",
     "JobStatus",
+    "Change",
     "Outcome",
     "ordered",
 ]
@@ -63,8 +70,35 @@ KNOWN_ASSOCIATION = "known"
 UNKNOWN_ASSOCIATION = "unknown"
 ASSOCIATIONS: tuple[str, ...] = (KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION)
 
+#: The stages of an effects study (``faultlab effects``), in running order: Morris screening, then Sobol
+#: indices over the parameters it keeps; each is a results store ``OUT/<stage>`` and the suite label of its cases.
+EFFECTS_STAGES: tuple[str, ...] = ("morris", "sobol")
+#: File in an effects study's output directory recording its settings and the kept parameters.
+EFFECTS_FILE = "effects.json"
+
 #: Execution backends of the runner (joblib backends; dask and ray are optional extras).
 BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")
+
+
+#: Default level of every test and 1 - confidence level of every interval (the paper's 5 %).
+DEFAULT_ALPHA = 0.05
+
+#: Which change of the map error a per-case test looks for: ``"either"`` (two-sided: the variant
+#: behaves differently, worse or better) or ``"worse"`` (one-sided: the paper's notion of detecting
+#: a fault, Sec. VII-A, "the faulty implementation's map error exceeds the baseline's").
+DIRECTIONS: tuple[str, ...] = ("either", "worse")
+#: Default direction of the per-case tests (mutation kill, kill matrix, the statistical rule).
+DEFAULT_DIRECTION = "either"
+#: The paper's one-sided direction.
+PAPER_DIRECTION = "worse"
+
+
+class Change(StrEnum):
+    """Observed direction of a variant's effect on the map error (sign of the mean paired difference)."""
+
+    WORSE = "worse"
+    BETTER = "better"
+    NONE = "none"
 
 
 class JobStatus(StrEnum):

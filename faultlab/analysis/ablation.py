@@ -32,7 +32,7 @@ from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
 from faultlab.slam.profiles import ABLATIONS, Ablation
-from faultlab.vocabulary import BASELINE, PAPER_FAULTS, JobStatus
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, JobStatus
 
 __all__ = ["AblationResult", "ABLATION", "ABLATION_CSV", "ABLATION_JSON", "KEYS", "paired_effect",
            "compare_arms", "ablation"]
@@ -106,7 +106,7 @@ class AblationResult:
                    campaign=dict(meta["campaign"]), table=ABLATION.read_csv(d / ABLATION_CSV))
 
 
-def paired_effect(paper, alternative, *, n_boot: int = 4000, alpha: float = 0.05,
+def paired_effect(paper, alternative, *, n_boot: int = 4000, alpha: float = DEFAULT_ALPHA,
                   rng: np.random.Generator) -> dict:
     """The paired effect of one ablation on one variant (without the multiplicity step).
 
@@ -151,7 +151,7 @@ def _ok(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def compare_arms(arms: Mapping[str, pd.DataFrame], *, ablations: Sequence[Ablation] = ABLATIONS,
-                 variants: Sequence[str] = (BASELINE, *PAPER_FAULTS), alpha: float = 0.05, n_boot: int = 4000,
+                 variants: Sequence[str] = (BASELINE, *PAPER_FAULTS), alpha: float = DEFAULT_ALPHA, n_boot: int = 4000,
                  seed: int = 0, campaign: Mapping | None = None) -> AblationResult:
     """Pair every ablation's two arms and measure the effect per variant.
 
@@ -203,7 +203,7 @@ def compare_arms(arms: Mapping[str, pd.DataFrame], *, ablations: Sequence[Ablati
                           table=ABLATION.conform(table))
 
 
-def ablation(arm_dirs: Mapping[str, str | Path], *, ablations: Sequence[Ablation] = ABLATIONS, alpha: float = 0.05,
+def ablation(arm_dirs: Mapping[str, str | Path], *, ablations: Sequence[Ablation] = ABLATIONS, alpha: float = DEFAULT_ALPHA,
              n_boot: int = 4000, seed: int = 0) -> AblationResult:
     """:func:`compare_arms` of the results stores of the arms (arm name -> results directory)."""
     arms = {name: load_results(d) for name, d in arm_dirs.items()}

@@ -44,7 +44,7 @@ from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
 from faultlab.stats.paper import RAW_CSV, load_paper_raw, resolve_data_path
-from faultlab.vocabulary import BASELINE, PAPER_FAULTS, PAPER_PROTOCOL, SUITE_ORDER, JobStatus
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, PAPER_PROTOCOL, SUITE_ORDER, JobStatus
 
 __all__ = ["Verdict", "Fidelity", "FIDELITY", "FIDELITY_CSV", "FIDELITY_JSON", "DEFAULT_FACTOR",
            "DEFAULT_N_BOOT", "DEFAULT_MIN_N", "compare_distributions", "compare_with_paper", "fidelity"]
@@ -156,7 +156,7 @@ def _bootstrap_medians(x: np.ndarray, n_boot: int, rng: np.random.Generator) -> 
     return np.median(x[idx], axis=1)
 
 
-def compare_distributions(x, y, *, n_boot: int = DEFAULT_N_BOOT, alpha: float = 0.05,
+def compare_distributions(x, y, *, n_boot: int = DEFAULT_N_BOOT, alpha: float = DEFAULT_ALPHA,
                           rng: np.random.Generator) -> dict:
     """One cell: sample ``x`` (this run) against ``y`` (the paper), without the multiplicity step.
 
@@ -207,7 +207,7 @@ def _verdict(p_holm: float, ratio_low: float, ratio_high: float, n: int, *, alph
 
 
 def compare_with_paper(results: pd.DataFrame, paper: pd.DataFrame, *, metadata: Mapping | None = None,
-                       alpha: float = 0.05, factor: float = DEFAULT_FACTOR, min_n: int = DEFAULT_MIN_N,
+                       alpha: float = DEFAULT_ALPHA, factor: float = DEFAULT_FACTOR, min_n: int = DEFAULT_MIN_N,
                        n_boot: int = DEFAULT_N_BOOT, seed: int = 0, rep: int | None = None) -> Fidelity:
     """Compare every suite and variant both frames have (see the module docstring).
 
@@ -270,7 +270,7 @@ def _campaign(metadata: Mapping) -> dict:
     return out
 
 
-def fidelity(results_dir: str | Path, *, paper_raw: str | Path | None = None, alpha: float = 0.05,
+def fidelity(results_dir: str | Path, *, paper_raw: str | Path | None = None, alpha: float = DEFAULT_ALPHA,
              factor: float = DEFAULT_FACTOR, min_n: int = DEFAULT_MIN_N, n_boot: int = DEFAULT_N_BOOT,
              seed: int = 0) -> Fidelity:
     """:func:`compare_with_paper` of a results store and the paper's raw data (default ``paper_repro/``)."""

@@ -14,7 +14,7 @@ from faultlab.runner.staging import STOPS_KEY
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY
 from faultlab.space import ParameterSpace, space_from_mapping, table1_space
 from faultlab.stats.detection import DetectionRule
-from faultlab.vocabulary import BASELINE
+from faultlab.vocabulary import BASELINE, DEFAULT_DIRECTION, PAPER_DIRECTION
 
 __all__ = ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary"]
 
@@ -31,7 +31,9 @@ def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
     -------
     (rule, stored) : (DetectionRule, bool)
         ``stored`` is False when the metadata holds no rule; then the rule is the paper's
-        (thresholds missing from a stored rule take the paper's values too).
+        (thresholds missing from a stored rule take the paper's values too).  A statistical rule
+        stored without a ``direction`` was run before the two-sided default: its direction is the
+        paper's one-sided ``"worse"``, so a campaign is analysed with the test it ran with.
 
     Raises
     ------
@@ -40,8 +42,10 @@ def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
     """
     det = metadata.get("detection") or {}
     try:
-        rule = DetectionRule(**{k: det[k] for k in ("abs_mm", "rel", "rule", "alpha", "family")
-                                 if k in det})
+        # a statistical rule stored before the direction existed was judged one-sided: analyse it so
+        before = PAPER_DIRECTION if det.get("rule") == "statistical" else DEFAULT_DIRECTION
+        rule = DetectionRule(**{k: det[k] for k in ("abs_mm", "rel", "rule", "alpha", "family") if k in det},
+                             direction=det.get("direction", before))
     except (TypeError, ValueError, FaultlabError) as exc:
         raise ResultsError(f"results metadata has an invalid detection rule {det!r} ({exc})") from exc
     return rule, bool(det)

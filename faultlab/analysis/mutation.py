@@ -31,17 +31,19 @@ from faultlab.mutation.variants import mutant_variant
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.runner.store import MUTATION_FILE, load_metadata, load_results
 from faultlab.stats.killmatrix import suite_kills
+from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_DIRECTION
 
 __all__ = ["MUTATION_TABLES", "MutationAnalysis", "analyse_mutation", "mutation_scores", "compare_suites",
-           "clopper_pearson"]
+           "clopper_pearson", "mutant_outcomes", "stored_direction", "OBSERVED_EQUIVALENT"]
 
 #: Tables of a :class:`MutationAnalysis`, saved as ``<name>.csv``.
 MUTATION_TABLES = ("outcomes", "scores", "mcnemar")
-OUTCOME_COLUMNS = ["mutant", "unit", "operator", "run", "suite", "outcome", "represented_by", "killing_case",
-                   "n_cases_run", "n_cases", "min_p", "min_mde_mm", "note"]
+OUTCOME_COLUMNS = ["mutant", "unit", "operator", "run", "suite", "outcome", "survival", "represented_by",
+                   "killing_case", "direction", "median_diff_mm", "ratio", "n_cases_run", "n_cases", "min_p",
+                   "max_p_equivalence", "min_mde_mm", "note"]
 
 
-def clopper_pearson(k: int, n: int, alpha: float = 0.05) -> tuple[float, float]:
+def clopper_pearson(k: int, n: int, alpha: float = DEFAULT_ALPHA) -> tuple[float, float]:
     """Exact two-sided (1 - alpha) interval of a binomial proportion (NaN, NaN for n = 0)."""
     if n == 0:
         return math.nan, math.nan
@@ -74,8 +76,18 @@ class MutationAnalysis(TableBundle):
     WHAT = "mutation analysis"
 
 
-def _outcomes(results: pd.DataFrame, sel: dict, metric: str, suites: dict | None = None) -> pd.DataFrame:
+def stored_direction(sel: dict) -> str:
+    """The direction a stored campaign's kills (and so its early stopping) used: its ``direction``, or
+    the paper's one-sided ``"worse"`` for a campaign recorded before the choice existed."""
+    return str(sel.get("direction", PAPER_DIRECTION))
+
+
+def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suites: dict | None = None) -> pd.DataFrame:
+    """One row per (mutant, run, suite), :data:`OUTCOME_COLUMNS`, from a campaign's results and its
+    ``mutation.json`` record ``sel`` (``alpha``, ``direction``, ``run``, ``screened``, ``unit``,
+    ``operator``, ``represented_by``); see the module docstring."""
     alpha = float(sel["alpha"])
+    direction = stored_direction(sel)
     ncases = results.groupby(["run", "suite"])["case"].max().to_dict()
     if suites:  # the experiment's case counts: an interrupted campaign has not reached the last cases
         ncases = {k: int(suites.get(k[1], n)) for k, n in ncases.items()}
@@ -83,56 +95,85 @@ def _outcomes(results: pd.DataFrame, sel: dict, metric: str, suites: dict | None
     per_suite = {}
     for (run, suite), n in ncases.items():
         part = results[(results["run"] == run) & (results["suite"] == suite)]
-        per_suite[(run, suite)] = suite_kills(part, case_alpha=alpha / n, metric=metric)
+        per_suite[(run, suite)] = suite_kills(part, case_alpha=alpha / n, metric=metric, direction=direction)
     for mid in sel["run"]:
         variant = mutant_variant(mid)
-        for (run, suite), v in per_suite.items():
-            mv = v[v["fault"] == variant].sort_values("case")
+        mine = {rs: v[v["fault"] == variant].sort_values("case") for rs, v in per_suite.items()}
+        # bit-identical to the baseline in every paired run of every case of every suite
+        observed_equivalent = all(len(mv) == ncases[rs] and mv["identical"].all() for rs, mv in mine.items())
+        for (run, suite), mv in mine.items():
             n = ncases[(run, suite)]
             base = dict(mutant=mid, unit=sel["unit"].get(mid, ""), operator=sel["operator"].get(mid, ""), run=run,
-                        suite=suite, represented_by="", n_cases=n, n_cases_run=len(mv), note="")
+                        suite=suite, represented_by="", n_cases=n, n_cases_run=len(mv), note="", survival="",
+                        direction="", median_diff_mm=math.nan, ratio=math.nan)
             kills = mv[mv["kill"] != ""]
             p = pd.to_numeric(mv["p"], errors="coerce")
             mde = pd.to_numeric(mv["mde_mm"], errors="coerce")
+            pe = pd.to_numeric(mv["p_equivalence"], errors="coerce")
             base["min_p"] = float(p.min()) if p.notna().any() else math.nan
             base["min_mde_mm"] = float(mde.min()) if mde.notna().any() else math.nan
+            base["max_p_equivalence"] = float(pe.max()) if len(pe) and pe.notna().all() else math.nan
             if len(kills):
                 first = kills.iloc[0]
-                rows.append(base | dict(outcome=first["kill"], killing_case=int(first["case"])))
+                effect = {} if first["kill"] != MutantOutcome.KILLED.value else dict(
+                    direction=first["direction"], median_diff_mm=float(first["median_diff_mm"]),
+                    ratio=float(first["ratio"]))
+                rows.append(base | dict(outcome=first["kill"], killing_case=int(first["case"])) | effect)
             elif len(mv) < n:
                 rows.append(base | dict(outcome=INCOMPLETE, killing_case=0,
                                         note=f"{len(mv)} of {n} cases run"))
             elif (mv["verdict"] == "cannot_judge").all():
                 rows.append(base | dict(outcome="cannot_judge", killing_case=0,
                                         note="; ".join(sorted(set(mv["reason"].astype(str))))))
+            elif observed_equivalent:
+                rows.append(base | dict(outcome=OBSERVED_EQUIVALENT, killing_case=0,
+                                        note="maps bit-identical to the baseline's in every paired run"))
             else:
+                equivalent = bool(base["max_p_equivalence"] <= alpha)
+                margin = pd.to_numeric(mv["margin_mm"], errors="coerce")
+                note = (f"equivalent within +-{margin.min():.0f}-{margin.max():.0f} mm on every case (TOST, "
+                        f"p <= {base['max_p_equivalence']:.2g})" if equivalent else
+                        f"no difference shown; smallest detectable shift {base['min_mde_mm']:.0f} mm (80 % power)")
                 rows.append(base | dict(outcome=MutantOutcome.SURVIVED.value, killing_case=0,
-                                        note=f"smallest detectable shift {base['min_mde_mm']:.0f} mm (80 % power)"))
+                                        survival=SURVIVED_EQUIVALENT if equivalent else SURVIVED_INCONCLUSIVE,
+                                        note=note))
     for mid, cls in sel["screened"].items():
         for (run, suite), n in ncases.items():
             rows.append(dict(mutant=mid, unit=sel["unit"].get(mid, ""), operator=sel["operator"].get(mid, ""),
-                             run=run, suite=suite, outcome=cls, represented_by=sel["represented_by"].get(mid, ""),
-                             killing_case=0, n_cases_run=0, n_cases=n, min_p=math.nan, min_mde_mm=math.nan,
-                             note="not run (screened out)"))
+                             run=run, suite=suite, outcome=cls, survival="",
+                             represented_by=sel["represented_by"].get(mid, ""), killing_case=0, direction="",
+                             median_diff_mm=math.nan, ratio=math.nan, n_cases_run=0, n_cases=n, min_p=math.nan,
+                             max_p_equivalence=math.nan, min_mde_mm=math.nan, note="not run (screened out)"))
     return pd.DataFrame(rows, columns=OUTCOME_COLUMNS)
 
 
 INCOMPLETE = "incomplete"
+#: A live mutant whose maps were bit-identical to the baseline's in every paired run: equivalent as
+#: observed on these cases; it leaves the score's denominator and is listed apart.
+OBSERVED_EQUIVALENT = "equivalent_observed"
+#: How a survivor survived: shown equivalent within the margin on every case (TOST), or not.
+SURVIVED_EQUIVALENT = "equivalent"
+SURVIVED_INCONCLUSIVE = "inconclusive"
 KILL_CLASSES = (MutantOutcome.KILLED.value, MutantOutcome.CRASH.value, MutantOutcome.TIMEOUT.value)
 
 
-def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
+def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Mutation score per suite kind, per (suite kind, operator) and per (suite kind, unit).
 
     Score = killed / (killed + survived + incomplete) over the (mutant, run) rows that ran
     (``crash`` and ``timeout`` count as killed), with a Clopper-Pearson ``1 - alpha`` interval.
     An ``incomplete`` mutant (not killed by the cases run so far of an interrupted campaign)
-    counts as not killed, so the score of an interrupted campaign is a lower bound.
+    counts as not killed, so the score of an interrupted campaign is a lower bound.  Survivors
+    split into ``equivalent`` (TOST on every case) and ``inconclusive``; mutants observed
+    equivalent (bit-identical maps) leave the denominator and are counted in
+    ``equivalent_observed``.
     """
     judged = outcomes[outcomes["outcome"].isin((*KILL_CLASSES, MutantOutcome.SURVIVED.value, INCOMPLETE))]
+    observed = outcomes[outcomes["outcome"] == OBSERVED_EQUIVALENT]
     rows = []
     for by in (None, "operator", "unit"):
         keys = ["suite"] + ([by] if by else [])
+        n_observed = observed.groupby(keys).size().to_dict() if len(observed) else {}
         for key, g in judged.groupby(keys, sort=True):
             key = key if isinstance(key, tuple) else (key,)
             k = int(g["outcome"].isin(KILL_CLASSES).sum())
@@ -140,8 +181,13 @@ def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFr
             lo, hi = clopper_pearson(k, n, alpha)
             rows.append(dict(suite=key[0], by=by or "all", group=key[1] if by else "all", killed=k, judged=n,
                              crash=int((g["outcome"] == "crash").sum()), timeout=int((g["outcome"] == "timeout").sum()),
-                             incomplete=int((g["outcome"] == INCOMPLETE).sum()), score=k / n, ci_low=lo, ci_high=hi))
+                             incomplete=int((g["outcome"] == INCOMPLETE).sum()),
+                             survived_equivalent=int((g["survival"] == SURVIVED_EQUIVALENT).sum()),
+                             survived_inconclusive=int((g["survival"] == SURVIVED_INCONCLUSIVE).sum()),
+                             equivalent_observed=int(n_observed.get(key if by else key[0], 0)),
+                             score=k / n, ci_low=lo, ci_high=hi))
     return pd.DataFrame(rows, columns=["suite", "by", "group", "killed", "judged", "crash", "timeout", "incomplete",
+                                       "survived_equivalent", "survived_inconclusive", "equivalent_observed",
                                        "score", "ci_low", "ci_high"])
 
 
@@ -167,7 +213,7 @@ def compare_suites(outcomes: pd.DataFrame, suites) -> pd.DataFrame:
     return df
 
 
-def analyse_mutation(out: str | Path, *, alpha: float = 0.05) -> MutationAnalysis:
+def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> MutationAnalysis:
     """The :class:`MutationAnalysis` of the campaign saved in ``out`` (runs nothing)."""
     out = Path(out)
     try:
@@ -180,9 +226,9 @@ def analyse_mutation(out: str | Path, *, alpha: float = 0.05) -> MutationAnalysi
     metric = exp.get("metric", "rms") if isinstance(exp, dict) else "rms"
     spec = exp.get("suites", {}) if isinstance(exp, dict) else {}
     pairs = spec.items() if isinstance(spec, dict) else (tuple(p) for p in spec)  # stored as [[kind, n], ...]
-    outcomes = _outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)})
+    outcomes = mutant_outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)})
     suites = list(dict.fromkeys(results["suite"]))
-    info = dict(alpha=sel["alpha"], n_mutants_run=len(sel["run"]), n_screened=len(sel["screened"]),
+    info = dict(alpha=sel["alpha"], direction=stored_direction(sel), n_mutants_run=len(sel["run"]), n_screened=len(sel["screened"]),
                 n_jobs=len(results), runtime_s_sum=float(results["runtime_s"].sum()),
                 status_counts={k: int(v) for k, v in results["status"].value_counts().items()},
                 repetitions=int(results["rep"].max()) + 1, suites=suites,

@@ -74,7 +74,7 @@ from faultlab.stats.oracle import oracle_detections
 from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, paper_table, resolve_data_path
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
 from faultlab.space.case import PARAMETER_NAMES
-from faultlab.vocabulary import METRICS, REPLICA, SUITE_ORDER, JobStatus, ordered
+from faultlab.vocabulary import DEFAULT_ALPHA, METRICS, REPLICA, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["Analysis", "Note", "analyse", "FORMAT_VERSION", "JSON_FILE", "BEYOND_THE_PAPER"]
 
@@ -174,7 +174,7 @@ class Analysis:
     # ------------------------------------------------------------------ construction
 
     @classmethod
-    def from_frame(cls, results: pd.DataFrame, metadata: Mapping | None = None, *, alpha: float = 0.05,
+    def from_frame(cls, results: pd.DataFrame, metadata: Mapping | None = None, *, alpha: float = DEFAULT_ALPHA,
                    paper: bool = True, paper_raw: str | Path | None = None,
                    paper_reported: str | Path | None = None, rep: int | None = None,
                    parameters: Sequence[str] | None = None) -> "Analysis":
@@ -344,8 +344,8 @@ class Analysis:
                 rule=DetectionRule(**data["rule"]), alpha=float(data["alpha"]), rep=int(data["rep"]),
                 parameters=None if data["parameters"] is None else tuple(data["parameters"]),
                 metadata=data["metadata"], equivalent_faults=tuple(data["equivalent_faults"]),
-                paper_raw=None if data["paper_raw"] is None else Path(data["paper_raw"]),
-                paper_reported=None if data["paper_reported"] is None else Path(data["paper_reported"]),
+                paper_raw=_located(data["paper_raw"]),
+                paper_reported=_located(data["paper_reported"]),
                 notes=tuple(Note(n["topic"], n["text"]) for n in data["notes"]))
         except (KeyError, TypeError, ValueError, FaultlabError) as exc:
             raise ResultsError(f"{path}: malformed saved analysis ({type(exc).__name__}: {exc})") from exc
@@ -362,8 +362,8 @@ class Analysis:
             "parameters": None if self.parameters is None else list(self.parameters),
             "metadata": self.metadata,
             "equivalent_faults": list(self.equivalent_faults),
-            "paper_raw": None if self.paper_raw is None else str(self.paper_raw),
-            "paper_reported": None if self.paper_reported is None else str(self.paper_reported),
+            "paper_raw": _portable(self.paper_raw),
+            "paper_reported": _portable(self.paper_reported),
             "notes": [{"topic": n.topic, "text": n.text} for n in self.notes],
         }
 
@@ -372,7 +372,7 @@ _TABLE_NAMES = tuple(s.name for s in TABLES)
 assert set(_TABLE_NAMES) <= {f.name for f in fields(Analysis)}, "every table of the schema is an Analysis field"
 
 
-def analyse(results_dir: str | Path, *, alpha: float = 0.05, paper: bool = True,
+def analyse(results_dir: str | Path, *, alpha: float = DEFAULT_ALPHA, paper: bool = True,
             paper_raw: str | Path | None = None, paper_reported: str | Path | None = None,
             rep: int | None = None, parameters: Sequence[str] | None = None) -> Analysis:
     """Analyse the results store of a campaign (:meth:`Analysis.from_frame` of its rows and metadata).
@@ -469,7 +469,7 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
     notes = []
     verdicts, v_note = _guarded(CASE_VERDICTS, lambda: rule_verdicts(results, pairs, rule=rule, metric=metric),
                                 "Per-case verdicts")
-    test = (f"exact one-sided paired sign-flip test over the K repetitions on the {metric.upper()} error, "
+    test = (f"{rule.test_name} over the K repetitions on the {metric.upper()} error, "
             f"Holm within the family '{rule.family}', alpha = {rule.alpha:g}" if rule.statistical else
             f"the paper's thresholds ({rule.abs_mm:g} mm and {100 * rule.rel:g} %) on the {metric.upper()} error "
             f"per repetition, a case detected when a strict majority of its judged repetitions detect")
@@ -605,3 +605,23 @@ def _beyond_the_paper(results: pd.DataFrame, pairs: pd.DataFrame, rates: pd.Data
     return tables, [n for n in (fa_note, orc_note, cmp_note, eff_note) if n is not None]
 
 
+#: Directory that holds the faultlab package: saved paths below it are stored relative to it.
+_ROOT = Path(__file__).resolve().parent.parent.parent
+
+
+def _portable(path: Path | None) -> str | None:
+    """``path`` relative to :data:`_ROOT` when it lies below it (no machine path in saved files)."""
+    if path is None:
+        return None
+    try:
+        return Path(path).relative_to(_ROOT).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def _located(text: str | None) -> Path | None:
+    """Inverse of :func:`_portable`."""
+    if text is None:
+        return None
+    path = Path(text)
+    return path if path.is_absolute() else _ROOT / path

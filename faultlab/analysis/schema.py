@@ -57,7 +57,7 @@ KINDS: dict[str, str] = {"int": "int64", "Int": "Int64", "float": "float64", "st
 _KIND_OF: dict[str, str] = {
     **{c: "str" for c in ("source", "suite", "variant", "fault", "status", "baseline_status", "outcome",
                           "missed", "suite_a", "suite_b", "term", "note", "parameter", "counts", "uncovered",
-                          "rule", "verdict", "reason", "family", "method")},
+                          "rule", "verdict", "reason", "family", "method", "alternative", "direction")},
     **{c: "float" for c in ("epv", "lr_chi2")},
     **{c: "int" for c in ("run", "case", "rep", "n_cases", "n_reps", "n_jobs", "not_detected", "crash",
                           "timeout", "baseline_failed", "k", "n", "k_incl", "n_incl", "n_pairs",
@@ -65,11 +65,12 @@ _KIND_OF: dict[str, str] = {
                           "n_detected", "n_tested", "computed_pct", "classes", "covered", "n_landmarks",
                           "detected", "n_judged", "n_detecting", "n_cannot_judge", "n_clusters")},
     **{c: "float" for c in ("rms_mm", "emd_mm", "baseline_rms_mm", "runtime_s", "rate", "rate_incl",
-                            "median_faulty_mm", "median_baseline_mm", "u", "p", "p_min", "p_holm", "rate_a",
+                            "median_faulty_mm", "median_baseline_mm", "u", "p", "p_mc_se", "p_min", "p_holm", "rate_a",
                             "rate_b", "risk_difference", "rd_low", "rd_high", "odds_ratio", "or_low", "or_high",
                             "coef", "std_err", "reported_pct", "paper_rate", "paper_printed_pct", "min_p_min",
                             "min_p_holm", "coverage", "median_s", "max_s", "total_s", "share", "mde_mm", "low",
-                            "high", "design_effect", "difference", "detectable_difference")},
+                            "high", "design_effect", "difference", "detectable_difference", "median_diff_mm",
+                            "median_low_mm", "median_high_mm", "ratio", "ratio_low", "ratio_high")},
     **{f"{b}{s}": "float" for b in ("wilson_low", "wilson_high", "cp_low", "cp_high") for s in ("", "_incl")},
     **{c: "bool" for c in ("haldane", "agrees")},
     **{c: "Int" for c in ("paper_k", "paper_n")},
@@ -233,7 +234,7 @@ ORACLE = TableSchema.define(
     "oracle", "Per suite, run, case and fault: Mann-Whitney U of faulty vs baseline RMS over the "
     "repetitions, Holm-corrected (faultlab.stats.oracle_detections).",
     ("suite", "run", "case", "fault", "n_faulty", "n_baseline", "median_faulty_mm", "median_baseline_mm", "u",
-     "p", "p_min", "p_holm", "detected"), detected="bool")
+     "p", "p_mc_se", "p_min", "p_holm", "detected"), detected="bool")
 ORACLE_SUMMARY = TableSchema.define(
     "oracle_summary", "Per suite and fault: cases, tested cases, cases the oracle detects, smallest "
     "attainable p and smallest Holm-adjusted p.",

@@ -35,7 +35,7 @@ from faultlab.stats.cases import case_rates
 from faultlab.stats.detection import outcomes
 from faultlab.stats.rates import tabulate_rates
 from faultlab.stats.verdict import Verdict
-from faultlab.vocabulary import BASELINE, JobStatus
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, JobStatus
 
 __all__ = ["SlamComparison", "compare_slams", "ACCURACY", "SENSITIVITY", "NOT_JUDGED"]
 
@@ -80,7 +80,7 @@ class SlamComparison:
                                                       sort_keys=True) + "\n")
 
 
-def compare_slams(stores: Mapping[str, str | Path], *, alpha: float = 0.05,
+def compare_slams(stores: Mapping[str, str | Path], *, alpha: float = DEFAULT_ALPHA,
                   not_installed: Sequence[str] = ()) -> SlamComparison:
     """Analyse one results store per SLAM and collect the cross-SLAM tables.
 

@@ -12,11 +12,13 @@ confidence intervals and the power statement.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
@@ -25,11 +27,12 @@ from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
 from faultlab.stats.cases import detectable_difference
-from faultlab.stats.killmatrix import (StudySpec, compare_scores, detection_table, evaluate_suites, kill_matrix,
-                                       score_table, study_spec)
+from faultlab.stats.killmatrix import (KillMatrix, StudySpec, compare_scores, detection_table, evaluate_suites,
+                                       kill_matrix, score_table, study_spec)
+from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import PAPER_FAULTS
 
-__all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study"]
+__all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]
 
 #: Tables of a :class:`StudyAnalysis`, saved as ``<name>.csv``.
 STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power")
@@ -96,13 +99,49 @@ def _of_run(by_id: dict, variants) -> dict:
     return {v: by_id[mutant_id_of(v)] for v in variants if mutant_id_of(v) in by_id}
 
 
+def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
+    """A saved study analysis evaluated again from its kill matrix (``kill_matrix.csv`` and
+    ``study_meta.json``), without the store: the suite draws, intervals and comparisons are
+    recomputed by the current code; the kill matrix's p values keep the sidedness they were
+    computed with (``alternative`` in the meta; one-sided for an analysis saved before it was recorded).
+    """
+    d = Path(directory)
+    try:
+        frame = pd.read_csv(d / "kill_matrix.csv", keep_default_na=False, na_values=[""])
+        meta = json.loads((d / _META_FILE).read_text())
+    except (OSError, ValueError) as exc:
+        raise ResultsError(f"{d}: not a saved study analysis ({exc})") from exc
+    alternative = meta.get("alternative", "greater")
+    if "direction" not in frame.columns:
+        diff = frame["mean_diff_mm"].to_numpy(float)
+        frame["direction"] = np.where(diff > 0, "worse", np.where(diff < 0, "better", "none"))
+    if "mean_log_ratio" not in frame.columns:  # not recorded by the analysis that saved it
+        frame["mean_log_ratio"] = np.nan
+    km = KillMatrix.from_frame(frame)
+    spec = study_spec(meta["study"], source=str(d / _META_FILE))
+    mutants = tuple(v for v in km.variants if is_mutant_variant(v))
+    ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
+                         alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
+                         timeouts_detect=spec.timeouts_detect)
+    detection = detection_table(ev, km.variants)
+    detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
+    meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {})}
+    return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
+                         comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
+                         meta=meta)
+
+
 def analyse_study(out: str | Path) -> StudyAnalysis:
     """The study's analysis from its output directory (runs nothing).
 
     Reads the store and ``study.json`` (written by :func:`faultlab.campaigns.study.run_study`), builds the kill matrix and
     evaluates suites of every size from every strategy's pool (:mod:`faultlab.stats.killmatrix`).
+    A directory holding a saved analysis instead (``kill_matrix.csv`` and ``study_meta.json``, no
+    ``study.json``) is evaluated again from its kill matrix (:func:`reanalyse_saved_study`).
     """
     out = Path(out)
+    if not (out / STUDY_FILE).exists() and (out / _META_FILE).exists():
+        return reanalyse_saved_study(out)
     try:
         info = json.loads((out / STUDY_FILE).read_text())
     except (OSError, ValueError) as exc:
@@ -112,6 +151,16 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     meta = load_metadata(out)
     rule, _ = read_rule(meta)
     exp = meta["experiment"]
+    # sizes whose per-case level alpha / n the stored K cannot reach with the rule's sidedness are not
+    # evaluated (every such suite would detect by crashes only) and are listed in the meta
+    alternative = alternative_of(rule.direction)
+    k = int(exp["repetitions"])
+    too_large = {int(n): min_pairs(spec.alpha / n, alternative=alternative) for n in spec.sizes
+                 if k < min_pairs(spec.alpha / n, alternative=alternative)}
+    if len(too_large) == len(spec.sizes):
+        raise ResultsError(f"{out}: K = {k} repetitions reach no suite size's per-case level with the "
+                           f"{alternative} test (sizes {list(spec.sizes)})")
+    spec = dataclasses.replace(spec, sizes=tuple(n for n in spec.sizes if n not in too_large))
     km = kill_matrix(results, rule=rule, metric=exp.get("metric", "rms"))
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))
     ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
@@ -134,6 +183,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "wall_time_s": float(sum(s.get("wall_time_s") or 0.0 for s in sessions)),
         "load": _load_summary(sessions), "complete": int(meta["n_rows"]) == count_expected_jobs(meta),
         "cannot_judge_cases": int((~km.judged).any(axis=1).sum()),
+        "alternative": alternative, "sizes_not_evaluated": {str(n): need for n, need in too_large.items()},
         "crash_cases": {v: int(n) for v, n in zip(km.variants, km.crash.sum(axis=0)) if n},
         "timeout_cases": {v: int(n) for v, n in zip(km.variants, km.timeout.sum(axis=0)) if n},
     }

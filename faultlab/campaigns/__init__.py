@@ -4,7 +4,8 @@ One module per campaign: :mod:`~faultlab.campaigns.reproduce` (the paper's proto
 and the ablation of the paper profile), :mod:`~faultlab.campaigns.calibrate` (the A/A campaign of
 the detection rules), :mod:`~faultlab.campaigns.mutation` (mutants of the reference FastSLAM with
 early stopping), :mod:`~faultlab.campaigns.study` (the case pools of the test-design strategies
-study) and :mod:`~faultlab.campaigns.slams` (one protocol on every built-in SLAM).  A campaign
+study), :mod:`~faultlab.campaigns.slams` (one protocol on every built-in SLAM) and
+:mod:`~faultlab.campaigns.effects` (the Morris and Sobol designs of a per-parameter effects study).  A campaign
 only runs and stores; :mod:`faultlab.analysis` reads the stores and :mod:`faultlab.report`
 renders them.
 """
@@ -17,6 +18,7 @@ _EXPORTS = {
     "mutation": ["MutationExperiment", "MutationRun", "load_mutation_experiment", "run_mutation"],
     "study": ["StudyExperiment", "load_study_experiment", "run_study"],
     "slams": ["SlamsRun", "slam_experiments", "slam_stores", "run_slams"],
+    "effects": ["EffectsExperiment", "load_effects_experiment", "run_effects"],
 }
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -2,7 +2,9 @@
 
 A mutation experiment is an ordinary experiment file plus a ``[mutation]`` table selecting the
 mutants (``units``, ``operators``, ``ids``, ``sample``, ``seed``; all optional: every live
-mutant) and the family-wise level ``alpha`` (default 0.05).  Its variants are ``baseline`` and
+mutant), the family-wise level ``alpha`` (default :data:`~faultlab.vocabulary.DEFAULT_ALPHA`) and
+the ``direction`` of the kill test (``"either"``, two-sided, default: a mutant is killed when its
+map error changes, worse or better; ``"worse"``: the paper's one-sided notion).  Its variants are ``baseline`` and
 ``mutant:<id>`` for every selected live mutant (:mod:`faultlab.mutation.variants`); the campaign
 is stored in the runner's results store (:class:`~faultlab.runner.store.ResultStore`), one row
 per job, seeds as in any campaign (repetition k of a case uses the same SLAM seed for every
@@ -19,7 +21,8 @@ stopping).  Multiplicity: Bonferroni over the suite's cases.  Because the per-ca
 ``alpha / n`` does not depend on what was observed, the probability that a mutant with no effect
 on the error is called killed is at most the sum of the levels of the cases actually tested, at
 most ``alpha``, whatever the stopping; Holm's step-down would need every case's p value and is
-not valid once cases are skipped.  K must be at least ``min_pairs(alpha / n)``.
+not valid once cases are skipped.  K must be at least ``min_pairs(alpha / n)`` for the test's
+sidedness (two-sided: one more than one-sided).
 
 A mutant that survives a suite comes with the smallest shift of the mean map error it could
 have detected (80 % power): the smallest per-case detectable shift ``mde_mm`` of the suite's
@@ -45,13 +48,13 @@ from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, l
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.store import MUTATION_FILE, check_store, results_path, store_lock
 from faultlab.stats.killmatrix import suite_kills
-from faultlab.stats.verdict import min_pairs
-from faultlab.vocabulary import BASELINE
+from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS
 
 __all__ = ["MUTATION_FILE", "MutationExperiment", "MutationRun", "load_mutation_experiment", "parse_selector",
            "selection_from_table", "run_mutation"]
 
-_MUTATION_KEYS = ("units", "operators", "ids", "sample", "seed", "alpha")
+_MUTATION_KEYS = ("units", "operators", "ids", "sample", "seed", "alpha", "direction")
 
 
 @dataclass(frozen=True)
@@ -60,7 +63,8 @@ class MutationExperiment:
 
     experiment: Experiment
     selection: MutantSelection
-    alpha: float = 0.05
+    alpha: float = DEFAULT_ALPHA
+    direction: str = DEFAULT_DIRECTION
 
     def case_alpha(self, n_cases: int) -> float:
         return self.alpha / n_cases
@@ -101,24 +105,30 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
     if unknown:
         raise ConfigError(f"{path}: [mutation]: unknown key(s) {sorted(unknown)}; known: {', '.join(_MUTATION_KEYS)}")
     if mutants is not None:
-        table = {k: v for k, v in table.items() if k in ("seed", "alpha")} | parse_selector(mutants)
+        table = {k: v for k, v in table.items() if k in ("seed", "alpha", "direction")} | parse_selector(mutants)
     if repetitions is not None:
         data["repetitions"] = repetitions
-    alpha = float(table.get("alpha", 0.05))
+    alpha = float(table.get("alpha", DEFAULT_ALPHA))
     if not 0 < alpha < 1:
         raise ConfigError(f"{path}: [mutation].alpha must lie in (0, 1), got {alpha}")
-    selection = selection_from_table(table, source=str(path))
+    direction = table.get("direction", DEFAULT_DIRECTION)
+    if direction not in DIRECTIONS:
+        raise ConfigError(f"{path}: [mutation].direction must be one of {', '.join(map(repr, DIRECTIONS))}, "
+                          f"got {direction!r}")
+    selection = selection_from_table({k: v for k, v in table.items() if k != "direction"}, source=str(path))
     if "variants" in data:
         raise ConfigError(f"{path}: variants: a mutation experiment's variants come from [mutation]")
     data["variants"] = [BASELINE, *map(mutant_variant, selection.run)]
     exp = parse_experiment(data, source=str(path), text=text)
-    mexp = MutationExperiment(experiment=exp, selection=selection, alpha=alpha)
+    mexp = MutationExperiment(experiment=exp, selection=selection, alpha=alpha, direction=direction)
+    alternative = alternative_of(direction)
     for s in exp.suites:
         n = s.n_cases
-        if n is not None and exp.repetitions < min_pairs(mexp.case_alpha(n)):
+        if n is not None and exp.repetitions < min_pairs(mexp.case_alpha(n), alternative=alternative):
             raise ConfigError(f"{path}: repetitions = {exp.repetitions} is too few: with alpha = {alpha} over "
                               f"{n} cases of suite {s.kind!r} a case is judged at {alpha / n:.4g}, which the exact "
-                              f"sign-flip test reaches only from K = {min_pairs(alpha / n)}")
+                              f"{alternative} sign-flip test reaches only from K = "
+                              f"{min_pairs(alpha / n, alternative=alternative)}")
     return mexp
 
 
@@ -218,7 +228,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                 part = df[(df["run"] == run) & (df["suite"] == suite)]
                 if part.empty:
                     continue
-                k = suite_kills(part, case_alpha=mexp.case_alpha(n), metric=exp.metric)
+                k = suite_kills(part, case_alpha=mexp.case_alpha(n), metric=exp.metric, direction=mexp.direction)
                 killed[(run, suite)].update(k.loc[k["kill"] != "", "fault"])
     return MutationRun(out=out, n_mutants=len(mexp.selection.run), n_jobs_max=len(specs), n_jobs_run=n_needed,
                        n_new=n_new, n_skipped_early=len(specs) - n_needed, wall_time_s=time.perf_counter() - t0)
@@ -242,5 +252,5 @@ def _check_level(out: Path, mexp: MutationExperiment, *, force_new: bool) -> Non
 
 def _selection_json(mexp: MutationExperiment) -> dict:
     s = mexp.selection
-    return {"alpha": mexp.alpha, "run": list(s.run), "screened": s.screened, "represented_by": s.represented_by,
+    return {"alpha": mexp.alpha, "direction": mexp.direction, "run": list(s.run), "screened": s.screened, "represented_by": s.represented_by,
             "unit": s.unit, "operator": s.operator}

@@ -41,7 +41,7 @@ from faultlab.mutation.variants import MutantSelection, is_mutant_variant, mutan
 from faultlab.runner import Experiment, RunSummary, parse_experiment, run_experiment
 from faultlab.runner.store import STUDY_FILE, check_store, load_sessions, settle_sessions
 from faultlab.stats.killmatrix import StudySpec, study_spec
-from faultlab.stats.verdict import min_pairs
+from faultlab.stats.verdict import alternative_of, min_pairs
 
 __all__ = ["STUDY_FILE", "StudyExperiment", "load_study_experiment", "run_study", "sampled_load"]
 
@@ -83,7 +83,8 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
     ConfigError
         Anything malformed (naming the file and key), a size larger than a strategy's pool, or K
         too small for the largest size: a case of a suite of ``n`` cases is judged at
-        ``alpha / n``, which the exact sign-flip test reaches only from ``K = min_pairs(alpha / n)``.
+        ``alpha / n``, which the exact sign-flip test of the rule's sidedness reaches only from
+        ``K = min_pairs(alpha / n)`` (two-sided: one more than one-sided).
     """
     file = resolve_experiment(path, what="study file")
     data, text = read_toml(file, what="study file")
@@ -115,11 +116,12 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
         if s.n_cases is not None and max(spec.sizes) > pool:
             raise ConfigError(f"{source}: study.sizes: a suite of {max(spec.sizes)} cases cannot be drawn from the "
                               f"{pool} cases of the {s.kind} pool (runs x suites.{s.kind})")
-    need = min_pairs(spec.alpha / max(spec.sizes))
+    alternative = alternative_of(exp.detection.direction)
+    need = min_pairs(spec.alpha / max(spec.sizes), alternative=alternative)
     if exp.repetitions < need:
         raise ConfigError(f"{source}: repetitions = {exp.repetitions} is too few: a case of a suite of "
                           f"{max(spec.sizes)} cases is judged at {spec.alpha}/{max(spec.sizes)}, which the exact "
-                          f"sign-flip test reaches only from K = {need}")
+                          f"{alternative} sign-flip test reaches only from K = {need}")
     return StudyExperiment(experiment=exp, study=spec, selection=selection, quick=quick)
 
 

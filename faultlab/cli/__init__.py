@@ -30,7 +30,8 @@ COMMAND_MODULES = (
     "faultlab.cli.faults",  # faults
     "faultlab.cli.slams",  # slams
     "faultlab.cli.robustness",  # robustness run, robustness report
-    "faultlab.cli.stats",  # paper-table, effects
+    "faultlab.cli.stats",  # paper-table
+    "faultlab.cli.effects",  # effects design|run|report, effects RESULTS
     "faultlab.cli.calibrate",  # calibrate
     "faultlab.cli.mutate",  # mutate list, mutate show
     "faultlab.cli.metamorphic",  # metamorphic

@@ -14,12 +14,17 @@ def register(subparsers) -> None:
         "calibrate", help="measure the detection rules' false-alarm rates on an A/A campaign",
         description="Run the paper's protocol with the variants baseline and baseline_replica (the unmodified "
                     "SLAM with independent seeds) and K repetitions per case, then print per rule and suite "
-                    "the empirical false-alarm rate with an interval clustered by case, and whether the "
-                    "statistical rule's rate is at most alpha. Rerunning resumes.")
+                    "the empirical false-alarm rate with an interval clustered by case, then the statistical rule's "
+                    "per-case A/A rate with its Clopper-Pearson interval and the check: exit 3 when the rule "
+                    "rejects too often (lower bound above alpha), 4 for an underpowered calibration (upper "
+                    "bound not below 2 alpha), 0 otherwise. Rerunning resumes; --check DIR runs nothing.")
     p.add_argument("--quick", action="store_true",
                    help="smoke version: 1 run, small suites, K = 6, 200 steps, 60 particles")
     p.add_argument("--out", default=None, help="results directory (default: results/calibrate[-quick])")
     p.add_argument("--reports", default=None, metavar="DIR", help="also save the analysis tables (CSV) here")
+    p.add_argument("--check", default=None, metavar="DIR",
+                   help="run nothing: repeat the check on a saved A/A analysis (its jobs.csv and analysis.json); "
+                        "with --reports, write calibration.csv there")
     p.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default: 2)")
     p.add_argument("--repetitions", type=positive_int, default=None, metavar="K",
                    help="SLAM repetitions per case (default 10; 6 with --quick)")
@@ -30,14 +35,25 @@ def register(subparsers) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from faultlab.analysis.calibration import assess_calibration
+    """Exit 0 when calibrated, 3 when miscalibrated (or nothing could be judged), 4 when underpowered."""
+    from pathlib import Path
+
+    from faultlab.analysis.calibration import EXIT_CODES, assess_calibration, check_saved, format_calibration
     from faultlab.campaigns.calibrate import calibrate
 
+    if args.check is not None:
+        rates, check, rule = check_saved(args.check)
+        print(format_calibration(rates, check, alpha=rule.alpha))
+        if args.reports is not None:
+            Path(args.reports).mkdir(parents=True, exist_ok=True)
+            rates.to_csv(Path(args.reports) / "calibration.csv", index=False)
+        return EXIT_CODES[check.status]
     run = calibrate(out=args.out, quick=args.quick, repetitions=args.repetitions, jobs=args.jobs,
                     backend=args.backend, force_new=args.force_new, progress=not args.no_progress)
     print(run)
     result = assess_calibration(run.out)
     if args.reports is not None:
         result.analysis.save(args.reports)
+        result.rates.to_csv(Path(args.reports) / "calibration.csv", index=False)
     print(result)
-    return 0 if result.calibrated else 3
+    return EXIT_CODES[result.check.status]

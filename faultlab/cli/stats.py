@@ -1,4 +1,4 @@
-"""``paper-table`` and ``effects`` commands."""
+"""``paper-table`` command (``effects`` lives in :mod:`faultlab.cli.effects`)."""
 
 from __future__ import annotations
 
@@ -34,17 +34,6 @@ def register(subparsers) -> None:
     add_examples(p, ["faultlab paper-table", "faultlab paper-table results/paper", "faultlab paper-table --abs-mm 200"])
     p.set_defaults(func=_paper_table)
 
-    e = subparsers.add_parser(
-        "effects", help="logistic regression of detection on the scenario parameters, per fault",
-        description="Per fault, a binomial GLM of detection on the standardised scenario parameters "
-                    "(odds ratio per standard deviation, 95 % CI) from a results directory, detection "
-                    "judged by the rule stored with the campaign (as in its report).")
-    e.add_argument("results", metavar="RESULTS", help="results directory written by `faultlab run`")
-    e.add_argument("--parameters", default=None, metavar="A,B,...",
-                   help="comma-separated predictors (default: every scenario parameter)")
-    add_examples(e, ["faultlab effects results/paper", "faultlab effects results/paper --parameters map_size,landmark_density"])
-    e.set_defaults(func=_effects)
-
 
 def _paper_table(args: argparse.Namespace) -> int:
     if args.results is None:
@@ -61,14 +50,4 @@ def _paper_table(args: argparse.Namespace) -> int:
         if table is None:
             raise ResultsError(" ".join(n.text for n in result.notes_on("paper")))
     print(table.to_text(), end="")
-    return 0
-
-
-def _effects(args: argparse.Namespace) -> int:
-    params = None if args.parameters is None else [p.strip() for p in args.parameters.split(",") if p.strip()]
-    result = analysis.analyse(args.results, paper=False, parameters=params)
-    print(f"Detection (stored with the campaign): {result.rule.describe()}")
-    print(stats.format_effects(result.parameter_effects), end="")
-    for note in result.notes_on("parameter_effects"):
-        print(f"note: {note}")
     return 0

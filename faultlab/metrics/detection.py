@@ -19,12 +19,15 @@ Beyond the paper, ``[detection]`` also chooses how a *case* is judged:
     repetitions a case detects a fault when a strict majority of its judged repetitions do
     (the per-case share of detecting repetitions is reported beside it).
 ``rule = "statistical"``
-    the exact one-sided paired sign-flip test over the case's K repetitions
+    the exact paired sign-flip test over the case's K repetitions
     (:func:`faultlab.stats.case_verdicts`) at level ``alpha``, Holm-adjusted within the
-    multiplicity ``family``.  A verdict is possible only from ``K >= min_pairs(alpha)`` usable
-    pairs (the smallest attainable p value is ``2^-K``): K >= 5 at alpha = 0.05, K >= 7 at 0.01,
-    K >= 10 at 0.001; and Holm within a family of m cases needs ``2^-K <= alpha / m`` for the
-    smallest p value to survive (e.g. 15 cases at alpha = 0.05: K >= 9).
+    multiplicity ``family``; two-sided by default (``direction = "either"``: a fault is
+    detected when it changes the map error, worse or better, and the verdict says which), or
+    the paper's one-sided notion (``direction = "worse"``).  A verdict is possible only from
+    ``K >= min_pairs(alpha)`` usable pairs (the smallest attainable p value is ``2^-K``
+    one-sided, ``2^-(K-1)`` two-sided): two-sided K >= 6 at alpha = 0.05, K >= 8 at 0.01; and
+    Holm within a family of m cases needs that floor to be at most ``alpha / m`` for the
+    smallest p value to survive (e.g. 45 cases at alpha = 0.05: K >= 11 two-sided, 10 one-sided).
 
 ``family`` (the multiplicity family of the Holm correction of the statistical rule):
 
@@ -35,6 +38,9 @@ Beyond the paper, ``[detection]`` also chooses how a *case* is judged:
     the cases of one (suite, fault);
 ``"case"``
     none: each (case, fault) is its own family (per-comparison level ``alpha``).
+
+``direction`` (the statistical rule's alternative): ``"either"`` (default, two-sided) or
+``"worse"`` (one-sided, the paper's notion).
 
 ``metric`` (``"rms"`` or ``"emd"``, the experiment's top-level ``metric``) is the map error both
 rules compare.
@@ -48,6 +54,7 @@ import numpy as np
 
 from faultlab.config import check_number
 from faultlab.errors import ConfigError
+from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS
 
 __all__ = ["DetectionRule", "detects", "RULES", "FAMILIES"]
 
@@ -71,16 +78,20 @@ class DetectionRule:
     rule : {"paper", "statistical"}
         How a case is judged (module docstring); default the paper's.
     alpha : float
-        Level of the statistical rule's tests, in (0, 1) (default 0.05).
+        Level of the statistical rule's tests, in (0, 1) (default
+        :data:`~faultlab.vocabulary.DEFAULT_ALPHA`).
     family : {"fault", "suite_fault", "case"}
         Multiplicity family of the statistical rule's Holm correction (default ``"fault"``).
+    direction : {"either", "worse"}
+        Alternative of the statistical rule's tests: two-sided (default) or the paper's one-sided.
     """
 
     abs_mm: float = 250.0
     rel: float = 0.25
     rule: str = "paper"
-    alpha: float = 0.05
+    alpha: float = DEFAULT_ALPHA
     family: str = "fault"
+    direction: str = DEFAULT_DIRECTION
 
     def __post_init__(self) -> None:
         for name in ("abs_mm", "rel"):
@@ -90,7 +101,7 @@ class DetectionRule:
         if not alpha < 1:
             raise ConfigError(f"DetectionRule.alpha: must lie in (0, 1), got {self.alpha!r}")
         object.__setattr__(self, "alpha", alpha)
-        for name, allowed in (("rule", RULES), ("family", FAMILIES)):
+        for name, allowed in (("rule", RULES), ("family", FAMILIES), ("direction", DIRECTIONS)):
             value = getattr(self, name)
             if value not in allowed:
                 raise ConfigError(f"DetectionRule.{name}: must be one of {', '.join(map(repr, allowed))}, "
@@ -101,13 +112,21 @@ class DetectionRule:
         """Whether cases are judged by the exact paired test."""
         return self.rule == "statistical"
 
+    @property
+    def test_name(self) -> str:
+        """The statistical rule's test, with its sidedness, for reports."""
+        return ("exact two-sided paired sign-flip test" if self.direction == "either"
+                else "exact one-sided paired sign-flip test (the paper's notion: the error grows)")
+
     def describe(self) -> str:
         """One line for reports."""
         paper = (f"detected when faulty RMS - baseline RMS > {self.abs_mm:g} mm "
                  f"and >= {100 * self.rel:g} % of the baseline RMS")
         if not self.statistical:
             return paper
-        return (f"detected when the exact one-sided paired sign-flip test over the K repetitions rejects at "
+        sided = ("two-sided (a change of the error, worse or better)" if self.direction == "either"
+                 else "one-sided (the error grows: the paper's notion)")
+        return (f"detected when the exact {sided} paired sign-flip test over the K repetitions rejects at "
                 f"alpha = {self.alpha:g} after Holm within the family '{self.family}' (a crash of the faulty "
                 f"variant alone counts as detected); per repetition: {paper}")
 
@@ -115,12 +134,17 @@ class DetectionRule:
         """The rule as the ``[detection]`` table of an experiment file.
 
         The keys beyond the paper's thresholds appear only where they differ from their defaults,
-        so an experiment of the paper's rule keeps the hash (and resumable store) it always had.
+        so an experiment of the paper's rule keeps the hash (and resumable store) it always had;
+        the statistical rule always records its ``direction`` (a stored rule without one was run
+        one-sided, before the two-sided default, and is read back so:
+        :func:`faultlab.analysis.metadata.read_rule`).
         """
         out = {"abs_mm": self.abs_mm, "rel": self.rel}
-        for name in ("rule", "alpha", "family"):
+        for name in ("rule", "alpha", "family", "direction"):
             if getattr(self, name) != DetectionRule.__dataclass_fields__[name].default:
                 out[name] = getattr(self, name)
+        if self.statistical:  # always recorded: a stored rule without it predates the two-sided default
+            out["direction"] = self.direction
         return out
 
 

@@ -39,6 +39,7 @@ from faultlab.report.pages import (
 from faultlab.report.pdf import PdfReport, write_pdf
 from faultlab.report.tables import write_tables
 from faultlab.runner.store import results_path
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["ReportFiles", "build_report", "render_report", "MAX_PICTURED_RUNS"]
 
@@ -91,7 +92,7 @@ class ReportFiles:
         return "\n".join(lines)
 
 
-def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: float = 0.05,
+def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: float = DEFAULT_ALPHA,
                  range_factor: float = 2.0, paper_raw: str | Path | None = None,
                  paper_reported: str | Path | None = None, fidelity: Fidelity | None = None,
                  ablation: AblationResult | None = None) -> ReportFiles:

@@ -14,13 +14,14 @@ from matplotlib.patches import Patch
 from faultlab.analysis.mutation import MutationAnalysis, analyse_mutation
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.pdf import table_pages, text_pages, write_pdf
-from faultlab.vocabulary import SUITE_ORDER, ordered
+from faultlab.stats.verdict import EQUIVALENCE_MARGIN_REL
+from faultlab.vocabulary import PAPER_DIRECTION, SUITE_ORDER, ordered
 
 __all__ = ["MATRIX_CLASSES", "markdown_table", "score_table", "matrix_figure", "write_mutation_report"]
 
 #: Outcome classes of the matrix, in legend order, with their colours.
 MATRIX_CLASSES = {"killed": "#2b8cbe", "crash": "#e34a33", "timeout": "#fdbb84", "survived": "#f0f0f0",
-                  "cannot_judge": "#bdbdbd", "incomplete": "#ffffb2"}
+                  "cannot_judge": "#bdbdbd", "incomplete": "#ffffb2", "equivalent_observed": "#a1d99b"}
 
 
 def markdown_table(frame: pd.DataFrame) -> str:
@@ -40,6 +41,9 @@ def score_table(analysis: MutationAnalysis, by: str = "all") -> pd.DataFrame:
         "killed / judged": [f"{k}/{n}" for k, n in zip(s["killed"], s["judged"])],
         "crash / timeout": [f"{c}/{t}" for c, t in zip(s["crash"], s["timeout"])],
         "incomplete": s["incomplete"],
+        "survived: equivalent / inconclusive": [f"{e}/{i}" for e, i in zip(s["survived_equivalent"],
+                                                                          s["survived_inconclusive"])],
+        "equivalent (observed, not scored)": s["equivalent_observed"],
         "score": [f"{100 * v:.1f} %" for v in s["score"]],
         "95 % CI": [f"{100 * lo:.1f}-{100 * hi:.1f} %" for lo, hi in zip(s["ci_low"], s["ci_high"])],
     })
@@ -83,16 +87,33 @@ def matrix_figure(analysis: MutationAnalysis, *, figsize=PAGE_SIZE) -> Figure:
 
 
 def survivor_table(analysis: MutationAnalysis) -> pd.DataFrame:
-    """Each survived (mutant, suite): its smallest per-case p value and detectable shift (80 % power).
+    """Each survived (mutant, suite): equivalent within the margin (TOST) or inconclusive, its smallest
+    per-case p value, largest TOST p value and detectable shift (80 % power).
 
-    A survived mutant is not shown equivalent: its suite could only have detected a mean shift of the
-    map error of at least ``mde_mm`` on its most sensitive case (:mod:`faultlab.analysis.mutation`).
+    An inconclusive survivor is not shown equivalent: its suite could only have detected a mean shift
+    of the map error of at least ``mde_mm`` on its most sensitive case (:mod:`faultlab.analysis.mutation`).
     """
     rows = analysis.outcomes[analysis.outcomes["outcome"] == "survived"]
-    table = rows[["mutant", "unit", "operator", "run", "suite", "min_p", "min_mde_mm"]].copy()
+    table = rows[["mutant", "unit", "operator", "run", "suite", "survival", "min_p", "max_p_equivalence",
+                  "min_mde_mm"]].copy()
     table["min_p"] = table["min_p"].map(lambda v: f"{v:.3g}")
+    table["max_p_equivalence"] = table["max_p_equivalence"].map(lambda v: f"{v:.3g}")
     table["min_mde_mm"] = table["min_mde_mm"].map(lambda v: f"{v:.0f}")
-    return table.rename(columns={"min_p": "smallest p", "min_mde_mm": "detectable shift mm"}).reset_index(drop=True)
+    return table.rename(columns={"min_p": "smallest p", "max_p_equivalence": "TOST p (largest)",
+                                 "min_mde_mm": "detectable shift mm"}).reset_index(drop=True)
+
+
+def observed_equivalent_table(analysis: MutationAnalysis) -> pd.DataFrame:
+    """The mutants whose maps were bit-identical to the baseline's in every paired run (not scored)."""
+    rows = analysis.outcomes[analysis.outcomes["outcome"] == "equivalent_observed"]
+    return rows.drop_duplicates("mutant")[["mutant", "unit", "operator"]].reset_index(drop=True)
+
+
+def _test_text(meta: dict) -> str:
+    if meta.get("direction", PAPER_DIRECTION) == PAPER_DIRECTION:
+        return ("exact one-sided paired sign-flip test (the paper's notion: the mutant makes the map worse; the "
+                "campaign's early stopping used it)")
+    return "exact two-sided paired sign-flip test (the mutant changes the map error, worse or better)"
 
 
 def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path]:
@@ -105,11 +126,17 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
     counts = analysis.outcomes.drop_duplicates(["mutant", "run", "suite"]).groupby(["suite", "outcome"]).size()
     counts = counts.unstack(fill_value=0).reset_index()
     survivors = survivor_table(analysis)
+    observed = observed_equivalent_table(analysis)
     md = ["# Mutation analysis", "",
           f"{meta['n_mutants_run']} mutants run, {meta['n_screened']} screened out before the campaign "
           f"(stillborn, equivalent, duplicate); K = {meta['repetitions']} repetitions per case; a suite kills a "
-          f"mutant when one case's exact paired sign-flip test rejects at alpha / n_cases (alpha = {meta['alpha']}, "
+          f"mutant when one case's {_test_text(meta)} rejects at alpha / n_cases (alpha = {meta['alpha']}, "
           f"Bonferroni over the suite's cases, valid under early stopping) or the mutant alone crashes or times out. "
+          f"A survivor is 'equivalent' when two one-sided tests (TOST, the exact sign-flip test on the differences "
+          f"shifted by the margin, {100 * EQUIVALENCE_MARGIN_REL:g} % of the baseline's median error on the case) "
+          f"show its effect within the "
+          f"margin on every case of the suite at alpha, else 'inconclusive'. A mutant whose maps are bit-identical "
+          f"to the baseline's in every paired run is 'equivalent (observed)' and leaves the score's denominator. "
           f"{meta['n_jobs']} SLAM executions, {meta['runtime_s_sum']:.0f} s of SLAM time."
           + (" The campaign is INCOMPLETE: 'incomplete' mutants were not killed by the cases run so far and count "
              "as not killed, so every score is a lower bound." if (analysis.outcomes["outcome"] == "incomplete").any()
@@ -118,9 +145,13 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
           "## Outcomes per suite", "", markdown_table(counts),
           "## Suites compared on the same mutants (exact McNemar)", "", markdown_table(_mcnemar_table(analysis)),
           "## Score per operator", "", markdown_table(ops), "## Score per unit", "", markdown_table(units),
-          "## Survived mutants: the smallest shift each suite could have detected", "",
-          "Per survived (mutant, suite), the smallest per-case p value and the smallest mean shift of the map "
-          "error (mm) its most sensitive case could have detected with 80 % power at the case's alpha: a "
+          "## Equivalent as observed (bit-identical maps, not scored)", "",
+          markdown_table(observed) if len(observed) else "None.\n",
+          "## Survived mutants: equivalent within the margin, or the smallest shift each suite could have detected",
+          "",
+          "Per survived (mutant, suite): 'equivalent' (TOST on every case) or 'inconclusive', the smallest "
+          "per-case p value, the largest TOST p value and the smallest mean shift of the map error (mm) its most "
+          "sensitive case could have detected with 80 % power at the case's level and sidedness: an inconclusive "
           "survivor is a change below that size or one the suite's cases do not exercise, not shown equivalent.",
           "", markdown_table(survivors)]
     paths = [out / f"{n}.csv" for n in ("outcomes", "scores", "mcnemar")]
@@ -133,7 +164,9 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
     pages.append(matrix_figure(analysis))
     pages += table_pages("Score per operator", ops)
     pages += table_pages("Score per unit", units)
-    pages += table_pages("Survived mutants: smallest detectable shift (80 % power)", survivors)
+    if len(observed):
+        pages += table_pages("Equivalent as observed (bit-identical maps, not scored)", observed)
+    pages += table_pages("Survived mutants: equivalent or smallest detectable shift (80 % power)", survivors)
     write_pdf(out / "mutation.pdf", pages, title="faultlab mutation report")
     paths.append(out / "mutation.pdf")
     return paths

@@ -41,7 +41,7 @@ from faultlab.runner.store import case_path
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
 from faultlab.stats.class_effects import MIN_EPV
-from faultlab.stats.verdict import min_pairs
+from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import JobStatus
 
 __all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "title_pages", "table2_pages", "rates_pages", "comparison_pages",
@@ -392,7 +392,7 @@ def _false_alarm_pages(analysis: Analysis) -> list[Figure]:
 def _verdict_test(analysis: Analysis) -> str:
     rule = analysis.rule
     if rule.statistical:
-        return (f"Test: exact one-sided paired sign-flip test over each case's K repetitions; alpha = "
+        return (f"Test: {rule.test_name} over each case's K repetitions; alpha = "
                 f"{rule.alpha:g}; Holm within the multiplicity family '{rule.family}'.")
     return ("Test: the paper's thresholds per repetition; a case is detected when a strict majority of its "
             "judged repetitions detect ('share': detecting / judged repetitions); no multiplicity correction "
@@ -406,16 +406,30 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
         "fault": v["fault"].map(variant_label), "verdict": v["verdict"].str.replace("_", " "),
         "reason": v["reason"].str.replace("_", " "), "K": v["n_reps"], "judged": v["n_judged"],
         "share": [format_pct(x) for x in v["share"]], "p": [_g3(x) for x in v["p"]],
-        "p (Holm)": [_g3(x) for x in v["p_holm"]], "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
+        "p (Holm)": [_g3(x) for x in v["p_holm"]], "change": v["direction"].fillna(""),
+        "median diff mm [CI]": [_effect(m, lo, hi, "{:.0f}") for m, lo, hi in
+                                zip(v["median_diff_mm"], v["median_low_mm"], v["median_high_mm"])],
+        "ratio [CI]": [_effect(m, lo, hi, "{:.2f}") for m, lo, hi in zip(v["ratio"], v["ratio_low"], v["ratio_high"])],
+        "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
     })
     cannot = int((v["verdict"] == "cannot_judge").sum())
     return table_pages(f"Per-case verdicts ({analysis.rule.rule} rule)", _frame_text(show), fontsize=7,
                        max_rows=34,
                        note=f"{_verdict_test(analysis)} A crash or timeout of the faulty variant alone counts "
                             f"as detected. {cannot} case(s) cannot be judged (baseline failed or too few "
-                            f"pairs: K >= {min_pairs(analysis.rule.alpha)} needed at alpha = "
-                            f"{analysis.rule.alpha:g}); they are not misses. MDE: smallest shift of the paired "
-                            f"differences the exact test detects with 80 % power.")
+                            f"pairs: K >= {min_pairs(analysis.rule.alpha, alternative=alternative_of(analysis.rule.direction))} "
+                            f"needed at alpha = {analysis.rule.alpha:g}); they are not misses. Change: sign of the "
+                            f"mean paired difference; effect: median difference (mm) and median ratio faulty / "
+                            f"baseline with order-statistic intervals (coverage >= 1 - alpha where K allows). MDE: "
+                            f"smallest shift of the paired differences the decision's test (its sidedness, Holm's "
+                            f"first step alpha / m over the family) detects with 80 % power.")
+
+
+def _effect(mid: float, lo: float, hi: float, fmt: str) -> str:
+    if not np.isfinite(mid):
+        return ""
+    text = fmt.format(mid)
+    return text if not (np.isfinite(lo) and np.isfinite(hi)) else f"{text} [{fmt.format(lo)}, {fmt.format(hi)}]"
 
 
 def _case_rate_pages(analysis: Analysis) -> list[Figure]:
@@ -524,31 +538,64 @@ def _suite_comparison_pages(analysis: Analysis) -> list[Figure]:
 
 
 def _effect_pages(analysis: Analysis) -> list[Figure]:
-    eff = analysis.parameter_effects
+    """The continuous effect analysis (:func:`faultlab.analysis.effects.campaign_effects`): per case the
+    baseline's difficulty and each fault's effect size, their mean over cases and, where the campaign is
+    large enough, the cluster-robust regression on the parameters; the size it would need otherwise."""
+    from faultlab.analysis.effects import campaign_effects
+    from faultlab.report.effects import response_label
+
+    jobs = analysis.this_run_jobs.drop(columns=["source"]).merge(analysis.cases, on=["run", "suite", "case"],
+                                                                 how="left")
+    metric = str(analysis.metadata.get("metric", "rms"))
+    try:
+        eff = campaign_effects(jobs, metric=metric, rule=analysis.rule, alpha=analysis.alpha)
+    except FaultlabError as exc:
+        return text_pages("Beyond the paper: which scenario parameters drive the map error and the faults",
+                          [f"Not available: {exc}"])
+    log_scale = eff["response"] != "difficulty"
     show = pd.DataFrame({
-        "fault": eff["fault"].map(variant_label),
+        "response": eff["response"].map(response_label),
         "term": eff["term"],
-        "detected/n": [f"{k}/{n}" for k, n in zip(eff["n_detected"], eff["n"])],
-        "odds ratio per SD": [_g3(v) for v in eff["odds_ratio"]],
-        "95 % CI": [("" if not math.isfinite(lo) else f"{lo:.3g}-{hi:.3g}")
-                    for lo, hi in zip(eff["or_low"], eff["or_high"])],
+        "cases": eff["n_cases"],
+        "estimate [95 % CI]": ["" if not math.isfinite(e) else f"{e:+.3g} [{lo:+.3g}, {hi:+.3g}]"
+                               for e, lo, hi in zip(eff["estimate"], eff["low"], eff["high"])],
+        "x error": ["" if not (ls and t == "(mean over cases)" and math.isfinite(e)) else f"{math.exp(e):.3g}"
+                    for ls, t, e in zip(log_scale, eff["term"], eff["estimate"])],
         "p": [_g3(p) for p in eff["p"]],
-        "note": eff["note"],
     })
-    return table_pages("Beyond the paper: which scenario parameters drive detection", show,
-                       fontsize=7.5, max_rows=34,
-                       note="Per fault, a binomial GLM (logistic regression) of 'detected' on "
-                            "the standardised scenario parameters; odds ratios per standard "
-                            "deviation. Also: python -m faultlab effects RESULTS.")
+    notes = sorted({n for n in eff["note"] if n.startswith("not fitted") or "too few cases" in n})
+    notes += _class_effect_notes(analysis)
+    pages = table_pages("Beyond the paper: which scenario parameters drive the map error and the faults", show,
+                        fontsize=7.5, max_rows=34,
+                        note="Continuous responses per case over its K repetitions: the baseline's difficulty "
+                             "(mean log map error) and each fault's effect size (mean log of faulty / baseline "
+                             "error, paired by SLAM seed); 'x error' is the geometric-mean factor. Mean over "
+                             "cases with its t interval; parameter rows: OLS per standard deviation, "
+                             "cluster-robust by case.")
+    if notes:
+        pages += text_pages("Parameter effects: what this campaign's size allows",
+                            [n[0].upper() + n[1:] + "." for n in notes]
+                            + ["Per-parameter rankings with intervals come from a designed experiment: "
+                               "faultlab effects run effects --quick (Morris screening, then Sobol indices; "
+                               "see reports/effects). The logistic view of detection: faultlab effects RESULTS."])
+    return pages
+
+
+def _class_effect_notes(analysis: Analysis) -> list[str]:
+    """Why no class-indicator logistic regression was fitted (when none was), one line per fault."""
+    e = analysis.class_effects
+    if not len(e) or not (e["term"] == "(model)").all():
+        return []
+    return [f"class-indicator logistic regression of detection, {variant_label(f)}: {n}"
+            for f, n in zip(e["fault"], e["note"])] + [
+        f"class-indicator logistic regressions need at least {MIN_EPV:g} events per predictor (cases are the unit, "
+        f"repetitions do not add events)"]
 
 
 def _class_effect_pages(analysis: Analysis) -> list[Figure]:
     e = analysis.class_effects
     if (e["term"] == "(model)").all():
-        return text_pages("Which classes drive detection (logistic regression over cases)",
-                          [f"- {variant_label(f)}: {n}" for f, n in zip(e["fault"], e["note"])]
-                          + [f"Class-indicator logistic regressions need at least {MIN_EPV:g} events per predictor; "
-                             "run more evaluation runs (cases are the unit, repetitions do not add events)."])
+        return []  # nothing fitted: the continuous effects page says why (_class_effect_notes)
     show = pd.DataFrame({
         "fault": e["fault"].map(variant_label), "term": e["term"],
         "detected/n": [f"{k}/{n}" for k, n in zip(e["n_detected"], e["n"])],

@@ -15,6 +15,7 @@ from matplotlib.figure import Figure
 
 from faultlab.analysis.slams import SlamComparison
 from faultlab.report.tables import format_pct
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["slam_figure", "slam_markdown", "write_slam_report"]
 
@@ -103,8 +104,9 @@ def slam_markdown(c: SlamComparison, *, figure: str = "slams.png") -> str:
     lines += ["", "## Fault sensitivity", "",
               f"Per SLAM and fault: the cases on which the campaign's rule (`{rule.get('rule', 'paper')}`) detects "
               f"the fault, among the cases it could judge, with Clopper-Pearson intervals.  The statistical rule "
-              f"is an exact one-sided sign-flip test of the K paired differences faulty - baseline (repetition r "
-              f"of both uses the same SLAM seed) at alpha = {rule.get('alpha', 0.05):g}, multiplicity family "
+              f"is an exact {'two-sided' if rule.get('direction') == 'either' else 'one-sided'} sign-flip test of "
+              f"the K paired differences faulty - baseline (repetition r "
+              f"of both uses the same SLAM seed) at alpha = {rule.get('alpha', DEFAULT_ALPHA):g}, multiplicity family "
               f"`{rule.get('family', 'fault')}` (`faultlab.stats.verdict`).  Beside it, the share of single "
               f"repetitions the paper's rule flags (faulty error > baseline + {rule.get('abs_mm', 250):g} mm and "
               f">= {100 * rule.get('rel', 0.25):.0f} % more; Wilson intervals): a shift smaller than that can "

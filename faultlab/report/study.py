@@ -20,6 +20,7 @@ from faultlab.analysis.study import StudyAnalysis, analyse_study
 from faultlab.report.figures import PAGE_SIZE, suite_palette
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
+from faultlab.stats.verdict import min_p_value
 from faultlab.vocabulary import SUITE_ORDER, ordered
 
 __all__ = ["FIGURE_FILE", "REPORT_FILE", "detection_figure", "study_markdown", "write_study_report"]
@@ -37,7 +38,11 @@ def _pct(x: float) -> str:
 
 
 def _interval(rate: float, lo: float, hi: float) -> str:
-    return f"{_pct(rate)} ({100 * lo:.0f}-{100 * hi:.0f})"
+    """``rate % (lo-hi)`` in whole percent, with as many decimals as keep a non-zero width visible."""
+    digits = 0
+    while digits < 3 and hi > lo and f"{100 * lo:.{digits}f}" == f"{100 * hi:.{digits}f}":
+        digits += 1
+    return f"{_pct(rate)} ({100 * lo:.{digits}f}-{100 * hi:.{digits}f})"
 
 
 def _p(p: float) -> str:
@@ -153,6 +158,21 @@ def _mdd_text(comparisons: pd.DataFrame) -> str:
             f"(`comparisons.csv`, `mdd80`).")
 
 
+def _sidedness(meta: dict) -> str:
+    if meta.get("alternative", "greater") == "two-sided":
+        return "two-sided (a variant is detected when it changes the map error, worse or better)"
+    return "one-sided (the paper's notion: the map gets worse)"
+
+
+def _not_evaluated_text(meta: dict) -> str:
+    missing = meta.get("sizes_not_evaluated") or {}
+    if not missing:
+        return ""
+    return (" Not evaluated: suites of " + ", ".join(f"{n} cases (K >= {k} needed)" for n, k in missing.items())
+            + f" -- with K = {meta['repetitions']} no case of such a suite could reject at alpha / n with this test, "
+            "so it would detect by crashes only.")
+
+
 def study_markdown(analysis: StudyAnalysis) -> str:
     """The study's Markdown report."""
     m = analysis.meta
@@ -174,24 +194,30 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         _failures_text(m), "",
         "## Method", "",
         f"Every pool case ran once per variant; per (case, variant) the kill matrix (`kill_matrix.csv`) keeps the exact "
-        f"one-sided paired sign-flip p value over the K repetitions, whether the variant alone crashed or timed out, "
+        f"{_sidedness(m)} paired sign-flip p value over the K repetitions (with the observed direction, worse or "
+        f"better), whether the variant alone crashed or timed out, "
         f"and the paper rule's flag. A suite of n cases detects a fault / kills a mutant when the variant crashes on "
         f"one of its cases or when {st['multiplicity'].capitalize()}'s procedure over its n cases rejects one at "
         f"family-wise alpha = {st['alpha']} (for 'some case rejects', Holm and Bonferroni coincide: min p <= alpha/n; "
         f"untestable cases count as p = 1). For every strategy and size {st['draws']} suites were drawn from the pool "
         f"without replacement (Monte Carlo error at most {100 * 0.5 / math.sqrt(st['draws']):.1f} pp; the exact "
         f"hypergeometric value is in `detection.csv`, `rate_exact`). Because every case of a suite of n is judged "
-        f"at alpha / n, and K = {m['repetitions']} repetitions give p values no smaller than 2^-K = "
-        f"{2.0 ** -m['repetitions']:.4f}, a variant that only some repetitions reveal can become *less* likely to "
-        f"be detected as the suite grows: the price of controlling the suite's false alarms.", "",
+        f"at alpha / n, and K = {m['repetitions']} repetitions give p values no smaller than "
+        f"{min_p_value(int(m['repetitions']), alternative=m.get('alternative', 'greater')):.4f}, a variant that only "
+        f"some repetitions reveal can become *less* likely to be detected as the suite grows: the price of "
+        f"controlling the suite's false alarms." + _not_evaluated_text(m), "",
         "**What the intervals mean.** Drawn suites share pool cases, so their number is not the sample size: the "
-        "unit of evidence is the pool case. Every interval is a 95 % percentile bootstrap over the strategy's pool "
-        f"cases ({st['bootstrap']} replicates): how much the probability could move had the generator drawn another "
-        "pool of the same size. Mutation scores also resample the mutants (the same resample for every strategy, "
+        "unit of evidence is the pool case. A detection probability's interval is exact: the Clopper-Pearson 95 % "
+        "interval of the strategy's share of strong cases (cases that alone make a suite of this size detect) "
+        "from the pool's count, mapped to n independently generated cases -- it never has zero width (0 of 16 "
+        "strong cases still allows up to 21 % per case); the 95 % percentile bootstrap over the pool's cases "
+        f"({st['bootstrap']} replicates) is kept beside it in `detection.csv` (`boot_low`, `boot_high`). "
+        "Mutation scores are bootstrap intervals resampling pool cases and mutants (the same resample for every strategy, "
         "so comparisons are paired over mutants). The bootstrap treats pool cases as independent; the cases of one "
         "covering array or each-choice suite are balanced rather than independent, for which it is conservative. "
-        "Intervals do not cover other SLAM settings: these are figures of the reduced SLAM above.", "",
-        "## Detection probability of a drawn suite, per fault (95 % bootstrap interval)", "",
+        "A score interval where every replicate agrees is replaced by the Clopper-Pearson interval over the "
+        "sampled mutants. Intervals do not cover other SLAM settings: these are figures of the reduced SLAM above.", "",
+        "## Detection probability of a drawn suite, per fault (95 % exact interval)", "",
         markdown_table(_detection_md(analysis)),
         f"![detection probability vs suite size]({FIGURE_FILE})", "",
     ]

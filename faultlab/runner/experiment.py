@@ -53,7 +53,7 @@ from faultlab.slam.profiles import DEFAULT_PROFILE
 from faultlab.slam.protocol import SlamAdapter
 from faultlab.slam.registry import build_slam, get_slam_kind, normalise_options
 from faultlab.space import build_suite, space_from_mapping, suite_kinds, table1_space
-from faultlab.vocabulary import BASELINE, KNOWN_ASSOCIATION, METRICS, UNKNOWN_ASSOCIATION
+from faultlab.vocabulary import BASELINE, DIRECTIONS, KNOWN_ASSOCIATION, METRICS, UNKNOWN_ASSOCIATION
 
 __all__ = [
     "Experiment",
@@ -391,9 +391,9 @@ def _parse_detection(top: Table, source: str) -> DetectionRule:
         return DetectionRule()
     t = top.table("detection")
     d = DetectionRule()
-    t.check_unknown(("abs_mm", "rel", "rule", "alpha", "family"))
+    t.check_unknown(("abs_mm", "rel", "rule", "alpha", "family", "direction"))
     choices = {}
-    for key, allowed in (("rule", RULES), ("family", FAMILIES)):
+    for key, allowed in (("rule", RULES), ("family", FAMILIES), ("direction", DIRECTIONS)):
         choices[key] = t.data.get(key, getattr(d, key))
         if choices[key] not in allowed:
             raise t.error(key, f"must be one of {', '.join(map(repr, allowed))}, got {choices[key]!r}")

@@ -17,7 +17,7 @@ import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator, Mapping
+from typing import Callable, Iterator, Mapping, Sequence
 
 from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
 from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, slam_units
@@ -96,32 +96,36 @@ class RunSummary:
 
 
 
-def prepare_cases(experiment: Experiment, out: str | Path) -> list[CaseInfo]:
+def prepare_cases(experiment: Experiment, out: str | Path, *,
+                  drawn: Sequence[SuiteCase] | None = None) -> list[CaseInfo]:
     """Generate and save every test case of ``experiment`` (idempotent).
 
     Cases come from the one case pipeline (:func:`faultlab.scenario.suite.draw_suite`,
     :func:`~faultlab.scenario.suite.generate_case`), so they are exactly those
     ``faultlab generate`` writes for the same seed, suite and run.  A case already on disk is
     loaded and checked against the experiment (seed and parameter values) instead of being
-    regenerated.
+    regenerated.  ``drawn`` replaces the suites' draws by given cases (a designed experiment,
+    :mod:`faultlab.space.design`); they are generated from their own seeds the same way.
 
     Raises
     ------
     ResultsError
         If a saved case belongs to another experiment.
     """
-    space = experiment.parameter_space()
+    if drawn is None:
+        space = experiment.parameter_space()
+        drawn = [case for run in range(1, experiment.runs + 1) for suite in experiment.suites
+                 for case in draw_suite(suite.kind, space, root_seed=experiment.seed, run=run,
+                                        n_cases=suite.n_cases)]
     infos: list[CaseInfo] = []
-    for run in range(1, experiment.runs + 1):
-        for suite in experiment.suites:
-            for case in draw_suite(suite.kind, space, root_seed=experiment.seed, run=run, n_cases=suite.n_cases):
-                path = case_path(out, run, suite.kind, case.case)
-                scenario = _saved_case(path, case, experiment)
-                if scenario is None:
-                    scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
-                                             min_distance=experiment.min_distance, fov_bug=experiment.fov_bug)
-                    save_scenario(scenario, path)
-                infos.append(_case_info(case, path, scenario))
+    for case in drawn:
+        path = case_path(out, case.run, case.suite, case.case)
+        scenario = _saved_case(path, case, experiment)
+        if scenario is None:
+            scenario = generate_case(case, n_steps=experiment.n_steps, sensor_range=experiment.sensor_range,
+                                     min_distance=experiment.min_distance, fov_bug=experiment.fov_bug)
+            save_scenario(scenario, path)
+        infos.append(_case_info(case, path, scenario))
     return infos
 
 
@@ -236,7 +240,8 @@ def store_session(store: ResultStore, session: int, *, t0: float) -> Iterator[di
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
                    batch_size: int | None = None, look=None,
-                   on_start: Callable[[], None] | None = None) -> RunSummary:
+                   on_start: Callable[[], None] | None = None,
+                   cases: Sequence[SuiteCase] | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
 
     Parameters
@@ -275,6 +280,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         Called once every check passed and the store is open, before the first write to ``out``
         (a driver writing files of its own next to the store writes them there, so that a refused
         run writes nothing).
+    cases : sequence of SuiteCase, optional
+        Run these cases instead of drawing the experiment's suites (a designed experiment); their
+        scenarios are generated from their own seeds and checked on a resume like drawn ones.
 
     Returns
     -------
@@ -305,9 +313,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         if on_start is not None:
             on_start()
         store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
-        cases = prepare_cases(experiment, out)
-        info = {(c.run, c.suite, c.case): c for c in cases}
-        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases))
+        prepared = prepare_cases(experiment, out, drawn=cases)
+        info = {(c.run, c.suite, c.case): c for c in prepared}
+        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in prepared))
         if skipped:  # variants whose fault does not apply to the SLAM have no jobs
             names = {r.fault for r in skipped}
             specs = [s for s in specs if s.key.variant not in names]

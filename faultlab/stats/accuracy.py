@@ -15,6 +15,7 @@ import pandas as pd
 from scipy import stats as _st
 
 from faultlab.errors import ConfigError
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["ACCURACY_COLUMNS", "case_mean_accuracy"]
 
@@ -23,7 +24,7 @@ ACCURACY_COLUMNS: tuple[str, ...] = ("n_cases", "n_jobs", "mean_mm", "mean_low",
                                      "gmean_low", "gmean_high", "median_mm")
 
 
-def case_mean_accuracy(errors: pd.DataFrame, *, value: str, case: list[str], alpha: float = 0.05) -> dict:
+def case_mean_accuracy(errors: pd.DataFrame, *, value: str, case: list[str], alpha: float = DEFAULT_ALPHA) -> dict:
     """Mean and geometric mean over cases of the per-case mean error, with t intervals across cases.
 
     Parameters

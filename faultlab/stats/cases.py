@@ -6,9 +6,11 @@ makes a p value fall with K on the same cases.  Here every statistic of a suite 
 **cases**, each case judged once from all its repetitions:
 
 Per-case verdict (:func:`rule_verdicts`)
-    ``rule = "statistical"``: :func:`faultlab.stats.case_verdicts` (exact one-sided paired
-    sign-flip test over the K repetitions), Holm-adjusted within the rule's multiplicity
-    family (:func:`holm_within`); ``detected`` when the adjusted p is at most alpha.
+    ``rule = "statistical"``: :func:`faultlab.stats.case_verdicts` (exact paired sign-flip
+    test over the K repetitions, two-sided unless the rule's ``direction`` is the paper's
+    ``"worse"``), Holm-adjusted within the rule's multiplicity family (:func:`holm_within`);
+    ``detected`` when the adjusted p is at most alpha.  Every row carries the observed
+    ``direction`` (worse / better) and the paired effect with its interval.
     ``rule = "paper"``: the paper's thresholds on each repetition (:func:`faultlab.stats.outcomes`);
     a repetition whose baseline failed is not judged, a crash or timeout of the faulty variant
     alone counts as detecting; the case is detected when a **strict majority** of its judged
@@ -45,8 +47,9 @@ from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError
 from faultlab.metrics.detection import DetectionRule
-from faultlab.stats.verdict import Verdict, case_verdicts
-from faultlab.vocabulary import SUITE_ORDER, Outcome, ordered
+from faultlab.stats.verdict import (MAX_EXACT_PAIRS, Verdict, alternative_of, case_verdicts,
+                                    detectable_shift_factor)
+from faultlab.vocabulary import DEFAULT_ALPHA, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["CASE_VERDICT_COLUMNS", "CASE_RATE_COLUMNS", "CASE_COMPARISON_COLUMNS", "BOOTSTRAP_SEED",
            "PAPER_COMPARISON_COLUMNS", "AGREEMENT_MARGIN", "REPLICA_FALSE_ALARM_COLUMNS", "replica_false_alarms", "detectable_difference", "compare_with_paper",
@@ -58,7 +61,8 @@ _BOOTSTRAP_DRAWS = 2000
 
 CASE_VERDICT_COLUMNS: tuple[str, ...] = (
     "suite", "run", "case", "fault", "rule", "verdict", "reason", "n_reps", "n_judged", "n_detecting", "share",
-    "p", "p_holm", "family", "mde_mm")
+    "p", "p_holm", "family", "alternative", "direction", "median_diff_mm", "median_low_mm", "median_high_mm",
+    "ratio", "ratio_low", "ratio_high", "mde_mm")
 CASE_RATE_COLUMNS: tuple[str, ...] = (
     "suite", "fault", "rule", "n_cases", "n_cannot_judge", "n", "k", "rate", "wilson_low", "wilson_high",
     "cp_low", "cp_high")
@@ -126,10 +130,13 @@ def rule_verdicts(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: Detection
         repetitions with a usable baseline (paper), ``n_detecting`` the repetitions that detect
         (paper) or the positive differences (statistical), ``share`` = n_detecting / n_judged,
         ``p`` and ``p_holm`` (statistical rule; NaN for the paper rule), ``family`` the Holm
-        family, ``mde_mm`` the smallest shift the exact test detects with ``power`` (both rules,
-        NaN with too few pairs).
+        family, ``alternative``, ``direction`` and the effect columns of
+        :func:`~faultlab.stats.verdict.case_verdicts`, ``mde_mm`` the smallest shift the exact
+        test detects with ``power`` at the level the decision uses: the statistical rule's
+        sidedness and Holm's first step ``alpha / m`` over the row's family of ``m`` tested
+        cases (the paper rule: the exact test at ``alpha``; inf with too few pairs).
     """
-    stat = case_verdicts(results, alpha=rule.alpha, metric=metric, power=power)
+    stat = case_verdicts(results, alpha=rule.alpha, metric=metric, power=power, direction=rule.direction)
     key = ["suite", "run", "case", "fault"]
     if stat.empty:
         return pd.DataFrame({c: pd.Series([], dtype=object) for c in CASE_VERDICT_COLUMNS})
@@ -138,6 +145,9 @@ def rule_verdicts(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: Detection
     out["rule"] = rule.rule
     out["family"] = fam.to_numpy() if rule.statistical else ""
     out["mde_mm"] = stat["mde_mm"].to_numpy(float)
+    for name in ("alternative", "direction", "median_diff_mm", "median_low_mm", "median_high_mm", "ratio",
+                 "ratio_low", "ratio_high"):
+        out[name] = stat[name].to_numpy()
     out["n_reps"] = stat["n_reps"].to_numpy(np.int64)
     if rule.statistical:
         p = stat["p"].to_numpy(float)
@@ -152,6 +162,7 @@ def rule_verdicts(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: Detection
         out["n_detecting"] = _positive_differences(results, stat, metric)
         out["p"] = p
         out["p_holm"] = p_holm
+        out["mde_mm"] = _decision_mde(stat, fam.to_numpy(), rule, power)
     else:
         oc = pairs.assign(
             judged=pairs["outcome"] != Outcome.BASELINE_FAILED.value,
@@ -178,6 +189,23 @@ def rule_verdicts(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: Detection
     return out[list(CASE_VERDICT_COLUMNS)].reset_index(drop=True)
 
 
+def _decision_mde(stat: pd.DataFrame, families: np.ndarray, rule: DetectionRule, power: float) -> np.ndarray:
+    """Smallest detectable shift at Holm's first step ``alpha / m`` of each row's family (``m`` tested
+    cases) with the rule's sidedness: the level at which a single case can make the decision."""
+    tested = stat["p"].notna().to_numpy()
+    m = pd.Series(tested.astype(int)).groupby(pd.Series(families)).transform("sum").to_numpy()
+    n_pairs = stat["n_pairs"].to_numpy(np.int64)
+    sd = stat["baseline_sd_mm"].to_numpy(float)
+    alternative = alternative_of(rule.direction)
+    out = stat["mde_mm"].to_numpy(float).copy()
+    for (k, size) in set(zip(n_pairs[tested].tolist(), m[tested].tolist())):
+        rows = tested & (n_pairs == k) & (m == size)
+        factor = (detectable_shift_factor(int(k), alpha=rule.alpha / size, power=power, alternative=alternative)
+                  if 1 <= k <= MAX_EXACT_PAIRS else math.nan)
+        out[rows] = factor * math.sqrt(2.0) * sd[rows]
+    return out
+
+
 def _positive_differences(results: pd.DataFrame, stat: pd.DataFrame, metric: str) -> np.ndarray:
     """Per row of ``stat``: the repetitions where the faulty error exceeds the baseline's."""
     col = f"{metric}_mm"
@@ -196,7 +224,7 @@ def _judged(verdicts: pd.DataFrame) -> pd.DataFrame:
     return v.assign(y=v["verdict"].isin([Verdict.DETECTED.value, Verdict.CRASH_DETECTED.value]).astype(int))
 
 
-def case_rates(verdicts: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
+def case_rates(verdicts: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Detected / judged cases per suite and fault, with exact Clopper-Pearson and Wilson intervals.
 
     Parameters
@@ -364,7 +392,7 @@ PAPER_COMPARISON_COLUMNS: tuple[str, ...] = (
     "verdict")
 
 
-def detectable_difference(p_ref: float, n_ref: int, n: int, *, alpha: float = 0.05,
+def detectable_difference(p_ref: float, n_ref: int, n: int, *, alpha: float = DEFAULT_ALPHA,
                           power: float = COMPARISON_POWER) -> float:
     """Smallest |p - p_ref| a two-sided two-sample test of proportions detects with ``power``.
 
@@ -394,7 +422,7 @@ def detectable_difference(p_ref: float, n_ref: int, n: int, *, alpha: float = 0.
     return out
 
 
-def compare_with_paper(paper: pd.DataFrame, this_run: pd.DataFrame, *, alpha: float = 0.05,
+def compare_with_paper(paper: pd.DataFrame, this_run: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA,
                        margin: float = AGREEMENT_MARGIN) -> pd.DataFrame:
     """Two-sample exact comparison of the paper's detection counts with this run's, per suite and fault.
 
@@ -446,7 +474,7 @@ REPLICA_FALSE_ALARM_COLUMNS: tuple[str, ...] = ("rule", "suite", "n_cases", "n_p
 
 
 def replica_false_alarms(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: DetectionRule, metric: str = "rms",
-                         alpha: float = 0.05) -> pd.DataFrame:
+                         alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Empirical false-alarm rate of both rules from the A/A control ``baseline_replica`` vs ``baseline``.
 
     The replica is the unmodified SLAM with SLAM seeds independent of the baseline's, so every
@@ -470,7 +498,7 @@ def replica_false_alarms(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: De
         return pd.DataFrame(rows, columns=list(REPLICA_FALSE_ALARM_COLUMNS))
     aa = results[results["variant"].isin([BASELINE, REPLICA])]
     stat_rule = DetectionRule(abs_mm=rule.abs_mm, rel=rule.rel, rule="statistical", alpha=rule.alpha,
-                              family=rule.family)
+                              family=rule.family, direction=rule.direction)
     stat = _judged(rule_verdicts(aa, pairs[pairs["fault"] == REPLICA], rule=stat_rule, metric=metric))
     stat = stat[stat["fault"] == REPLICA]
     rep_pairs = pairs[(pairs["fault"] == REPLICA) & (pairs["outcome"] != Outcome.BASELINE_FAILED.value)]

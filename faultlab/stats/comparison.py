@@ -27,7 +27,7 @@ from statsmodels.stats.proportion import confint_proportions_2indep
 
 from faultlab.stats.detection import DetectionRule, _check_columns
 from faultlab.stats.rates import detection_rates
-from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER, ordered
+from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, ordered
 
 __all__ = ["compare_suites", "compare_suite_rates", "odds_ratio", "COMPARISON_COLUMNS"]
 
@@ -37,7 +37,7 @@ COMPARISON_COLUMNS = _COLUMNS = ["fault", "suite_a", "suite_b", "k_a", "n_a", "k
             "p", "p_holm"]
 
 
-def odds_ratio(k_a: int, n_a: int, k_b: int, n_b: int, *, alpha: float = 0.05) -> tuple[float, float, float, bool]:
+def odds_ratio(k_a: int, n_a: int, k_b: int, n_b: int, *, alpha: float = DEFAULT_ALPHA) -> tuple[float, float, float, bool]:
     """Odds ratio of two proportions with a Woolf interval; Haldane-corrected on zero cells.
 
     Returns
@@ -55,7 +55,7 @@ def odds_ratio(k_a: int, n_a: int, k_b: int, n_b: int, *, alpha: float = 0.05) -
     return float(np.exp(log_or)), float(np.exp(log_or - z * se)), float(np.exp(log_or + z * se)), corrected
 
 
-def compare_suites(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), alpha: float = 0.05,
+def compare_suites(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), alpha: float = DEFAULT_ALPHA,
                    failures_detect: bool = False) -> pd.DataFrame:
     """Per fault, Fisher's exact test for every pair of suites.
 
@@ -79,7 +79,7 @@ def compare_suites(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule
                                failures_detect=failures_detect)
 
 
-def compare_suite_rates(rates: pd.DataFrame, *, alpha: float = 0.05, failures_detect: bool = False) -> pd.DataFrame:
+def compare_suite_rates(rates: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, failures_detect: bool = False) -> pd.DataFrame:
     """Per fault, Fisher's exact test for every pair of suites of a detection-rate table.
 
     Parameters

@@ -34,7 +34,7 @@ from statsmodels.tools.sm_exceptions import ConvergenceWarning, PerfectSeparatio
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.space.case import VALUE_KEYS
 from faultlab.stats.detection import DetectionRule, outcomes
-from faultlab.vocabulary import PAPER_FAULTS, Outcome, ordered
+from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_FAULTS, Outcome, ordered
 
 __all__ = ["parameter_effects", "fit_effects", "format_effects", "validate_parameters", "NUMERIC_PARAMETERS",
            "EFFECT_COLUMNS"]
@@ -129,7 +129,7 @@ def _fit_one(fault: str, jobs: pd.DataFrame, alpha: float, parameters: tuple[str
 
 
 def parameter_effects(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
-                      alpha: float = 0.05, parameters: Sequence[str] | None = None) -> pd.DataFrame:
+                      alpha: float = DEFAULT_ALPHA, parameters: Sequence[str] | None = None) -> pd.DataFrame:
     """Per fault, odds ratios of detection per standard deviation of each scenario parameter.
 
     Parameters
@@ -188,7 +188,7 @@ def _check_parameter_columns(frame: pd.DataFrame) -> None:
                            f"(expected e.g. {', '.join(NUMERIC_PARAMETERS[:3])})")
 
 
-def fit_effects(pairs: pd.DataFrame, *, alpha: float = 0.05,
+def fit_effects(pairs: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA,
                 parameters: Sequence[str] | None = None) -> pd.DataFrame:
     """Per fault, the logistic regression of detection on the scenario parameters (module docstring).
 

@@ -4,7 +4,10 @@ The kill matrix
 ---------------
 Every case of every strategy's pool runs once per variant (faults and mutants) with K
 repetitions and common random numbers.  :func:`kill_matrix` keeps, per (pool case, variant), the
-exact one-sided p value of the paired sign-flip test over the K repetitions
+exact p value of the paired sign-flip test over the K repetitions -- two-sided by default (a
+variant is detected, a mutant killed, when its behaviour is distinguishable in either direction;
+``direction`` records whether its map got worse or better), one-sided with the rule's
+``direction = "worse"`` (the paper's notion) --
 (:func:`~faultlab.stats.verdict.case_verdicts`), whether the variant alone crashed (``crash``:
 an exception or a non-finite map, an observable failure and a detection whatever the test) or
 ran out of time (``timeout``), whether the case can be
@@ -17,7 +20,7 @@ The suite rule
 A suite is a set of ``n`` pool cases.  It *detects* a variant (detects a fault, kills a mutant)
 when the variant crashes on one of its cases (with ``timeouts_detect``, also when it times out),
 or when Holm's step-down procedure over the ``n``
-one-sided tests of its cases rejects at least one at the family-wise level ``alpha``
+tests of its cases rejects at least one at the family-wise level ``alpha``
 (:func:`suite_rejections`).  The family is all ``n`` cases: a case that cannot be tested (the
 baseline failed, or the variant crashed) enters with p = 1, which keeps the rule valid and
 makes it depend on ``n`` only.  Why Holm: it is the project's correction within a family
@@ -82,6 +85,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm
 from statsmodels.stats.contingency_tables import mcnemar
+from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.config import Table
 from faultlab.errors import ConfigError, ResultsError
@@ -90,20 +94,21 @@ from faultlab.mutation.outcome import MutantOutcome
 from faultlab.seeds import study_seed_sequence
 from faultlab.stats.cases import holm_within, rule_verdicts
 from faultlab.stats.detection import outcomes
+from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.stats.verdict import Verdict, case_verdicts
-from faultlab.vocabulary import BASELINE, SUITE_ORDER, JobStatus, ordered
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects",
            "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
-           "evaluate_suites", "detection_table", "score_table", "compare_scores", "detectable_score_difference",
+           "evaluate_suites", "detection_table", "exact_detection_interval", "score_table", "compare_scores", "detectable_score_difference", "smallest_showable_difference",
            "COMPARISON_POWER"]
 
 #: Multiplicity rules within a suite's cases.
 MULTIPLICITY: tuple[str, ...] = ("holm", "bonferroni")
 #: Columns of :meth:`KillMatrix.to_frame`.
 KILL_MATRIX_COLUMNS = ("strategy", "run", "case", "variant", "p", "crash", "timeout", "judged", "paper",
-                       "mean_diff_mm")
+                       "mean_diff_mm", "direction", "mean_log_ratio")
 #: Power of the smallest detectable differences.
 COMPARISON_POWER = 0.8
 
@@ -118,7 +123,7 @@ class KillMatrix:
         ``strategy, run, case`` of every pool case, sorted by strategy (report order), run, case.
     variants : tuple of str, length V
     p : ndarray, shape (N, V)
-        Exact one-sided p value; NaN where not tested (baseline failed, variant crashed).
+        Exact p value (the rule's sidedness); NaN where not tested (baseline failed, variant crashed).
     crash : ndarray of bool, shape (N, V)
         The variant alone crashed on the case (with the baseline usable), without a timeout.
     timeout : ndarray of bool, shape (N, V)
@@ -129,6 +134,11 @@ class KillMatrix:
         The paper rule's per-case flag.
     mean_diff_mm : ndarray, shape (N, V)
         Mean paired difference of the map error, mm.
+    direction : ndarray of str, shape (N, V)
+        Observed direction of the change (:class:`~faultlab.vocabulary.Change`: worse, better, none).
+    mean_log_ratio : ndarray, shape (N, V)
+        Mean over the repetitions of ``log(variant / baseline)`` (the pooled suite test's input;
+        NaN where not tested).
     """
 
     cases: pd.DataFrame
@@ -139,6 +149,8 @@ class KillMatrix:
     judged: np.ndarray
     paper: np.ndarray
     mean_diff_mm: np.ndarray
+    direction: np.ndarray
+    mean_log_ratio: np.ndarray
 
     @property
     def strategies(self) -> tuple[str, ...]:
@@ -153,7 +165,7 @@ class KillMatrix:
         n, v = self.p.shape
         out = self.cases.loc[np.repeat(np.arange(n), v)].reset_index(drop=True)
         out["variant"] = np.tile(np.asarray(self.variants, dtype=object), n)
-        for name in ("p", "crash", "timeout", "judged", "paper", "mean_diff_mm"):
+        for name in ("p", "crash", "timeout", "judged", "paper", "mean_diff_mm", "direction", "mean_log_ratio"):
             out[name] = getattr(self, name).reshape(-1)
         return out[list(KILL_MATRIX_COLUMNS)]
 
@@ -177,7 +189,9 @@ class KillMatrix:
             return f[name].to_numpy(dtype).reshape(shape)
 
         return cls(cases=cases, variants=variants, p=col("p", float), crash=col("crash", bool),
-                   timeout=col("timeout", bool), judged=col("judged", bool), paper=col("paper", bool), mean_diff_mm=col("mean_diff_mm", float))
+                   timeout=col("timeout", bool), judged=col("judged", bool), paper=col("paper", bool),
+                   mean_diff_mm=col("mean_diff_mm", float), direction=col("direction", object),
+                   mean_log_ratio=col("mean_log_ratio", float))
 
 
 def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), metric: str = "rms") -> KillMatrix:
@@ -188,11 +202,13 @@ def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
     results : DataFrame
         The runner's results (one row per job) with a ``baseline`` variant.
     rule : DetectionRule
-        Its ``abs_mm``/``rel`` thresholds give the paper flag; its ``alpha`` only gates which cases
-        have enough usable pairs to be tested (:func:`~faultlab.stats.verdict.min_pairs`).
+        Its ``abs_mm``/``rel`` thresholds give the paper flag; its ``direction`` the sidedness of
+        the p values (two-sided by default, ``"worse"`` the paper's one-sided notion); its
+        ``alpha`` only gates which cases have enough usable pairs to be tested
+        (:func:`~faultlab.stats.verdict.min_pairs`).
     metric : {"rms", "emd"}
     """
-    stat = case_verdicts(results, alpha=rule.alpha, metric=metric)
+    stat = case_verdicts(results, alpha=rule.alpha, metric=metric, direction=rule.direction)
     if stat.empty:
         raise ResultsError("kill matrix: no faulty variant in the results")
     paper_rule = DetectionRule(abs_mm=rule.abs_mm, rel=rule.rel, rule="paper", alpha=rule.alpha)
@@ -212,7 +228,8 @@ def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
         "crash": failed & ~timeout, "timeout": timeout,
         "judged": (frame["verdict"] != Verdict.CANNOT_JUDGE.value).to_numpy(bool),
         "paper": frame["paper"].fillna(False).to_numpy(bool),
-        "mean_diff_mm": frame["mean_diff_mm"].astype(float)})
+        "mean_diff_mm": frame["mean_diff_mm"].astype(float), "direction": frame["direction"].astype(str),
+        "mean_log_ratio": frame["mean_log_ratio"].astype(float)})
     variants = ordered(frame["variant"], list(dict.fromkeys(results["variant"])))
     frame["variant"] = pd.Categorical(frame["variant"], categories=variants, ordered=True)
     frame = frame.sort_values(["variant"], kind="stable")
@@ -229,7 +246,7 @@ def _check(alpha: float, method: str) -> None:
         raise ConfigError(f"suite rule: multiplicity must be one of {', '.join(MULTIPLICITY)}, got {method!r}")
 
 
-def suite_rejections(p, *, alpha: float = 0.05, method: str = "holm") -> np.ndarray:
+def suite_rejections(p, *, alpha: float = DEFAULT_ALPHA, method: str = "holm") -> np.ndarray:
     """Which cases of each suite reject, by Holm's step-down procedure or Bonferroni.
 
     Parameters
@@ -258,7 +275,7 @@ def suite_rejections(p, *, alpha: float = 0.05, method: str = "holm") -> np.ndar
     return out
 
 
-def suite_detects(p, crash, *, alpha: float = 0.05, method: str = "holm") -> np.ndarray:
+def suite_detects(p, crash, *, alpha: float = DEFAULT_ALPHA, method: str = "holm") -> np.ndarray:
     """Whether each suite detects: a case crashes, or the multiplicity rule rejects some case.
 
     ``crash`` holds the failures that count as detections (crashes, and timeouts if they do).
@@ -268,13 +285,17 @@ def suite_detects(p, crash, *, alpha: float = 0.05, method: str = "holm") -> np.
     return np.asarray(crash, dtype=bool).any(axis=-1) | suite_rejections(p, alpha=alpha, method=method).any(axis=-1)
 
 
-def judge_suite(km: KillMatrix, rows, *, alpha: float = 0.05, method: str = "holm",
-                timeouts_detect: bool = False) -> pd.DataFrame:
+def judge_suite(km: KillMatrix, rows, *, alpha: float = DEFAULT_ALPHA, method: str = "holm",
+                timeouts_detect: bool = False, rng: np.random.Generator | None = None) -> pd.DataFrame:
     """Judge one suite, any set of pool cases (row indices of ``km``), for every variant.
 
     Returns one row per variant: ``detected`` (the suite rule), ``rejecting`` (cases the
     multiplicity rule rejects), ``crashed`` (cases where the variant alone failed, counted as
-    detections) and ``paper`` (the paper rule: some case's flag).
+    detections), ``paper`` (the paper rule: some case's flag), and beside them the suite-level
+    pooling of :mod:`faultlab.stats.pooling`: ``pooled_p`` (two-sided sign-flip test over the
+    tested cases' mean log ratios; NaN with none), ``by_case`` / ``by_pool`` and
+    ``detected_pooled`` (the per-case minimum and the pooled test at ``alpha / 2`` each, crashes
+    detecting).  ``rng`` is needed only for a suite of more than 20 tested cases (Monte Carlo).
     """
     rows = np.asarray(rows, dtype=np.int64)
     if rows.size == 0 or len(set(rows.tolist())) != rows.size:
@@ -282,13 +303,22 @@ def judge_suite(km: KillMatrix, rows, *, alpha: float = 0.05, method: str = "hol
     p = km.p[rows].T                                          # (V, n)
     failed = _failures(km, timeouts_detect)[rows].T
     rejecting = suite_rejections(p, alpha=alpha, method=method)
+    means = km.mean_log_ratio[rows].T
+    pooled = np.full(len(km.variants), np.nan)
+    for j in range(len(km.variants)):
+        m = means[j][~np.isnan(means[j]) & ~np.isnan(p[j])]
+        if m.size:
+            pooled[j] = pooled_pvalues(m[None, :], rng=rng)[0][0]
+    both = suite_decisions(p, pooled, failed, alpha=alpha)
     return pd.DataFrame({"variant": list(km.variants),
                          "detected": failed.any(axis=1) | rejecting.any(axis=1),
                          "rejecting": rejecting.sum(axis=1), "crashed": failed.sum(axis=1),
-                         "paper": km.paper[rows].T.any(axis=1)})
+                         "paper": km.paper[rows].T.any(axis=1), "pooled_p": pooled,
+                         "by_case": both["by_case"].to_numpy(), "by_pool": both["by_pool"].to_numpy(),
+                         "detected_pooled": both["detected"].to_numpy()})
 
 
-def strong_cases(km: KillMatrix, n: int, *, alpha: float = 0.05, paper: bool = False,
+def strong_cases(km: KillMatrix, n: int, *, alpha: float = DEFAULT_ALPHA, paper: bool = False,
                  timeouts_detect: bool = False) -> np.ndarray:
     """(N, V) bool: the cases whose presence makes a suite of ``n`` cases detect the variant.
 
@@ -384,7 +414,7 @@ class SuiteDraws:
     n_strong: dict
 
 
-def evaluate_suites(km: KillMatrix, sizes, *, draws: int, bootstrap: int, seed: int, alpha: float = 0.05,
+def evaluate_suites(km: KillMatrix, sizes, *, draws: int, bootstrap: int, seed: int, alpha: float = DEFAULT_ALPHA,
                     method: str = "holm", mutants=(), timeouts_detect: bool = False) -> SuiteDraws:
     """Draw ``draws`` suites of every size from every strategy's pool and judge them.
 
@@ -429,13 +459,29 @@ def _ci(values: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarray
     return np.quantile(values, q, axis=0), np.quantile(values, 1 - q, axis=0)
 
 
+def exact_detection_interval(h, n_pool: int, n: int, *, alpha: float = DEFAULT_ALPHA) -> tuple[np.ndarray, np.ndarray]:
+    """Exact interval of the probability that a suite of ``n`` cases generated by the strategy detects.
+
+    A suite detects exactly when it holds a strong case; the pool's ``h`` strong cases of ``N``
+    are a binomial sample of the strategy's share ``pi`` of strong cases, so the Clopper-Pearson
+    ``1 - alpha`` interval of ``pi`` mapped through ``1 - (1 - pi)^n`` (monotone) is an exact
+    interval of the detection probability of ``n`` independently generated cases.  It never has
+    zero width (0 of 16 strong cases is compatible with up to 21 % per case).
+    """
+    h = np.atleast_1d(np.asarray(h, dtype=np.int64))
+    lo = np.array([proportion_confint(int(k), n_pool, alpha=alpha, method="beta")[0] for k in h], dtype=float)
+    hi = np.array([proportion_confint(int(k), n_pool, alpha=alpha, method="beta")[1] for k in h], dtype=float)
+    return 1.0 - (1.0 - lo) ** n, 1.0 - (1.0 - hi) ** n
+
+
 def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
-    """Per (variant, strategy, size): detection probability of a drawn suite with its bootstrap CI.
+    """Per (variant, strategy, size): detection probability of a drawn suite with its intervals.
 
     Columns: ``variant, strategy, size, pool, draws, rate`` (share of the drawn suites that
-    detect), ``rate_exact`` (hypergeometric, on the pool), ``ci_low, ci_high`` (95 % percentile
-    bootstrap over pool cases), ``se_boot``, ``rate_paper`` (paper rule) and ``strong_cases``
-    (pool cases that alone make a suite of this size detect).
+    detect), ``rate_exact`` (hypergeometric, on the pool), ``ci_low, ci_high`` (exact interval,
+    :func:`exact_detection_interval`), ``boot_low, boot_high`` (95 % percentile bootstrap over
+    pool cases, zero-width when every resample agrees), ``se_boot``, ``rate_paper`` (paper rule)
+    and ``strong_cases`` (pool cases that alone make a suite of this size detect).
     """
     col = {v: i for i, v in enumerate(ev.variants)}
     rows = []
@@ -444,12 +490,14 @@ def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
         se = ev.boot[(strategy, n)].std(axis=0, ddof=1) if ev.boot[(strategy, n)].shape[0] > 1 else \
             np.full(len(ev.variants), np.nan)
         n_pool = ev.pool_sizes[strategy]
+        ex_lo, ex_hi = exact_detection_interval(ev.n_strong[(strategy, n)], n_pool, n)
         for v in variants:
             j = col[v]
             ex = ev.exact[(strategy, n)][j]
             rows.append({"variant": v, "strategy": strategy, "size": n, "pool": n_pool, "draws": det.shape[0],
-                         "rate": float(det[:, j].mean()), "rate_exact": float(ex), "ci_low": float(lo[j]),
-                         "ci_high": float(hi[j]), "se_boot": float(se[j]),
+                         "rate": float(det[:, j].mean()), "rate_exact": float(ex), "ci_low": float(ex_lo[j]),
+                         "ci_high": float(ex_hi[j]), "boot_low": float(lo[j]), "boot_high": float(hi[j]),
+                         "se_boot": float(se[j]),
                          "rate_paper": float(ev.detects_paper[(strategy, n)][:, j].mean()),
                          "strong_cases": int(ev.n_strong[(strategy, n)][j])})
     return pd.DataFrame(rows)
@@ -468,7 +516,9 @@ def score_table(ev: SuiteDraws) -> pd.DataFrame:
     """Per (strategy, size): expected mutation score of a drawn suite with its bootstrap CI.
 
     ``score`` is the mean over drawn suites of killed / scored mutants; ``ci_low, ci_high`` the
-    95 % percentile interval over bootstrap replicates resampling pool cases and mutants;
+    95 % percentile interval over bootstrap replicates resampling pool cases and mutants (where
+    every replicate agrees, the Clopper-Pearson interval of the score's mutants instead: never
+    zero width);
     ``score_paper`` the same score under the paper rule.
     """
     if not ev.mutants:
@@ -479,6 +529,8 @@ def score_table(ev: SuiteDraws) -> pd.DataFrame:
     for (strategy, n) in ev.detects:
         score, _, boot = _scores(ev, strategy, n)
         lo, hi = _ci(boot)
+        if not hi > lo:  # every replicate agrees: floor by the exact interval over the sampled mutants
+            lo, hi = proportion_confint(int(round(score * len(ev.mutants))), len(ev.mutants), method="beta")
         rows.append({"strategy": strategy, "size": n, "pool": ev.pool_sizes[strategy], "mutants": len(ev.mutants),
                      "score": score, "ci_low": float(lo), "ci_high": float(hi),
                      "se_boot": float(boot.std(ddof=1)) if boot.size > 1 else math.nan,
@@ -486,7 +538,7 @@ def score_table(ev: SuiteDraws) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def detectable_score_difference(se: float, *, alpha: float = 0.05, power: float = COMPARISON_POWER) -> float:
+def detectable_score_difference(se: float, *, alpha: float = DEFAULT_ALPHA, power: float = COMPARISON_POWER) -> float:
     """Smallest difference a two-sided level-``alpha`` test with standard error ``se`` detects with ``power``.
 
     NaN when ``se`` is 0 or NaN: without any spread the bootstrap says nothing about power (every
@@ -497,14 +549,28 @@ def detectable_score_difference(se: float, *, alpha: float = 0.05, power: float 
     return float((norm.ppf(1 - alpha / 2) + norm.ppf(power)) * se)
 
 
-def compare_scores(ev: SuiteDraws, *, alpha: float = 0.05) -> pd.DataFrame:
+def smallest_showable_difference(n_mutants: int, *, alpha: float = DEFAULT_ALPHA) -> float:
+    """The smallest score difference an exact paired test over ``n_mutants`` mutants can show at all.
+
+    A difference of ``d / M`` needs at least ``d`` discordant mutants; the exact McNemar test
+    (two-sided binomial on the discordant pairs) reaches ``alpha`` only when all of them favour
+    one side and ``2 * 2^-d <= alpha``, so no difference below ``ceil(log2(2 / alpha)) / M`` can be
+    shown, whatever the bootstrap's spread (a floor for :func:`compare_scores`' ``mdd80``).
+    """
+    if n_mutants < 1:
+        return math.nan
+    return min(1.0, math.ceil(math.log2(2.0 / alpha)) / n_mutants)
+
+
+def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Strategies compared at equal size on the same mutants.
 
     Per (size, strategy_a, strategy_b): ``diff`` (score a - score b), its 95 % bootstrap interval
     and two-sided bootstrap p value ``p_boot`` = 2 min(share of replicates <= 0, share >= 0), where
     replicates with no difference count on both sides (conservative: strategies that kill the same
     mutants in most replicates get p near 1) (Holm over the pairs of a size: ``p_holm``),
-    ``mdd80`` (smallest difference detectable with 80 % power from the bootstrap SE), and the
+    ``mdd80`` (smallest difference detectable with 80 % power from the bootstrap SE, never below
+    :func:`smallest_showable_difference` of the mutant sample), and the
     exact McNemar test over mutants for the suites drawn with the same index: mean discordant
     counts ``only_a``, ``only_b``, ``mcnemar_p_median`` and ``mcnemar_share_sig`` (share of
     drawn pairs with p <= alpha).
@@ -530,7 +596,9 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = 0.05) -> pd.DataFrame:
             se = float(d.std(ddof=1)) if d.size > 1 else math.nan
             rows.append({"size": n, "strategy_a": a, "strategy_b": b, "score_a": sa, "score_b": sb,
                          "diff": sa - sb, "ci_low": float(lo), "ci_high": float(hi), "se_boot": se,
-                         "p_boot": float(p_boot), "mdd80": detectable_score_difference(se, alpha=alpha),
+                         "p_boot": float(p_boot),
+                         "mdd80": max(detectable_score_difference(se, alpha=alpha),
+                                      smallest_showable_difference(len(ev.mutants), alpha=alpha)),
                          "only_a": float(only_a.mean()), "only_b": float(only_b.mean()),
                          "mcnemar_p_median": float(np.median(pm)), "mcnemar_share_sig": float((pm <= alpha).mean())})
     out = pd.DataFrame(rows)
@@ -550,13 +618,15 @@ def _mcnemar_exact(only_a: np.ndarray, only_b: np.ndarray) -> np.ndarray:
     return out
 
 
-def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms") -> pd.DataFrame:
+def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms",
+                direction: str = DEFAULT_DIRECTION) -> pd.DataFrame:
     """Per (run, suite, case, mutant variant): whether the case kills it, and how.
 
-    Returns the :func:`case_verdicts` frame at level ``case_alpha`` with a column ``kill``:
-    ``killed`` (test rejects), ``crash``/``timeout`` (the mutant alone failed), ``""`` otherwise.
+    Returns the :func:`case_verdicts` frame at level ``case_alpha`` (two-sided unless
+    ``direction`` is the paper's ``"worse"``) with a column ``kill``: ``killed`` (test rejects),
+    ``crash``/``timeout`` (the mutant alone failed), ``""`` otherwise.
     """
-    v = case_verdicts(results, alpha=case_alpha, metric=metric)
+    v = case_verdicts(results, alpha=case_alpha, metric=metric, direction=direction)
     kill = np.where(v["verdict"] == "detected", MutantOutcome.KILLED.value, "").astype(object)
     crashed = (v["verdict"] == "crash_detected").to_numpy()
     if crashed.any():
@@ -599,7 +669,7 @@ class StudySpec:
     draws: int = 2000
     bootstrap: int = 1000
     seed: int = 0
-    alpha: float = 0.05
+    alpha: float = DEFAULT_ALPHA
     multiplicity: str = "holm"
     timeouts_detect: bool = False
 

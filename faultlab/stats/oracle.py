@@ -20,10 +20,13 @@ p values (``method``):
     RMS bit for bit) SciPy's exact distribution does not apply, and the splits
     are enumerated by SciPy's permutation machinery
     (``mannwhitneyu(method=PermutationMethod(n_resamples=inf))``, ties scored
-    1/2 in U); this is limited to :data:`MAX_TIED_SPLITS` splits (n = m = 9), and
-    a case with ties beyond that raises :class:`~faultlab.errors.ConfigError`
-    instead of silently approximating.  Either way the p value is never below
-    the exact floor ``1 / C(n + m, n)``.
+    1/2 in U); enumeration is limited to :data:`MAX_TIED_SPLITS` splits (n = m = 9).
+    Beyond it (ties and more repetitions), :data:`MONTE_CARLO_SPLITS` random
+    splits from a generator seeded per (suite, run, case, fault)
+    (``SeedSequence(ORACLE_SEED)`` and the names' :func:`~faultlab.seeds.stable_code`)
+    give the p value ``(hits + 1) / (splits + 1)`` with its Monte Carlo standard
+    error in ``p_mc_se`` (0 where enumerated): ties never switch the oracle off.
+    Either way the p value is never below the exact floor ``1 / C(n + m, n)``.
 ``"asymptotic"``
     SciPy's normal approximation with tie and continuity corrections, explicit
     and for large samples only: it can fall below the exact floor.
@@ -59,24 +62,30 @@ from scipy.stats import PermutationMethod, mannwhitneyu, rankdata
 from statsmodels.stats.multitest import multipletests
 
 from faultlab.errors import ConfigError
+from faultlab.seeds import stable_code
 from faultlab.stats.detection import _check_columns
-from faultlab.vocabulary import BASELINE
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA
 from faultlab.stats.rates import _sort
 from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER
 
-__all__ = ["oracle_detections", "mann_whitney_p", "MAX_TIED_SPLITS", "ORACLE_METHODS"]
+__all__ = ["oracle_detections", "mann_whitney_p", "MAX_TIED_SPLITS", "MONTE_CARLO_SPLITS", "ORACLE_SEED",
+           "ORACLE_METHODS"]
 
 #: Largest number of splits C(n + m, n) enumerated for an exact p value with ties (n = m = 9).
 MAX_TIED_SPLITS = 50_000
+#: Random splits of the Monte Carlo p value beyond :data:`MAX_TIED_SPLITS` (standard error <= 0.0036).
+MONTE_CARLO_SPLITS = 19_999
+#: Entropy of the oracle's Monte Carlo generators.
+ORACLE_SEED = 20261126
 
 #: The p-value methods of :func:`oracle_detections` (module docstring).
 ORACLE_METHODS = ("exact", "asymptotic")
 
 _COLUMNS = ["suite", "run", "case", "fault", "n_faulty", "n_baseline", "median_faulty_mm",
-            "median_baseline_mm", "u", "p", "p_min", "p_holm", "detected"]
+            "median_baseline_mm", "u", "p", "p_mc_se", "p_min", "p_holm", "detected"]
 
 
-def mann_whitney_p(x, y, *, method: str = "exact") -> tuple[float, float]:
+def mann_whitney_p(x, y, *, method: str = "exact", rng: np.random.Generator | None = None) -> tuple[float, float]:
     """One-sided Mann-Whitney U test of ``x`` (faulty) greater than ``y`` (baseline).
 
     Parameters
@@ -85,6 +94,9 @@ def mann_whitney_p(x, y, *, method: str = "exact") -> tuple[float, float]:
         Finite values, n, m >= 1.
     method : {"exact", "asymptotic"}
         See the module docstring.
+    rng : numpy.random.Generator, optional
+        Draws :data:`MONTE_CARLO_SPLITS` random splits when ties need more than
+        :data:`MAX_TIED_SPLITS` (its standard error: ``sqrt(p (1 - p) / splits)``).
 
     Returns
     -------
@@ -94,8 +106,8 @@ def mann_whitney_p(x, y, *, method: str = "exact") -> tuple[float, float]:
     Raises
     ------
     ConfigError
-        Unknown ``method``, or an exact p value with ties needing more than
-        :data:`MAX_TIED_SPLITS` splits.
+        Unknown ``method``, or ties needing more than :data:`MAX_TIED_SPLITS` splits
+        without an ``rng``.
     """
     if method not in ORACLE_METHODS:
         raise ConfigError(f"oracle: method must be one of {list(ORACLE_METHODS)}, got {method!r}")
@@ -107,12 +119,17 @@ def mann_whitney_p(x, y, *, method: str = "exact") -> tuple[float, float]:
         res = mannwhitneyu(x, y, alternative="greater", method="exact")
     else:
         splits = comb(x.size + y.size, x.size)
-        if splits > MAX_TIED_SPLITS:
-            raise ConfigError(f"oracle: the exact p value with tied values enumerates C({x.size + y.size}, {x.size}) "
-                              f"= {splits} splits, more than {MAX_TIED_SPLITS}; use method='asymptotic' explicitly")
         if min(x.size, y.size) == 1:
             return _single_value_split_p(x, y)
-        res = mannwhitneyu(x, y, alternative="greater", method=PermutationMethod(n_resamples=np.inf))
+        if splits > MAX_TIED_SPLITS:
+            if rng is None:
+                raise ConfigError(f"oracle: the exact p value with tied values enumerates C({x.size + y.size}, "
+                                  f"{x.size}) = {splits} splits, more than {MAX_TIED_SPLITS}; pass an rng for a "
+                                  f"Monte Carlo p value")
+            res = mannwhitneyu(x, y, alternative="greater",
+                               method=PermutationMethod(n_resamples=MONTE_CARLO_SPLITS, random_state=rng))
+        else:
+            res = mannwhitneyu(x, y, alternative="greater", method=PermutationMethod(n_resamples=np.inf))
     return float(res.statistic), float(res.pvalue)
 
 
@@ -133,7 +150,7 @@ def _single_value_split_p(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return u, float(p)
 
 
-def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str = "exact") -> pd.DataFrame:
+def oracle_detections(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, method: str = "exact") -> pd.DataFrame:
     """Per (suite, run, case, fault): Mann-Whitney U of faulty vs baseline RMS, Holm-corrected.
 
     Parameters
@@ -152,7 +169,8 @@ def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str
     DataFrame
         One row per (suite, run, case, fault): ``n_faulty, n_baseline``
         (usable repetitions), medians (mm), ``u`` (the faulty sample's U
-        statistic), ``p`` (one-sided, uncorrected), ``p_min`` (smallest
+        statistic), ``p`` (one-sided, uncorrected), ``p_mc_se`` (Monte Carlo
+        standard error of ``p``; 0 when enumerated), ``p_min`` (smallest
         attainable exact p for these sample sizes), ``p_holm`` and
         ``detected`` (Holm rejects at ``alpha``).  Rows with no usable
         repetition on one side have NaN statistics, are left out of the Holm
@@ -161,8 +179,7 @@ def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str
     Raises
     ------
     ConfigError
-        ``alpha`` outside (0, 1), an unknown ``method``, or an exact p value
-        with ties beyond :data:`MAX_TIED_SPLITS` splits (names the case).
+        ``alpha`` outside (0, 1) or an unknown ``method``.
     """
     if not 0 < alpha < 1:
         raise ConfigError(f"oracle_detections: alpha must lie in (0, 1), got {alpha!r}")
@@ -185,13 +202,16 @@ def oracle_detections(results: pd.DataFrame, *, alpha: float = 0.05, method: str
         row = {"suite": suite, "run": run, "case": case, "fault": fault, "n_faulty": x.size,
                "n_baseline": y.size, "median_faulty_mm": np.median(x) if x.size else np.nan,
                "median_baseline_mm": np.median(y) if y.size else np.nan, "u": np.nan, "p": np.nan,
-               "p_min": np.nan}
+               "p_mc_se": np.nan, "p_min": np.nan}
         if x.size and y.size:
-            try:
-                u, p = mann_whitney_p(x, y, method=method)
-            except ConfigError as exc:
-                raise ConfigError(f"oracle_detections: {suite} run {run} case {case}, {fault}: {exc}") from None
-            row.update(u=u, p=p, p_min=1.0 / comb(x.size + y.size, x.size))
+            splits = comb(x.size + y.size, x.size)
+            random = (method == "exact" and splits > MAX_TIED_SPLITS and min(x.size, y.size) > 1
+                      and np.unique(np.concatenate([x, y])).size < x.size + y.size)
+            rng = np.random.default_rng(np.random.SeedSequence(
+                ORACLE_SEED, spawn_key=(stable_code(str(suite)), int(run), int(case), stable_code(str(fault)))))
+            u, p = mann_whitney_p(x, y, method=method, rng=rng)
+            row.update(u=u, p=p, p_min=1.0 / splits,
+                       p_mc_se=float(np.sqrt(p * (1 - p) / MONTE_CARLO_SPLITS)) if random else 0.0)
         rows.append(row)
     table = pd.DataFrame(rows, columns=_COLUMNS[:-2])
     table["p_holm"] = np.nan

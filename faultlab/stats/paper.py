@@ -28,7 +28,7 @@ from faultlab.data import shipped_file
 from faultlab.errors import ResultsError
 from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.stats.rates import tabulate_by_suite, tabulate_rates
-from faultlab.vocabulary import BASELINE, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["PaperTable", "paper_table", "load_paper_raw", "load_paper_reported", "resolve_data_path",
            "percent", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV", "PAPER_RATE_COLUMNS",
@@ -251,7 +251,7 @@ class PaperTable:
 
 
 def paper_table(raw_csv: str | Path, reported_csv: str | Path, *,
-                rule: DetectionRule = DetectionRule(), alpha: float = 0.05) -> PaperTable:
+                rule: DetectionRule = DetectionRule(), alpha: float = DEFAULT_ALPHA) -> PaperTable:
     """Recompute Table II from the raw RMS rows and compare with the printed percentages.
 
     Parameters

@@ -30,7 +30,7 @@ from statsmodels.stats.proportion import proportion_confint
 from faultlab.errors import ConfigError
 from faultlab.stats.detection import DetectionRule, _check_columns, detects, outcomes, pair_with_baseline
 from faultlab.stats.verdict import clustered_rate
-from faultlab.vocabulary import BASELINE, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["proportion_ci", "detection_rates", "tabulate_rates", "by_suite", "tabulate_by_suite",
            "false_alarm_rate", "suspected_equivalent_faults", "find_identical_faults", "RATE_COLUMNS",
@@ -50,7 +50,7 @@ FALSE_ALARM_COLUMNS: tuple[str, ...] = ("suite", "n_cases", "n_pairs", "flagged"
                                         "design_effect")
 
 
-def proportion_ci(k, n, *, alpha: float = 0.05, method: str = "wilson") -> tuple[np.ndarray, np.ndarray]:
+def proportion_ci(k, n, *, alpha: float = DEFAULT_ALPHA, method: str = "wilson") -> tuple[np.ndarray, np.ndarray]:
     """Two-sided ``1 - alpha`` confidence interval of a binomial proportion.
 
     Parameters
@@ -139,7 +139,7 @@ def _sort(df: pd.DataFrame, cols: dict) -> pd.DataFrame:
 
 
 def detection_rates(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
-                    alpha: float = 0.05) -> pd.DataFrame:
+                    alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Detection rate per (suite, fault) with Wilson and Clopper-Pearson intervals.
 
     Parameters
@@ -158,7 +158,7 @@ def detection_rates(results: pd.DataFrame, *, rule: DetectionRule = DetectionRul
     return tabulate_rates(outcomes(results, rule=rule), alpha=alpha)
 
 
-def tabulate_rates(pairs: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
+def tabulate_rates(pairs: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Detection rate per (suite, fault) of classified pairs.
 
     Parameters
@@ -248,7 +248,7 @@ def find_identical_faults(pairs: pd.DataFrame) -> list[str]:
     return ordered(identical.index[identical.to_numpy()], PAPER_FAULTS)
 
 
-def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), alpha: float = 0.05,
+def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), alpha: float = DEFAULT_ALPHA,
              failures_detect: bool = False) -> pd.DataFrame:
     """The paper's "by Suite" figure: share of fault x run pairs the suite detected.
 
@@ -268,7 +268,7 @@ def by_suite(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(), al
     return tabulate_by_suite(outcomes(results, rule=rule), alpha=alpha, failures_detect=failures_detect)
 
 
-def tabulate_by_suite(pairs: pd.DataFrame, *, alpha: float = 0.05, failures_detect: bool = False) -> pd.DataFrame:
+def tabulate_by_suite(pairs: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, failures_detect: bool = False) -> pd.DataFrame:
     """The "by Suite" figure of classified pairs.
 
     A (fault, run) pair counts as detected when at least one case (any
@@ -312,7 +312,7 @@ def tabulate_by_suite(pairs: pd.DataFrame, *, alpha: float = 0.05, failures_dete
 
 
 def false_alarm_rate(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
-                     alpha: float = 0.05) -> pd.DataFrame:
+                     alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """How often the rule flags the *unmodified* SLAM against itself with another seed.
 
     For every case with at least two usable baseline repetitions, every

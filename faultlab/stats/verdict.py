@@ -3,13 +3,20 @@
 Beyond the paper (Sec. VII-A compares one faulty with one baseline run per case): with ``K``
 SLAM repetitions per case and common random numbers (repetition ``r`` of every variant uses the
 same seed, hence the same random stream for every unit the fault does not replace), the errors
-pair naturally by repetition.  A fault is **detected on a case** when an exact one-sided paired
-test of its ``K`` errors against the baseline's ``K`` errors rejects at ``alpha``.
+pair naturally by repetition.  A fault is **detected on a case** when an exact paired test of its
+``K`` errors against the baseline's ``K`` errors rejects at ``alpha``: two-sided by default
+(``direction = "either"``: the variant behaves differently, its map is worse *or* better -- in
+mutation analysis a mutant is killed when its behaviour is distinguishable), or one-sided
+(``direction = "worse"``: the paper's notion, Sec. VII-A, "the faulty implementation's map error
+exceeds the baseline's").  Every verdict carries the observed direction (``worse``/``better``)
+and the paired effect: the median difference (mm) and the median ratio faulty / baseline, each
+with a distribution-free order-statistic interval (:func:`median_interval`).
 
 The test: exact sign-flip (paired permutation) test
 ---------------------------------------------------
-Differences ``d_r = faulty_r - baseline_r`` (mm), statistic ``mean(d)``, alternative "the fault
-makes the map worse" (``greater``).  Under the null hypothesis the fault does not change the
+Differences ``d_r = faulty_r - baseline_r`` (mm), statistic ``mean(d)``; alternative
+``two-sided`` (p = twice the smaller one-sided p value, at most 1) or "the fault makes the map
+worse" (``greater``).  Under the null hypothesis the fault does not change the
 error distribution of a repetition, so each ``d_r`` is symmetric about 0 and, given the
 ``|d_r|``, every one of the ``2^K`` sign patterns is equally likely.  The exact p value is the
 share of the ``2^K`` sign patterns whose mean is at least the observed one, computed by
@@ -30,18 +37,24 @@ Ties and zeros, exactly:
   equals the observed one count as "at least as extreme" (SciPy compares with a relative
   tolerance of about 1e-14 so that sums of the same numbers in another order still tie).
 
-Smallest attainable p value: ``2^-K`` (all differences positive), more precisely
-``2^-(number of non-zero differences)``; :func:`min_p_value`.  A verdict at level ``alpha`` is
-therefore possible only from ``K >= ceil(log2(1 / alpha))`` usable pairs (:func:`min_pairs`):
+Smallest attainable p value: one-sided ``2^-K`` (all differences positive), more precisely
+``2^-(number of non-zero differences)``; two-sided twice that (all positive or all negative);
+:func:`min_p_value`.  A verdict at level ``alpha`` is therefore possible only from
+:func:`min_pairs` usable pairs, one more two-sided than one-sided:
 
-======  ==========  ==========================
-K       min p       detectable at alpha =
-======  ==========  ==========================
-4       0.0625      0.10
-5       0.03125     0.05
-7       0.0078      0.01
-10      0.00098     0.001
-======  ==========  ==========================
+======  ==============  ==============  ==============================
+K       one-sided min   two-sided min   largest n with min p <= 0.05/n
+                                        (one-sided / two-sided)
+======  ==============  ==============  ==============================
+5       0.03125         0.0625          1 / 0
+7       0.0078          0.0156          6 / 3
+8       0.0039          0.0078          12 / 6
+10      0.00098         0.00195         51 / 25
+11      0.00049         0.00098         102 / 51
+======  ==============  ==============  ==============================
+
+A shipped experiment's K is derived from :func:`min_pairs` at the per-case level its decision
+uses (e.g. ``alpha / n`` for Holm's first step over ``n`` cases).
 
 Enumerating ``2^K`` patterns limits the exact test to ``K <= MAX_EXACT_PAIRS`` (20).
 
@@ -105,13 +118,13 @@ from functools import lru_cache
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm, permutation_test, t
+from scipy.stats import binom, norm, permutation_test, t
 from statsmodels.regression.linear_model import OLS
 from statsmodels.stats.power import TTestPower
 from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.vocabulary import BASELINE, METRICS, JobStatus
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS, METRICS, Change, JobStatus
 
 __all__ = [
     "Verdict",
@@ -120,6 +133,11 @@ __all__ = [
     "min_p_value",
     "min_pairs",
     "sign_flip_pvalues",
+    "ALTERNATIVES",
+    "EQUIVALENCE_MARGIN_REL",
+    "EQUIVALENCE_MARGIN_MM",
+    "alternative_of",
+    "median_interval",
     "detectable_shift_factor",
     "case_verdicts",
     "ClusteredRate",
@@ -137,8 +155,21 @@ _MDE_SIMULATED_UP_TO = 12
 #: Float budget of one vectorised batch of sign patterns (patterns x cases x pairs).
 _BATCH_BUDGET = 2 ** 22
 
-_COLUMNS = ["suite", "run", "case", "fault", "verdict", "reason", "detected", "n_reps", "n_failed",
-            "n_pairs", "mean_diff_mm", "median_diff_mm", "p", "p_min", "baseline_sd_mm", "mde_mm"]
+_COLUMNS = ["suite", "run", "case", "fault", "verdict", "reason", "detected", "alternative", "direction", "n_reps",
+            "n_failed", "n_pairs", "mean_diff_mm", "mean_log_ratio", "median_diff_mm", "median_low_mm",
+            "median_high_mm", "ratio",
+            "ratio_low", "ratio_high", "ci_coverage", "p", "p_min", "baseline_sd_mm", "mde_mm", "identical",
+            "margin_mm", "p_equivalence"]
+
+#: Default equivalence margin relative to the baseline's median error on the case (10 %): a change
+#: of the map error within +-10 % of its level is "equivalent" (TOST, :func:`case_verdicts`).
+EQUIVALENCE_MARGIN_REL = 0.10
+#: Default absolute equivalence margin, mm (none: the relative margin alone).
+EQUIVALENCE_MARGIN_MM = 0.0
+
+#: The alternatives of :func:`sign_flip_pvalues` (SciPy's names): ``"greater"`` (the faulty error is
+#: larger), ``"less"``, ``"two-sided"``.
+ALTERNATIVES: tuple[str, ...] = ("greater", "less", "two-sided")
 
 
 class Verdict(StrEnum):
@@ -162,67 +193,129 @@ def _check_count(k, where: str, name: str = "K") -> int:
     return int(k)
 
 
-def min_p_value(k):
-    """Smallest attainable p value of the exact one-sided sign-flip test with ``k`` pairs: ``2^-k``.
+def _check_alternative(alternative, where: str) -> str:
+    if alternative not in ALTERNATIVES:
+        raise ConfigError(f"{where}: alternative must be one of {', '.join(map(repr, ALTERNATIVES))}, "
+                          f"got {alternative!r}")
+    return alternative
+
+
+def alternative_of(direction: str) -> str:
+    """The sign-flip test's alternative for a declared direction: ``"either"`` -> ``"two-sided"``,
+    ``"worse"`` (the paper's one-sided notion) -> ``"greater"``."""
+    if direction not in DIRECTIONS:
+        raise ConfigError(f"direction must be one of {', '.join(map(repr, DIRECTIONS))}, got {direction!r}")
+    return "two-sided" if direction == "either" else "greater"
+
+
+def min_p_value(k, *, alternative: str = "greater"):
+    """Smallest attainable p value of the exact sign-flip test with ``k`` pairs.
+
+    One-sided ``2^-k`` (all differences of one sign); two-sided ``min(1, 2 * 2^-k)`` (the
+    all-positive and the all-negative pattern).
 
     Parameters
     ----------
     k : int or array_like of int
         Number of (non-zero) paired differences, >= 0.
+    alternative : {"greater", "less", "two-sided"}
 
     Returns
     -------
     float or ndarray
-        ``2.0 ** -k`` (1 for k = 0).
+        ``2.0 ** -k`` one-sided, ``min(1, 2.0 ** (1 - k))`` two-sided (1 for k = 0).
     """
+    _check_alternative(alternative, "min_p_value")
+    factor = 2.0 if alternative == "two-sided" else 1.0
     arr = np.asarray(k)
     if arr.ndim == 0:
-        return 2.0 ** -_check_count(k, "min_p_value")
+        return min(1.0, factor * 2.0 ** -_check_count(k, "min_p_value"))
     if not np.issubdtype(arr.dtype, np.integer) or np.any(arr < 0):
         raise ConfigError(f"min_p_value: k must be integers >= 0, got {arr!r}")
-    return np.ldexp(1.0, -arr.astype(np.int64))
+    return np.minimum(1.0, factor * np.ldexp(1.0, -arr.astype(np.int64)))
 
 
-def min_pairs(alpha: float) -> int:
-    """The fewest pairs with which the sign-flip test can reject at ``alpha``: smallest K with 2^-K <= alpha.
+def min_pairs(alpha: float, *, alternative: str = "greater") -> int:
+    """The fewest pairs with which the sign-flip test can reject at ``alpha``: smallest K with
+    :func:`min_p_value` ``(K) <= alpha``.
 
     Parameters
     ----------
     alpha : float
         In (0, 1).
+    alternative : {"greater", "less", "two-sided"}
 
     Returns
     -------
     int
-        ``ceil(log2(1 / alpha))`` (5 for alpha = 0.05, 7 for 0.01).
+        One-sided ``ceil(log2(1 / alpha))`` (5 for alpha = 0.05, 7 for 0.01); two-sided one more
+        (6 for 0.05, 8 for 0.01).
     """
     alpha = _check_alpha(alpha, "min_pairs")
+    _check_alternative(alternative, "min_pairs")
     k = max(0, math.ceil(-math.log2(alpha)))
     while 2.0 ** -k > alpha:  # guard the float log against rounding
         k += 1
     while k > 0 and 2.0 ** -(k - 1) <= alpha:
         k -= 1
-    return k
+    return k + 1 if alternative == "two-sided" else k
+
+
+def median_interval(values, *, level: float = 1 - DEFAULT_ALPHA) -> tuple[np.ndarray, np.ndarray, float]:
+    """Distribution-free interval of the median from order statistics (the sign test's interval).
+
+    For ``K`` i.i.d. continuous values, ``[x_(j), x_(K+1-j)]`` covers the median with probability
+    ``1 - 2 P(B <= j - 1)``, ``B ~ Binomial(K, 1/2)``, whatever the distribution.  ``j`` is the
+    largest index whose coverage is at least ``level``; when even ``[min, max]`` (``j = 1``,
+    coverage ``1 - 2^(1-K)``) falls short of ``level`` (``K <= 5`` at 95 %), that widest interval is
+    returned with its smaller coverage.
+
+    Parameters
+    ----------
+    values : array_like, shape (m, K)
+        One sample per row, finite.
+    level : float
+        Required coverage, in (0, 1).
+
+    Returns
+    -------
+    low, high : ndarray, shape (m,)
+    coverage : float
+        The interval's exact coverage.
+    """
+    x = np.sort(np.atleast_2d(np.asarray(values, dtype=float)), axis=1)
+    k = x.shape[1]
+    if k == 0:
+        return np.full(x.shape[0], np.nan), np.full(x.shape[0], np.nan), math.nan
+    js = np.arange(1, (k + 1) // 2 + 1)
+    cover = 1.0 - 2.0 * binom.cdf(js - 1, k, 0.5)
+    ok = np.flatnonzero(cover >= level)
+    j = int(js[ok[-1]]) if ok.size else 1
+    return x[:, j - 1], x[:, k - j], float(1.0 - 2.0 * binom.cdf(j - 1, k, 0.5))
 
 
 def _mean_statistic(x, axis):
     return np.mean(x, axis=axis)
 
 
-def sign_flip_pvalues(differences) -> np.ndarray:
-    """Exact one-sided (greater) sign-flip p values, one per row.
+def sign_flip_pvalues(differences, *, alternative: str = "greater") -> np.ndarray:
+    """Exact sign-flip p values, one per row (one-sided "greater" unless told otherwise).
 
     Parameters
     ----------
     differences : array_like, shape (m, K) or (K,)
         Paired differences (faulty - baseline), finite; ``1 <= K <= MAX_EXACT_PAIRS``.
+    alternative : {"greater", "less", "two-sided"}
+        ``"greater"``: share of the ``2^K`` sign patterns whose mean is at least the row's mean;
+        ``"less"``: at most; ``"two-sided"``: twice the smaller of the two, at most 1 (SciPy's
+        definition).
 
     Returns
     -------
     ndarray, shape (m,) (0-d for 1-d input)
-        Share of the ``2^K`` sign patterns whose mean is at least the row's mean
-        (:func:`scipy.stats.permutation_test`, all patterns enumerated).
+        :func:`scipy.stats.permutation_test` with all patterns enumerated.
     """
+    _check_alternative(alternative, "sign_flip_pvalues")
     d = np.asarray(differences, dtype=float)
     one = d.ndim == 1
     d = np.atleast_2d(d)
@@ -243,7 +336,7 @@ def sign_flip_pvalues(differences) -> np.ndarray:
         k = 2
     batch = max(1, _BATCH_BUDGET // (m * k))
     res = permutation_test((d,), _mean_statistic, permutation_type="samples", n_resamples=np.inf,
-                           alternative="greater", vectorized=True, axis=-1, batch=batch)
+                           alternative=alternative, vectorized=True, axis=-1, batch=batch)
     p = np.asarray(res.pvalue, dtype=float).reshape(m)
     return p[0] if one else p
 
@@ -268,20 +361,27 @@ def _shift_factor(k: int, alpha: float, power: float) -> float:
     return float(np.quantile(np.concatenate(thresholds), power))
 
 
-def detectable_shift_factor(k: int, *, alpha: float = 0.05, power: float = 0.8) -> float:
+def detectable_shift_factor(k: int, *, alpha: float = DEFAULT_ALPHA, power: float = 0.8,
+                            alternative: str = "greater") -> float:
     """Smallest shift, in units of the differences' standard deviation, detected with ``power``.
 
     See "Smallest detectable shift" in the module docstring for the model and the method
-    (simulation with a fixed generator for ``k <= 12``, the paired t test's power beyond).
+    (simulation with a fixed generator for ``k <= 12``, the paired t test's power beyond).  The
+    two-sided test at ``alpha`` rejects a positive shift when the "greater" p value is at most
+    ``alpha / 2`` (or, rarely, the "less" one is), so its factor is the one-sided factor at
+    ``alpha / 2`` (conservative by the wrong-sign rejections, negligible at 80 % power).
 
     Parameters
     ----------
     k : int
         Number of pairs, ``1 <= k <= MAX_EXACT_PAIRS``.
     alpha : float
-        Level of the one-sided test, in (0, 1).
+        Level of the test, in (0, 1): the level the decision uses (e.g. Holm's first step
+        ``alpha / n`` over a family of ``n`` cases).
     power : float
         Required probability of rejecting, in (0, 1).
+    alternative : {"greater", "less", "two-sided"}
+        Sidedness of the decision's test (a one-sided factor is the same for both signs).
 
     Returns
     -------
@@ -294,6 +394,8 @@ def detectable_shift_factor(k: int, *, alpha: float = 0.05, power: float = 0.8) 
     alpha = _check_alpha(alpha, "detectable_shift_factor")
     if isinstance(power, bool) or not isinstance(power, numbers.Real) or not 0 < power < 1:
         raise ConfigError(f"detectable_shift_factor: power must lie in (0, 1), got {power!r}")
+    if _check_alternative(alternative, "detectable_shift_factor") == "two-sided":
+        alpha = alpha / 2
     return _shift_factor(k, alpha, float(power))
 
 
@@ -302,8 +404,10 @@ def _usable(frame: pd.DataFrame, col: str) -> np.ndarray:
         frame[col].to_numpy(dtype=float))
 
 
-def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "rms", power: float = 0.8,
-                  min_pairs_required: int | None = None) -> pd.DataFrame:
+def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric: str = "rms", power: float = 0.8,
+                  min_pairs_required: int | None = None, direction: str = DEFAULT_DIRECTION,
+                  mde_alpha: float | None = None, margin_rel: float = EQUIVALENCE_MARGIN_REL,
+                  margin_mm: float = EQUIVALENCE_MARGIN_MM) -> pd.DataFrame:
     """Verdict of every fault on every case from the K repetitions (exact paired sign-flip test).
 
     Parameters
@@ -312,7 +416,7 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
         The runner's results; needs ``run, suite, case, rep, variant, status`` and the
         metric's column (``rms_mm`` or ``emd_mm``).  One row per job.
     alpha : float
-        Level of each one-sided test, in (0, 1).
+        Level of each test, in (0, 1).
     metric : {"rms", "emd"}
         The map error compared.
     power : float
@@ -320,6 +424,21 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
     min_pairs_required : int, optional
         Fewest usable pairs for a verdict; never fewer than :func:`min_pairs` ``(alpha)`` (the
         default), below which no outcome could reject.
+    direction : {"either", "worse"}
+        ``"either"`` (default): two-sided test, a variant that changes the error in either
+        direction is detected; ``"worse"``: the paper's one-sided notion (the error grows).
+    mde_alpha : float, optional
+        Per-test level of the decision the smallest detectable shift is for (e.g. Holm's first
+        step ``alpha / n`` over a family of ``n`` cases); default ``alpha``.
+    margin_rel, margin_mm : float
+        Equivalence margin ``delta = max(margin_mm, margin_rel * median baseline error)`` of the
+        case, mm (defaults :data:`EQUIVALENCE_MARGIN_REL` = 10 %, :data:`EQUIVALENCE_MARGIN_MM`).
+        Two one-sided tests (TOST) with the exact sign-flip test on the shifted differences:
+        ``H0: shift <= -delta`` ("greater" on ``d + delta``) and ``H0: shift >= +delta``
+        ("less" on ``d - delta``); ``p_equivalence`` is the larger p value, and the variant is
+        equivalent within ``+-delta`` on the case when it is at most ``alpha``.  With ``K``
+        pairs TOST can succeed only when ``2^-K <= alpha`` and ``delta`` exceeds the noise of
+        the mean difference; otherwise "not detected" stays "no difference shown".
 
     Returns
     -------
@@ -327,10 +446,21 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
         One row per (suite, run, case, fault), sorted by those: ``verdict`` (:class:`Verdict`
         value), ``reason`` (``"baseline_failed"`` / ``"too_few_pairs"`` for ``cannot_judge``,
         else ""), ``detected`` (nullable boolean: True for detected and crash_detected, False
-        for not_detected, NA for cannot_judge), ``n_reps`` (faulty jobs), ``n_failed`` (faulty
-        jobs without a usable error), ``n_pairs`` (usable pairs), ``mean_diff_mm``,
-        ``median_diff_mm`` (over the usable pairs), ``p`` (exact one-sided p value; NaN where
-        not tested), ``p_min`` (``2^-n_pairs``), ``baseline_sd_mm`` (std of the baseline's errors
+        for not_detected, NA for cannot_judge), ``alternative`` (the test's: ``two-sided`` or
+        ``greater``), ``direction`` (:class:`~faultlab.vocabulary.Change` value: the sign of the
+        mean difference over the usable pairs, ``none`` when it is 0 or there is none),
+        ``n_reps`` (faulty jobs), ``n_failed`` (faulty jobs without a usable error),
+        ``n_pairs`` (usable pairs), ``mean_diff_mm``, ``mean_log_ratio`` (mean of
+        ``log(faulty / baseline)``, the case's contribution to the pooled suite test of
+        :mod:`faultlab.stats.pooling`), ``median_diff_mm`` (over the usable pairs)
+        with its order-statistic interval ``median_low_mm, median_high_mm`` (:func:`median_interval`
+        at ``1 - alpha``, exact coverage ``ci_coverage``), ``ratio`` (median over the pairs of
+        faulty / baseline error) with ``ratio_low, ratio_high`` (the same order statistics of the
+        ratios) -- the effect intervals are NaN for untested cases and where every difference is
+        0 (bit-identical runs: no interval to estimate) --, ``identical`` (every repetition ran
+        and every paired error equals the baseline's bit for bit), ``margin_mm`` and
+        ``p_equivalence`` (TOST, see ``margin_rel``; NaN where not tested), ``p`` (exact p value of the chosen
+        alternative; NaN where not tested), ``p_min`` (``2^-n_pairs``), ``baseline_sd_mm`` (std of the baseline's errors
         on the case, ddof = 1) and ``mde_mm`` (smallest shift detectable with ``power``; inf
         when ``n_pairs`` is too small, NaN when the baseline failed or has one repetition).
 
@@ -343,11 +473,16 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
         :data:`MAX_EXACT_PAIRS` usable pairs in a case.
     """
     alpha = _check_alpha(alpha, "case_verdicts")
+    alternative = alternative_of(direction)
+    for name, value in (("margin_rel", margin_rel), ("margin_mm", margin_mm)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 <= value < math.inf:
+            raise ConfigError(f"case_verdicts: {name} must be a finite number >= 0, got {value!r}")
+    mde_alpha = alpha if mde_alpha is None else _check_alpha(mde_alpha, "case_verdicts")
     if metric not in METRICS:
         raise ConfigError(f"case_verdicts: metric must be one of {list(METRICS)}, got {metric!r}")
     if isinstance(power, bool) or not isinstance(power, numbers.Real) or not 0 < power < 1:
         raise ConfigError(f"case_verdicts: power must lie in (0, 1), got {power!r}")
-    gate = min_pairs(alpha)
+    gate = min_pairs(alpha, alternative=alternative)
     if min_pairs_required is not None:
         gate = max(gate, _check_count(min_pairs_required, "case_verdicts", "min_pairs_required"))
     col = f"{metric}_mm"
@@ -374,18 +509,23 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
     if faulty.empty:
         return pd.DataFrame(columns=_COLUMNS)
     base_stats = base.groupby(case_key).agg(base_all_ok=("usable", "all"), baseline_sd_mm=(col, "std"),
-                                            n_base=("usable", "size"))
+                                            baseline_median_mm=(col, "median"), n_base=("usable", "size"))
     pairs = faulty.merge(base.rename(columns={col: "base_value", "usable": "base_usable"}),
                          on=case_key + ["rep"], how="left")
     pairs["base_usable"] = pairs["base_usable"].astype("boolean").fillna(False).astype(bool)
     pairs["pair_ok"] = pairs["usable"] & pairs["base_usable"]
     pairs["diff"] = np.where(pairs["pair_ok"], pairs[col].to_numpy(float) - pairs["base_value"].to_numpy(float),
                              np.nan)
+    pairs["abs_diff"] = np.abs(pairs["diff"].to_numpy(float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_ratio = np.log(pairs[col].to_numpy(float) / pairs["base_value"].to_numpy(float))
+    pairs["log_ratio"] = np.where(pairs["pair_ok"].to_numpy(bool) & np.isfinite(log_ratio), log_ratio, np.nan)
     key = case_key + ["fault"]
     g = pairs.groupby(key, sort=True)
     table = g.agg(n_reps=("usable", "size"), n_usable=("usable", "sum"), all_base_paired=("base_usable", "all"),
                   n_pairs=("pair_ok", "sum"), mean_diff_mm=("diff", "mean"),
-                  median_diff_mm=("diff", "median")).reset_index()
+                  median_diff_mm=("diff", "median"), max_abs_diff=("abs_diff", "max"),
+                  mean_log_ratio=("log_ratio", "mean")).reset_index()
     table["n_failed"] = table["n_reps"] - table["n_usable"]
     table = table.merge(base_stats.reset_index(), on=case_key, how="left")
     base_ok = (table["base_all_ok"].astype("boolean").fillna(False).to_numpy(bool)
@@ -405,6 +545,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
     reason[~base_ok] = "baseline_failed"
 
     p = np.full(len(table), np.nan)
+    eff = {name: np.full(len(table), np.nan) for name in ("median_low_mm", "median_high_mm", "ratio", "ratio_low",
+                                                           "ratio_high", "ci_coverage", "p_equivalence")}
+    margin = np.maximum(float(margin_mm), float(margin_rel) * table["baseline_median_mm"].to_numpy(float))
     if tested.any():
         too_many = n_pairs[tested].max()
         if too_many > MAX_EXACT_PAIRS:
@@ -417,6 +560,8 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
         row = sel["_row"].to_numpy()
         pos = sel.groupby("_row").cumcount().to_numpy()
         diff = sel["diff"].to_numpy(float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = sel[col].to_numpy(float) / sel["base_value"].to_numpy(float)
         for k in np.unique(n_pairs[tested]):
             groups = np.flatnonzero(tested & (n_pairs == k))
             local = np.full(len(table), -1)
@@ -424,7 +569,21 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
             take = local[row] >= 0
             mat = np.empty((groups.size, k))
             mat[local[row[take]], pos[take]] = diff[take]
-            p[groups] = sign_flip_pvalues(mat)
+            p[groups] = sign_flip_pvalues(mat, alternative=alternative)
+            rat = np.empty((groups.size, k))
+            rat[local[row[take]], pos[take]] = ratio[take]
+            lo, hi, cover = median_interval(mat, level=1 - alpha)
+            rlo, rhi, _ = median_interval(rat, level=1 - alpha)
+            varies = np.any(mat != 0, axis=1)
+            eff["median_low_mm"][groups] = np.where(varies, lo, np.nan)
+            eff["median_high_mm"][groups] = np.where(varies, hi, np.nan)
+            eff["ratio"][groups] = np.median(rat, axis=1)
+            eff["ratio_low"][groups] = np.where(varies, rlo, np.nan)
+            eff["ratio_high"][groups] = np.where(varies, rhi, np.nan)
+            eff["ci_coverage"][groups] = np.where(varies, cover, np.nan)
+            delta = margin[groups][:, None]
+            eff["p_equivalence"][groups] = np.maximum(sign_flip_pvalues(mat + delta, alternative="greater"),
+                                                      sign_flip_pvalues(mat - delta, alternative="less"))
         hit = tested & (p <= alpha)
         verdict[hit] = Verdict.DETECTED.value
 
@@ -433,7 +592,8 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
     sd = table["baseline_sd_mm"].to_numpy(float)
     factor = np.full(len(table), math.inf)  # no usable pair: nothing is detectable
     for k in np.unique(n_pairs[(n_pairs >= 1)]):
-        factor[n_pairs == k] = (detectable_shift_factor(int(k), alpha=alpha, power=power)
+        factor[n_pairs == k] = (detectable_shift_factor(int(k), alpha=mde_alpha, power=power,
+                                                        alternative=alternative)
                                 if k <= MAX_EXACT_PAIRS else math.nan)
     with np.errstate(invalid="ignore"):
         mde = np.where(base_ok & np.isfinite(sd), factor * math.sqrt(2.0) * sd, np.nan)
@@ -441,15 +601,25 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = 0.05, metric: str = "
     out["verdict"] = verdict
     out["reason"] = reason
     out["detected"] = detected
+    out["alternative"] = alternative
+    mean_diff = table["mean_diff_mm"].to_numpy(float)
+    out["direction"] = np.where(mean_diff > 0, Change.WORSE.value,
+                                np.where(mean_diff < 0, Change.BETTER.value, Change.NONE.value)).astype(object)
     out["n_reps"] = table["n_reps"].to_numpy(np.int64)
     out["n_failed"] = n_failed
     out["n_pairs"] = n_pairs
     out["mean_diff_mm"] = table["mean_diff_mm"].to_numpy(float)
+    out["mean_log_ratio"] = table["mean_log_ratio"].to_numpy(float)
     out["median_diff_mm"] = table["median_diff_mm"].to_numpy(float)
+    for name, values in eff.items():
+        out[name] = values
     out["p"] = p
-    out["p_min"] = min_p_value(n_pairs)
+    out["p_min"] = min_p_value(n_pairs, alternative=alternative)
     out["baseline_sd_mm"] = np.where(base_ok, sd, np.nan)
     out["mde_mm"] = mde
+    out["identical"] = (base_ok & (n_failed == 0) & (n_pairs == table["n_reps"].to_numpy(np.int64)) & (n_pairs > 0)
+                        & (table["max_abs_diff"].to_numpy(float) == 0))
+    out["margin_mm"] = np.where(base_ok, margin, np.nan)
     return out[_COLUMNS].reset_index(drop=True)
 
 
@@ -489,7 +659,7 @@ class ClusteredRate:
     n_effective: float
 
 
-def clustered_rate(flags, clusters, *, alpha: float = 0.05) -> ClusteredRate:
+def clustered_rate(flags, clusters, *, alpha: float = DEFAULT_ALPHA) -> ClusteredRate:
     """Rate of flagged trials with a confidence interval that accounts for clustering.
 
     Method: the Korn & Graubard (1998) interval for a proportion from clustered data -- a

@@ -38,6 +38,14 @@ def test_the_stored_space_overrides_table1():
         read_space({"experiment_source": "paper.toml", "experiment": {"space": {"map_size": {"nope": 1}}}})
 
 
+def test_a_statistical_rule_stored_without_a_direction_is_read_as_it_ran_one_sided():
+    old = read_rule({"detection": {"abs_mm": 250.0, "rel": 0.25, "rule": "statistical"}})[0]
+    assert old.direction == "worse"
+    new = DetectionRule(rule="statistical")
+    assert new.to_dict()["direction"] == "either" and read_rule({"detection": new.to_dict()})[0] == new
+    assert "direction" not in DetectionRule().to_dict()  # the paper rule's hash is unchanged
+
+
 def test_expected_jobs_and_summary_of_adaptive_repetitions():
     # 1 run, 2 cases, baseline + a + b, K = 4 in stages 2 + 2.  Case 1: a stops after 2, b runs
     # on, so the baseline runs 4: 2 + 4 + 4 = 10 jobs.  Case 2: a and b stop after 2, so does the

@@ -1,11 +1,14 @@
 """Mutation analysis: scores with exact intervals, McNemar."""
 
+import math
+
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.stats import beta, binomtest
 
-from faultlab.analysis.mutation import clopper_pearson, compare_suites, mutation_scores
+from faultlab.analysis.mutation import (OBSERVED_EQUIVALENT, clopper_pearson, compare_suites, mutant_outcomes,
+                                        mutation_scores)
 
 
 def test_clopper_pearson_matches_the_beta_quantiles():
@@ -16,7 +19,7 @@ def test_clopper_pearson_matches_the_beta_quantiles():
 
 
 def _outcomes(table: dict) -> pd.DataFrame:
-    rows = [dict(mutant=m, unit=u, operator=o, run=1, suite=s, outcome=out)
+    rows = [dict(mutant=m, unit=u, operator=o, run=1, suite=s, outcome=out, survival="")
             for (m, u, o), per_suite in table.items() for s, out in per_suite.items()]
     return pd.DataFrame(rows)
 
@@ -49,3 +52,39 @@ def test_mcnemar_exact_equals_the_binomial_test_on_the_discordant_pairs():
     a_only, b_only = int((ka & ~kb).sum()), int((~ka & kb).sum())
     assert (row["a_only"], row["b_only"], row["n"]) == (a_only, b_only, 60)
     assert row["p"] == pytest.approx(binomtest(a_only, a_only + b_only, 0.5).pvalue, rel=1e-12)
+
+
+def _frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) -> pd.DataFrame:
+    rng = np.random.default_rng(0)
+    base = 100 + rng.random(k) * 10
+    rows = [dict(run=1, suite="fixed", case=case, variant="baseline", rep=r, status="ok", rms_mm=base[r],
+                 emd_mm=base[r]) for r in range(k)]
+    for v, d in diffs.items():
+        for r in range(k):
+            st = (status or {}).get(v, "ok")
+            rows.append(dict(run=1, suite="fixed", case=case, variant=v, rep=r, status=st,
+                             rms_mm=base[r] + d[r] if st == "ok" else math.nan, emd_mm=math.nan))
+    return pd.DataFrame(rows)
+
+
+def test_survivors_split_into_equivalent_and_inconclusive_and_identical_maps_leave_the_denominator():
+    k = 8
+    rng = np.random.default_rng(1)
+    parts = []
+    for case in (1, 2):
+        parts.append(_frame({"mutant:same": np.zeros(k), "mutant:tiny": rng.normal(0.0, 0.3, k),
+                             "mutant:noisy": rng.normal(0.0, 30.0, k), "mutant:kill": np.full(k, 40.0)},
+                            k, case=case))
+    df = pd.concat(parts, ignore_index=True)
+    sel = {"alpha": 0.05, "direction": "either", "run": ["same", "tiny", "noisy", "kill"], "screened": {},
+           "unit": {}, "operator": {}, "represented_by": {}}
+    o = mutant_outcomes(df, sel).set_index("mutant")
+    assert o.loc["same", "outcome"] == OBSERVED_EQUIVALENT
+    # baseline errors ~105 mm: margin 10.5 mm; noise 0.3 mm -> TOST succeeds on both cases; 30 mm -> it cannot
+    assert (o.loc["tiny", "outcome"], o.loc["tiny", "survival"]) == ("survived", "equivalent")
+    assert (o.loc["noisy", "outcome"], o.loc["noisy", "survival"]) == ("survived", "inconclusive")
+    assert o.loc["kill", "outcome"] == "killed" and o.loc["kill", "direction"] == "worse"
+    assert o.loc["kill", "median_diff_mm"] == pytest.approx(40.0)
+    s = mutation_scores(o.reset_index()).set_index(["suite", "by", "group"]).loc[("fixed", "all", "all")]
+    assert (s["killed"], s["judged"], s["equivalent_observed"]) == (1, 3, 1)
+    assert (s["survived_equivalent"], s["survived_inconclusive"]) == (1, 1)

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from faultlab.cli import build_parser
-from faultlab.analysis.calibration import assess_calibration
+from faultlab.analysis.calibration import assess_calibration, check_saved
 from faultlab.campaigns.calibrate import calibrate
+from faultlab.stats.calibration import check_calibration
 from faultlab.stats.verdict import clustered_rate
 from faultlab.vocabulary import BASELINE, REPLICA
 
@@ -38,9 +40,16 @@ def test_quick_calibration_runs_an_aa_campaign_and_reports_false_alarms(tmp_path
     assert np.isclose(row["high"], ref.high)
     stat = table.loc[("statistical", "all")]
     assert stat["n_pairs"] == 7  # one trial per judged case
-    assert result.calibrated == bool((result.table.query("rule == 'statistical' and n_pairs > 0")["low"]
-                                      < 0.05).all())
-    assert "statistical rule: false-alarm rate <= alpha = 0.05" in str(result)
+    # the check judges the per-case (unadjusted) rate over the 7 cases with its exact interval
+    per_case = result.rates.set_index(["scope", "suite"]).loc[("per_case", "all")]
+    assert per_case["n"] == 7 and result.check == check_calibration(result.rates, alpha=0.05)
+    assert result.calibrated == (result.check.status == "calibrated")
+    assert result.check.reason in str(result)
+    # the saved analysis is checked again without the store
+    result.analysis.save(tmp_path / "rep")
+    rates, check, _ = check_saved(tmp_path / "rep")
+    pd.testing.assert_frame_equal(rates, result.rates)
+    assert check == result.check
     # resumable: the same call runs nothing new
     again = calibrate(quick=True, out=tmp_path / "res", jobs=1, progress=False, overrides=TINY)
     assert again.summary.n_new == 0 and assess_calibration(again.out).table.equals(result.table)
@@ -49,3 +58,4 @@ def test_quick_calibration_runs_an_aa_campaign_and_reports_false_alarms(tmp_path
 def test_calibrate_command_is_registered():
     args = build_parser().parse_args(["calibrate", "--quick", "--jobs", "1", "--out", "x"])
     assert args.quick and args.jobs == 1 and args.out == "x" and callable(args.func)
+

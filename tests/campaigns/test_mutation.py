@@ -7,6 +7,7 @@ from faultlab.analysis.mutation import analyse_mutation
 from faultlab.campaigns.mutation import load_mutation_experiment, run_mutation
 from faultlab.errors import ConfigError
 from faultlab.runner.store import load_results
+from faultlab.stats.verdict import min_pairs
 
 SIGN_FLIP = "motion_model:arithmetic:9"  # turns the wrong way: the map is ruined
 EQUIVALENT = "motion_model:index:3"      # screened equivalent: never runs
@@ -15,7 +16,7 @@ TINY = """
 seed = 3
 runs = 1
 n_steps = 30
-repetitions = 6
+repetitions = 7
 timeout_s = 60.0
 [suites]
 random = 2
@@ -31,8 +32,9 @@ ids = ["{kill}", "{eq}"]
 def test_too_few_repetitions_for_the_per_case_level_is_refused(tmp_path):
     f = tmp_path / "m.toml"
     f.write_text(TINY.format(kill=SIGN_FLIP, eq=EQUIVALENT))
-    with pytest.raises(ConfigError, match="K = 6"):
-        load_mutation_experiment(f, repetitions=5)
+    # random = 2 cases: a case is judged at 0.025, which the two-sided test reaches from K = 7
+    with pytest.raises(ConfigError, match="K = 7"):
+        load_mutation_experiment(f, repetitions=6)
 
 
 @pytest.mark.slow
@@ -47,7 +49,7 @@ def test_a_killed_mutant_stops_early_an_equivalent_one_never_runs_and_a_rerun_re
     mutant = df[df["variant"] == f"mutant:{SIGN_FLIP}"]
     # killed on case 1 of the random suite: case 2 never runs (nor its baseline: nothing is left to judge)
     assert set(zip(mutant["suite"], mutant["case"])) == {("random", 1), ("fixed", 1)}
-    assert len(df) == 2 * 2 * 6 and first.n_skipped_early == 2 * 6
+    assert len(df) == 2 * 2 * 7 and first.n_skipped_early == 2 * 7
     a = analyse_mutation(tmp_path / "out")
     o = a.outcomes.set_index(["mutant", "suite"])
     assert o.loc[(SIGN_FLIP, "random"), "outcome"] in ("killed", "crash")
@@ -58,3 +60,10 @@ def test_a_killed_mutant_stops_early_an_equivalent_one_never_runs_and_a_rerun_re
     a.save(tmp_path / "saved")
     back = type(a).load(tmp_path / "saved")
     pd.testing.assert_frame_equal(back.scores, a.scores, check_dtype=False)
+
+
+def test_the_shipped_mutation_experiment_has_the_fewest_repetitions_its_two_sided_kills_need():
+    mexp = load_mutation_experiment("mutation")
+    assert mexp.direction == "either"
+    n = max(s.n_cases for s in mexp.experiment.suites)
+    assert mexp.experiment.repetitions == min_pairs(mexp.alpha / n, alternative="two-sided")

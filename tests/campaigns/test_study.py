@@ -9,13 +9,14 @@ import pytest
 from faultlab.campaigns.study import load_study_experiment, sampled_load
 from faultlab.errors import ConfigError
 from faultlab.mutation.variants import is_mutant_variant
+from faultlab.stats.verdict import min_pairs
 from faultlab.vocabulary import PAPER_FAULTS
 
 BASE = """
 seed = 5
 runs = 2
 n_steps = 10
-repetitions = 7
+repetitions = 8
 variants = ["baseline", "motion_sign_error"]
 [suites]
 systematic = 5
@@ -31,7 +32,7 @@ sizes = [1, 2, 6]
 draws = 10
 [study.quick]
 runs = 1
-repetitions = 6
+repetitions = 7
 slam = { particles = 3 }
 study = { sizes = [1, 2] }
 """
@@ -55,7 +56,9 @@ def test_the_shipped_study_runs_the_paper_faults_and_sampled_mutants_at_both_sca
         assert {x.kind for x in s.experiment.suites} == {"systematic", "random", "pairwise", "base-choice"}
     assert len(full.selection.run) == 150 and len(quick.selection.run) == 10
     assert full.study.sizes == (1, 2, 5, 10, 20) and quick.study.sizes == (1, 2, 5, 10)
-    assert quick.experiment.runs == 1 and quick.experiment.repetitions == 8 and full.experiment.repetitions == 10
+    assert quick.experiment.runs == 1
+    for s in (quick, full):  # K: the fewest with which a case of the largest suite can reject two-sided
+        assert s.experiment.repetitions == min_pairs(s.study.alpha / max(s.study.sizes), alternative="two-sided")
     assert quick.experiment.variants[:18] == full.experiment.variants[:18]          # the 17 faults at both scales
     assert quick.experiment.space["inactivity"]["classes"]["inactive"] == [120]
     assert dict(quick.experiment.slam.options)["particles"] == 20 and full.experiment.slam.config.n_particles == 200
@@ -65,8 +68,8 @@ def test_the_shipped_study_runs_the_paper_faults_and_sampled_mutants_at_both_sca
 def test_quick_replaces_keys_and_merges_tables_key_by_key(tmp_path):
     path = _file(tmp_path, BASE)
     full, quick = load_study_experiment(path), load_study_experiment(path, quick=True)
-    assert (full.experiment.runs, full.experiment.repetitions, full.study.sizes) == (2, 7, (1, 2, 6))
-    assert (quick.experiment.runs, quick.experiment.repetitions, quick.study.sizes) == (1, 6, (1, 2))
+    assert (full.experiment.runs, full.experiment.repetitions, full.study.sizes) == (2, 8, (1, 2, 6))
+    assert (quick.experiment.runs, quick.experiment.repetitions, quick.study.sizes) == (1, 7, (1, 2))
     q = dict(quick.experiment.slam.options)
     assert q["particles"] == 3 and q["std_v"] == 0.2           # the rest of [slam] is kept
     assert quick.study.draws == 10                               # the rest of [study] is kept
@@ -75,7 +78,7 @@ def test_quick_replaces_keys_and_merges_tables_key_by_key(tmp_path):
 
 @pytest.mark.parametrize("change,match", [
     (("sizes = [1, 2, 6]", "sizes = [1, 2, 5, 9]"), r"9 cases cannot be drawn from the 8 cases of the random pool"),
-    (("repetitions = 7", "repetitions = 6"), r"repetitions = 6 is too few.*0.05/6.*K = 7"),
+    (("repetitions = 8", "repetitions = 7"), r"repetitions = 7 is too few.*0.05/6.*two-sided.*K = 8"),
     (("sizes = [1, 2, 6]", "sizes = [1, 1]"), r"study.sizes lists a size twice"),
     (("draws = 10", "draws = 10\nbins = 3"), r"study.bins is not a known key"),
     (("draws = 10", 'multiplicity = "hochberg"'), r"study.multiplicity must be one of 'holm', 'bonferroni'"),

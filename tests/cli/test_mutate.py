@@ -86,9 +86,9 @@ def test_mutate_run_refuses_too_few_repetitions_for_the_per_case_level(tmp_path,
     f = tmp_path / "m.toml"
     f.write_text('seed = 1\nrepetitions = 7\n[suites]\nfixed = 5\n[slam]\nparticles = 5\n'
                  '[mutation]\nids = ["motion_model:arithmetic:9"]\n')
-    assert main(["mutate", "run", str(f), "--out", str(tmp_path / "out"), "--repetitions", "6"]) == 1
+    assert main(["mutate", "run", str(f), "--out", str(tmp_path / "out"), "--repetitions", "7"]) == 1
     err = capsys.readouterr().err
-    assert "repetitions = 6 is too few" in err and "K = 7" in err
+    assert "repetitions = 7 is too few" in err and "K = 8" in err  # 0.05 / 5 two-sided
     assert not (tmp_path / "out").exists()
 
 

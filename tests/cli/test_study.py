@@ -13,7 +13,7 @@ TINY = """
 seed = 5
 runs = 1
 n_steps = 10
-repetitions = 6
+repetitions = 7
 timeout_s = 60.0
 variants = ["baseline", "motion_sign_error", "weight_overwritten"]
 [suites]
@@ -45,9 +45,9 @@ def test_study_run_and_report_on_a_tiny_pool(tmp_path, capsys):
     out, rep = tmp_path / "out", tmp_path / "rep"
     args = ["study", "run", str(exp), "--out", str(out), "--jobs", "1", "--backend", "threading", "--no-progress"]
     assert main(args) == 0
-    assert "192 jobs" in capsys.readouterr().out          # 8 cases x (baseline, 2 faults, 1 mutant) x K = 6
+    assert "224 jobs" in capsys.readouterr().out          # 8 cases x (baseline, 2 faults, 1 mutant) x K = 7
     assert main(args) == 0                                                            # resumes: nothing to run
-    assert "0 run now, 192 already done" in capsys.readouterr().out
+    assert "0 run now, 224 already done" in capsys.readouterr().out
     assert main(["study", "report", str(out), "--reports", str(rep)]) == 0
     for name in ("kill_matrix.csv", "detection.csv", "scores.csv", "comparisons.csv", "power.csv", "study.md",
                  "detection_vs_size.png", "study_meta.json"):
@@ -73,14 +73,20 @@ def test_study_run_and_report_on_a_tiny_pool(tmp_path, capsys):
     assert main(["study", "report", str(out), "--reports", str(rep2)]) == 0
     for name in ("kill_matrix.csv", "detection.csv", "scores.csv", "comparisons.csv"):
         assert (rep / name).read_bytes() == (rep2 / name).read_bytes(), name
+    # a saved report is evaluated again from its kill matrix alone (no store): the same tables
+    rep3 = tmp_path / "rep3"
+    assert main(["study", "report", str(rep), "--reports", str(rep3)]) == 0
+    for name in ("kill_matrix.csv", "detection.csv", "scores.csv", "comparisons.csv"):
+        assert (rep / name).read_bytes() == (rep3 / name).read_bytes(), name
+    assert (det["ci_high"] > det["ci_low"]).all()  # exact intervals: never zero width
 
 
 def test_study_run_refuses_too_few_repetitions_for_the_largest_size(tmp_path, capsys):
     exp = tmp_path / "tiny.toml"
-    exp.write_text(TINY.replace("sizes = [1, 2]", "sizes = [1, 2, 3]").replace("repetitions = 6", "repetitions = 5"))
+    exp.write_text(TINY.replace("sizes = [1, 2]", "sizes = [1, 2, 3]").replace("repetitions = 7", "repetitions = 6"))
     assert main(["study", "run", str(exp), "--out", str(tmp_path / "o")]) == 1
     err = capsys.readouterr().err
-    assert "repetitions = 5 is too few" in err and "K = 6" in err
+    assert "repetitions = 6 is too few" in err and "K = 7" in err  # 0.05 / 3 two-sided
     assert not (tmp_path / "o").exists()
 
 

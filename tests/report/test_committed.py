@@ -50,12 +50,22 @@ def _render_slams(stores: Path, out: Path) -> None:
                       intro=(REPORTS / "slams" / "intro.md").read_text())
 
 
+def _render_robustness(stores: Path, out: Path) -> None:
+    from faultlab.analysis.robustness import robustness
+    from faultlab.campaigns.robustness import robustness_stores
+    from faultlab.report.robustness import write_robustness_report
+
+    write_robustness_report(robustness(robustness_stores(stores)), out,
+                            intro=(REPORTS / "robustness" / "intro.md").read_text())
+
+
 #: (committed report directory, its store relative to it, renderer, store holds one store per SLAM)
 COMMITTED = [
     ("", "store", _render_paper, False),
     ("paper-k10", "store", _render_paper, False),
     ("mutation", "store", _render_mutation, False),
     ("slams", "store", _render_slams, True),
+    ("robustness", "store", _render_robustness, True),
 ]
 
 

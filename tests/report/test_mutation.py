@@ -12,7 +12,10 @@ def _analysis() -> MutationAnalysis:
     for m, unit, outs in [("u1:a:1", "u1", ("killed", "survived")), ("u1:a:2", "u1", ("crash", "killed")),
                           ("u2:b:1", "u2", ("survived", "timeout")), ("u2:b:2", "u2", ("equivalent", "equivalent"))]:
         for suite, out in zip(("systematic", "fixed"), outs):
-            rows.append(dict(mutant=m, unit=unit, operator=m.split(":")[1], run=1, suite=suite, outcome=out))
+            survival = ("equivalent" if (m, suite) == ("u2:b:1", "systematic") else "inconclusive") \
+                if out == "survived" else ""
+            rows.append(dict(mutant=m, unit=unit, operator=m.split(":")[1], run=1, suite=suite, outcome=out,
+                             survival=survival))
     o = pd.DataFrame(rows)
     return MutationAnalysis(outcomes=o, scores=mutation_scores(o), mcnemar=compare_suites(o, ["systematic", "fixed"]))
 
@@ -26,6 +29,8 @@ def test_score_table_shows_counts_and_the_interval_in_percent():
     t = score_table(_analysis()).set_index("suite")
     assert t.loc["systematic", "killed / judged"] == "2/3" and t.loc["fixed", "killed / judged"] == "2/3"
     assert t.loc["systematic", "score"] == "66.7 %"
+    assert t.loc["systematic", "survived: equivalent / inconclusive"] == "1/0"
+    assert t.loc["fixed", "survived: equivalent / inconclusive"] == "0/1"
 
 
 def test_matrix_cells_carry_each_mutants_outcome_and_screened_mutants_are_not_drawn():
@@ -43,7 +48,9 @@ def test_matrix_cells_carry_each_mutants_outcome_and_screened_mutants_are_not_dr
 def test_survivor_table_lists_each_survived_pair_with_its_detectable_shift():
     a = _analysis()
     o = a.outcomes.assign(min_p=[0.01, 0.2, 0.02, 0.03, 0.5, 0.04, 1.0, 1.0],
-                          min_mde_mm=[10.0, 123.4, 1, 2, 56.6, 3, np.nan, np.nan])
+                          min_mde_mm=[10.0, 123.4, 1, 2, 56.6, 3, np.nan, np.nan],
+                          max_p_equivalence=[np.nan, 0.3, np.nan, np.nan, 0.01, np.nan, np.nan, np.nan])
     t = survivor_table(MutationAnalysis(outcomes=o, scores=a.scores, mcnemar=a.mcnemar))
-    assert list(zip(t["mutant"], t["suite"], t["smallest p"], t["detectable shift mm"])) == [
-        ("u1:a:1", "fixed", "0.2", "123"), ("u2:b:1", "systematic", "0.5", "57")]
+    assert list(zip(t["mutant"], t["suite"], t["survival"], t["smallest p"], t["TOST p (largest)"],
+                    t["detectable shift mm"])) == [("u1:a:1", "fixed", "inconclusive", "0.2", "0.3", "123"),
+                                                   ("u2:b:1", "systematic", "equivalent", "0.5", "0.01", "57")]

@@ -105,11 +105,11 @@ def test_case_level_pages_state_test_alpha_family_and_what_could_not_be_judged()
     res = make_results(lambda run, suite, case, variant, rep:
                        50.0 + 7 * ((rep * 13 + case * 5) % 11) + (900.0 if variant == "motion_sign_error" else 0.0)
                        + (3.0 * ((rep + case) % 3) if variant == REPLICA else 0.0),
-                       runs=2, cases=2, reps=5)
+                       runs=2, cases=2, reps=6)
     res = res[res["variant"].isin(["baseline", "motion_sign_error"])]
     replica = res[res["variant"] == "baseline"].assign(variant=REPLICA)
     replica = replica.assign(rms_mm=replica["rms_mm"] + 3.0 * ((replica["rep"] + replica["case"]) % 3))
-    meta = {"detection": {"rule": "statistical", "alpha": 0.05, "family": "suite_fault"}}
+    meta = {"detection": {"rule": "statistical", "alpha": 0.05, "family": "suite_fault", "direction": "either"}}
     import pandas as pd
 
     a = Analysis.from_frame(pd.concat([res, replica], ignore_index=True), meta, paper=False)
@@ -121,11 +121,17 @@ def test_case_level_pages_state_test_alpha_family_and_what_could_not_be_judged()
         assert title in titles, title
     text = _text(pages).replace("\n", " ")
     assert "alpha = 0.05" in text and "family 'suite_fault'" in text and "cannot be judged" in text
-    # K = 5: every case's p is 2^-5, but Holm over a suite's 4 cases needs 2^-K <= 0.05 / 4: nothing survives
+    assert "two-sided" in text and "median diff mm [CI]" in text
+    # K = 6: every case's two-sided p is 2^-5, but Holm over a suite's 4 cases needs 2^-5 <= 0.05 / 4: nothing
+    # survives
     sign = a.case_verdicts.query("fault == 'motion_sign_error'")
     assert np.allclose(sign["p"], 1 / 32) and np.allclose(sign["p_holm"], 4 / 32)
+    assert (sign["direction"] == "worse").all() and (sign["median_diff_mm"] > 800).all()
     assert (sign["verdict"] == "not_detected").all()
-    # the class-effect page says why nothing is fitted instead of showing an empty table
-    assert "Which classes drive detection (logistic regression over cases)" in titles
+    # no empty class-effect page: the continuous effects pages say why nothing is fitted, and what size would be
+    assert "Which classes drive detection (logistic regression over cases)" not in titles
+    assert "Beyond the paper: which scenario parameters drive the map error and the faults" in titles
+    assert "Parameter effects: what this campaign's size allows" in titles
     why = a.class_effects.query("fault == 'motion_sign_error'")["note"].iloc[0]
     assert why and why in text
+    assert "12 cases for 2 coefficients (1 varying parameters + intercept): the regression view needs about 20 cases" in text

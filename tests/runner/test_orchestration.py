@@ -311,3 +311,28 @@ def test_a_slam_without_ids_is_scored_by_emd(tmp_path):
     seed = slam_seed(exp.seed, int(row.run), row.suite, int(row.case), int(row.rep))
     est = run_slam(exp.slam.build(), sc, rng=np.random.default_rng(seed))
     assert row.emd_mm == pytest.approx(1000 * earth_movers_distance(sc.landmarks, est.landmarks))
+
+
+def test_given_cases_replace_the_suites_draws_and_are_checked_on_resume(tmp_path):
+    """A designed experiment passes its cases: each is generated from its own seed and run for every variant."""
+    import dataclasses
+
+    from faultlab.runner import load_experiment, load_results
+    from faultlab.scenario.suite import SuiteCase
+    from faultlab.space import FIXED_VALUES, CaseSpec, table1_space
+
+    exp = load_experiment(write_experiment(tmp_path / "e.toml"))
+    values = [dict(FIXED_VALUES, map_size=9.0), dict(FIXED_VALUES, map_size=30.0, step_size=120.0)]
+    cases = [SuiteCase(run=1, suite="morris", case=i, spec=CaseSpec(v, table1_space().classify(v)),
+                       seed=case_seed(exp.seed, 1, "morris", i)) for i, v in enumerate(values, start=1)]
+    out = tmp_path / "out"
+    summary = run_experiment(exp, out, jobs=1, backend="threading", progress=False, cases=cases)
+    res = load_results(out)
+    assert summary.n_jobs == 2 * len(exp.variants) * exp.repetitions == len(res)
+    assert set(res["suite"]) == {"morris"}
+    got = res.drop_duplicates("case").set_index("case")
+    assert got.loc[1, "map_size"] == 9.0 and got.loc[2, "step_size"] == 120.0
+    assert load_scenario(out / "cases" / "run1" / "morris" / "case2.npz").seed == cases[1].seed
+    changed = [dataclasses.replace(cases[0], spec=CaseSpec(dict(values[0], map_size=10.0)))]
+    with pytest.raises(ResultsError, match="does not match"):
+        run_experiment(exp, out, jobs=1, backend="threading", progress=False, cases=changed)

@@ -11,6 +11,7 @@ from scipy.stats import boschloo_exact, norm
 from statsmodels.stats.multitest import multipletests
 
 from faultlab.metrics.detection import DetectionRule
+from faultlab.stats.verdict import detectable_shift_factor
 from faultlab.stats.cases import (
     AGREEMENT_MARGIN,
     case_rates,
@@ -75,10 +76,20 @@ def test_statistical_verdict_is_the_exact_test_after_holm_within_the_fault():
     p = v["p"].to_numpy()
     np.testing.assert_allclose(v["p_holm"], multipletests(p, method="holm")[1])
     assert ((v["p_holm"] <= 0.05) == (v["verdict"] == "detected")).all()
-    # every random case has all 6 differences positive: p = 2^-6 each, Holm over 24 cases
+    # every random case has all 6 differences positive: two-sided p = 2 * 2^-6 each, Holm over 24 cases
     rnd = v[v["suite"] == "random"]
-    assert np.allclose(rnd["p"], 2.0 ** -6)
-    assert (rnd["verdict"] == "not_detected").all()  # 24 * 2^-6 > 0.05: K = 6 is too few for this family
+    assert np.allclose(rnd["p"], 2.0 ** -5) and (rnd["direction"] == "worse").all()
+    assert (rnd["verdict"] == "not_detected").all()  # 24 * 2^-5 > 0.05: K = 6 is too few for this family
+    # the smallest detectable shift is that of the decision: two-sided, Holm's first step 0.05 / 24,
+    # which K = 6 cannot reach (2^-5 > 0.05 / 24): nothing is detectable
+    assert np.isinf(v["mde_mm"]).all()
+    wide = rule_verdicts(res, outcomes(res), rule=DetectionRule(rule="statistical", family="case"))
+    sd = res[res["variant"] == "baseline"].groupby(["suite", "run", "case"])["rms_mm"].std()
+    expect = detectable_shift_factor(6, alternative="two-sided") * np.sqrt(2.0) * sd.to_numpy()
+    np.testing.assert_allclose(wide.sort_values(["suite", "run", "case"])["mde_mm"], expect)
+    # the paper's one-sided notion, labelled
+    one = rule_verdicts(res, outcomes(res), rule=DetectionRule(rule="statistical", direction="worse"))
+    assert np.allclose(one[one["suite"] == "random"]["p"], 2.0 ** -6) and (one["alternative"] == "greater").all()
 
 
 def test_paper_rule_case_is_detected_by_strict_majority_and_cannot_judge_is_apart():

@@ -19,6 +19,7 @@ from faultlab.stats.killmatrix import (KillMatrix, StudySpec, bootstrap_probabil
                                        detection_probability, detection_table, draw_suites, evaluate_suites,
                                        judge_suite, kill_matrix, score_table, strong_cases, study_spec,
                                        suite_detects, suite_kills, suite_rejections)
+from faultlab.stats.verdict import min_pairs
 
 ALPHA = 0.05
 
@@ -50,7 +51,9 @@ def hand_matrix() -> KillMatrix:
                           "run": 1, "case": list(range(1, 7)) + list(range(1, 6))})
     return KillMatrix(cases=cases, variants=("fault_a", "fault_b", "mutant:x"), p=p, crash=crash,
                       timeout=np.zeros(p.shape, bool), judged=judged,
-                      paper=paper, mean_diff_mm=np.where(np.isnan(p), np.nan, 100.0))
+                      paper=paper, mean_diff_mm=np.where(np.isnan(p), np.nan, 100.0),
+                      direction=np.full(p.shape, "worse", dtype=object),
+                      mean_log_ratio=np.where(np.isnan(p), np.nan, 0.1))
 
 
 def textbook_holm(p, alpha) -> list[bool]:
@@ -224,11 +227,15 @@ def _results(diffs: dict, *, k: int = 6) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _sign_flip_p(d) -> float:
-    """Textbook enumeration of the 2^K sign patterns: share with mean >= the observed mean."""
+def _sign_flip_p(d, two_sided=True) -> float:
+    """Textbook enumeration of the 2^K sign patterns: share with mean >= the observed mean
+    (two-sided: twice the smaller tail, at most 1)."""
     d = np.asarray(d, float)
     signs = np.array(list(itertools.product([1, -1], repeat=d.size)))
-    return float(np.mean((signs * d).mean(axis=1) >= d.mean() - 1e-9))
+    means = (signs * d).mean(axis=1)
+    greater = float(np.mean(means >= d.mean() - 1e-9))
+    less = float(np.mean(means <= d.mean() + 1e-9))
+    return min(1.0, 2 * min(greater, less)) if two_sided else greater
 
 
 def test_kill_matrix_holds_the_exact_p_value_crash_and_paper_flag_of_every_case():
@@ -244,6 +251,9 @@ def test_kill_matrix_holds_the_exact_p_value_crash_and_paper_flag_of_every_case(
     assert frame.loc[("random", 1, "f"), "p"] == pytest.approx(_sign_flip_p(up))
     assert frame.loc[("random", 1, "g"), "p"] == pytest.approx(_sign_flip_p(mixed))
     assert frame.loc[("pairwise", 1, "f"), "p"] == 1.0
+    assert frame.loc[("random", 1, "f"), "direction"] == "worse" and frame.loc[("pairwise", 1, "f"), "direction"] == "none"
+    one = kill_matrix(res, rule=DetectionRule(direction="worse")).to_frame().set_index(["strategy", "case", "variant"])
+    assert one.loc[("random", 1, "f"), "p"] == pytest.approx(_sign_flip_p(up, two_sided=False))
     assert bool(frame.loc[("random", 2, "g"), "crash"]) and np.isnan(frame.loc[("random", 2, "g"), "p"])
     assert bool(frame.loc[("random", 1, "f"), "paper"]) and not bool(frame.loc[("random", 1, "g"), "paper"])
     assert frame["judged"].all()
@@ -254,9 +264,61 @@ def test_kill_matrix_holds_the_exact_p_value_crash_and_paper_flag_of_every_case(
     back = KillMatrix.from_frame(km.to_frame())
     np.testing.assert_array_equal(back.p, km.p)
     np.testing.assert_array_equal(back.crash, km.crash)
+    np.testing.assert_array_equal(back.direction, km.direction)
     with pytest.raises(ResultsError, match="cases x"):
         KillMatrix.from_frame(km.to_frame().iloc[1:])
 
+
+def test_a_mutant_that_only_improves_the_map_is_killed_by_the_two_sided_rule():
+    """Every repetition better by 200-300 mm: the two-sided rule kills, the paper's one-sided one does not."""
+    better = [-200, -250, -300, -220, -280, -260, -240, -210, -230]
+    res = _results({("random", 1): {"mutant:x": better, "f": [3, -2, 4, -1, 2, -3, 1, -4, 5]}}, k=9)
+    km = kill_matrix(res, rule=DetectionRule())
+    j = km.variants.index("mutant:x")
+    assert km.p[0, j] == pytest.approx(_sign_flip_p(better)) == 2.0 ** -8
+    assert km.direction[0, j] == "better"
+    assert judge_suite(km, [0]).set_index("variant").loc["mutant:x", "detected"]
+    one = kill_matrix(res, rule=DetectionRule(direction="worse"))
+    assert one.p[0, j] == 1.0 and not judge_suite(one, [0]).set_index("variant").loc["mutant:x", "detected"]
+
+
+def test_exact_detection_interval_is_clopper_pearson_mapped_to_n_cases_and_never_zero_width():
+    from scipy.stats import beta
+
+    from faultlab.stats.killmatrix import exact_detection_interval
+
+    lo, hi = exact_detection_interval([0, 16, 5], 16, 1)
+    assert lo[0] == 0.0 and hi[0] == pytest.approx(beta.ppf(0.975, 1, 16))      # 0/16: up to 21 % per case
+    assert hi[1] == 1.0 and lo[1] == pytest.approx(beta.ppf(0.025, 16, 1))
+    assert np.all(hi > lo)
+    lo5, hi5 = exact_detection_interval([5], 16, 5)
+    assert lo5[0] == pytest.approx(1 - (1 - beta.ppf(0.025, 5, 12)) ** 5)
+    assert hi5[0] == pytest.approx(1 - (1 - beta.ppf(0.975, 6, 11)) ** 5)
+
+
+def test_smallest_showable_difference_is_the_exact_mcnemar_floor():
+    from statsmodels.stats.contingency_tables import mcnemar
+
+    from faultlab.stats.killmatrix import smallest_showable_difference
+
+    for m in (10, 150):
+        d = round(smallest_showable_difference(m) * m)
+        assert mcnemar([[0, d], [0, m - d]], exact=True).pvalue <= 0.05
+        assert mcnemar([[0, d - 1], [0, m - d + 1]], exact=True).pvalue > 0.05
+
+
+def test_judge_suite_pools_a_diffuse_effect_the_per_case_minimum_misses():
+    """12 cases, every one 15-25 % worse in most repetitions but none significantly so at 0.05 / 12."""
+    rng = np.random.default_rng(8)
+    diffs = {("random", c): {"diffuse": list(1000.0 * (np.exp(rng.normal(0.2, 0.35, 9)) - 1)),
+                             "none": list(rng.normal(0.0, 30.0, 9))} for c in range(1, 13)}
+    km = kill_matrix(_results(diffs, k=9), rule=DetectionRule())
+    j = judge_suite(km, np.arange(12)).set_index("variant")
+    means = km.mean_log_ratio[:, km.variants.index("diffuse")]
+    assert j.loc["diffuse", "pooled_p"] == pytest.approx(_sign_flip_p(means))  # exact, over the case means
+    assert not j.loc["diffuse", "detected"] and j.loc["diffuse", "detected_pooled"]
+    assert j.loc["diffuse", "by_pool"] and not j.loc["diffuse", "by_case"]
+    assert not j.loc["none", "detected_pooled"]
 
 # -- the per-case kill of a mutation campaign, the [study] table --------------------------------
 
@@ -279,11 +341,26 @@ def test_case_kill_classes_follow_the_exact_paired_test_at_the_case_level():
     df = _kill_frame({"mutant:a": np.full(k, 50.0), "mutant:b": np.array([50.0] * 6 + [-5.0]),
                  "mutant:c": np.zeros(k), "mutant:d": np.zeros(k), "mutant:e": np.zeros(k)},
                 k, status={"mutant:d": "crash", "mutant:e": "timeout"})
-    kills = suite_kills(df, case_alpha=0.01).set_index("fault")["kill"]
+    kills = suite_kills(df, case_alpha=0.01, direction="worse").set_index("fault")["kill"]
     # b: sum 295; only b itself and the all-positive pattern (305) reach it: p = 2/128 = 0.0156 > 0.01
     assert kills.to_dict() == {"mutant:a": "killed", "mutant:b": "", "mutant:c": "", "mutant:d": "crash",
                                "mutant:e": "timeout"}
-    assert suite_kills(df, case_alpha=0.02).set_index("fault")["kill"]["mutant:b"] == "killed"
+    assert suite_kills(df, case_alpha=0.02, direction="worse").set_index("fault")["kill"]["mutant:b"] == "killed"
+    # two-sided (the default) at 0.01 needs K = 8: with K = 7 no case can be judged
+    two = suite_kills(df, case_alpha=0.01).set_index("fault")
+    assert two.loc["mutant:a", "kill"] == "" and two.loc["mutant:a", "reason"] == "too_few_pairs"
+
+
+def test_a_mutant_that_only_improves_is_killed_by_the_two_sided_case_rule():
+    k = min_pairs(0.01, alternative="two-sided")
+    assert k == 8
+    df = _kill_frame({"mutant:better": np.full(k, -50.0), "mutant:worse": np.full(k, 50.0)}, k)
+    two = suite_kills(df, case_alpha=0.01).set_index("fault")
+    assert two.loc["mutant:better", "kill"] == "killed" and two.loc["mutant:better", "direction"] == "better"
+    assert two.loc["mutant:worse", "kill"] == "killed" and two.loc["mutant:worse", "direction"] == "worse"
+    assert two.loc["mutant:better", "p"] == 2.0 ** -7
+    one = suite_kills(df, case_alpha=0.01, direction="worse").set_index("fault")
+    assert one.loc["mutant:better", "kill"] == "" and one.loc["mutant:worse", "kill"] == "killed"
 
 
 def test_study_spec_defaults_and_types():

@@ -3,6 +3,7 @@ from math import comb
 
 import numpy as np
 import pytest
+from scipy.stats import rankdata
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import mannwhitneyu
@@ -158,13 +159,35 @@ def test_asymptotic_only_when_asked_and_bad_methods_are_refused():
             oracle_detections(one_case(x, y), method=bad)
 
 
-def test_large_samples_exact_without_ties_and_refused_with_ties():
+def _exact_tied_p(x, y) -> float:
+    """Exact one-sided permutation p of U with ties: the distribution of the sum of the pooled midranks
+    (doubled to integers) over all subsets of size n, by dynamic programming over the pooled values."""
+    ranks = (2 * rankdata(np.concatenate([x, y]))).astype(int)
+    n = len(x)
+    top = int(ranks.sum())
+    ways = np.zeros((n + 1, top + 1), dtype=object)  # ways[j, s]: subsets of j values with doubled sum s
+    ways[0, 0] = 1
+    for r in ranks:
+        ways[1:, r:] = ways[1:, r:] + ways[:-1, :top + 1 - r]
+    observed = int(ranks[:n].sum())
+    return float(sum(ways[n, observed:]) / comb(len(ranks), n))
+
+
+def test_large_samples_exact_without_ties_and_seeded_monte_carlo_with_ties():
     rng = np.random.default_rng(4)
     x, y = rng.normal(1.0, 1.0, 12), rng.normal(0.0, 1.0, 12)
     table = oracle_detections(one_case(x, y))
     assert table.loc[0, "p"] == pytest.approx(mannwhitneyu(x, y, alternative="greater", method="exact").pvalue)
+    assert table.loc[0, "p_mc_se"] == 0.0
     y[3] = x[5]  # one tie: C(24, 12) splits are too many to enumerate
-    with pytest.raises(ConfigError, match=r"random run 1 case 1, naive_resampling.*asymptotic"):
-        oracle_detections(one_case(x, y))
-    assert np.isfinite(oracle_detections(one_case(x, y), method="asymptotic").loc[0, "p"])
+    tied = oracle_detections(one_case(x, y))
+    assert tied.loc[0, "p_mc_se"] > 0
+    assert abs(tied.loc[0, "p"] - _exact_tied_p(x, y)) <= 4 * tied.loc[0, "p_mc_se"] + 1e-4
+    assert oracle_detections(one_case(x, y)).equals(tied)  # seeded: the same p again
+    with pytest.raises(ConfigError, match="rng"):
+        mann_whitney_p(x, y)
+    # an equivalent variant reproducing the baseline bit for bit (every value tied): the oracle still answers
+    same = oracle_detections(one_case(y.copy(), y))
+    assert abs(same.loc[0, "p"] - _exact_tied_p(y, y)) <= 4 * same.loc[0, "p_mc_se"] + 1e-4
+    assert not same.loc[0, "detected"]
     assert comb(18, 9) <= MAX_TIED_SPLITS < comb(20, 10)

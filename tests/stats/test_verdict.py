@@ -21,6 +21,7 @@ from faultlab.stats.verdict import (
     case_verdicts,
     clustered_rate,
     detectable_shift_factor,
+    median_interval,
     min_p_value,
     min_pairs,
     sign_flip_pvalues,
@@ -28,13 +29,18 @@ from faultlab.stats.verdict import (
 from tests.stats.synthetic import frame, job
 
 
-def brute_force_p(d) -> Fraction:
-    """Share of the 2^K sign patterns whose sum is >= the observed sum, in exact integer arithmetic."""
+def brute_force_p(d, alternative="greater") -> Fraction:
+    """Share of the 2^K sign patterns whose sum is >= the observed sum (<= for "less"; twice the
+    smaller, at most 1, for "two-sided"), in exact integer arithmetic."""
+    if alternative == "two-sided":
+        return min(Fraction(1), 2 * min(brute_force_p(d, "greater"), brute_force_p(d, "less")))
     d = [Fraction(x) for x in d]
     scale = math.lcm(*(x.denominator for x in d))
     ints = np.array([int(x * scale) for x in d], dtype=np.int64)
     signs = np.array(list(itertools.product((1, -1), repeat=len(d))), dtype=np.int64)
-    return Fraction(int(np.sum(signs @ ints >= ints.sum())), 2 ** len(d))
+    sums = signs @ ints
+    hits = sums >= ints.sum() if alternative == "greater" else sums <= ints.sum()
+    return Fraction(int(np.sum(hits)), 2 ** len(d))
 
 
 #: Differences on a grid of 1/8 between -4 and 4 (exact in binary floating point, many ties and zeros).
@@ -58,6 +64,42 @@ def test_p_values_equal_brute_force_enumeration_for_every_k(k):
 @given(st.lists(dyadic, min_size=1, max_size=9))
 def test_p_values_equal_brute_force_with_ties_and_zeros(d):
     assert sign_flip_pvalues(np.array(d)) == float(brute_force_p(d))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(dyadic, min_size=1, max_size=9), st.sampled_from(["less", "two-sided"]))
+def test_other_alternatives_equal_brute_force(d, alternative):
+    assert sign_flip_pvalues(np.array(d), alternative=alternative) == pytest.approx(
+        float(brute_force_p(d, alternative)), abs=1e-12)
+
+
+def test_two_sided_floor_and_the_pairs_it_needs():
+    for k in range(1, 13):
+        # all of one sign: the two extreme patterns
+        assert sign_flip_pvalues(-np.arange(1.0, k + 1), alternative="two-sided") == min(1.0, 2.0 ** (1 - k))
+        assert min_p_value(k, alternative="two-sided") == min(1.0, 2.0 ** (1 - k))
+    for alpha in (0.1, 0.05, 0.01, 0.05 / 15, 0.05 / 45, 0.001):
+        for alt in ("greater", "two-sided"):
+            k = min_pairs(alpha, alternative=alt)
+            assert min_p_value(k, alternative=alt) <= alpha < min_p_value(k - 1, alternative=alt)
+    assert (min_pairs(0.05 / 45), min_pairs(0.05 / 45, alternative="two-sided")) == (10, 11)
+    with pytest.raises(ConfigError, match="alternative"):
+        sign_flip_pvalues([1.0, 2.0], alternative="worse")
+
+
+def test_median_interval_is_the_order_statistic_interval_with_its_exact_coverage():
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(4000, 10))
+    lo, hi, cover = median_interval(x, level=0.95)
+    # K = 10: [x_(2), x_(9)] covers with 1 - 2 P(B <= 1) = 1 - 22/1024
+    assert cover == pytest.approx(1 - 22 / 1024)
+    s = np.sort(x, axis=1)
+    assert np.array_equal(lo, s[:, 1]) and np.array_equal(hi, s[:, 8])
+    # simulated coverage of the true median 0 (binomial error of 4000 draws: sd 0.23 pp)
+    assert np.mean((lo <= 0) & (0 <= hi)) == pytest.approx(cover, abs=0.01)
+    # too few values for 95 %: the widest interval with its smaller coverage
+    lo, hi, cover = median_interval(x[:, :5], level=0.95)
+    assert cover == pytest.approx(1 - 2 / 32) and np.array_equal(lo, x[:, :5].min(axis=1))
 
 
 def test_hand_computed_values():
@@ -189,7 +231,7 @@ def campaign(k=8, *, seed=0, shifts=(0.0, 600.0, 150.0), statuses=None, base_sta
 
 
 def test_verdicts_follow_the_exact_test_on_pairs_matched_by_repetition():
-    res = campaign()
+    res = campaign(seed=1)  # seed 0 draws a no-effect case whose noise alone is two-sided significant
     shuffled = res.sample(frac=1.0, random_state=1)  # pairing is by repetition, not by row order
     table = case_verdicts(shuffled).set_index(["case", "fault"])
     assert len(table) == 6
@@ -197,17 +239,39 @@ def test_verdicts_follow_the_exact_test_on_pairs_matched_by_repetition():
         f = res[(res["case"] == case) & (res["variant"] == fault)].set_index("rep")["rms_mm"]
         b = res[(res["case"] == case) & (res["variant"] == "baseline")].set_index("rep")["rms_mm"]
         d = (f - b.reindex(f.index)).to_numpy()
-        assert row["p"] == pytest.approx(float(brute_force_p(d)), abs=1e-12)
+        assert row["p"] == pytest.approx(float(brute_force_p(d, "two-sided")), abs=1e-12)
+        assert row["alternative"] == "two-sided"
+        assert row["direction"] == ("worse" if d.mean() > 0 else "better")
+        s = np.sort(d)
+        assert (row["median_low_mm"], row["median_high_mm"]) == (s[0], s[7])  # K = 8: 1 - 2/256 >= 95 %
+        r = np.sort(f.to_numpy() / b.reindex(f.index).to_numpy())
+        assert row["ratio"] == pytest.approx(np.median(r)) and (row["ratio_low"], row["ratio_high"]) == (r[0], r[7])
         assert row["verdict"] == (Verdict.DETECTED if row["p"] <= 0.05 else Verdict.NOT_DETECTED)
         assert row["detected"] == (row["p"] <= 0.05)
         assert row["n_pairs"] == row["n_reps"] == 8 and row["n_failed"] == 0 and row["reason"] == ""
         assert row["mean_diff_mm"] == pytest.approx(d.mean()) and row["median_diff_mm"] == pytest.approx(np.median(d))
-        assert row["p_min"] == 2.0 ** -8
+        assert row["p_min"] == 2.0 ** -7
         sd = np.std(b.to_numpy(), ddof=1)
         assert row["baseline_sd_mm"] == pytest.approx(sd)
-        assert row["mde_mm"] == pytest.approx(detectable_shift_factor(8) * math.sqrt(2.0) * sd)
+        assert row["mde_mm"] == pytest.approx(detectable_shift_factor(8, alternative="two-sided")
+                                              * math.sqrt(2.0) * sd)
     assert table.loc[(2, "motion_sign_error"), "verdict"] == Verdict.DETECTED
     assert table.loc[(1, "naive_resampling"), "verdict"] == Verdict.NOT_DETECTED
+
+
+def test_a_planted_improving_fault_is_a_change_with_direction_better():
+    """A fault that lowers the error on every case: the two-sided rule detects it as "better" with
+    its effect; the paper's one-sided notion does not detect it."""
+    res = campaign(k=10, seed=2, shifts=(-120.0, -200.0, -300.0))
+    two = case_verdicts(res).set_index(["case", "fault"])
+    assert (two["verdict"] == Verdict.DETECTED).all() and (two["direction"] == "better").all()
+    assert (two["median_high_mm"] < 0).all() and (two["ratio_high"] < 1).all()
+    for (case, fault), row in two.iterrows():  # the planted shift lies in the effect interval
+        planted = (1 + FAULTS.index(fault)) * (-120.0, -200.0, -300.0)[case - 1]
+        assert row["median_low_mm"] < planted < row["median_high_mm"]
+    one = case_verdicts(res, direction="worse")
+    assert (one["verdict"] == Verdict.NOT_DETECTED).all() and (one["p"] > 0.9).all()
+    assert (one["alternative"] == "greater").all()
 
 
 def test_a_failure_of_the_faulty_variant_alone_is_a_detection():
@@ -237,15 +301,17 @@ def test_too_few_pairs_cannot_be_judged_at_that_alpha():
     table = case_verdicts(res, alpha=0.05)
     assert (table["verdict"] == Verdict.CANNOT_JUDGE).all() and (table["reason"] == "too_few_pairs").all()
     assert np.isinf(table["mde_mm"]).all() and table["detected"].isna().all()
-    lenient = case_verdicts(res, alpha=0.1)  # 2^-4 = 0.0625 <= 0.1
+    lenient = case_verdicts(res, alpha=0.1, direction="worse")  # one-sided 2^-4 = 0.0625 <= 0.1
     assert (lenient["verdict"] == Verdict.DETECTED).all() and (lenient["p"] == 2.0 ** -4).all()
+    two_sided = case_verdicts(res, alpha=0.1)  # two-sided 2^-3 > 0.1
+    assert (two_sided["reason"] == "too_few_pairs").all()
     strict = case_verdicts(campaign(k=6, shifts=(5000.0,)), min_pairs_required=7)
     assert (strict["reason"] == "too_few_pairs").all()
     # a missing faulty job leaves fewer pairs
-    res6 = campaign(k=5, shifts=(5000.0,))
+    res6 = campaign(k=6, shifts=(5000.0,))
     res6 = res6[~((res6["variant"] == "naive_resampling") & (res6["rep"] == 2))]
     row = case_verdicts(res6).set_index("fault").loc["naive_resampling"]
-    assert (row["verdict"], row["n_reps"], row["n_pairs"]) == (Verdict.CANNOT_JUDGE, 4, 4)
+    assert (row["verdict"], row["n_reps"], row["n_pairs"]) == (Verdict.CANNOT_JUDGE, 5, 5)
 
 
 def test_vectorised_verdicts_equal_one_case_at_a_time():
@@ -342,3 +408,43 @@ def test_clustered_interval_keeps_its_coverage_where_the_binomial_one_does_not()
         naive += lo <= rate <= hi
     assert 0.91 <= covered / n_sim <= 0.99  # nominal 0.95; Monte Carlo standard error 0.013
     assert naive / n_sim < 0.85             # the binomial interval treats 180 trials as independent
+
+
+def test_equivalence_is_tost_with_the_shifted_exact_test_and_identity_is_observed():
+    rng = np.random.default_rng(4)
+    k, rows = 10, []
+    base = rng.normal(1000.0, 30.0, k)
+    for rep in range(k):
+        rows.append(job(1, "fixed", 1, "baseline", rep, base[rep]))
+        rows.append(job(1, "fixed", 1, "naive_resampling", rep, base[rep] + rng.normal(0.0, 10.0)))  # within 10 %
+        rows.append(job(1, "fixed", 1, "motion_sign_error", rep, base[rep] + 95.0 + rng.normal(0.0, 10.0)))
+        rows.append(job(1, "fixed", 1, "missing_angle_wrap", rep, base[rep]))                         # bit-identical
+    res = frame(rows)
+    table = case_verdicts(res).set_index("fault")
+    delta = 0.10 * np.median(base)
+    for fault, row in table.iterrows():
+        d = res[res["variant"] == fault]["rms_mm"].to_numpy() - base
+        # the larger of the two one-sided p values on the shifted differences, by enumeration
+        expect = max(brute_force_p(d + delta, "greater"), brute_force_p(d - delta, "less"))
+        assert row["margin_mm"] == pytest.approx(delta)
+        assert row["p_equivalence"] == pytest.approx(float(expect), abs=1e-12)
+    assert table.loc["naive_resampling", "p_equivalence"] <= 0.05          # equivalent within +-10 %
+    assert table.loc["motion_sign_error", "p_equivalence"] > 0.05          # 95 mm of 100: not shown
+    assert table.loc["missing_angle_wrap", "identical"] and not table.loc["naive_resampling", "identical"]
+    assert np.isnan(table.loc["missing_angle_wrap", "median_low_mm"])     # no interval from identical runs
+    # an absolute margin replaces a smaller relative one
+    wide = case_verdicts(res, margin_mm=200.0).set_index("fault")
+    assert wide.loc["motion_sign_error", "p_equivalence"] <= 0.05
+    with pytest.raises(ConfigError, match="margin_rel"):
+        case_verdicts(res, margin_rel=-0.1)
+
+
+@pytest.mark.parametrize("k,n,alternative", [(10, 15, "two-sided"), (8, 5, "two-sided"), (7, 5, "greater")])
+def test_smallest_detectable_shift_has_its_power_at_the_decisions_level(k, n, alternative):
+    """Simulated with an independent generator: the shift c(K) sigma is detected by the decision's test
+    (its sidedness, Holm's first step alpha / n) with 80 % power, within 2 percentage points."""
+    level = 0.05 / n
+    c = detectable_shift_factor(k, alpha=level, alternative=alternative)
+    e = np.random.default_rng(np.random.SeedSequence(99)).standard_normal((8000, k))
+    p = sign_flip_pvalues(c + e, alternative=alternative)
+    assert np.mean(p <= level) == pytest.approx(0.8, abs=0.02)

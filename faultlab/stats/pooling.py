@@ -1,0 +1,207 @@
+"""Suite-level pooling: the case as the unit, beside the per-case minimum.
+
+A suite's per-case rule (some case rejects after Holm or Bonferroni over the suite's ``n`` cases,
+:mod:`faultlab.stats.killmatrix`) detects a *concentrated* effect -- a large change on few cases.
+It misses by design a *diffuse* effect, a small change on most cases that no single case's ``K``
+repetitions can show at ``alpha / n``.  The pooled test looks at the suite as a whole:
+
+Pooled test
+-----------
+Per case ``i`` the mean over its usable repetitions of the log ratio
+``l_ir = log(faulty_ir / baseline_ir)`` (:func:`case_log_ratio_means`): the log ratio keeps a
+case with a 5 m error from outweighing one with 50 mm.  Under "the variant changes nothing" the
+``K`` paired runs of a case are exchangeable (common random numbers), so each case mean is
+symmetric about 0, independently across cases, and the exact sign-flip test over the ``n`` case
+means (:func:`pooled_pvalues`, ``2^n`` patterns, enumerated up to ``n = MAX_EXACT_PAIRS``; beyond,
+a seeded Monte Carlo with its standard error) tests "the variant shifts the error on this suite"
+with the case as the unit -- no pseudo-replication, no normal approximation.  Two-sided by
+default.  Its smallest p value is that of the per-case test with ``n`` in place of ``K``
+(``2^-(n-1)`` two-sided), so it can reject at ``alpha / 2 = 0.025`` only from
+``min_pairs(0.025, two-sided) = 7`` cases: pooling adds nothing to suites of 5 cases (the paper's).
+
+Combining the two (:func:`suite_decisions`)
+-------------------------------------------
+``"both"`` (default): the suite detects when the per-case minimum rejects at ``alpha / 2``
+(Holm's first step ``alpha / (2 n)``) *or* the pooled test rejects at ``alpha / 2``: by
+Bonferroni the family-wise level stays ``alpha``.  ``"min"`` and ``"pooled"`` use one test at
+``alpha``.  The choice of ``"both"`` comes from :func:`pooling_power` (committed output:
+``reports/pooling/power.csv``, see ``docs/explanation/suite-pooling.md``): on diffuse effects the
+per-case minimum has almost no power where the pooled test has nearly full power, on a
+concentrated effect the pooled test over ``n`` cases has almost none; halving each level costs
+each test a few points of power on its own kind of effect and buys both.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+from scipy.stats import permutation_test
+
+from faultlab.errors import ConfigError
+from faultlab.seeds import study_seed_sequence
+from faultlab.stats.verdict import MAX_EXACT_PAIRS, min_pairs, sign_flip_pvalues
+from faultlab.vocabulary import DEFAULT_ALPHA
+
+__all__ = ["COMBINATIONS", "DEFAULT_COMBINATION", "MONTE_CARLO_RESAMPLES", "case_log_ratio_means",
+           "pooled_pvalues", "suite_decisions", "pooling_power"]
+
+#: How the per-case minimum and the pooled test combine into a suite's verdict.
+COMBINATIONS: tuple[str, ...] = ("both", "min", "pooled")
+#: The combination the power simulation supports (module docstring).
+DEFAULT_COMBINATION = "both"
+#: Sign patterns drawn when a suite has more than ``MAX_EXACT_PAIRS`` cases.
+MONTE_CARLO_RESAMPLES = 99_999
+
+
+def case_log_ratio_means(faulty, baseline) -> np.ndarray:
+    """Per case, the mean over the repetitions of ``log(faulty / baseline)``.
+
+    Parameters
+    ----------
+    faulty, baseline : array_like, shape (..., K)
+        Paired map errors (positive; NaN marks an unusable pair, left out of the mean).
+
+    Returns
+    -------
+    ndarray, shape (...,)
+        NaN for a case without a usable pair.
+    """
+    f = np.asarray(faulty, dtype=float)
+    b = np.asarray(baseline, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lr = np.log(f / b)
+    lr = np.where(np.isfinite(lr), lr, np.nan)
+    ok = np.isfinite(lr)
+    n = ok.sum(axis=-1)
+    with np.errstate(invalid="ignore"):
+        return np.where(n > 0, np.where(ok, lr, 0.0).sum(axis=-1) / np.maximum(n, 1), np.nan)
+
+
+def _mean(x, axis):
+    return np.mean(x, axis=axis)
+
+
+def pooled_pvalues(case_means, *, alternative: str = "two-sided", rng: np.random.Generator | None = None,
+                   resamples: int = MONTE_CARLO_RESAMPLES) -> tuple[np.ndarray, float]:
+    """Exact sign-flip p value over each suite's case means (the case as the unit).
+
+    Parameters
+    ----------
+    case_means : array_like, shape (m, n)
+        One suite per row, its ``n`` case means (finite; cases without a usable pair must be left
+        out by the caller).
+    alternative : {"two-sided", "greater", "less"}
+    rng : numpy.random.Generator, optional
+        Needed only when ``n > MAX_EXACT_PAIRS`` (Monte Carlo over ``resamples`` sign patterns).
+    resamples : int
+
+    Returns
+    -------
+    p : ndarray, shape (m,)
+    mc_se : float
+        Largest Monte Carlo standard error of a p value (0 when enumerated).
+    """
+    x = np.atleast_2d(np.asarray(case_means, dtype=float))
+    if x.shape[1] <= MAX_EXACT_PAIRS:
+        return np.atleast_1d(sign_flip_pvalues(x, alternative=alternative)), 0.0
+    if rng is None:
+        raise ConfigError(f"pooled_pvalues: {x.shape[1]} cases exceed the {MAX_EXACT_PAIRS} the exact test "
+                          "enumerates; a Monte Carlo test needs an rng")
+    res = permutation_test((x,), _mean, permutation_type="samples", n_resamples=resamples, alternative=alternative,
+                           vectorized=True, axis=-1, random_state=rng)
+    p = np.asarray(res.pvalue, dtype=float).reshape(-1)
+    return p, float(np.sqrt(np.max(p * (1 - p)) / resamples))
+
+
+def suite_decisions(case_p, pooled_p, crash, *, alpha: float = DEFAULT_ALPHA,
+                    combination: str = DEFAULT_COMBINATION) -> pd.DataFrame:
+    """Whether each suite detects, by the per-case minimum, the pooled test, or both at ``alpha / 2``.
+
+    Parameters
+    ----------
+    case_p : array_like, shape (m, n)
+        Per-case p values of each suite (NaN: untested, counts as 1).
+    pooled_p : array_like, shape (m,)
+        :func:`pooled_pvalues` of each suite (NaN: not pooled, counts as 1).
+    crash : array_like of bool, shape (m, n)
+        Failures of the variant alone that count as detections.
+    alpha : float
+        Family-wise level of one suite's decision.
+    combination : {"both", "min", "pooled"}
+
+    Returns
+    -------
+    DataFrame
+        One row per suite: ``by_case`` (some case's p <= the per-case level ``a / n``),
+        ``by_pool`` (pooled p <= ``a``), ``crashed`` and ``detected``, with ``a = alpha / 2``
+        for ``"both"``, ``alpha`` otherwise (the unused test's column is False).
+    """
+    if combination not in COMBINATIONS:
+        raise ConfigError(f"suite_decisions: combination must be one of {', '.join(COMBINATIONS)}, "
+                          f"got {combination!r}")
+    if not 0 < alpha < 1:
+        raise ConfigError(f"suite_decisions: alpha must lie in (0, 1), got {alpha!r}")
+    p = np.atleast_2d(np.asarray(case_p, dtype=float))
+    p = np.where(np.isnan(p), 1.0, p)
+    pooled = np.asarray(pooled_p, dtype=float).reshape(-1)
+    pooled = np.where(np.isnan(pooled), 1.0, pooled)
+    crashed = np.atleast_2d(np.asarray(crash, dtype=bool)).any(axis=1)
+    level = alpha / 2 if combination == "both" else alpha
+    n = p.shape[1]
+    by_case = (p.min(axis=1) <= level / n) if combination != "pooled" else np.zeros(p.shape[0], bool)
+    by_pool = (pooled <= level) if combination != "min" else np.zeros(p.shape[0], bool)
+    return pd.DataFrame({"by_case": by_case, "by_pool": by_pool, "crashed": crashed,
+                         "detected": crashed | by_case | by_pool})
+
+
+def pooling_power(*, n_cases: int = 10, k: int = 11, draws: int = 1000, alpha: float = DEFAULT_ALPHA,
+                  seed: int = 20261125, diffuse=(0.1, 0.2, 0.3), concentrated=(1.0, 1.5, 2.0)) -> pd.DataFrame:
+    """Power of the three combinations on planted diffuse and concentrated effects (simulation).
+
+    Model: per case and repetition the log ratio ``l_ir = shift_i + e_ir``, ``e_ir ~ N(0, 1)``
+    (shifts in units of one repetition's noise).  *Diffuse*: the same shift on every case;
+    *concentrated*: the shift on one case only; *null*: no shift (the family-wise false alarm
+    rate).  Per-case p values: the exact two-sided sign-flip test over the ``K`` log ratios;
+    pooled p: the exact two-sided sign-flip test over the ``n`` case means.  ``k`` defaults to
+    the fewest repetitions with which one case of ``n`` can reject two-sided at ``alpha / (2 n)``.
+
+    Returns
+    -------
+    DataFrame
+        ``effect, shift, n_cases, k, draws, combination, power, mc_se``.
+    """
+    if k < min_pairs(alpha / (2 * n_cases), alternative="two-sided"):
+        raise ConfigError(f"pooling_power: K = {k} cannot reach alpha / (2 n) two-sided")
+    scenarios = [("null", 0.0)] + [("diffuse", s) for s in diffuse] + [("concentrated", s) for s in concentrated]
+    rows = []
+    for effect, shift in scenarios:  # one stream per scenario
+        rng = np.random.default_rng(study_seed_sequence(seed, "pooling", effect, round(1000 * shift)))
+        e = rng.standard_normal((draws, n_cases, k))
+        shifts = np.zeros(n_cases)
+        if effect == "diffuse":
+            shifts[:] = shift
+        elif effect == "concentrated":
+            shifts[0] = shift
+        lr = e + shifts[None, :, None]
+        case_p = sign_flip_pvalues(lr.reshape(-1, k), alternative="two-sided").reshape(draws, n_cases)
+        pooled, _ = pooled_pvalues(lr.mean(axis=2), alternative="two-sided")
+        crash = np.zeros((draws, n_cases), bool)
+        for combination in COMBINATIONS:
+            det = suite_decisions(case_p, pooled, crash, alpha=alpha, combination=combination)["detected"]
+            power = float(det.mean())
+            rows.append({"effect": effect, "shift": shift, "n_cases": n_cases, "k": k, "draws": draws,
+                         "combination": combination, "power": power,
+                         "mc_se": math.sqrt(power * (1 - power) / draws)})
+    return pd.DataFrame(rows)
+
+
+if __name__ == "__main__":  # pragma: no cover - writes the committed simulation output
+    import sys
+    from pathlib import Path
+
+    target = Path(sys.argv[1] if len(sys.argv) > 1 else "reports/pooling/power.csv")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    pooling_power().to_csv(target, index=False, float_format="%.4g")
+    print(target)
