@@ -50,6 +50,7 @@ from faultlab.faults.sensor import SensorFault
 from faultlab.runner.variants import resolve_variant
 from faultlab.metrics import map_errors
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec
+from faultlab.scenario.feed import fed_scenario, perturbs_stream
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.slam.protocol import Estimate, SlamAdapter, association_of, run_slam, run_slam_batch
 from faultlab.slam.twins import warm_up
@@ -231,13 +232,11 @@ def _fed(spec: JobSpec, scenario: Scenario) -> Scenario:
 
     The metrics always score against ``scenario`` itself (the ground truth).
     """
-    fault = resolve_variant(spec.key.variant)
-    return fault.perturb(scenario, seed=spec.seed) if isinstance(fault, SensorFault) else scenario
+    return fed_scenario(resolve_variant(spec.key.variant), scenario, seed=spec.seed)
 
 
 def _perturbs_stream(spec: JobSpec) -> bool:
-    fault = resolve_variant(spec.key.variant)
-    return isinstance(fault, SensorFault) and fault.perturbs_stream
+    return perturbs_stream(resolve_variant(spec.key.variant))
 
 
 def _score(spec: JobSpec, scenario: Scenario, estimate: Estimate, runtime: float, *, association: str) -> JobResult:
