@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import count_expected_jobs, read_rule
+from faultlab.analysis.metadata import count_expected_jobs, judged_metric, read_rule
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
@@ -184,7 +184,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         raise ResultsError(f"{out}: K = {k} repetitions reach no suite size's per-case level with the "
                            f"{alternative} test (sizes {list(spec.sizes)})")
     spec = dataclasses.replace(spec, sizes=tuple(n for n in spec.sizes if n not in too_large))
-    km = kill_matrix(results, rule=rule, metric=exp.get("metric", "rms"))
+    km = kill_matrix(results, rule=rule, metric=judged_metric(meta))
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))
     ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
                          alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,

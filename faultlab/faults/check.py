@@ -220,7 +220,7 @@ def _num(x: float) -> str:
 
 def _rms_mm(scenario, estimate) -> float:
     try:
-        return float(map_errors(scenario, estimate, emd=False).rms_mm)
+        return float(map_errors(scenario, estimate, metrics=("rms",)).rms_mm)
     except Exception:  # a malformed faulty estimate has no map error
         return math.nan
 
