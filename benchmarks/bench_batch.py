@@ -10,7 +10,7 @@ particle-observation updates per second per core (N x observations / CPU time) a
 of the batch.  Then, in a fresh process, the peak memory (``resource.getrusage`` max RSS) of the
 largest case at K repetitions.  The load average is printed before and after; the figures are
 CPU times of this process, the best of ``--rounds`` alternations.  Like the campaign's workers, the
-benchmark first tunes glibc's allocator (:func:`faultlab.runner.execute.tune_allocator`;
+benchmark first tunes glibc's allocator (:func:`faultlab.runner.execution.tune_allocator`;
 ``--no-tune`` measures with the default thresholds).
 
 Targets: K = 10 per-repetition speed-up >= 3x on the fixed case; peak memory of the largest case
@@ -32,7 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from faultlab.runner.execute import tune_allocator  # noqa: E402
+from faultlab.runner.execution import tune_allocator  # noqa: E402
 from faultlab.scenario import generate_scenario  # noqa: E402
 from faultlab.slam import FastSlam, FastSlamConfig, run_slam, run_slam_batch  # noqa: E402
 from faultlab.space.case import FIXED_VALUES, CaseSpec  # noqa: E402

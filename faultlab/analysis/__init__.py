@@ -5,10 +5,10 @@
 >>> a.detection_rates[["suite", "variant", "k", "n", "rate"]]       # doctest: +SKIP
 >>> a.save("analysis/paper"); Analysis.load("analysis/paper")       # doctest: +SKIP
 
-The analysis layer sits between the campaign (:mod:`faultlab.runner`) and the reports: it reads
-saved results and their metadata, judges them by the detection rule stored with the campaign
-and computes every statistic with :mod:`faultlab.stats`.  It never plots and never imports the
-report or command-line layers.
+The analysis layer sits between the campaigns (:mod:`faultlab.campaigns`, on :mod:`faultlab.runner`)
+and the reports: it reads saved results and their metadata, judges them by the detection rule
+stored with the campaign and computes every statistic with :mod:`faultlab.stats`.  It never runs a
+campaign, never plots and never imports the report or command-line layers.
 """
 
 from faultlab.lazy import lazy_exports

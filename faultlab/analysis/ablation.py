@@ -30,7 +30,7 @@ from statsmodels.stats.multitest import multipletests
 
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.runner import load_metadata, load_results
+from faultlab.runner.store import load_metadata, load_results
 from faultlab.slam.profiles import ABLATIONS, Ablation
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS, JobStatus
 

@@ -42,7 +42,7 @@ from statsmodels.stats.multitest import multipletests
 
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.runner import load_metadata, load_results
+from faultlab.runner.store import load_metadata, load_results
 from faultlab.stats.paper import RAW_CSV, load_paper_raw, resolve_data_path
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS, PAPER_PROTOCOL, SUITE_ORDER, JobStatus
 

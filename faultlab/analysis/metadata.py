@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Mapping
 
 from faultlab.errors import FaultlabError, ResultsError
-from faultlab.runner.execute import SKIPPED_VARIANTS_KEY
+from faultlab.runner.store import SKIPPED_VARIANTS_KEY
 from faultlab.space import ParameterSpace, space_from_mapping, table1_space
 from faultlab.stats.detection import DetectionRule
 

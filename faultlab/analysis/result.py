@@ -63,7 +63,7 @@ from faultlab.analysis.tables import (
     table2_cell_table,
 )
 from faultlab.errors import ConfigError, FaultlabError, ResultsError
-from faultlab.runner import load_metadata, load_results
+from faultlab.runner.store import load_metadata, load_results
 from faultlab.stats.cases import (case_rates, compare_suites_by_case, compare_with_paper, replica_false_alarms,
                                   rule_verdicts)
 from faultlab.stats.class_effects import fit_class_effects

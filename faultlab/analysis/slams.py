@@ -29,7 +29,7 @@ from pathlib import Path
 import pandas as pd
 
 from faultlab.analysis.result import analyse
-from faultlab.runner import load_results
+from faultlab.runner.store import load_results
 from faultlab.stats.accuracy import ACCURACY_COLUMNS, case_mean_accuracy
 from faultlab.stats.cases import case_rates
 from faultlab.stats.detection import outcomes

@@ -1,4 +1,4 @@
-"""Command line: ``python -m faultlab <command>``.
+"""Command line: ``faultlab <command>`` (or ``python -m faultlab <command>``).
 
 The CLI only parses arguments and delegates to library functions.  Each
 command lives in its own module that defines ``register(subparsers)``; the
@@ -12,6 +12,7 @@ import importlib
 import sys
 
 from faultlab import __version__
+from faultlab.cli.options import epilog
 from faultlab.errors import FaultlabError
 
 __all__ = ["main", "build_parser"]
@@ -31,10 +32,17 @@ COMMAND_MODULES = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: The program name of the installed command (``python -m faultlab`` passes its own).
+PROG = "faultlab"
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    """The parser of every command; ``prog`` is the name the usage lines show."""
     parser = argparse.ArgumentParser(
-        prog="python -m faultlab",
+        prog=prog,
         description="Coverage-driven testing of SLAM algorithms with injected faults.",
+        **epilog(["faultlab reproduce --quick --out results/quick", "faultlab run smoke --out results/smoke",
+                  "faultlab COMMAND --help"]),
     )
     parser.add_argument("--version", action="version", version=f"faultlab {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -49,8 +57,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
+    """Run the command of ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    parser = build_parser(prog)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

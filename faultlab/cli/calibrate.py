@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import add_execution_options, positive_int
+from faultlab.cli.options import add_examples, add_execution_options, positive_int
 
 __all__ = ["register", "handler"]
 
@@ -24,14 +24,20 @@ def register(subparsers) -> None:
     p.add_argument("--repetitions", type=positive_int, default=None, metavar="K",
                    help="SLAM repetitions per case (default 10; 6 with --quick)")
     add_execution_options(p)
+    add_examples(p, ["faultlab calibrate --quick --out results/calibrate-quick",
+                     "nice -n 10 faultlab calibrate --out results/calibrate --reports results/calibrate/report"])
     p.set_defaults(func=handler)
 
 
 def handler(args: argparse.Namespace) -> int:
-    from faultlab.report.calibrate import calibrate
+    from faultlab.analysis.calibration import assess_calibration
+    from faultlab.campaigns.calibrate import calibrate
 
-    result = calibrate(out=args.out, reports=args.reports, quick=args.quick, repetitions=args.repetitions,
-                       jobs=args.jobs, backend=args.backend, force_new=args.force_new,
-                       progress=not args.no_progress)
+    run = calibrate(out=args.out, quick=args.quick, repetitions=args.repetitions, jobs=args.jobs,
+                    backend=args.backend, force_new=args.force_new, progress=not args.no_progress)
+    print(run)
+    result = assess_calibration(run.out)
+    if args.reports is not None:
+        result.analysis.save(args.reports)
     print(result)
     return 0 if result.calibrated else 3

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from faultlab.cli.options import add_examples
 from faultlab.faults import FaultListing, applicable_faults, check_faults, list_faults
 
 __all__ = ["register"]
@@ -23,8 +24,9 @@ def register(subparsers) -> None:
                    help="faults to check (names or module:attr import paths; default: all)")
     p.add_argument("--check", action="store_true", help="run the equivalent-mutant check")
     p.add_argument("--seed", type=int, default=0, help="seed of the check scenario and SLAM runs (default 0)")
-    p.add_argument("--seeds", type=int, default=2, metavar="N",
+    p.add_argument("--repetitions", type=int, default=2, metavar="K", dest="repetitions",
                    help="SLAM repetitions per fault in the check (default 2)")
+    p.add_argument("--seeds", type=int, dest="repetitions", help=argparse.SUPPRESS)  # the former spelling
     p.add_argument("--steps", type=int, default=None, metavar="N",
                    help="active steps of the check scenario (default 300; inactivity comes on top)")
     p.add_argument("--particles", type=int, default=None, metavar="N",
@@ -34,13 +36,14 @@ def register(subparsers) -> None:
                         "package.module:factory): those replacing one of its units; says how many do not")
     p.add_argument("--no-plugins", action="store_true", help="ignore third-party fault plugins")
     p.add_argument("-v", "--verbose", action="store_true", help="show each fault's rationale and source")
+    add_examples(p, ["faultlab faults", "faultlab faults --slam ekf", "faultlab faults --check naive_resampling"])
     p.set_defaults(func=_handler)
 
 
 def _handler(args: argparse.Namespace) -> int:
     plugins = not args.no_plugins
     if args.check:
-        report = check_faults(args.names or None, seed=args.seed, n_seeds=args.seeds, n_steps=args.steps,
+        report = check_faults(args.names or None, seed=args.seed, n_seeds=args.repetitions, n_steps=args.steps,
                               n_particles=args.particles, plugins=plugins)
         print(report)
         return 0 if report.ok else 1

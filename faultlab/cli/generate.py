@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import positive_int
+from faultlab.cli.options import add_examples, positive_int
 from faultlab.report.casefig import save_case_png
 from faultlab.scenario.files import write_suite
 from faultlab.space.registry import suite_criteria, suite_kinds
@@ -59,6 +59,8 @@ def register(subparsers) -> None:
     p.add_argument("--fov-bug", action="store_true",
                    help="reproduce the paper's replication package's field-of-view DEFECT: every right-side "
                         "bearing is visible whatever the opening (as an experiment's fov_bug = true)")
+    add_examples(p, ["faultlab generate --out cases/systematic", "faultlab generate --suite pairwise --seed 3 --out cases/pairwise",
+                     "faultlab generate --suite random --cases 10 --steps 200 --out cases/random"])
     p.set_defaults(func=handler)
 
 

@@ -7,6 +7,7 @@ import functools
 
 import numpy as np
 
+from faultlab.cli.options import add_examples
 from faultlab.errors import ConfigError
 from faultlab.faults import all_faults, applicable_faults, resolve_fault
 from faultlab.metamorphic import (
@@ -40,7 +41,9 @@ def register(subparsers) -> None:
                    help="faults to check (names or module:attr paths; default: every fault that applies)")
     p.add_argument("--relations", nargs="*", default=None, metavar="RELATION",
                    help="relations to check (default: all, plugins included)")
-    p.add_argument("--reps", type=int, default=5, metavar="K", help="repetitions (SLAM seeds), >= 2 (default 5)")
+    p.add_argument("--repetitions", type=int, default=5, metavar="K", dest="repetitions",
+                   help="repetitions (SLAM seeds), >= 2 (default 5)")
+    p.add_argument("--reps", type=int, dest="repetitions", help=argparse.SUPPRESS)  # the former spelling
     p.add_argument("--steps", type=int, default=150, metavar="N",
                    help="active steps of the source case (default 150)")
     p.add_argument("--particles", type=int, default=50, metavar="N",
@@ -51,12 +54,15 @@ def register(subparsers) -> None:
     p.add_argument("--atol", type=float, default=DEFAULT_ATOL,
                    help=f"least tolerance, m (default {DEFAULT_ATOL:g})")
     p.add_argument("--no-plugins", action="store_true", help="ignore fault and relation plugins")
+    add_examples(p, ["faultlab metamorphic", "faultlab metamorphic --slam ekf --repetitions 3",
+                     "faultlab metamorphic --faults naive_resampling --relations rigid_motion"])
     p.set_defaults(func=_handler)
 
 
 def _handler(args: argparse.Namespace) -> int:
-    if args.reps < 2:
-        raise ConfigError(f"--reps must be >= 2 (the seed-to-seed spread needs two runs), got {args.reps}")
+    if args.repetitions < 2:
+        raise ConfigError(f"--repetitions must be >= 2 (the seed-to-seed spread needs two runs), "
+                          f"got {args.repetitions}")
     if args.steps < 1:
         raise ConfigError(f"--steps must be >= 1, got {args.steps}")
     kind = get_slam_kind(args.slam, where="--slam")
@@ -71,7 +77,7 @@ def _handler(args: argparse.Namespace) -> int:
     relations = ([get_relation(r) for r in args.relations] if args.relations is not None
                  else all_relations(plugins=plugins))
     scenario = metamorphic_scenario(seed=args.seed, n_steps=args.steps)
-    rngs = [np.random.default_rng(np.random.SeedSequence([args.seed, 1, k])) for k in range(args.reps)]
+    rngs = [np.random.default_rng(np.random.SeedSequence([args.seed, 1, k])) for k in range(args.repetitions)]
     description = (f"SLAM {args.slam!r}{f' ({args.particles} particles)' if options else ''}, fixed-suite case "
                    f"on a 4 m x 4 m map ({args.steps} steps, seed {args.seed})")
     matrix = relation_matrix(factory, relations, fit.applicable, scenario, rngs=rngs, factor=args.factor,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from faultlab.cli.options import add_execution_options, add_verb_group, positive_int, print_paths
+from faultlab.cli.options import add_examples, add_execution_options, add_verb_group, positive_int, print_paths
 
 __all__ = ["register"]
 
@@ -16,7 +16,9 @@ def register(subparsers) -> None:
         description="Generate mutants of the replaceable units of a SLAM from their source (one small "
                     "change per mutant, classic and numpy-aware operators) and screen them at the unit "
                     "level: stillborn (does not compile or always raises), equivalent (same bytecode or "
-                    "bit-identical unit outputs) and duplicate mutants never need a campaign.")
+                    "bit-identical unit outputs) and duplicate mutants never need a campaign.",
+        examples=["faultlab mutate list --unit motion_model", "faultlab mutate show motion_model:arithmetic:9",
+                  "faultlab mutate run mutation --out results/mutation"])
 
     ls = sub.add_parser("list", help="list the mutants (by default only the live ones) and count each class",
                         description="One line per mutant: id, unit, line, operator and the changed line; then "
@@ -27,6 +29,7 @@ def register(subparsers) -> None:
     ls.add_argument("--operator", default=None, metavar="O", help="only the mutants of this operator")
     ls.add_argument("--all", action="store_true", dest="all_mutants",
                     help="list every mutant with its class, not only the live ones")
+    add_examples(ls, ["faultlab mutate list", "faultlab mutate list --all --operator arithmetic"])
     ls.set_defaults(func=_list)
 
     show = sub.add_parser("show", help="show one mutant: its unified diff and its class",
@@ -36,6 +39,7 @@ def register(subparsers) -> None:
                                       "holding the package).")
     show.add_argument("mutant_id", metavar="ID", help="mutant id, e.g. ekf_update:arithmetic:3")
     _common(show)
+    add_examples(show, ["faultlab mutate show motion_model:arithmetic:9"])
     show.set_defaults(func=_show)
 
     run = sub.add_parser(
@@ -49,20 +53,24 @@ def register(subparsers) -> None:
     run.add_argument("experiment", help="mutation experiment file (an experiment with a [mutation] table) or "
                                         "a shipped name (mutation)")
     run.add_argument("--out", default=None, help="output directory (default: results/<experiment name>)")
-    run.add_argument("--jobs", type=int, default=2, help="worker processes (default: 2)")
+    run.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default: 2)")
     run.add_argument("--mutants", default=None, metavar="SELECTOR",
                      help="replace the file's selection: 'all' or comma-separated unit=U, operator=O, "
                           "sample=N and mutant ids")
     run.add_argument("--repetitions", type=positive_int, default=None, metavar="K",
                      help="repetitions per case (default: the file's)")
     add_execution_options(run)
+    add_examples(run, ["nice -n 10 faultlab mutate run mutation --out results/mutation",
+                       "faultlab mutate run mutation --mutants unit=motion_model,sample=5 --repetitions 6 --out results/m5"])
     run.set_defaults(func=_run)
 
     rep = sub.add_parser("report", help="mutation scores, suite comparison and mutant x suite matrix of a campaign",
                          description="Read a mutation campaign's results (runs nothing) and write outcomes.csv, "
                                      "scores.csv/.md, mcnemar.csv/.md and mutation.pdf.")
     rep.add_argument("results", help="output directory of `faultlab mutate run`")
-    rep.add_argument("--reports", default="reports/mutation", help="where to write (default: reports/mutation)")
+    rep.add_argument("--reports", default=None, help="where to write (default: RESULTS/report)")
+    add_examples(rep, ["faultlab mutate report results/mutation",
+                       "faultlab mutate report results/mutation --reports reports/mutation"])
     rep.set_defaults(func=_report)
 
 
@@ -91,7 +99,7 @@ def _show(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from faultlab.analysis.mutation import load_mutation_experiment, run_mutation
+    from faultlab.campaigns.mutation import load_mutation_experiment, run_mutation
 
     mexp = load_mutation_experiment(args.experiment, mutants=args.mutants, repetitions=args.repetitions)
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
@@ -103,4 +111,5 @@ def _run(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from faultlab.report.mutation import write_mutation_report
 
-    return print_paths(write_mutation_report(args.results, args.reports))
+    reports = args.reports if args.reports is not None else Path(args.results) / "report"
+    return print_paths(write_mutation_report(args.results, reports))

@@ -6,7 +6,8 @@ import argparse
 
 from faultlab.vocabulary import BACKENDS
 
-__all__ = ["BACKENDS", "positive_int", "add_execution_options", "add_verb_group", "print_paths"]
+__all__ = ["BACKENDS", "positive_int", "add_execution_options", "add_verb_group", "print_paths", "epilog", "add_examples",
+           "shipped_experiments"]
 
 
 def positive_int(text: str) -> int:
@@ -33,19 +34,56 @@ def add_execution_options(parser: argparse.ArgumentParser) -> None:
                         help="no progress output (neither the bar on a terminal nor the log lines elsewhere)")
 
 
-def add_verb_group(subparsers, name: str, *, help: str, description: str):
-    """A command with verbs (``faultlab NAME VERB``); without a verb it prints its help and exits with 2.
+def epilog(examples: list[str]) -> dict:
+    """``add_parser`` keywords that end a command's help with its example commands (1-3).
 
-    Returns the verbs' subparsers (``add_parser`` for each verb).
+    The description keeps its own line breaks (``RawDescriptionHelpFormatter``) only where it has
+    them; each example is one line under "examples:".
     """
-    p = subparsers.add_parser(name, help=help, description=description)
+    if not 1 <= len(examples) <= 3:
+        raise ValueError(f"a command's help shows 1 to 3 examples, got {len(examples)}")
+    return {"epilog": "examples:\n" + "\n".join(f"  {e}" for e in examples),
+            "formatter_class": _Formatter}
+
+
+def add_examples(parser: argparse.ArgumentParser, examples: list[str]) -> argparse.ArgumentParser:
+    """End ``parser``'s help with its example commands (:func:`epilog`); returns ``parser``."""
+    for key, value in epilog(examples).items():
+        setattr(parser, key, value)
+    return parser
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the epilog's lines; wraps the description like the default formatter."""
+
+    def _fill_text(self, text, width, indent):
+        if text.startswith("examples:\n"):
+            return super()._fill_text(text, width, indent)
+        return argparse.HelpFormatter._fill_text(self, text, width, indent)
+
+
+def shipped_experiments() -> str:
+    """The shipped experiment names, comma-separated (from :func:`faultlab.data.experiment_names`)."""
+    from faultlab.data import experiment_names
+
+    return ", ".join(experiment_names())
+
+
+def add_verb_group(subparsers, name: str, *, help: str, description: str, examples: list[str],
+                   default=None):
+    """A command with verbs (``faultlab NAME VERB``).
+
+    Without a verb it runs ``default`` (a handler), or prints its help and exits with 2.  Returns
+    the verbs' subparsers (``add_parser`` for each verb).
+    """
+    p = subparsers.add_parser(name, help=help, description=description, **epilog(examples))
     sub = p.add_subparsers(dest=f"{name}_command", metavar="VERB")
 
     def usage(args: argparse.Namespace) -> int:
         p.print_help()
         return 2
 
-    p.set_defaults(func=usage)
+    p.set_defaults(func=default or usage)
     return sub
 
 

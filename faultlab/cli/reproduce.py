@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import add_execution_options, positive_int
+from faultlab.cli.options import add_execution_options, epilog, positive_int, shipped_experiments
 
 __all__ = ["register", "reproduce_handler", "report_handler"]
 
@@ -17,20 +17,23 @@ def register(subparsers) -> None:
                     "experiments/paper.toml) through the runner, resuming if its results exist, then "
                     "write Table II beside the paper's "
                     "(CSV, Markdown, LaTeX), detection rates with confidence intervals, the comparison "
-                    "with the paper and report.pdf to the reports directory.")
+                    "with the paper and report.pdf to the reports directory (default: OUT/report). Everything "
+                    "it writes is under OUT unless --reports names another directory.",
+        **epilog(["faultlab reproduce --quick --out results/quick",
+                  "nice -n 10 faultlab reproduce --out results/paper --reports reports",
+                  "faultlab reproduce --profile paper --quick --out results/paper-quick"]))
     p.add_argument("--experiment", default=None,
-                   help="experiment TOML file, or the name of a shipped experiment (paper, smoke) "
+                   help=f"experiment TOML file, or the name of a shipped experiment ({shipped_experiments()}) "
                         "(default: paper, i.e. experiments/paper.toml)")
     p.add_argument("--out", default=None,
                    help="results directory (default: results/<experiment name>, with -quick / -runsN "
                         "appended for --quick / --runs)")
     p.add_argument("--reports", default=None,
-                   help="report directory (default: reports, or reports/profile-<name> with --profile)")
+                   help="report directory (default: OUT/report)")
     p.add_argument("--profile", default=None, metavar="NAME",
                    help="run on a FastSLAM profile: 'paper' is the paper's own filter, shallow-copy aliasing "
                         "included (about 40x slower), with the field-of-view defect on as the paper ran it; "
-                        "results go to results/<experiment>-profile-<name>, reports to reports/profile-<name>, "
-                        "with fidelity.md comparing the RMS distributions with the paper's raw data")
+                        "results go to results/<experiment>-profile-<name> unless --out is given")
     p.add_argument("--runs", type=positive_int, default=None,
                    help="evaluation runs, overriding the file's (e.g. 30 for power)")
     p.add_argument("--quick", action="store_true",
@@ -39,7 +42,7 @@ def register(subparsers) -> None:
     p.add_argument("--ablation", action="store_true",
                    help="with --profile paper: also run each of the paper profile's differences on its own "
                         "(paper against paper_no_aliasing, linear against log weights, ...; same cases and "
-                        "seeds, results in <out>-ablation/, resumable) and add the paired effects to the report "
+                        "seeds, results in OUT/ablation/, resumable) and add the paired effects to the report "
                         "(ablation.md/.csv, pages of report.pdf)")
     p.add_argument("--ablation-runs", type=positive_int, default=1,
                    help="evaluation runs of the ablation's arms other than the main run (default: 1)")
@@ -54,9 +57,10 @@ def register(subparsers) -> None:
         "report", help="rebuild the report from saved results (runs nothing)",
         description="Write Table II, detection rates, the comparison with the paper, the map errors against the "
                     "paper's raw data (fidelity.csv/.md) and report.pdf "
-                    "from a results directory written by 'run' or 'reproduce'. Nothing is rerun.")
+                    "from a results directory written by 'run' or 'reproduce'. Nothing is rerun.",
+        **epilog(["faultlab report results/quick", "faultlab report reports/store --reports reports"]))
     r.add_argument("results", help="results directory (or its results.sqlite)")
-    r.add_argument("--reports", default="reports", help="report directory (default: reports)")
+    r.add_argument("--reports", default=None, help="report directory (default: RESULTS/report)")
     r.set_defaults(func=report_handler)
 
 
@@ -68,15 +72,23 @@ def _headless() -> None:
 
 def reproduce_handler(args: argparse.Namespace) -> int:
     _headless()
-    from faultlab.report.reproduce import DEFAULT_EXPERIMENT, reproduce
+    from faultlab.analysis.ablation import ablation
+    from faultlab.campaigns.reproduce import DEFAULT_EXPERIMENT, reproduce
+    from faultlab.report.ablation import write_ablation
+    from faultlab.report.reproduce import rebuild_report
 
     experiment = DEFAULT_EXPERIMENT if args.experiment is None else args.experiment
-    result = reproduce(experiment, out=args.out, reports=args.reports, runs=args.runs,
-                       quick=args.quick, profile=args.profile, jobs=args.jobs, backend=args.backend,
-                       force_new=args.force_new, progress=not args.no_progress, ablation=args.ablation,
-                       ablation_runs=args.ablation_runs,
-                       ablation_suites=None if args.ablation_fixed is None else {"fixed": args.ablation_fixed})
-    print(result)
+    run = reproduce(experiment, out=args.out, reports=args.reports, runs=args.runs,
+                    quick=args.quick, profile=args.profile, jobs=args.jobs, backend=args.backend,
+                    force_new=args.force_new, progress=not args.no_progress, ablation=args.ablation,
+                    ablation_runs=args.ablation_runs,
+                    ablation_suites=None if args.ablation_fixed is None else {"fixed": args.ablation_fixed})
+    print(run)
+    effects = ablation(run.ablation_dirs) if run.ablation_dirs else None
+    print(rebuild_report(run.out, run.reports, ablation=effects))
+    if effects is not None:
+        print(write_ablation(effects, run.reports))
+    print(f"reproduce took {run.wall_time_s:.1f} s (campaign)")
     return 0
 
 
@@ -84,5 +96,9 @@ def report_handler(args: argparse.Namespace) -> int:
     _headless()
     from faultlab.report.reproduce import rebuild_report
 
-    print(rebuild_report(args.results, args.reports))
+    from faultlab.campaigns.reproduce import default_reports
+    from faultlab.runner.store import results_path
+
+    reports = args.reports if args.reports is not None else default_reports(results_path(args.results).parent)
+    print(rebuild_report(args.results, reports))
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from faultlab.cli.options import add_execution_options
+from faultlab.cli.options import add_examples, add_execution_options, shipped_experiments
 from faultlab.runner import run_experiment
 
 __all__ = ["register", "handler"]
@@ -17,11 +17,13 @@ def register(subparsers) -> None:
         description="Run the jobs of an experiment file and store one row per job in OUT/results.sqlite. "
                     "Rerunning the same command resumes: only missing jobs run.")
     p.add_argument("experiment", help="experiment TOML file, e.g. experiments/paper.toml, or the name "
-                                      "of a shipped experiment (paper, smoke)")
+                                      f"of a shipped experiment ({shipped_experiments()})")
     p.add_argument("--out", default=None,
                    help="output directory (default: results/<experiment name, without .toml>)")
     p.add_argument("--jobs", type=int, default=2, help="worker processes (default: 2)")
     add_execution_options(p)
+    add_examples(p, ["faultlab run smoke --out results/smoke", "nice -n 10 faultlab run paper --out results/paper --jobs 2",
+                     "faultlab run my-campaign.toml --out results/mine --backend dask"])
     p.set_defaults(func=handler)
 
 

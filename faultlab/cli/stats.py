@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from faultlab import analysis, stats  # both load their submodules (statsmodels, ...) on first use
+from faultlab.cli.options import add_examples
 from faultlab.errors import ConfigError, ResultsError
 
 __all__ = ["register"]
@@ -30,6 +31,7 @@ def register(subparsers) -> None:
                    help=f"absolute RMS increase a detection must exceed (default {d.abs_mm:g} mm)")
     p.add_argument("--rel", type=float, default=None,
                    help=f"relative RMS increase a detection needs at least (default {d.rel:g})")
+    add_examples(p, ["faultlab paper-table", "faultlab paper-table results/paper", "faultlab paper-table --abs-mm 200"])
     p.set_defaults(func=_paper_table)
 
     e = subparsers.add_parser(
@@ -40,6 +42,7 @@ def register(subparsers) -> None:
     e.add_argument("results", metavar="RESULTS", help="results directory written by `faultlab run`")
     e.add_argument("--parameters", default=None, metavar="A,B,...",
                    help="comma-separated predictors (default: every scenario parameter)")
+    add_examples(e, ["faultlab effects results/paper", "faultlab effects results/paper --parameters map_size,landmark_density"])
     e.set_defaults(func=_effects)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from faultlab.cli.options import add_execution_options, add_verb_group, positive_int, print_paths
+from faultlab.cli.options import add_examples, add_execution_options, add_verb_group, positive_int, print_paths
 
 __all__ = ["register"]
 
@@ -16,7 +16,9 @@ _DESCRIPTION = ("Run a pool of cases of every strategy once per fault and sample
 
 
 def register(subparsers) -> None:
-    sub = add_verb_group(subparsers, "study", help=_HELP, description=_DESCRIPTION)
+    sub = add_verb_group(subparsers, "study", help=_HELP, description=_DESCRIPTION,
+                         examples=["faultlab study run --quick --out results/study-quick",
+                                   "faultlab study report results/study-quick"])
     run = sub.add_parser("run", help="run (or resume) a study's case pools",
                          description="Run every pool case against the baseline, the file's faults and its "
                                      "[mutation] sample through the runner. Rerunning the same command resumes.")
@@ -26,6 +28,8 @@ def register(subparsers) -> None:
     run.add_argument("--out", default=None, help="output directory (default: results/<name>[-quick])")
     run.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default: 2)")
     add_execution_options(run)
+    add_examples(run, ["faultlab study run --quick --out results/study-quick",
+                       "nice -n 10 faultlab study run study --out results/study"])
     run.set_defaults(func=_run)
 
     rep = sub.add_parser("report", help="kill matrix, detection probabilities, mutation scores, comparisons",
@@ -33,12 +37,13 @@ def register(subparsers) -> None:
                                      "detection.csv, scores.csv, comparisons.csv, power.csv, study.md and "
                                      "detection_vs_size.png.")
     rep.add_argument("results", help="output directory of `faultlab study run`")
-    rep.add_argument("--reports", default="reports/study", help="where to write (default: reports/study)")
+    rep.add_argument("--reports", default=None, help="where to write (default: RESULTS/report)")
+    add_examples(rep, ["faultlab study report results/study", "faultlab study report reports/study/store --reports reports/study"])
     rep.set_defaults(func=_report)
 
 
 def _run(args: argparse.Namespace) -> int:
-    from faultlab.analysis.study import load_study_experiment, run_study
+    from faultlab.campaigns.study import load_study_experiment, run_study
 
     sexp = load_study_experiment(args.experiment, quick=args.quick)
     out = Path(args.out) if args.out else Path("results") / (Path(args.experiment).stem
@@ -51,4 +56,5 @@ def _run(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from faultlab.report.study import write_study_report
 
-    return print_paths(write_study_report(args.results, args.reports))
+    reports = args.reports if args.reports is not None else Path(args.results) / "report"
+    return print_paths(write_study_report(args.results, reports))

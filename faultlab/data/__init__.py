@@ -5,7 +5,7 @@ The package carries the one canonical copy of
 * the shipped experiment files (``experiments/<name>.toml``): ``paper`` (the paper's
   protocol, Sec. VII), ``paper-k10`` (the same with K = 10 repetitions, the statistical
   detection rule and the A/A replica), ``smoke`` (a campaign of seconds), ``slams`` (the
-  cross-SLAM protocol at reduced scale, run once per SLAM by ``reports/slams/run.py``),
+  cross-SLAM protocol at reduced scale, run once per SLAM by ``faultlab slams run``),
   ``space_table1`` (Table I written out in the parameter-space override format), ``mutation``
   (the mutation study) and ``study`` (the test-design strategies study, ``faultlab study``);
 * the paper's replication data (``paper/``): the raw RMS errors behind Table II

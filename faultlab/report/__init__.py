@@ -1,13 +1,13 @@
-"""faultlab.report: Table II of a run beside the paper's, figures, the PDF report and ``reproduce``.
+"""faultlab.report: Table II of a run beside the paper's, figures and the PDF report.
 
-The only layer that plots.  Reports render an :class:`faultlab.analysis.Analysis` of saved
-results (:func:`build_report` analyses a results store and renders it); :func:`reproduce` runs
-an experiment first.
+The only layer that plots, and it only renders: reports render an
+:class:`faultlab.analysis.Analysis` of saved results (:func:`build_report` analyses a results
+store and renders it); campaigns run in :mod:`faultlab.campaigns`.
 
->>> from faultlab.report import build_report                             # doctest: +SKIP
->>> from faultlab.report.reproduce import reproduce                      # doctest: +SKIP
->>> result = reproduce("experiments/paper.toml", quick=True)              # doctest: +SKIP
->>> files = build_report("results/paper-quick", "reports")                # doctest: +SKIP
+>>> from faultlab.campaigns.reproduce import reproduce                   # doctest: +SKIP
+>>> from faultlab.report import rebuild_report                           # doctest: +SKIP
+>>> run = reproduce("experiments/paper.toml", quick=True)                 # doctest: +SKIP
+>>> files = rebuild_report(run.out, run.reports)                          # doctest: +SKIP
 """
 
 import importlib
@@ -24,9 +24,7 @@ _EXPORTS = {
     "plot_case": "casefig", "plot_suite": "casefig", "save_case_png": "casefig",
     "PdfReport": "pdf", "text_pages": "pdf", "table_pages": "pdf", "write_pdf": "pdf",
     "ReportFiles": "build", "build_report": "build", "render_report": "build",
-    # the function ``reproduce`` is not re-exported: the name is its submodule's
-    # (use ``from faultlab.report.reproduce import reproduce``)
-    "ReproduceResult": "reproduce", "quick_overrides": "reproduce",
+    "RebuiltReport": "reproduce", "rebuild_report": "reproduce",
 }
 
 

@@ -39,7 +39,7 @@ from faultlab.report.pages import (
 )
 from faultlab.report.pdf import PdfReport, write_pdf
 from faultlab.report.tables import write_tables
-from faultlab.runner import results_path
+from faultlab.runner.store import results_path
 
 __all__ = ["ReportFiles", "build_report", "render_report", "MAX_PICTURED_RUNS"]
 

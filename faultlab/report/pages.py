@@ -39,7 +39,7 @@ from faultlab.report.tables import (
     table2_runs,
     variant_label,
 )
-from faultlab.runner import case_path
+from faultlab.runner.store import case_path
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
 from faultlab.stats.class_effects import MIN_EPV

@@ -1,213 +1,22 @@
-"""The main job: run the paper's protocol through the runner, then build the report.
+"""The report of the paper's protocol: Table II, detection rates, fidelity and the PDF from a saved store.
 
-``python -m faultlab reproduce`` = :func:`reproduce`: load the shipped experiment ``paper``
-(``experiments/paper.toml``: 3 runs x 3 suites x 5 cases x 4 variants, Sec. VII), optionally shrink it (``quick``) or
-repeat it (``runs``), run (or resume) it with :func:`faultlab.runner.run_experiment`, and write
-the tables and the PDF with :func:`faultlab.report.build.build_report` from the saved results.
-
-``profile`` runs the protocol on a FastSLAM profile (:mod:`faultlab.slam.profiles`): ``"paper"`` is the
-paper's own filter, run as the paper ran it, so with ``fov_bug`` on.  Its results and reports go beside
-the default ones (``results/<experiment>-profile-<name>``, ``reports/profile-<name>``) and its report also
-gets the comparison with the paper's raw RMS data (:mod:`faultlab.report.fidelity`).
-
-``ablation`` (profile ``"paper"`` only) also runs the arms of
-:data:`faultlab.slam.profiles.ABLATIONS` on the same cases and seeds (the profile ``paper`` with the
-field-of-view defect is the main run itself; every other arm goes to ``<out>-ablation/<arm>``, with at most
-``ablation_runs`` evaluation runs and the variants :data:`ABLATION_VARIANTS`, resumable like the main run) and adds the effect of each of the
-paper's choices (:mod:`faultlab.analysis.ablation`, :mod:`faultlab.report.ablation`) to the report.
+:func:`rebuild_report` renders what :func:`faultlab.campaigns.reproduce.reproduce` stored (and
+``faultlab report RESULTS`` re-renders any saved store): the tables and the PDF with
+:func:`faultlab.report.build.build_report`, and the comparison of the map errors with the paper's
+raw data (:mod:`faultlab.report.fidelity`), computed once for both.  Nothing runs here.
 """
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from faultlab.analysis.ablation import AblationResult, ablation as compute_ablation
+from faultlab.analysis.ablation import AblationResult
 from faultlab.analysis.fidelity import fidelity
-from faultlab.errors import ConfigError
-from faultlab.report.ablation import AblationFiles, write_ablation
 from faultlab.report.build import ReportFiles, build_report
 from faultlab.report.fidelity import FidelityFiles, write_fidelity
-from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
-__all__ = ["ReproduceResult", "reproduce", "RebuiltReport", "rebuild_report", "quick_overrides", "profile_overrides", "default_out",
-           "default_reports", "ablation_dir", "run_ablation", "DEFAULT_EXPERIMENT", "QUICK_PARTICLES", "QUICK_STEPS",
-           "ABLATION_PROFILE", "DEFAULT_ABLATION_RUNS", "ABLATION_VARIANTS"]
-
-#: The paper's protocol: the shipped experiment ``paper`` (``experiments/paper.toml``, see
-#: :mod:`faultlab.data`), found wherever faultlab is installed.
-DEFAULT_EXPERIMENT = "paper"
-#: ``--quick``: SLAM particles and active steps per case.
-QUICK_PARTICLES = 60
-QUICK_STEPS = 200
-#: ``--quick``: cases of the random and fixed suites (the systematic suite keeps the fewest cases
-#: that cover every class of Table I, i.e. 5).
-QUICK_CASES = 2
-#: The profile whose differences the ablation isolates.
-ABLATION_PROFILE = "paper"
-#: Evaluation runs of the ablation's arms (the main run keeps its own).
-DEFAULT_ABLATION_RUNS = 1
-#: Variants of the ablation's arms: the baseline and the fault the paper profile exists to compare.
-ABLATION_VARIANTS = (BASELINE, "missing_angle_wrap")
-
-
-@dataclass(frozen=True)
-class ReproduceResult:
-    """What :func:`reproduce` did.
-
-    Attributes
-    ----------
-    experiment : faultlab.runner.Experiment
-        The experiment as run (with the ``quick`` / ``runs`` overrides applied).
-    summary : faultlab.runner.RunSummary
-        The runner's summary (jobs run now, resumed, per status, wall time).
-    report : ReportFiles
-        The tables and the PDF.
-    fidelity : FidelityFiles
-        The comparison of the map errors with the paper's raw data (:mod:`faultlab.report.fidelity`).
-    ablation : AblationFiles or None
-        The effects of the paper profile's differences, if ``ablation`` was asked for.
-    out : Path
-        The results directory.
-    wall_time_s : float
-        Wall time of the whole call (run + report), s.
-    """
-
-    experiment: object
-    summary: object
-    report: ReportFiles
-    fidelity: FidelityFiles
-    out: Path
-    wall_time_s: float
-    ablation: AblationFiles | None = None
-
-    def __str__(self) -> str:
-        return "\n".join([
-            f"results: {self.out} ({self.summary})",
-            str(self.report),
-            str(self.fidelity),
-            *([str(self.ablation)] if self.ablation is not None else []),
-            f"reproduce took {self.wall_time_s:.1f} s",
-        ])
-
-
-def quick_overrides(experiment) -> dict:
-    """Overrides that turn an experiment into a smoke version (1 run, few cases, short traces).
-
-    One evaluation run; the systematic suite with the fewest cases that cover every class
-    ("auto"), the other suites with :data:`QUICK_CASES` cases; the baseline and the paper's three
-    faults; one SLAM repetition; :data:`QUICK_STEPS` steps; :data:`QUICK_PARTICLES` particles.
-    """
-    suites = {kind: ("auto" if kind == "systematic" else QUICK_CASES)
-              for kind in experiment.suite_kinds}
-    overrides = {
-        "runs": 1,
-        "suites": suites,
-        "variants": [BASELINE, *PAPER_FAULTS],
-        "repetitions": 1,
-        "n_steps": QUICK_STEPS,
-    }
-    if experiment.slam.name == "fastslam":
-        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.config.n_particles)}
-    return overrides
-
-
-def profile_overrides(experiment, profile: str) -> dict:
-    """Overrides that run ``experiment`` on FastSLAM profile ``profile`` (as the paper did for ``"paper"``).
-
-    The SLAM becomes ``fastslam`` with the profile's settings (the file's SLAM settings are replaced:
-    the profile is the system under test); every profile other than ``"reference"`` also gets
-    ``fov_bug = true``, the field of view the paper's scenarios had.
-    """
-    from faultlab.slam.profiles import DEFAULT_PROFILE, get_profile
-
-    p = get_profile(profile)  # ConfigError for an unknown name
-    if experiment.slam.name != "fastslam":
-        raise ConfigError(f"a FastSLAM profile needs [slam] name = 'fastslam', {experiment.source} has "
-                          f"{experiment.slam.name!r}")
-    return {"slam": {"name": "fastslam", "profile": p.name, **p.config.to_options()},
-            "fov_bug": p.name != DEFAULT_PROFILE}
-
-
-def default_out(experiment_path: str | Path, *, quick: bool = False, runs: int | None = None,
-                profile: str | None = None) -> Path:
-    """``results/<experiment stem>`` with ``-profile-<name>`` / ``-quick`` / ``-runs<N>`` appended, so a
-    profile, a shrunk or a repeated protocol never collides with the full one's results store.
-
-    ``experiment_path`` is a path or a shipped name: ``"paper"`` and ``"experiments/paper.toml"``
-    both give ``results/paper``."""
-    name = (Path(experiment_path).stem + (f"-profile-{profile}" if profile else "")
-            + ("-quick" if quick else "") + (f"-runs{runs}" if runs else ""))
-    return Path("results") / name
-
-
-def default_reports(*, profile: str | None = None) -> Path:
-    """``reports`` for the default SLAM, ``reports/profile-<name>`` for a profile."""
-    return Path("reports") if profile is None else Path("reports") / f"profile-{profile}"
-
-
-def ablation_dir(out: str | Path) -> Path:
-    """Where the ablation's arms of the main run stored in ``out`` go: ``<out>-ablation``."""
-    out = Path(out)
-    return out.with_name(out.name + "-ablation")
-
-
-def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RUNS,
-                 suites: dict[str, int] | None = None, jobs: int = 2, backend: str = "loky",
-                 progress: bool = True) -> AblationResult:
-    """Run (or resume) every arm of :data:`faultlab.slam.profiles.ABLATIONS` and compute the effects.
-
-    Parameters
-    ----------
-    experiment : faultlab.runner.Experiment
-        The main run's experiment, on the profile ``"paper"`` (its results are in ``out``).
-    out : path
-        The main run's results directory.  The arm that equals the main run (its profile and field of
-        view) is read from there; every other arm is ``experiment`` on the arm's profile and field of
-        view with at most ``runs`` evaluation runs and the variants of :data:`ABLATION_VARIANTS` that
-        ``experiment`` has, stored in ``ablation_dir(out) / arm.name``.
-    runs : int
-        Evaluation runs of the other arms.
-    suites : dict of str to int, optional
-        Suites (kind -> cases) of the arms that are not compared with the main run itself (default: the
-        main run's suites).  An arm compared with the main run keeps its suites; rows pair by (run, suite,
-        case, rep), so the other arms pair with it on the cases they share (the same seeds give the same
-        cases and SLAM seeds whatever the other suites).
-    jobs, backend, progress
-        Passed to :func:`faultlab.runner.run_experiment`.
-
-    Raises
-    ------
-    ConfigError
-        The experiment is not on the profile ``"paper"``, or ``runs`` is not a positive integer.
-    """
-    from faultlab.runner import parse_experiment, run_experiment
-    from faultlab.slam.profiles import ABLATIONS, Arm, ablation_arms
-
-    if experiment.slam.profile != ABLATION_PROFILE:
-        raise ConfigError(f"the ablation isolates the differences of the profile {ABLATION_PROFILE!r}; "
-                          f"{experiment.source} runs {experiment.slam.profile!r}")
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise ConfigError(f"ablation runs must be a positive integer, got {runs!r}")
-    main = Arm(experiment.slam.profile, experiment.fov_bug)
-    with_main = {a.alternative for a in ABLATIONS if a.paper == main} | {a.paper for a in ABLATIONS
-                                                                           if a.alternative == main}
-    dirs: dict[str, Path] = {}
-    for arm in ablation_arms():
-        if arm == main:
-            dirs[arm.name] = Path(out)
-            continue
-        arm_experiment = experiment.replace(slam={"profile": arm.profile}, fov_bug=arm.fov_bug,
-                                            runs=min(runs, experiment.runs),
-                                            variants=[v for v in experiment.variants if v in ABLATION_VARIANTS])
-        if suites is not None and arm not in with_main:  # replace() merges tables: the suites are swapped here
-            arm_experiment = parse_experiment({**arm_experiment.to_dict(), "suites": dict(suites)},
-                                              source=f"{arm_experiment.source} (with suites={dict(suites)!r})",
-                                              text=arm_experiment.text)
-        dirs[arm.name] = ablation_dir(out) / arm.name
-        run_experiment(arm_experiment, dirs[arm.name], jobs=jobs, backend=backend, progress=progress)
-    return compute_ablation(dirs)
+__all__ = ["RebuiltReport", "rebuild_report"]
 
 
 @dataclass(frozen=True)
@@ -223,10 +32,10 @@ class RebuiltReport:
 
 def rebuild_report(results: str | Path, reports: str | Path, *,
                    ablation: AblationResult | None = None) -> RebuiltReport:
-    """Write the report of saved results as :func:`reproduce` does, running nothing.
+    """Write the report of saved results (tables, fidelity.csv/.md, report.pdf), running nothing.
 
-    The same files and PDF pages as :func:`reproduce`; the ablation's pages only when its result is
-    given (its arms are separate campaigns: ``reproduce --ablation`` resumes them).
+    The ablation's pages only when its result is given (its arms are separate campaigns:
+    ``reproduce --ablation`` resumes them).
 
     Raises
     ------
@@ -236,80 +45,3 @@ def rebuild_report(results: str | Path, reports: str | Path, *,
     fid = fidelity(results)  # computed once, rendered as fidelity.md and as pages of report.pdf
     report = build_report(results, reports, fidelity=fid, ablation=ablation)
     return RebuiltReport(report=report, fidelity=write_fidelity(fid, reports, ablation))
-
-
-def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Path | None = None,
-              reports: str | Path | None = None, runs: int | None = None, quick: bool = False,
-              profile: str | None = None, jobs: int = 2, backend: str = "loky", force_new: bool = False,
-              progress: bool = True, ablation: bool = False, ablation_runs: int = DEFAULT_ABLATION_RUNS,
-              ablation_suites: dict[str, int] | None = None) -> ReproduceResult:
-    """Run an experiment (resuming if its results exist) and write the report.
-
-    Parameters
-    ----------
-    experiment_path : path or str
-        Experiment TOML, or the name of a shipped experiment (default ``"paper"``, the
-        paper's protocol; see :func:`faultlab.runner.load_experiment`).
-    out : path, optional
-        Results directory; default :func:`default_out`.
-    reports : path, optional
-        Report directory (table2.csv/.md/.tex, detection_rates.csv/.md, comparison.md, report.pdf, and
-        fidelity.csv/.md); default :func:`default_reports`.
-    runs : int, optional
-        Evaluation runs (overrides the file's ``runs``; e.g. 30 for power).
-    quick : bool
-        Run the smoke version (:func:`quick_overrides`).
-    profile : str, optional
-        Run on this FastSLAM profile (:func:`profile_overrides`; ``"paper"``: the paper's filter with
-        ``fov_bug`` on).
-    jobs, backend, force_new, progress
-        Passed to :func:`faultlab.runner.run_experiment`.
-    ablation : bool
-        Also run the ablation of the profile ``"paper"``'s differences (:func:`run_ablation`) and put it
-        in the report (``ablation.csv``/``.md``, pages of ``report.pdf``, the evidence on the faulty
-        rotation in ``fidelity.md``).  Needs ``profile="paper"``.
-    ablation_runs : int
-        Evaluation runs of the ablation's arms other than the main run.
-    ablation_suites : dict of str to int, optional
-        Suites of the ablation's arms not compared with the main run itself (:func:`run_ablation`).
-
-    Returns
-    -------
-    ReproduceResult
-
-    Raises
-    ------
-    ConfigError
-        Malformed experiment or options (before anything runs); ``ablation`` without ``profile="paper"``.
-    ResultsError
-        ``out`` holds another experiment's results and ``force_new`` is False.
-    """
-    from faultlab.runner import load_experiment, run_experiment
-
-    start = time.perf_counter()
-    if runs is not None and (isinstance(runs, bool) or not isinstance(runs, int) or runs < 1):
-        raise ConfigError(f"runs must be a positive integer, got {runs!r}")
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise ConfigError(f"jobs must be a positive integer, got {jobs!r}")
-    experiment = load_experiment(experiment_path)
-    if profile is not None:
-        experiment = experiment.replace(**profile_overrides(experiment, profile))
-    if quick:
-        experiment = experiment.replace(**quick_overrides(experiment))
-    if runs is not None:
-        experiment = experiment.replace(runs=runs)
-    if ablation and profile != ABLATION_PROFILE:
-        raise ConfigError(f"ablation needs profile={ABLATION_PROFILE!r} (it isolates that profile's differences), "
-                          f"got {profile!r}")
-    if isinstance(ablation_runs, bool) or not isinstance(ablation_runs, int) or ablation_runs < 1:
-        raise ConfigError(f"ablation_runs must be a positive integer, got {ablation_runs!r}")
-    out = Path(out) if out is not None else default_out(experiment_path, quick=quick, runs=runs, profile=profile)
-    reports = Path(reports) if reports is not None else default_reports(profile=profile)
-    summary = run_experiment(experiment, out, jobs=jobs, backend=backend, force_new=force_new,
-                             progress=progress)
-    abl = (run_ablation(experiment, out, runs=ablation_runs, suites=ablation_suites, jobs=jobs, backend=backend,
-                        progress=progress) if ablation else None)
-    written = rebuild_report(out, reports, ablation=abl)
-    abl_files = write_ablation(abl, reports) if abl is not None else None
-    return ReproduceResult(experiment=experiment, summary=summary, report=written.report, fidelity=written.fidelity,
-                           out=out, wall_time_s=time.perf_counter() - start, ablation=abl_files)

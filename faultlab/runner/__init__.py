@@ -1,19 +1,19 @@
 """faultlab.runner: declarative experiments, a deterministic joblib runner and a crash-safe results store.
 
+Modules: :mod:`~faultlab.runner.experiment` (experiment files), :mod:`~faultlab.runner.jobs`
+(jobs and batches), :mod:`~faultlab.runner.execution` (executing a job or a batch in a worker),
+:mod:`~faultlab.runner.backends` (joblib/dask/ray workers streaming results back),
+:mod:`~faultlab.runner.orchestration` (:func:`run_experiment`: cases, jobs, store) and
+:mod:`~faultlab.runner.store` (the results store).
+
 >>> from faultlab.runner import load_experiment, run_experiment, load_results   # doctest: +SKIP
 >>> summary = run_experiment(load_experiment("experiments/paper.toml"), "results/paper")  # doctest: +SKIP
 >>> df = load_results("results/paper")                                         # doctest: +SKIP
 """
 
-from faultlab.runner.execute import (
-    CaseInfo,
-    JobResult,
-    RunSummary,
-    execute_batch,
-    execute_job,
-    prepare_cases,
-    run_experiment,
-)
+from faultlab.runner.backends import stream_results
+from faultlab.runner.execution import JobResult, execute_batch, execute_job
+from faultlab.runner.orchestration import CaseInfo, RunSummary, prepare_cases, result_row, run_experiment
 from faultlab.runner.experiment import (
     Experiment,
     SlamSpec,
@@ -48,6 +48,8 @@ __all__ = [
     "execute_job",
     "execute_batch",
     "prepare_cases",
+    "result_row",
+    "stream_results",
     "run_experiment",
     "RESULT_COLUMNS",
     "ResultStore",

@@ -5,6 +5,7 @@ Layout of an output directory ``out``::
     out/results.sqlite                    rows, metadata, sessions
     out/cases/run{r}/{suite}/case{c}.npz  saved test cases (+ .json), shared by all variants
     out/previous-<UTC time>/              an older store moved aside by ``force_new``
+    out/mutation.json, out/study.json     a mutation campaign's selection, a study's settings
 
 Each finished job is committed as its own transaction, so a run killed with
 SIGKILL loses at most the jobs in flight.  ``UNIQUE (run, suite, case, variant,
@@ -44,11 +45,24 @@ __all__ = [
     "case_path",
     "results_path",
     "store_lock",
+    "SKIPPED_VARIANTS_KEY",
+    "MUTATION_FILE",
+    "STUDY_FILE",
 ]
 
 RESULTS_FILE = "results.sqlite"
 CASES_DIR = "cases"
 FORMAT_VERSION = 1
+#: Key of the store's metadata (:func:`load_metadata`) listing the variants skipped because their
+#: fault does not apply to the SLAM: one dict per variant with ``fault`` (the variant), ``step``,
+#: ``slam``, ``n_units`` and ``reason`` (one sentence).
+SKIPPED_VARIANTS_KEY = "skipped_variants"
+#: File in a mutation campaign's output directory recording its mutant selection and level
+#: (written by :func:`faultlab.campaigns.mutation.run_mutation`).
+MUTATION_FILE = "mutation.json"
+#: File in a study's output directory recording its settings and sessions
+#: (written by :func:`faultlab.campaigns.study.run_study`).
+STUDY_FILE = "study.json"
 
 ID_COLUMNS: tuple[str, ...] = ("run", "suite", "case", "variant", "rep")
 

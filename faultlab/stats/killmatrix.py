@@ -64,6 +64,11 @@ with the same index (statsmodels), summarised over the draws (median p, share of
 p <= 0.05) -- (b) is about a typical pair of suites, (a) about the strategies.  The smallest
 difference detectable with 80 % power is ``(z_0.975 + z_0.8) * SE`` with SE the bootstrap
 standard error of the difference (:func:`detectable_score_difference`).
+
+The ``[study]`` table of a study file (suite sizes, draws, bootstrap, seed, level, multiplicity)
+is validated into a :class:`StudySpec` (:func:`study_spec`); :func:`suite_kills` is the per-case
+kill of a mutation campaign (the exact paired test at a per-case level, or the mutant alone
+failing).
 """
 
 from __future__ import annotations
@@ -71,21 +76,24 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
 from scipy.stats import norm
 from statsmodels.stats.contingency_tables import mcnemar
 
+from faultlab.config import Table
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.metrics.detection import DetectionRule
+from faultlab.mutation.outcome import MutantOutcome
 from faultlab.seeds import study_seed_sequence
 from faultlab.stats.cases import holm_within, rule_verdicts
 from faultlab.stats.detection import outcomes
 from faultlab.stats.verdict import Verdict, case_verdicts
-from faultlab.vocabulary import SUITE_ORDER, JobStatus, ordered
+from faultlab.vocabulary import BASELINE, SUITE_ORDER, JobStatus, ordered
 
-__all__ = ["MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects",
+__all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects",
            "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "score_table", "compare_scores", "detectable_score_difference",
@@ -540,3 +548,81 @@ def _mcnemar_exact(only_a: np.ndarray, only_b: np.ndarray) -> np.ndarray:
             cache[pair] = float(mcnemar([[0, pair[0]], [pair[1], 0]], exact=True).pvalue)
         out[i] = cache[pair]
     return out
+
+
+def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms") -> pd.DataFrame:
+    """Per (run, suite, case, mutant variant): whether the case kills it, and how.
+
+    Returns the :func:`case_verdicts` frame at level ``case_alpha`` with a column ``kill``:
+    ``killed`` (test rejects), ``crash``/``timeout`` (the mutant alone failed), ``""`` otherwise.
+    """
+    v = case_verdicts(results, alpha=case_alpha, metric=metric)
+    kill = np.where(v["verdict"] == "detected", MutantOutcome.KILLED.value, "").astype(object)
+    crashed = (v["verdict"] == "crash_detected").to_numpy()
+    if crashed.any():
+        st = results[results["variant"] != BASELINE].groupby(["run", "suite", "case", "variant"])["status"]
+        timeouts = st.apply(lambda s: (s.astype(str) == JobStatus.TIMEOUT.value).any())
+        for i in np.flatnonzero(crashed):
+            r = v.iloc[i]
+            kill[i] = (MutantOutcome.TIMEOUT.value if timeouts.get((r["run"], r["suite"], r["case"], r["fault"]), False)
+                       else MutantOutcome.CRASH.value)
+    return v.assign(kill=kill)
+
+
+_STUDY_KEYS = ("sizes", "draws", "bootstrap", "seed", "alpha", "multiplicity", "timeouts_detect", "quick")
+
+
+@dataclass(frozen=True)
+class StudySpec:
+    """The ``[study]`` table: how suites are drawn from the pools and judged.
+
+    Attributes
+    ----------
+    sizes : tuple of int
+        Suite sizes evaluated (each at most the smallest pool).
+    draws : int
+        Suites drawn per strategy and size.
+    bootstrap : int
+        Bootstrap replicates over pool cases (the confidence intervals).
+    seed : int
+        Root of the suite draws and the bootstrap (:func:`faultlab.seeds.study_seed_sequence`).
+    alpha : float
+        Family-wise level of one suite.
+    multiplicity : {"holm", "bonferroni"}
+        Rule within a suite's cases.
+    timeouts_detect : bool
+        Whether a variant's timeout on a case detects it (default false: on a shared machine the
+        wall-clock limit measures the load as much as the variant; crashes always detect).
+    """
+
+    sizes: tuple[int, ...] = (1, 2, 5, 10, 20)
+    draws: int = 2000
+    bootstrap: int = 1000
+    seed: int = 0
+    alpha: float = 0.05
+    multiplicity: str = "holm"
+    timeouts_detect: bool = False
+
+    def to_dict(self) -> dict:
+        return {"sizes": list(self.sizes), "draws": self.draws, "bootstrap": self.bootstrap, "seed": self.seed,
+                "alpha": self.alpha, "multiplicity": self.multiplicity, "timeouts_detect": self.timeouts_detect}
+
+
+def study_spec(data: Mapping, *, source: str) -> StudySpec:
+    """Validate a ``[study]`` table into a :class:`StudySpec` (ConfigError naming file and key)."""
+    t = Table(data, "study", source)
+    t.check_unknown(_STUDY_KEYS)
+    d = StudySpec()
+    sizes = t.get("sizes", list(d.sizes))
+    if (not isinstance(sizes, list) or not sizes
+            or any(isinstance(n, bool) or not isinstance(n, int) or n < 1 for n in sizes)):
+        raise t.error("sizes", f"must be a non-empty list of integers >= 1, got {sizes!r}")
+    if len(set(sizes)) != len(sizes):
+        raise t.error("sizes", f"lists a size twice: {sizes!r}")
+    alpha = t.float("alpha", d.alpha, positive=True)
+    if not alpha < 1:
+        raise t.error("alpha", f"must lie in (0, 1), got {alpha!r}")
+    return StudySpec(sizes=tuple(sorted(sizes)), draws=t.int("draws", d.draws, minimum=1),
+                     bootstrap=t.int("bootstrap", d.bootstrap, minimum=1), seed=t.int("seed", d.seed, minimum=0),
+                     alpha=alpha, multiplicity=t.str("multiplicity", d.multiplicity, choices=MULTIPLICITY),
+                     timeouts_detect=t.bool("timeouts_detect", d.timeouts_detect))

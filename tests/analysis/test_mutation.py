@@ -1,44 +1,11 @@
-"""Mutation campaign and analysis: statistical kills, early stopping, resume, scores, McNemar."""
-
-import math
+"""Mutation analysis: scores with exact intervals, McNemar."""
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.stats import beta, binomtest
 
-from faultlab.analysis.mutation import (analyse_mutation, clopper_pearson, compare_suites, load_mutation_experiment,
-                                        mutation_scores, run_mutation, suite_kills)
-from faultlab.errors import ConfigError
-from faultlab.runner.store import load_results
-
-SIGN_FLIP = "motion_model:arithmetic:9"  # turns the wrong way: the map is ruined
-EQUIVALENT = "motion_model:index:3"      # screened equivalent: never runs
-
-
-def _frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) -> pd.DataFrame:
-    rng = np.random.default_rng(0)
-    base = 100 + rng.random(k) * 10
-    rows = [dict(run=1, suite="fixed", case=case, variant="baseline", rep=r, status="ok", rms_mm=base[r],
-                 emd_mm=base[r]) for r in range(k)]
-    for v, d in diffs.items():
-        for r in range(k):
-            st = (status or {}).get(v, "ok")
-            rows.append(dict(run=1, suite="fixed", case=case, variant=v, rep=r, status=st,
-                             rms_mm=base[r] + d[r] if st == "ok" else math.nan, emd_mm=math.nan))
-    return pd.DataFrame(rows)
-
-
-def test_case_kill_classes_follow_the_exact_paired_test_at_the_case_level():
-    k = 7  # 2^-7 = 0.0078 <= 0.01
-    df = _frame({"mutant:a": np.full(k, 50.0), "mutant:b": np.array([50.0] * 6 + [-5.0]),
-                 "mutant:c": np.zeros(k), "mutant:d": np.zeros(k), "mutant:e": np.zeros(k)},
-                k, status={"mutant:d": "crash", "mutant:e": "timeout"})
-    kills = suite_kills(df, case_alpha=0.01).set_index("fault")["kill"]
-    # b: sum 295; only b itself and the all-positive pattern (305) reach it: p = 2/128 = 0.0156 > 0.01
-    assert kills.to_dict() == {"mutant:a": "killed", "mutant:b": "", "mutant:c": "", "mutant:d": "crash",
-                               "mutant:e": "timeout"}
-    assert suite_kills(df, case_alpha=0.02).set_index("fault")["kill"]["mutant:b"] == "killed"
+from faultlab.analysis.mutation import clopper_pearson, compare_suites, mutation_scores
 
 
 def test_clopper_pearson_matches_the_beta_quantiles():
@@ -82,52 +49,3 @@ def test_mcnemar_exact_equals_the_binomial_test_on_the_discordant_pairs():
     a_only, b_only = int((ka & ~kb).sum()), int((~ka & kb).sum())
     assert (row["a_only"], row["b_only"], row["n"]) == (a_only, b_only, 60)
     assert row["p"] == pytest.approx(binomtest(a_only, a_only + b_only, 0.5).pvalue, rel=1e-12)
-
-
-TINY = """
-seed = 3
-runs = 1
-n_steps = 30
-repetitions = 6
-timeout_s = 60.0
-[suites]
-random = 2
-fixed = 1
-[slam]
-name = "fastslam"
-particles = 5
-[mutation]
-ids = ["{kill}", "{eq}"]
-"""
-
-
-def test_too_few_repetitions_for_the_per_case_level_is_refused(tmp_path):
-    f = tmp_path / "m.toml"
-    f.write_text(TINY.format(kill=SIGN_FLIP, eq=EQUIVALENT))
-    with pytest.raises(ConfigError, match="K = 6"):
-        load_mutation_experiment(f, repetitions=5)
-
-
-@pytest.mark.slow
-def test_a_killed_mutant_stops_early_an_equivalent_one_never_runs_and_a_rerun_resumes(tmp_path):
-    f = tmp_path / "m.toml"
-    f.write_text(TINY.format(kill=SIGN_FLIP, eq=EQUIVALENT))
-    mexp = load_mutation_experiment(f)
-    assert mexp.selection.run == (SIGN_FLIP,) and mexp.selection.screened == {EQUIVALENT: "equivalent"}
-    first = run_mutation(mexp, tmp_path / "out", jobs=2, progress=False)
-    df = load_results(tmp_path / "out")
-    assert not df["variant"].str.contains(EQUIVALENT).any()
-    mutant = df[df["variant"] == f"mutant:{SIGN_FLIP}"]
-    # killed on case 1 of the random suite: case 2 never runs (nor its baseline: nothing is left to judge)
-    assert set(zip(mutant["suite"], mutant["case"])) == {("random", 1), ("fixed", 1)}
-    assert len(df) == 2 * 2 * 6 and first.n_skipped_early == 2 * 6
-    a = analyse_mutation(tmp_path / "out")
-    o = a.outcomes.set_index(["mutant", "suite"])
-    assert o.loc[(SIGN_FLIP, "random"), "outcome"] in ("killed", "crash")
-    assert o.loc[(SIGN_FLIP, "random"), "killing_case"] == 1
-    assert o.loc[(EQUIVALENT, "fixed"), "outcome"] == "equivalent"
-    again = run_mutation(mexp, tmp_path / "out", jobs=2, progress=False)
-    assert again.n_new == 0 and len(load_results(tmp_path / "out")) == len(df)
-    a.save(tmp_path / "saved")
-    back = type(a).load(tmp_path / "saved")
-    pd.testing.assert_frame_equal(back.scores, a.scores, check_dtype=False)

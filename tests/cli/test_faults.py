@@ -31,11 +31,11 @@ def test_faults_verbose_shows_rationales(capsys):
 
 
 def test_faults_check_exit_status(capsys):
-    ok = main(["faults", "--check", "--steps", "30", "--particles", "20", "--seeds", "1",
+    ok = main(["faults", "--check", "--steps", "30", "--particles", "20", "--repetitions", "1",
                "motion_sign_error", "missing_angle_wrap"])
     out = capsys.readouterr().out
     assert ok == 0 and "all 2 faults change the output" in out
-    bad = main(["faults", "--check", "--steps", "30", "--particles", "20", "--seeds", "1",
+    bad = main(["faults", "--check", "--steps", "30", "--particles", "20", "--repetitions", "1",
                 "motion_sign_error", "tests.faults.test_check:IDENTITY"])
     out = capsys.readouterr().out
     assert bad == 1

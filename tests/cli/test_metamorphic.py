@@ -1,10 +1,12 @@
 """``python -m faultlab metamorphic`` prints the relation x fault matrix."""
 
+import pytest
+
 from faultlab.cli import main
 
 
 def test_metamorphic_matrix_for_two_faults(capsys):
-    code = main(["metamorphic", "--steps", "40", "--reps", "2", "--particles", "20", "--no-plugins",
+    code = main(["metamorphic", "--steps", "40", "--repetitions", "2", "--particles", "20", "--no-plugins",
                  "--faults", "missing_angle_wrap", "naive_resampling", "--relations", "bearing_turn", "id_permutation"])
     out = capsys.readouterr().out
     assert code == 0  # the unmodified FastSLAM keeps every relation
@@ -18,7 +20,7 @@ def test_metamorphic_matrix_for_two_faults(capsys):
 
 
 def test_metamorphic_says_which_faults_do_not_apply(capsys):
-    code = main(["metamorphic", "--slam", "dead_reckoning", "--steps", "20", "--reps", "2", "--no-plugins",
+    code = main(["metamorphic", "--slam", "dead_reckoning", "--steps", "20", "--repetitions", "2", "--no-plugins",
                  "--relations", "rigid_motion"])
     out = capsys.readouterr().out
     assert code == 0
@@ -26,6 +28,7 @@ def test_metamorphic_says_which_faults_do_not_apply(capsys):
     assert [line.split()[0] for line in out.splitlines()].count("baseline") == 1
 
 
-def test_metamorphic_refuses_a_single_repetition(capsys):
-    assert main(["metamorphic", "--reps", "1"]) == 1
-    assert "--reps must be >= 2" in capsys.readouterr().err
+@pytest.mark.parametrize("option", ["--repetitions", "--reps"])  # the former spelling still parses
+def test_metamorphic_refuses_a_single_repetition(capsys, option):
+    assert main(["metamorphic", option, "1"]) == 1
+    assert "--repetitions must be >= 2" in capsys.readouterr().err

@@ -100,14 +100,15 @@ def test_report_rebuilds_from_saved_results_without_rerunning(quick, tmp_path, m
     base, code, _, err = quick
     assert code == 0, err
     import faultlab.runner
-    import faultlab.runner.execute
+    import faultlab.runner.execution
+    import faultlab.runner.orchestration
 
     def boom(*args, **kwargs):
         raise AssertionError("report must not run anything")
 
-    for module in (faultlab.runner, faultlab.runner.execute):
-        monkeypatch.setattr(module, "run_experiment", boom)
-        monkeypatch.setattr(module, "execute_job", boom)
+    for module, name in ((faultlab.runner, "run_experiment"), (faultlab.runner.orchestration, "run_experiment"),
+                         (faultlab.runner, "execute_job"), (faultlab.runner.execution, "execute_job")):
+        monkeypatch.setattr(module, name, boom)
     sessions = load_metadata(base / "results")["sessions"]
     code, out, err = _run(["report", str(base / "results"), "--reports", str(tmp_path / "again")])
     assert code == 0, err
@@ -148,3 +149,30 @@ def test_ablation_options_are_checked_before_anything_runs(tmp_path):
     assert not (tmp_path / "o").exists()
     with pytest.raises(SystemExit):
         _run(["reproduce", "--profile", "paper", "--ablation", "--ablation-fixed", "0"])
+
+
+@pytest.mark.slow
+def test_reproduce_quick_writes_only_under_out(tmp_path, monkeypatch):
+    """From an empty working directory, ``reproduce --quick --out D`` writes the store, the cases and the
+    report under D, and nothing anywhere else (shrunk further: tiny cases, few steps and particles)."""
+    import faultlab.campaigns.reproduce as rp
+    from tests.report.conftest import write_tiny_experiment
+
+    monkeypatch.setattr(rp, "QUICK_STEPS", 15)
+    monkeypatch.setattr(rp, "QUICK_PARTICLES", 6)
+    experiment = write_tiny_experiment(tmp_path / "experiment")
+    cwd, out = tmp_path / "cwd", tmp_path / "D"
+    cwd.mkdir()
+    monkeypatch.chdir(cwd)
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    code, printed, err = _run(["reproduce", "--quick", "--experiment", str(experiment), "--out", str(out),
+                               "--no-progress"])
+    assert code == 0, err
+    assert list(cwd.iterdir()) == []
+    after = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    new = [p for p in after if p not in before]
+    assert new and all(p.parts[0] == "D" for p in new), new
+    assert (out / "results.sqlite").is_file() and any((out / "cases").rglob("*.npz"))
+    for name in OUTPUTS:
+        assert (out / "report" / name).is_file(), name
+    assert str(out / "report" / "report.pdf") in printed

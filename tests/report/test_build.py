@@ -23,14 +23,15 @@ from faultlab.runner import case_path, load_metadata, load_results
 def _forbid_running(monkeypatch):
     """Make every way of running or generating something fail loudly."""
     import faultlab.runner
-    import faultlab.runner.execute
+    import faultlab.runner.execution
+    import faultlab.runner.orchestration
     import faultlab.scenario
 
     def boom(*args, **kwargs):
         raise AssertionError("the report must be built from saved results only")
 
-    for module, name in ((faultlab.runner, "run_experiment"), (faultlab.runner.execute, "run_experiment"),
-                         (faultlab.runner, "execute_job"), (faultlab.runner.execute, "execute_job"),
+    for module, name in ((faultlab.runner, "run_experiment"), (faultlab.runner.orchestration, "run_experiment"),
+                         (faultlab.runner, "execute_job"), (faultlab.runner.execution, "execute_job"),
                          (faultlab.scenario, "generate_scenario")):
         monkeypatch.setattr(module, name, boom)
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import pandas as pd
 
-from faultlab.analysis.study import StudyAnalysis, StudySpec, _power
+from faultlab.analysis.study import StudyAnalysis, _power
+from faultlab.stats.killmatrix import StudySpec
 from faultlab.report.study import detection_figure, study_markdown
 from faultlab.stats.killmatrix import compare_scores, detection_table, evaluate_suites, score_table
 from tests.stats.test_killmatrix import hand_matrix

@@ -20,6 +20,8 @@ import numpy as np
 from faultlab.faults import Fault
 from faultlab.slam.protocol import Estimate, SlamAdapter
 
+#: Prefix of the faults below as an experiment names them.
+SUTS = "tests.runner.suts"
 #: Upper bound of a "hang", so that a broken timeout fails a test instead of freezing it.
 HANG_LIMIT_S = 60.0
 
@@ -279,3 +281,24 @@ def write_experiment(path, **overrides):
     path = Path(path)
     path.write_text(to_toml(tiny_experiment(**overrides)))
     return path
+
+
+def without_runtime(df):
+    """``df`` without ``runtime_s``, the one column that differs between runs of the same jobs."""
+    return df.drop(columns=["runtime_s"])
+
+
+def one_case(**kw):
+    """Overrides of :func:`tiny_experiment` for one random case, one repetition."""
+    base = dict(runs=1, suites={"random": 1}, repetitions=1)
+    base.update(kw)
+    return base
+
+
+def fastslam_batches(tmp_path, **overrides):
+    """A small FastSLAM experiment whose repetitions run in batches (with overrides); returns its path."""
+    data = dict(runs=1, n_steps=40, repetitions=3, timeout_s=300.0, suites={"random": 1, "fixed": 1},
+                variants=["baseline", "missing_angle_wrap", f"{SUTS}:FS_UNLUCKY", f"{SUTS}:FS_FAR"],
+                slam={"name": "fastslam", "particles": 12})
+    data.update(overrides)
+    return write_experiment(tmp_path / "batches.toml", **data)

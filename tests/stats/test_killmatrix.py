@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import pandas as pd
@@ -14,10 +15,10 @@ from statsmodels.stats.multitest import multipletests
 
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.metrics.detection import DetectionRule
-from faultlab.stats.killmatrix import (KillMatrix, bootstrap_probabilities, compare_scores, detection_probability,
-                                       detection_table, draw_suites, evaluate_suites, judge_suite, kill_matrix,
-                                       score_table,
-                                       strong_cases, suite_detects, suite_rejections)
+from faultlab.stats.killmatrix import (KillMatrix, StudySpec, bootstrap_probabilities, compare_scores,
+                                       detection_probability, detection_table, draw_suites, evaluate_suites,
+                                       judge_suite, kill_matrix, score_table, strong_cases, study_spec,
+                                       suite_detects, suite_kills, suite_rejections)
 
 ALPHA = 0.05
 
@@ -255,3 +256,39 @@ def test_kill_matrix_holds_the_exact_p_value_crash_and_paper_flag_of_every_case(
     np.testing.assert_array_equal(back.crash, km.crash)
     with pytest.raises(ResultsError, match="cases x"):
         KillMatrix.from_frame(km.to_frame().iloc[1:])
+
+
+# -- the per-case kill of a mutation campaign, the [study] table --------------------------------
+
+
+def _kill_frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) -> pd.DataFrame:
+    rng = np.random.default_rng(0)
+    base = 100 + rng.random(k) * 10
+    rows = [dict(run=1, suite="fixed", case=case, variant="baseline", rep=r, status="ok", rms_mm=base[r],
+                 emd_mm=base[r]) for r in range(k)]
+    for v, d in diffs.items():
+        for r in range(k):
+            st = (status or {}).get(v, "ok")
+            rows.append(dict(run=1, suite="fixed", case=case, variant=v, rep=r, status=st,
+                             rms_mm=base[r] + d[r] if st == "ok" else math.nan, emd_mm=math.nan))
+    return pd.DataFrame(rows)
+
+
+def test_case_kill_classes_follow_the_exact_paired_test_at_the_case_level():
+    k = 7  # 2^-7 = 0.0078 <= 0.01
+    df = _kill_frame({"mutant:a": np.full(k, 50.0), "mutant:b": np.array([50.0] * 6 + [-5.0]),
+                 "mutant:c": np.zeros(k), "mutant:d": np.zeros(k), "mutant:e": np.zeros(k)},
+                k, status={"mutant:d": "crash", "mutant:e": "timeout"})
+    kills = suite_kills(df, case_alpha=0.01).set_index("fault")["kill"]
+    # b: sum 295; only b itself and the all-positive pattern (305) reach it: p = 2/128 = 0.0156 > 0.01
+    assert kills.to_dict() == {"mutant:a": "killed", "mutant:b": "", "mutant:c": "", "mutant:d": "crash",
+                               "mutant:e": "timeout"}
+    assert suite_kills(df, case_alpha=0.02).set_index("fault")["kill"]["mutant:b"] == "killed"
+
+
+def test_study_spec_defaults_and_types():
+    assert study_spec({}, source="x") == StudySpec()
+    with pytest.raises(ConfigError, match="x: study.alpha must lie in"):
+        study_spec({"alpha": 1.5}, source="x")
+    with pytest.raises(ConfigError, match="study.timeouts_detect must be true or false"):
+        study_spec({"timeouts_detect": "no"}, source="x")

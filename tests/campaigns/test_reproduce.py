@@ -1,4 +1,4 @@
-"""reproduce(): options reach the runner, the report is built from what was stored."""
+"""reproduce(): options reach the runner; the campaign writes under its results directory only."""
 
 from __future__ import annotations
 
@@ -6,46 +6,29 @@ from pathlib import Path
 
 import pytest
 
-import faultlab.report.reproduce as rp
+import faultlab.campaigns.reproduce as rp
 from faultlab.errors import ConfigError
 from faultlab.analysis.fidelity import FIDELITY
-from faultlab.report.reproduce import default_out, default_reports, profile_overrides, quick_overrides, reproduce
+from faultlab.campaigns.reproduce import default_out, default_reports, profile_overrides, quick_overrides, reproduce
+from faultlab.report.reproduce import rebuild_report
 from faultlab.runner import load_experiment, load_results, parse_experiment
 from faultlab.slam.profiles import get_profile
 
-from .conftest import REPO, write_tiny_experiment
+from tests.report.conftest import REPO, write_tiny_experiment
 
 PAPER_TOML = REPO / "experiments" / "paper.toml"
 
 
 @pytest.fixture
 def captured(monkeypatch):
-    """Replace the runner and the report builder by recorders (nothing runs)."""
-    import faultlab.runner
-
+    """Replace the runner by a recorder (nothing runs)."""
     calls = {}
 
     def fake_run(experiment, out, **kwargs):
         calls["run"] = (experiment, Path(out), kwargs)
         return "summary"
 
-    def fake_build(results_dir, reports_dir, *, fidelity=None, ablation=None):
-        calls["build"] = (Path(results_dir), Path(reports_dir))
-        calls["build_pages"] = (fidelity, ablation)
-        return "report"
-
-    def fake_fidelity(results_dir):
-        calls["fidelity"] = Path(results_dir)
-        return "fidelity"
-
-    def fake_write_fidelity(fid, reports_dir, ablation=None):
-        calls["write_fidelity"] = (fid, Path(reports_dir))
-        return "fidelity files"
-
-    monkeypatch.setattr(faultlab.runner, "run_experiment", fake_run)
-    monkeypatch.setattr(rp, "build_report", fake_build)
-    monkeypatch.setattr(rp, "fidelity", fake_fidelity)
-    monkeypatch.setattr(rp, "write_fidelity", fake_write_fidelity)
+    monkeypatch.setattr(rp, "run_experiment", fake_run)
     return calls
 
 
@@ -77,15 +60,15 @@ def test_default_is_the_shipped_paper_protocol_from_any_directory(captured, tmp_
     assert captured["run"][1] == Path("results/smoke-quick")
 
 
-def test_options_reach_the_runner_and_the_report(captured, tmp_path):
+def test_options_reach_the_runner_and_the_result(captured, tmp_path):
     result = reproduce(PAPER_TOML, out=tmp_path / "o", reports=tmp_path / "r", runs=30, jobs=1,
                        backend="threading", force_new=True, progress=False)
     experiment, out, kwargs = captured["run"]
     assert experiment.runs == 30 and experiment.suites == load_experiment(PAPER_TOML).suites
     assert out == tmp_path / "o"
     assert kwargs == {"jobs": 1, "backend": "threading", "force_new": True, "progress": False}
-    assert captured["build"] == (tmp_path / "o", tmp_path / "r")
-    assert result.report == "report" and result.summary == "summary" and result.experiment is experiment
+    assert result.reports == tmp_path / "r" and result.ablation_dirs == {}
+    assert result.summary == "summary" and result.experiment is experiment
 
 
 def test_quick_and_runs_together(captured, tmp_path, monkeypatch):
@@ -94,7 +77,6 @@ def test_quick_and_runs_together(captured, tmp_path, monkeypatch):
     experiment, out, _ = captured["run"]
     assert experiment.runs == 2 and experiment.slam.config.n_particles == 60
     assert out == Path("results/paper-quick-runs2")
-    assert captured["build"] == (Path("results/paper-quick-runs2"), Path("reports"))
 
 
 @pytest.mark.parametrize("kwargs, match", [({"runs": 0}, "runs"), ({"jobs": 0}, "jobs"),
@@ -114,17 +96,16 @@ def test_missing_experiment_file(captured, tmp_path):
 
 def test_reproduce_runs_then_resumes_without_rerunning(tmp_path):
     exp = write_tiny_experiment(tmp_path)
-    first = reproduce(exp, out=tmp_path / "out", reports=tmp_path / "rep", jobs=1, progress=False)
+    first = reproduce(exp, out=tmp_path / "out", jobs=1, progress=False)
     assert first.summary.n_new == 18 and first.summary.complete
-    assert first.report.pdf.is_file() and first.report.n_rows == 18
-    assert first.out == tmp_path / "out"
+    assert first.out == tmp_path / "out" and first.reports == tmp_path / "out" / "report"
+    assert str(first).startswith(f"results: {tmp_path / 'out'} (18 jobs")
     rows = load_results(tmp_path / "out")
-    text = str(first)
-    assert "results:" in text and "report.pdf" in text
-    second = reproduce(exp, out=tmp_path / "out", reports=tmp_path / "rep2", jobs=1, progress=False)
+    second = reproduce(exp, out=tmp_path / "out", jobs=1, progress=False)
     assert second.summary.n_new == 0 and second.summary.n_skipped == 18
-    assert (tmp_path / "rep2" / "report.pdf").is_file()
     assert load_results(tmp_path / "out").equals(rows)
+    # the campaign wrote its store and cases, nothing else (the report is rendered separately)
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".lock", "cases", "results.sqlite"]
 
 
 def test_profile_paper_runs_the_papers_filter_with_fov_bug_beside_the_default(captured, tmp_path, monkeypatch):
@@ -135,14 +116,11 @@ def test_profile_paper_runs_the_papers_filter_with_fov_bug_beside_the_default(ca
     assert experiment.slam.config == get_profile("paper").config
     assert experiment.slam.build().steps == get_profile("paper").steps
     assert out == Path("results/paper-profile-paper")
-    assert captured["build"] == (out, Path("reports/profile-paper"))
-    assert captured["fidelity"] == out and captured["write_fidelity"] == ("fidelity", Path("reports/profile-paper"))
-    assert captured["build_pages"] == ("fidelity", None)  # the fidelity computed once goes into report.pdf
     reproduce(profile="paper", quick=True, progress=False)
     experiment, out, _ = captured["run"]
     assert experiment.slam.profile == "paper" and experiment.fov_bug and experiment.slam.config.n_particles == 60
     assert out == Path("results/paper-profile-paper-quick")
-    assert default_reports() == Path("reports") and default_out("paper", profile="x") == Path("results/paper-profile-x")
+    assert default_reports(Path("x")) == Path("x/report") and default_out("paper", profile="x") == Path("results/paper-profile-x")
 
 
 def test_profile_overrides_replace_the_files_slam_settings():
@@ -166,6 +144,7 @@ def test_reproduce_profile_paper_quick_end_to_end(tmp_path, monkeypatch):
     exp = write_tiny_experiment(tmp_path)
     result = reproduce(exp, profile="paper", quick=True, out=tmp_path / "out", reports=tmp_path / "rep", jobs=1,
                        progress=False)
+    written = rebuild_report(result.out, result.reports)
     assert result.summary.complete and result.experiment.fov_bug and result.experiment.slam.profile == "paper"
     rows = load_results(tmp_path / "out")
     assert set(rows["variant"]) == {"baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error"}
@@ -177,7 +156,7 @@ def test_reproduce_profile_paper_quick_end_to_end(tmp_path, monkeypatch):
         assert r.n == len(cell) and r.median_mm == pytest.approx(cell.median())
     md = (tmp_path / "rep" / "fidelity.md").read_text()
     assert "profile `paper`, fov_bug = true" in md and "REDUCED" in md
-    assert (tmp_path / "rep" / "report.pdf").is_file() and "fidelity" in str(result)
+    assert (tmp_path / "rep" / "report.pdf").is_file() and "fidelity" in str(written)
 
 
 def test_ablation_needs_the_paper_profile(captured, tmp_path):
@@ -190,22 +169,20 @@ def test_ablation_needs_the_paper_profile(captured, tmp_path):
 
 
 def test_run_ablation_reuses_the_main_run_and_runs_every_other_arm(monkeypatch, tmp_path):
-    import faultlab.runner
     from faultlab.slam.profiles import ablation_arms
 
-    runs, computed = [], {}
-    monkeypatch.setattr(faultlab.runner, "run_experiment", lambda exp, out, **kw: runs.append((exp, Path(out), kw)))
-    monkeypatch.setattr(rp, "compute_ablation", lambda dirs: computed.update(dirs) or "ablation")
+    runs = []
+    monkeypatch.setattr(rp, "run_experiment", lambda exp, out, **kw: runs.append((exp, Path(out), kw)))
     paper = load_experiment(PAPER_TOML)
     main = paper.replace(**profile_overrides(paper, "paper"))
-    assert rp.run_ablation(main, tmp_path / "main", runs=2, jobs=1, progress=False) == "ablation"
+    computed = rp.run_ablation(main, tmp_path / "main", runs=2, jobs=1, progress=False)
     arms = ablation_arms()
     assert list(computed) == [a.name for a in arms] and computed["paper"] == tmp_path / "main"
     assert len(runs) == len(arms) - 1  # the main run is not run again
     for exp, out, kw in runs:
         name = out.name
         arm = next(a for a in arms if a.name == name)
-        assert out.parent == tmp_path / "main-ablation" and computed[name] == out
+        assert out.parent == tmp_path / "main" / "ablation" and computed[name] == out
         assert exp.slam.profile == arm.profile and exp.fov_bug == arm.fov_bug
         assert exp.runs == 2 and exp.variants == ("baseline", "missing_angle_wrap")
         assert exp.n_steps == main.n_steps and exp.seed == main.seed and exp.suites == main.suites

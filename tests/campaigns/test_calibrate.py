@@ -1,4 +1,4 @@
-"""The A/A calibration campaign, in a tiny quick configuration."""
+"""The A/A calibration campaign, in a tiny quick configuration, and its assessment."""
 
 from __future__ import annotations
 
@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from faultlab.cli import build_parser
-from faultlab.report.calibrate import calibrate
+from faultlab.analysis.calibration import assess_calibration
+from faultlab.campaigns.calibrate import calibrate
 from faultlab.stats.verdict import clustered_rate
 from faultlab.vocabulary import BASELINE, REPLICA
 
@@ -15,9 +16,11 @@ TINY = {"n_steps": 25, "suites": {"systematic": "auto", "random": 1, "fixed": 1}
 
 @pytest.mark.slow
 def test_quick_calibration_runs_an_aa_campaign_and_reports_false_alarms(tmp_path):
-    result = calibrate(quick=True, out=tmp_path / "res", reports=tmp_path / "rep", jobs=1, progress=False,
-                       overrides=TINY)
-    exp = result.experiment
+    run = calibrate(quick=True, out=tmp_path / "res", jobs=1, progress=False, overrides=TINY)
+    exp = run.experiment
+    assert run.summary.complete and run.out == tmp_path / "res"
+    result = assess_calibration(run.out)
+    assert result.repetitions == 6
     assert exp.variants == (BASELINE, REPLICA) and exp.repetitions == 6 and exp.runs == 1
     assert exp.detection.rule == "statistical"
     table = result.table.set_index(["rule", "suite"])
@@ -38,10 +41,9 @@ def test_quick_calibration_runs_an_aa_campaign_and_reports_false_alarms(tmp_path
     assert result.calibrated == bool((result.table.query("rule == 'statistical' and n_pairs > 0")["low"]
                                       < 0.05).all())
     assert "statistical rule: false-alarm rate <= alpha = 0.05" in str(result)
-    assert (tmp_path / "rep" / "replica_false_alarms.csv").exists()
     # resumable: the same call runs nothing new
     again = calibrate(quick=True, out=tmp_path / "res", jobs=1, progress=False, overrides=TINY)
-    assert again.table.equals(result.table)
+    assert again.summary.n_new == 0 and assess_calibration(again.out).table.equals(result.table)
 
 
 def test_calibrate_command_is_registered():

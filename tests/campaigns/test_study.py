@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from faultlab.analysis.study import StudySpec, load_study_experiment, sampled_load, study_spec
+from faultlab.campaigns.study import load_study_experiment, sampled_load
 from faultlab.errors import ConfigError
 from faultlab.mutation.variants import is_mutant_variant
 from faultlab.vocabulary import PAPER_FAULTS
@@ -86,14 +86,6 @@ def test_quick_replaces_keys_and_merges_tables_key_by_key(tmp_path):
 def test_malformed_study_files_are_refused_naming_the_key(tmp_path, change, match):
     with pytest.raises(ConfigError, match=match):
         load_study_experiment(_file(tmp_path, BASE.replace(*change)))
-
-
-def test_study_spec_defaults_and_types():
-    assert study_spec({}, source="x") == StudySpec()
-    with pytest.raises(ConfigError, match="x: study.alpha must lie in"):
-        study_spec({"alpha": 1.5}, source="x")
-    with pytest.raises(ConfigError, match="study.timeouts_detect must be true or false"):
-        study_spec({"timeouts_detect": "no"}, source="x")
 
 
 def test_sampled_load_samples_at_start_interval_and_end():

@@ -1,10 +1,8 @@
-import dataclasses
+"""run_experiment: cases, jobs, store, resumption, skipped variants, every built-in SLAM."""
+
 import json
 import math
-import platform
-import signal
 import sqlite3
-import threading
 import warnings
 
 import numpy as np
@@ -12,39 +10,18 @@ import pandas as pd
 import pytest
 
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.vocabulary import JobStatus
-from faultlab.runner import (
-    case_path,
-    load_experiment,
-    load_metadata,
-    load_results,
-    prepare_cases,
-    run_experiment,
-)
+from faultlab.runner import case_path, load_experiment, load_metadata, load_results, prepare_cases, run_experiment
 from faultlab.faults import FaultNotApplicableWarning
-from faultlab.runner import execute as execute_module
-from faultlab.runner.execute import SKIPPED_VARIANTS_KEY, _alarm, execute_batch, execute_job, tune_allocator
-from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, expand_jobs
+from faultlab.runner.store import SKIPPED_VARIANTS_KEY
+from faultlab.runner.jobs import expand_jobs
 from faultlab.seeds import case_seed, slam_seed, suite_seed_sequence
 from faultlab.scenario import generate_scenario, load_scenario
 from faultlab.space import build_suite
-from tests.runner.suts import write_experiment
-
-SUTS = "tests.runner.suts"
-
-
-def _without_runtime(df: pd.DataFrame) -> pd.DataFrame:
-    return df.drop(columns=["runtime_s"])
-
-
-def _one_case(**kw):
-    base = dict(runs=1, suites={"random": 1}, repetitions=1)
-    base.update(kw)
-    return base
+from tests.runner.suts import SUTS, fastslam_batches, one_case, without_runtime, write_experiment
 
 
 def test_crash_nan_and_hang_are_recorded_while_others_finish(tmp_path):
-    exp = write_experiment(tmp_path / "e.toml", **_one_case(
+    exp = write_experiment(tmp_path / "e.toml", **one_case(
         variants=["baseline", f"{SUTS}:CRASH", f"{SUTS}:NAN", f"{SUTS}:HANG", f"{SUTS}:STUBBORN", f"{SUTS}:BIAS"],
         timeout_s=2.0))
     summary = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
@@ -66,50 +43,6 @@ def test_crash_nan_and_hang_are_recorded_while_others_finish(tmp_path):
     assert summary.counts == {"ok": 2, "crash": 2, "timeout": 2}
     assert summary.n_jobs == 6 and summary.n_new == 6 and summary.complete
     assert "6 jobs: 2 ok, 2 crash, 2 timeout" in str(summary)
-
-
-def test_cooperative_deadline_stops_a_slow_sut_in_a_thread(tmp_path):
-    exp = write_experiment(tmp_path / "e.toml", **_one_case(variants=["baseline", f"{SUTS}:SLOW"],
-                                                            timeout_s=0.5, n_steps=40))
-    run_experiment(exp, tmp_path / "out", jobs=2, backend="threading", progress=False)
-    df = load_results(tmp_path / "out").set_index("variant")
-    assert df.loc[f"{SUTS}:SLOW", "status"] == "timeout"  # 40 steps x 50 ms > 0.5 s, no SIGALRM in threads
-    assert df.loc["baseline", "status"] == "ok"
-
-
-def test_alarm_only_in_main_thread():
-    seen = []
-    t = threading.Thread(target=lambda: seen.append(_alarm(1.0).__enter__()))
-    t.start()
-    t.join()
-    assert seen == [False]
-    before = signal.getsignal(signal.SIGALRM)
-    with _alarm(5.0) as armed:
-        assert armed and signal.getitimer(signal.ITIMER_REAL)[0] > 0
-    assert signal.getsignal(signal.SIGALRM) is before and signal.getitimer(signal.ITIMER_REAL)[0] == 0
-
-
-def test_execute_job_in_process_times_out_a_busy_loop(tmp_path):
-    """SIGALRM stops a SUT stuck in a pure-Python loop inside one step (main thread)."""
-    exp = load_experiment(write_experiment(tmp_path / "e.toml", **_one_case(timeout_s=0.5)))
-    (info,) = prepare_cases(exp, tmp_path)
-    key = JobKey(1, "random", 1, f"{SUTS}:HANG", 0)
-    spec = JobSpec(key, str(info.path), exp.slam, seed=1, timeout_s=0.5)
-    res = execute_job(spec)
-    assert res.status == JobStatus.TIMEOUT and 0.4 < res.runtime_s < 30
-    ok = execute_job(JobSpec(JobKey(1, "random", 1, "baseline", 0), str(info.path), exp.slam, seed=1,
-                             timeout_s=30.0))
-    assert ok.status == JobStatus.OK and ok.error == "" and np.isfinite(ok.rms_mm)
-
-
-def test_worker_death_is_recorded_as_crash(tmp_path):
-    exp = write_experiment(tmp_path / "e.toml", **_one_case(variants=["baseline", f"{SUTS}:EXIT"]))
-    summary = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
-    df = load_results(tmp_path / "out").set_index("variant")
-    assert df.loc[f"{SUTS}:EXIT", "status"] == "crash"
-    assert df.loc[f"{SUTS}:EXIT", "error"].startswith("WorkerDied:")
-    assert df.loc["baseline", "status"] == "ok"
-    assert summary.n_jobs == 2 and summary.complete
 
 
 def test_common_random_numbers_across_variants(tmp_path):
@@ -143,7 +76,7 @@ def test_results_identical_across_jobs_and_resume(tmp_path):
     assert s1.n_jobs == s2.n_jobs == 3 * 2 * 2
     a, b = load_results(tmp_path / "two"), load_results(tmp_path / "one")
     assert (a.status == "ok").all()
-    pd.testing.assert_frame_equal(_without_runtime(a), _without_runtime(b), check_exact=True)
+    pd.testing.assert_frame_equal(without_runtime(a), without_runtime(b), check_exact=True)
     for run, suite, case in a[["run", "suite", "case"]].drop_duplicates().itertuples(index=False):
         x = load_scenario(case_path(tmp_path / "two", run, suite, case))
         y = load_scenario(case_path(tmp_path / "one", run, suite, case))
@@ -159,7 +92,7 @@ def test_results_identical_across_jobs_and_resume(tmp_path):
     again = run_experiment(exp, tmp_path / "two", jobs=2, progress=False)
     assert again.n_new == len(a) - len(kept) and again.n_skipped == len(kept)
     c = load_results(tmp_path / "two")
-    pd.testing.assert_frame_equal(_without_runtime(c), _without_runtime(a), check_exact=True)
+    pd.testing.assert_frame_equal(without_runtime(c), without_runtime(a), check_exact=True)
     # rows that were kept are untouched (runtime included)
     merged = kept.merge(c, on=["run", "suite", "case", "variant", "rep"], suffixes=("", "_after"))
     np.testing.assert_array_equal(merged.runtime_s.to_numpy(), merged.runtime_s_after.to_numpy())
@@ -227,7 +160,7 @@ def test_malformed_experiment_refused_before_any_work(tmp_path):
 
 def test_variants_whose_fault_does_not_apply_are_skipped_and_recorded(tmp_path):
     # EKF-SLAM has no resampling unit: naive_resampling is skipped, missing_angle_wrap runs
-    exp = write_experiment(tmp_path / "ekf.toml", **_one_case(
+    exp = write_experiment(tmp_path / "ekf.toml", **one_case(
         slam={"name": "ekf"}, variants=["baseline", "naive_resampling", "missing_angle_wrap"]))
     with pytest.warns(FaultNotApplicableWarning,
                       match=r"variants\[1\] skipped: fault 'naive_resampling' replaces unit 'resample', "
@@ -241,7 +174,7 @@ def test_variants_whose_fault_does_not_apply_are_skipped_and_recorded(tmp_path):
                         "reason": "fault 'naive_resampling' replaces unit 'resample', which SLAM 'ekf' does "
                                   "not have (it has 13 other units)"}]
     # dead reckoning has no units at all: every fault is skipped, the baseline still runs
-    dr = write_experiment(tmp_path / "dr.toml", **_one_case(
+    dr = write_experiment(tmp_path / "dr.toml", **one_case(
         slam={"name": "dead_reckoning"}, variants=["baseline", "naive_resampling", "motion_sign_error"]))
     with pytest.warns(FaultNotApplicableWarning, match="has no replaceable units"):
         run_experiment(dr, tmp_path / "dr", jobs=1, progress=False)
@@ -249,7 +182,7 @@ def test_variants_whose_fault_does_not_apply_are_skipped_and_recorded(tmp_path):
     assert [r["fault"] for r in load_metadata(tmp_path / "dr")[SKIPPED_VARIANTS_KEY]] == [
         "naive_resampling", "motion_sign_error"]
     # a campaign whose faults all apply records an empty list
-    ok = write_experiment(tmp_path / "ok.toml", **_one_case(variants=["baseline", f"{SUTS}:BIAS"]))
+    ok = write_experiment(tmp_path / "ok.toml", **one_case(variants=["baseline", f"{SUTS}:BIAS"]))
     with warnings.catch_warnings():
         warnings.simplefilter("error", FaultNotApplicableWarning)
         run_experiment(ok, tmp_path / "ok", jobs=1, progress=False)
@@ -257,10 +190,10 @@ def test_variants_whose_fault_does_not_apply_are_skipped_and_recorded(tmp_path):
 
 
 def test_changed_experiment_refused_unless_force_new(tmp_path):
-    path = write_experiment(tmp_path / "e.toml", **_one_case())
+    path = write_experiment(tmp_path / "e.toml", **one_case())
     run_experiment(path, tmp_path / "out", jobs=1, progress=False)
     first = load_results(tmp_path / "out")
-    write_experiment(path, **_one_case(repetitions=2))
+    write_experiment(path, **one_case(repetitions=2))
     with pytest.raises(ResultsError, match="different experiment.*changed: repetitions.*--force-new"):
         run_experiment(path, tmp_path / "out", jobs=1, progress=False)
     pd.testing.assert_frame_equal(load_results(tmp_path / "out"), first)
@@ -268,20 +201,6 @@ def test_changed_experiment_refused_unless_force_new(tmp_path):
     assert summary.n_new == summary.n_jobs == 4
     (old,) = (tmp_path / "out").glob("previous-*")
     pd.testing.assert_frame_equal(load_results(old), first)
-
-
-@pytest.mark.slow
-def test_dask_local_cluster_gives_the_loky_table(tmp_path):
-    distributed = pytest.importorskip("distributed")
-    exp = write_experiment(tmp_path / "e.toml", runs=1, variants=["baseline", f"{SUTS}:BIAS"])
-    run_experiment(exp, tmp_path / "loky", jobs=2, progress=False)
-    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1",
-                                  dashboard_address=None) as cluster, distributed.Client(cluster):
-        summary = run_experiment(exp, tmp_path / "dask", backend="dask", progress=False)
-    assert summary.complete and summary.counts["ok"] == summary.n_jobs == 12
-    pd.testing.assert_frame_equal(_without_runtime(load_results(tmp_path / "dask")),
-                                  _without_runtime(load_results(tmp_path / "loky")), check_exact=True)
-    assert load_metadata(tmp_path / "dask")["sessions"][0]["backend"] == "dask"
 
 
 def test_expand_matches_store_identities(tmp_path):
@@ -295,60 +214,13 @@ def test_expand_matches_store_identities(tmp_path):
     assert all(j.seed == slam_seed(exp.seed, j.key.run, j.key.suite, j.key.case, j.key.rep) for j in jobs)
 
 
-# ------------------------------------------------------------------ batched repetitions
-
-def _fastslam_batches(tmp_path, **overrides):
-    data = dict(runs=1, n_steps=40, repetitions=3, timeout_s=300.0, suites={"random": 1, "fixed": 1},
-                variants=["baseline", "missing_angle_wrap", f"{SUTS}:FS_UNLUCKY", f"{SUTS}:FS_FAR"],
-                slam={"name": "fastslam", "particles": 12})
-    data.update(overrides)
-    return write_experiment(tmp_path / "batches.toml", **data)
-
-
-def _batch(exp, infos, variant, reps) -> JobBatch:
-    specs = [s for s in expand_jobs(exp, ((i.run, i.suite, i.case, i.path, i.cost) for i in infos))
-             if s.key.variant == variant and s.key.rep in reps and s.key.case == 1 and s.key.suite == "random"]
-    return JobBatch(tuple(specs))
-
-
-def test_execute_batch_gives_each_repetition_its_single_job_result(tmp_path):
-    exp = load_experiment(_fastslam_batches(tmp_path, repetitions=4))
-    infos = prepare_cases(exp, tmp_path)
-    for variant in exp.variants:
-        batch = _batch(exp, infos, variant, range(4))
-        got = execute_batch(batch)
-        alone = [execute_job(s) for s in batch.jobs]
-        assert [r.key for r in got] == list(batch.keys)
-        for a, b in zip(alone, got):
-            assert dataclasses.replace(a, runtime_s=0.0) == dataclasses.replace(b, runtime_s=0.0), variant
-        if variant == f"{SUTS}:FS_FAR":  # not attributable to one repetition: every one ran alone
-            assert len({r.runtime_s for r in got}) == len(got)
-        else:  # one batched SLAM: every row records the batch's time / its size
-            assert len({r.runtime_s for r in got}) == 1
-    statuses = {v: [r.status for r in execute_batch(_batch(exp, infos, v, range(4)))] for v in exp.variants}
-    assert set(statuses[f"{SUTS}:FS_UNLUCKY"]) == {JobStatus.OK, JobStatus.CRASH}  # one repetition's failure
-    assert set(statuses[f"{SUTS}:FS_FAR"]) == {JobStatus.CRASH}
-    assert set(statuses["baseline"]) == {JobStatus.OK}
-
-
-def test_a_batch_past_its_limit_records_every_repetition_as_timeout(tmp_path):
-    exp = load_experiment(_fastslam_batches(tmp_path, timeout_s=0.4, variants=["baseline", f"{SUTS}:FS_HANG"]))
-    infos = prepare_cases(exp, tmp_path)
-    batch = _batch(exp, infos, f"{SUTS}:FS_HANG", range(3))
-    assert batch.timeout_s == pytest.approx(1.2)
-    results = execute_batch(batch)
-    assert [r.status for r in results] == [JobStatus.TIMEOUT] * 3
-    assert results[0].error == "timeout: wall-clock limit of 1.2 s exceeded by a batch of 3 repetitions (0.4 s each)"
-    assert 1.0 < 3 * results[0].runtime_s < 30  # stopped near the batch's limit, not after a minute
-
-
 def test_batched_and_single_repetition_campaigns_store_the_same_rows(tmp_path):
-    exp = _fastslam_batches(tmp_path)
+    exp = fastslam_batches(tmp_path)
     single = run_experiment(exp, tmp_path / "single", jobs=2, progress=False, batch_size=1)
     batched = run_experiment(exp, tmp_path / "batched", jobs=2, progress=False)
     assert single.n_jobs == batched.n_jobs == batched.n_new == 2 * 4 * 3
     a, b = load_results(tmp_path / "single"), load_results(tmp_path / "batched")
-    pd.testing.assert_frame_equal(_without_runtime(a), _without_runtime(b), check_exact=True)
+    pd.testing.assert_frame_equal(without_runtime(a), without_runtime(b), check_exact=True)
     assert set(a.status) == {"ok", "crash"} and (a[a.variant == "baseline"].status == "ok").all()
     # batched rows of a (case, variant) share one runtime (the batch's); single-job rows do not
     ok = b[b.variant == "baseline"].groupby(["suite", "case"]).runtime_s.nunique()
@@ -358,7 +230,7 @@ def test_batched_and_single_repetition_campaigns_store_the_same_rows(tmp_path):
 
 @pytest.mark.slow
 def test_a_resumed_batched_campaign_runs_only_the_missing_repetitions(tmp_path):
-    exp = _fastslam_batches(tmp_path, variants=["baseline", "motion_sign_error"])
+    exp = fastslam_batches(tmp_path, variants=["baseline", "motion_sign_error"])
     run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
     full = load_results(tmp_path / "out")
     conn = sqlite3.connect(tmp_path / "out" / "results.sqlite")
@@ -369,22 +241,12 @@ def test_a_resumed_batched_campaign_runs_only_the_missing_repetitions(tmp_path):
     again = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
     assert again.n_new == len(full) - len(kept) == 2 * (2 + 1)
     after = load_results(tmp_path / "out")
-    pd.testing.assert_frame_equal(_without_runtime(after), _without_runtime(full), check_exact=True)
+    pd.testing.assert_frame_equal(without_runtime(after), without_runtime(full), check_exact=True)
     merged = kept.merge(after, on=["run", "suite", "case", "variant", "rep"], suffixes=("", "_after"))
     np.testing.assert_array_equal(merged.runtime_s.to_numpy(), merged.runtime_s_after.to_numpy())
     # the missing repetitions of a (case, variant) ran as one batch: reps 1 and 2 of the baseline share a runtime
     redo = after[(after.variant == "baseline") & (after.rep > 0)].groupby(["suite", "case"]).runtime_s.nunique()
     assert (redo == 1).all()
-
-
-def test_a_batch_that_kills_its_worker_is_a_crash_of_each_repetition(tmp_path):
-    exp = _fastslam_batches(tmp_path, variants=["baseline", f"{SUTS}:FS_EXIT"], suites={"random": 1},
-                            repetitions=2)
-    summary = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
-    df = load_results(tmp_path / "out")
-    died = df[df.variant == f"{SUTS}:FS_EXIT"]
-    assert list(died.status) == ["crash", "crash"] and died.error.str.startswith("WorkerDied:").all()
-    assert (df[df.variant == "baseline"].status == "ok").all() and summary.complete
 
 
 def test_prepare_cases_passes_fov_bug_and_notices_a_mismatch(tmp_path):
@@ -398,18 +260,6 @@ def test_prepare_cases_passes_fov_bug_and_notices_a_mismatch(tmp_path):
     np.testing.assert_array_equal(saved.obs_bearing, direct.obs_bearing)
     with pytest.raises(ResultsError, match="fov_bug = True there, False here"):
         prepare_cases(exp.replace(fov_bug=False), tmp_path / "out")
-
-
-@pytest.mark.skipif(platform.system() != "Linux" or platform.libc_ver()[0] != "glibc", reason="glibc only")
-def test_the_executors_tune_glibcs_allocator_once(tmp_path):
-    exp = load_experiment(write_experiment(tmp_path / "e.toml", **_one_case()))
-    (info,) = prepare_cases(exp, tmp_path)
-    execute_job(JobSpec(JobKey(1, "random", 1, "baseline", 0), str(info.path), exp.slam, seed=1, timeout_s=30.0))
-    assert execute_module._allocator_tuned is True  # set by the executor, in this (worker) process
-    assert tune_allocator() is True
-
-
-# -- every built-in SLAM runs the smoke experiment; unknown association is scored by EMD ----------
 
 
 def _smoke_with(slam: dict, tmp_path, name: str):

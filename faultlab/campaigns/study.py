@@ -1,0 +1,190 @@
+"""The test-design strategies study as a campaign: one case pool per strategy, run once.
+
+A study file is an ordinary experiment file (``experiments/study.toml``) plus
+
+* ``[mutation]``: a sample of live mutants of the reference FastSLAM, selected exactly as in a
+  mutation campaign (:func:`~faultlab.campaigns.mutation.selection_from_table`); they become the
+  variants ``mutant:<id>`` after the file's own variants;
+* ``[study]``: the suite sizes evaluated, the number of suites drawn per strategy and size, the
+  bootstrap replicates, the seed of both, the family-wise level of a suite and the multiplicity
+  rule (:class:`~faultlab.stats.killmatrix.StudySpec`);
+* ``[study.quick]``: keys that replace the file's for ``--quick`` (tables merged key by key).
+
+The *case pool* of a strategy is every case its generator draws in the campaign: ``runs``
+evaluation runs, each drawing a new suite of the size in ``[suites]`` through the one case
+pipeline (:func:`faultlab.scenario.draw_suite`).  The pool runs once, through the ordinary runner
+(:func:`faultlab.runner.run_experiment`: resumable, K repetitions per (case, variant) batched,
+common random numbers), so a study is resumed like ``faultlab run`` and its store is an ordinary
+campaign store.
+
+The kill matrix and the suites drawn from the pools are computed from the store by
+:func:`faultlab.analysis.study.analyse_study`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import json
+import math
+import os
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator, Mapping
+
+from faultlab.campaigns.mutation import selection_from_table
+from faultlab.config import read_toml
+from faultlab.data import resolve_experiment
+from faultlab.errors import ConfigError
+from faultlab.mutation.variants import MutantSelection, is_mutant_variant, mutant_variant
+from faultlab.runner import Experiment, RunSummary, parse_experiment, run_experiment
+from faultlab.runner.store import STUDY_FILE
+from faultlab.stats.killmatrix import StudySpec, study_spec
+from faultlab.stats.verdict import min_pairs
+
+__all__ = ["STUDY_FILE", "StudyExperiment", "load_study_experiment", "run_study", "sampled_load"]
+
+
+@dataclass(frozen=True)
+class StudyExperiment:
+    """A validated study: the campaign that runs the pools, the mutants in it and the ``[study]`` settings."""
+
+    experiment: Experiment
+    study: StudySpec
+    selection: MutantSelection | None
+    quick: bool = False
+
+    def to_json(self) -> dict:
+        sel = self.selection
+        return {"study": self.study.to_dict(), "quick": self.quick,
+                "mutants": [] if sel is None else list(sel.run),
+                "mutant_unit": {} if sel is None else {m: sel.unit[m] for m in sel.run},
+                "mutant_operator": {} if sel is None else {m: sel.operator[m] for m in sel.run},
+                "pool": {s.kind: s.n_cases for s in self.experiment.suites}, "runs": self.experiment.runs}
+
+
+def _merge(data: dict, overrides: Mapping) -> dict:
+    """``data`` with ``overrides`` replacing its keys; a table replaces key by key."""
+    out = copy.deepcopy(data)
+    for key, value in overrides.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = {**out[key], **copy.deepcopy(dict(value))}
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExperiment:
+    """Read a study file (or the shipped ``study``); ``quick`` applies its ``[study.quick]`` table.
+
+    Raises
+    ------
+    ConfigError
+        Anything malformed (naming the file and key), a size larger than a strategy's pool, or K
+        too small for the largest size: a case of a suite of ``n`` cases is judged at
+        ``alpha / n``, which the exact sign-flip test reaches only from ``K = min_pairs(alpha / n)``.
+    """
+    file = resolve_experiment(path, what="study file")
+    data, text = read_toml(file, what="study file")
+    source = str(path) + (" (--quick)" if quick else "")
+    data = dict(data)
+    study = dict(data.pop("study", {}) or {})
+    if not isinstance(study, dict):
+        raise ConfigError(f"{path}: study must be a table")
+    quick_table = study.pop("quick", {})
+    if not isinstance(quick_table, Mapping):
+        raise ConfigError(f"{path}: study.quick must be a table")
+    if quick:
+        data = _merge(data | {"study": study}, quick_table)
+        study = dict(data.pop("study", {}))
+    spec = study_spec(study, source=source)
+    mutation = data.pop("mutation", None)
+    selection = None
+    variants = list(data.get("variants", []))
+    if any(is_mutant_variant(v) for v in variants):
+        raise ConfigError(f"{source}: variants: mutants come from [mutation], not from variants")
+    if mutation is not None:
+        if not isinstance(mutation, Mapping):
+            raise ConfigError(f"{source}: mutation must be a table")
+        selection = selection_from_table(dict(mutation), source=source)
+        data["variants"] = variants + [mutant_variant(m) for m in selection.run]
+    exp = parse_experiment(data, source=source, text=text)
+    for s in exp.suites:
+        pool = exp.runs * (s.n_cases or 0)
+        if s.n_cases is not None and max(spec.sizes) > pool:
+            raise ConfigError(f"{source}: study.sizes: a suite of {max(spec.sizes)} cases cannot be drawn from the "
+                              f"{pool} cases of the {s.kind} pool (runs x suites.{s.kind})")
+    need = min_pairs(spec.alpha / max(spec.sizes))
+    if exp.repetitions < need:
+        raise ConfigError(f"{source}: repetitions = {exp.repetitions} is too few: a case of a suite of "
+                          f"{max(spec.sizes)} cases is judged at {spec.alpha}/{max(spec.sizes)}, which the exact "
+                          f"sign-flip test reaches only from K = {need}")
+    return StudyExperiment(experiment=exp, study=spec, selection=selection, quick=quick)
+
+
+@contextlib.contextmanager
+def sampled_load(interval_s: float = 30.0) -> Iterator[list]:
+    """Sample the machine's load averages (``os.getloadavg``) every ``interval_s`` while the block runs.
+
+    Yields the list the samples are appended to: ``[unix time, load 1 min, 5 min, 15 min]``, one at
+    the start, one per interval and one at the end.
+    """
+    samples: list = []
+    stop = threading.Event()
+
+    def sample() -> None:
+        while True:
+            samples.append([time.time(), *os.getloadavg()])
+            if stop.wait(interval_s):
+                return
+
+    worker = threading.Thread(target=sample, daemon=True)
+    worker.start()
+    try:
+        yield samples
+    finally:
+        stop.set()
+        worker.join()
+        samples.append([time.time(), *os.getloadavg()])
+
+
+def _saved_sessions(out: Path, sexp: StudyExperiment) -> list:
+    try:
+        old = json.loads((out / STUDY_FILE).read_text())
+    except (OSError, ValueError):
+        return []
+    keys = ("quick", "mutants", "pool", "runs")  # the campaign; [study] settings may change between sessions
+    same = all(old.get(k) == sexp.to_json()[k] for k in keys)
+    return list(old.get("sessions", [])) if same else []
+
+
+def run_study(sexp: StudyExperiment | str | Path, out: str | Path, *, jobs: int = 2, backend: str = "loky",
+              force_new: bool = False, progress: bool = True) -> RunSummary:
+    """Run (or resume) a study's pools through the runner; record its settings and every session's
+    wall time, jobs and sampled machine load in ``out/study.json``."""
+    if not isinstance(sexp, StudyExperiment):
+        sexp = load_study_experiment(sexp)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    sessions = [] if force_new else _saved_sessions(out, sexp)
+    record = {"started": time.time(), "jobs": jobs, "backend": backend, "cpus": os.cpu_count(), "n_new": 0,
+              "wall_time_s": math.nan, "state": "interrupted", "load": []}
+    sessions.append(record)
+
+    def save() -> None:
+        (out / STUDY_FILE).write_text(json.dumps(sexp.to_json() | {"sessions": sessions}, indent=1))
+
+    save()
+    t0 = time.perf_counter()
+    try:
+        with sampled_load() as load:
+            record["load"] = load
+            summary = run_experiment(sexp.experiment, out, jobs=jobs, backend=backend, force_new=force_new,
+                                     progress=progress)
+            record.update(state="complete", n_new=summary.n_new)
+    finally:
+        record["wall_time_s"] = time.perf_counter() - t0
+        save()  # an interrupted session is recorded too
+    return summary

@@ -1,0 +1,112 @@
+"""Every committed report is what the code renders from its committed store.
+
+Each committed store is copied to a temporary directory (so that opening it leaves nothing in the
+repository) and rendered with the function its command uses; every table the committed report holds
+(CSV, Markdown, LaTeX, JSON) must equal the rendered one byte for byte.  A report left stale by a
+change of the code fails here.  The PDFs and figures are rendered too but not compared (they embed
+fonts and dates).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+REPORTS = REPO / "reports"
+TABLE_SUFFIXES = (".csv", ".md", ".tex", ".json")
+
+
+def _copy_store(store: Path, to: Path) -> Path:
+    """The store's files (results and campaign records, not the regenerable cases) copied to ``to``."""
+    to.mkdir(parents=True)
+    for f in store.iterdir():
+        if f.is_file() and f.suffix in (".sqlite", ".json"):
+            shutil.copy2(f, to / f.name)
+    return to
+
+
+def _render_paper(store: Path, out: Path) -> None:
+    from faultlab.report.reproduce import rebuild_report
+
+    rebuild_report(store, out)
+
+
+def _render_mutation(store: Path, out: Path) -> None:
+    from faultlab.report.mutation import write_mutation_report
+
+    write_mutation_report(store, out)
+
+
+def _render_slams(stores: Path, out: Path) -> None:
+    from faultlab.analysis.slams import compare_slams
+    from faultlab.campaigns.slams import slam_stores
+    from faultlab.report.slams import write_slam_report
+
+    found, missing = slam_stores(stores)
+    write_slam_report(compare_slams(found, not_installed=missing), out,
+                      intro=(REPORTS / "slams" / "intro.md").read_text())
+
+
+#: (committed report directory, its store relative to it, renderer, store holds one store per SLAM)
+COMMITTED = [
+    ("", "store", _render_paper, False),
+    ("paper-k10", "store", _render_paper, False),
+    ("mutation", "store", _render_mutation, False),
+    ("slams", "store", _render_slams, True),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("report, store, render, per_slam", COMMITTED, ids=[c[0] or "reports" for c in COMMITTED])
+def test_a_committed_report_is_what_its_committed_store_renders(report, store, render, per_slam, tmp_path,
+                                                                 monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    committed = REPORTS / report
+    source = committed / store
+    if per_slam:
+        copy = tmp_path / "stores"
+        for sub in sorted(p for p in source.iterdir() if p.is_dir()):
+            _copy_store(sub, copy / sub.name)
+    else:
+        copy = _copy_store(source, tmp_path / "store")
+    before = sorted(p.name for p in REPORTS.rglob("*"))
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "rendered"
+    render(copy, out)
+    rendered = {p.name for p in out.iterdir() if p.suffix in TABLE_SUFFIXES}
+    tables = sorted(p.name for p in committed.iterdir() if p.name in rendered)
+    assert len(tables) >= 4, (report, tables)
+    stale = [name for name in tables if (out / name).read_bytes() != (committed / name).read_bytes()]
+    assert stale == [], f"reports/{report}: stale {stale}; re-render it from its store"
+    assert sorted(p.name for p in REPORTS.rglob("*")) == before  # nothing written into the repository
+
+
+def test_every_committed_store_has_its_report_checked():
+    stores = {p.parent.relative_to(REPORTS).as_posix() for p in REPORTS.rglob("results.sqlite")}
+    checked = set()
+    for report, store, _, per_slam in COMMITTED:
+        base = (Path(report) / store).as_posix()
+        checked |= {s for s in stores if s == base or (per_slam and s.startswith(base + "/"))}
+    assert stores and stores == checked
+
+
+@pytest.mark.slow
+def test_the_committed_analysis_tables_of_paper_k10_are_what_its_store_gives(tmp_path):
+    """``reports/paper-k10/analysis`` is ``analyse(store).save(...)``; floats agree to 1e-9 (the last digits of
+    model fits depend on the machine's linear algebra)."""
+    import pandas as pd
+
+    from faultlab.analysis import analyse
+
+    committed = REPORTS / "paper-k10" / "analysis"
+    analyse(_copy_store(REPORTS / "paper-k10" / "store", tmp_path / "store")).save(tmp_path / "analysis")
+    tables = sorted(p.name for p in committed.glob("*.csv"))
+    assert len(tables) >= 20 and sorted(p.name for p in (tmp_path / "analysis").glob("*.csv")) == tables
+    for name in tables:
+        pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "analysis" / name), pd.read_csv(committed / name),
+                                      check_exact=False, rtol=1e-9, obj=f"reports/paper-k10/analysis/{name}")

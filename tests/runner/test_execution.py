@@ -1,0 +1,96 @@
+"""Executing one job or a batch: timeouts, crashes, batched repetitions, the allocator."""
+
+import dataclasses
+import platform
+import signal
+import threading
+
+import numpy as np
+import pytest
+
+from faultlab.vocabulary import JobStatus
+from faultlab.runner import load_experiment, load_results, prepare_cases, run_experiment
+from faultlab.runner import execution as execution_module
+from faultlab.runner.execution import _alarm, execute_batch, execute_job, tune_allocator
+from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, expand_jobs
+from tests.runner.suts import SUTS, fastslam_batches, one_case, write_experiment
+
+
+def test_cooperative_deadline_stops_a_slow_sut_in_a_thread(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", **one_case(variants=["baseline", f"{SUTS}:SLOW"],
+                                                            timeout_s=0.5, n_steps=40))
+    run_experiment(exp, tmp_path / "out", jobs=2, backend="threading", progress=False)
+    df = load_results(tmp_path / "out").set_index("variant")
+    assert df.loc[f"{SUTS}:SLOW", "status"] == "timeout"  # 40 steps x 50 ms > 0.5 s, no SIGALRM in threads
+    assert df.loc["baseline", "status"] == "ok"
+
+
+def test_alarm_only_in_main_thread():
+    seen = []
+    t = threading.Thread(target=lambda: seen.append(_alarm(1.0).__enter__()))
+    t.start()
+    t.join()
+    assert seen == [False]
+    before = signal.getsignal(signal.SIGALRM)
+    with _alarm(5.0) as armed:
+        assert armed and signal.getitimer(signal.ITIMER_REAL)[0] > 0
+    assert signal.getsignal(signal.SIGALRM) is before and signal.getitimer(signal.ITIMER_REAL)[0] == 0
+
+
+def test_execute_job_in_process_times_out_a_busy_loop(tmp_path):
+    """SIGALRM stops a SUT stuck in a pure-Python loop inside one step (main thread)."""
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", **one_case(timeout_s=0.5)))
+    (info,) = prepare_cases(exp, tmp_path)
+    key = JobKey(1, "random", 1, f"{SUTS}:HANG", 0)
+    spec = JobSpec(key, str(info.path), exp.slam, seed=1, timeout_s=0.5)
+    res = execute_job(spec)
+    assert res.status == JobStatus.TIMEOUT and 0.4 < res.runtime_s < 30
+    ok = execute_job(JobSpec(JobKey(1, "random", 1, "baseline", 0), str(info.path), exp.slam, seed=1,
+                             timeout_s=30.0))
+    assert ok.status == JobStatus.OK and ok.error == "" and np.isfinite(ok.rms_mm)
+
+
+def _batch(exp, infos, variant, reps) -> JobBatch:
+    specs = [s for s in expand_jobs(exp, ((i.run, i.suite, i.case, i.path, i.cost) for i in infos))
+             if s.key.variant == variant and s.key.rep in reps and s.key.case == 1 and s.key.suite == "random"]
+    return JobBatch(tuple(specs))
+
+
+def test_execute_batch_gives_each_repetition_its_single_job_result(tmp_path):
+    exp = load_experiment(fastslam_batches(tmp_path, repetitions=4))
+    infos = prepare_cases(exp, tmp_path)
+    for variant in exp.variants:
+        batch = _batch(exp, infos, variant, range(4))
+        got = execute_batch(batch)
+        alone = [execute_job(s) for s in batch.jobs]
+        assert [r.key for r in got] == list(batch.keys)
+        for a, b in zip(alone, got):
+            assert dataclasses.replace(a, runtime_s=0.0) == dataclasses.replace(b, runtime_s=0.0), variant
+        if variant == f"{SUTS}:FS_FAR":  # not attributable to one repetition: every one ran alone
+            assert len({r.runtime_s for r in got}) == len(got)
+        else:  # one batched SLAM: every row records the batch's time / its size
+            assert len({r.runtime_s for r in got}) == 1
+    statuses = {v: [r.status for r in execute_batch(_batch(exp, infos, v, range(4)))] for v in exp.variants}
+    assert set(statuses[f"{SUTS}:FS_UNLUCKY"]) == {JobStatus.OK, JobStatus.CRASH}  # one repetition's failure
+    assert set(statuses[f"{SUTS}:FS_FAR"]) == {JobStatus.CRASH}
+    assert set(statuses["baseline"]) == {JobStatus.OK}
+
+
+def test_a_batch_past_its_limit_records_every_repetition_as_timeout(tmp_path):
+    exp = load_experiment(fastslam_batches(tmp_path, timeout_s=0.4, variants=["baseline", f"{SUTS}:FS_HANG"]))
+    infos = prepare_cases(exp, tmp_path)
+    batch = _batch(exp, infos, f"{SUTS}:FS_HANG", range(3))
+    assert batch.timeout_s == pytest.approx(1.2)
+    results = execute_batch(batch)
+    assert [r.status for r in results] == [JobStatus.TIMEOUT] * 3
+    assert results[0].error == "timeout: wall-clock limit of 1.2 s exceeded by a batch of 3 repetitions (0.4 s each)"
+    assert 1.0 < 3 * results[0].runtime_s < 30  # stopped near the batch's limit, not after a minute
+
+
+@pytest.mark.skipif(platform.system() != "Linux" or platform.libc_ver()[0] != "glibc", reason="glibc only")
+def test_the_executors_tune_glibcs_allocator_once(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", **one_case()))
+    (info,) = prepare_cases(exp, tmp_path)
+    execute_job(JobSpec(JobKey(1, "random", 1, "baseline", 0), str(info.path), exp.slam, seed=1, timeout_s=30.0))
+    assert execution_module._allocator_tuned is True  # set by the executor, in this (worker) process
+    assert tune_allocator() is True
