@@ -137,6 +137,10 @@ def summary_pages(analysis: Analysis, comparison: Comparison) -> list[Figure]:
         *(_detected_lines(analysis) or ["- No faulty variant was run."]),
         "Agreement with the paper: " + comparison.summary(),
     ]
+    rules = set(analysis.case_rates["rule"]) if len(analysis.case_rates) else set()
+    if rules - {"paper"} or int(exp.get("repetitions", 1) or 1) > 1:
+        lines.append("The figure: the paper's rule on one SLAM pair per case (repetition 0), as the paper judged "
+                     "it; the lines above judge each case from all its repetitions.")
     w, h = PAGE_SIZE
     fig = new_page(SUMMARY_TITLE, REPORT_TITLE)
     y = 1 - 1.25 / h
