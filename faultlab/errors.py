@@ -13,6 +13,7 @@ __all__ = [
     "ScenarioError",
     "SlamInputError",
     "SlamOutputError",
+    "SlamProcessError",
     "FaultError",
     "PluginError",
     "ResultsError",
@@ -40,6 +41,23 @@ class SlamInputError(FaultlabError, ValueError):
 
 class SlamOutputError(FaultlabError, ValueError):
     """A SLAM returned an estimate that is malformed or not finite."""
+
+
+class SlamProcessError(SlamOutputError):
+    """A SLAM run as a child process broke its protocol, timed out or died.
+
+    Attributes
+    ----------
+    rule : str or None
+        The protocol rule it broke (:data:`faultlab.slam.process.RULES`), if one.
+    detail : str
+        What happened, without the program's name, status and stderr.
+    """
+
+    def __init__(self, message: str, *, rule: str | None = None, detail: str | None = None):
+        super().__init__(message)
+        self.rule = rule
+        self.detail = message if detail is None else detail
 
 
 class FaultError(FaultlabError, LookupError):

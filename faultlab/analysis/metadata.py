@@ -10,11 +10,13 @@ from __future__ import annotations
 from typing import Mapping
 
 from faultlab.errors import FaultlabError, ResultsError
+from faultlab.runner.staging import STOPS_KEY
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY
 from faultlab.space import ParameterSpace, space_from_mapping, table1_space
 from faultlab.stats.detection import DetectionRule
+from faultlab.vocabulary import BASELINE
 
-__all__ = ["read_rule", "read_space", "count_expected_jobs"]
+__all__ = ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary"]
 
 
 def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
@@ -59,12 +61,15 @@ def read_space(metadata: Mapping) -> ParameterSpace:
     return space_from_mapping(overrides, source=f"{metadata.get('experiment_source', 'experiment')} [space]")
 
 
-def count_expected_jobs(metadata: Mapping) -> int | None:
+def count_expected_jobs(metadata: Mapping, *, adaptive: bool = True) -> int | None:
     """Jobs of the complete campaign (runs x cases x variants x repetitions).
 
     Variants the runner skipped because their fault does not apply to the SLAM
-    (``metadata["skipped_variants"]``) have no jobs.  None when the stored experiment does not
-    say, e.g. a suite with ``"auto"`` cases.
+    (``metadata["skipped_variants"]``) have no jobs.  With ``[adaptive]`` repetitions
+    (:mod:`faultlab.runner.staging`) and ``adaptive`` true, a stopped (case, variant) counts the
+    repetitions it used, and a case's baseline the most any of its variants used; ``adaptive``
+    false gives the fixed-K count.  None when the stored experiment does not say, e.g. a suite
+    with ``"auto"`` cases.
     """
     exp = metadata.get("experiment") or {}
     try:
@@ -73,6 +78,36 @@ def count_expected_jobs(metadata: Mapping) -> int | None:
         n_cases = sum(int(n) for _, n in pairs)
         skipped = {s["fault"] for s in metadata.get(SKIPPED_VARIANTS_KEY) or ()}
         n_variants = sum(1 for v in exp["variants"] if v not in skipped)
-        return int(exp["runs"]) * n_cases * n_variants * int(exp["repetitions"])
+        k = int(exp["repetitions"])
+        full = int(exp["runs"]) * n_cases * n_variants * k
+        if not adaptive:
+            return full
+        by_case: dict[tuple, list[int]] = {}
+        for stop in metadata.get(STOPS_KEY) or ():
+            by_case.setdefault((stop["run"], stop["suite"], stop["case"]), []).append(int(stop["repetitions"]))
+            full -= k - int(stop["repetitions"])
+        n_faulty = n_variants - (BASELINE in exp["variants"])
+        for used in by_case.values():  # a case whose variants all stopped ran its baseline as far as they did
+            if len(used) == n_faulty:
+                full -= k - max(used)
+        return full
     except (KeyError, TypeError, ValueError, AttributeError):
         return None
+
+
+def adaptive_summary(metadata: Mapping) -> str | None:
+    """One sentence on a campaign's adaptive repetitions (None for a fixed-K campaign)."""
+    design = (metadata.get("experiment") or {}).get("adaptive")
+    if not design:
+        return None
+    stops = metadata.get(STOPS_KEY) or []
+    run, full = count_expected_jobs(metadata), count_expected_jobs(metadata, adaptive=False)
+    reasons: dict[str, int] = {}
+    for stop in stops:
+        reasons[stop["reason"]] = reasons.get(stop["reason"], 0) + 1
+    why = ", ".join(f"{n} {r.replace('_', ' ')}" for r, n in sorted(reasons.items())) or "none"
+    saved = ("" if not full or run is None else
+             f"; {run} of the fixed design's {full} executions ({100 * (1 - run / full):.1f} % saved)")
+    return (f"adaptive repetitions in stages {design['stages']} (per-case level {design['level']:g}, "
+            f"{design['alternative']}, futility bound {design['futility']:g}): {len(stops)} (case, variant) pair(s) "
+            f"stopped early ({why}); the others used all {design['stages'][-1]} repetitions{saved}.")

@@ -28,7 +28,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from faultlab.analysis.metadata import count_expected_jobs, read_rule, read_space
+from faultlab.analysis.metadata import adaptive_summary, count_expected_jobs, read_rule, read_space
 from faultlab.analysis.schema import (
     BY_SUITE,
     CASE_COMPARISONS,
@@ -533,10 +533,12 @@ def _rule_notes(metadata: Mapping, rule_stored: bool, rule: DetectionRule) -> li
 
 def _completeness_notes(metadata: Mapping, n_rows: int) -> list[Note]:
     expected = count_expected_jobs(metadata)
+    adaptive = adaptive_summary(metadata)
+    notes = [Note("campaign", adaptive)] if adaptive else []
     if expected is not None and n_rows < expected:
-        return [Note("campaign", f"the campaign is incomplete: {n_rows} of {expected} jobs are stored "
-                                 "(resume it with the same command).")]
-    return []
+        notes.append(Note("campaign", f"the campaign is incomplete: {n_rows} of {expected} jobs are stored "
+                                      "(resume it with the same command)."))
+    return notes
 
 
 def _paper(wanted: bool, raw, reported, *, rule: DetectionRule, alpha: float) -> tuple[PaperTable | None, Note | None]:

@@ -29,6 +29,8 @@ COMMAND_MODULES = (
     "faultlab.cli.mutate",  # mutate list, mutate show
     "faultlab.cli.metamorphic",  # metamorphic
     "faultlab.cli.study",  # study run, study report
+    "faultlab.cli.adapter",  # adapter check
+    "faultlab.cli.export",  # export
 )
 
 

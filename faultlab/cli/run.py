@@ -21,6 +21,10 @@ def register(subparsers) -> None:
     p.add_argument("--out", default=None,
                    help="output directory (default: results/<experiment name, without .toml>)")
     p.add_argument("--jobs", type=int, default=2, help="worker processes (default: 2)")
+    p.add_argument("--adaptive", default=None, metavar="STAGES",
+                   help="run the repetitions in stages, e.g. 5,10 (cumulative; the last equals the "
+                        "experiment's repetitions), stopping decided (case, variant) pairs: sets the "
+                        "experiment's [adaptive] stages (its other keys keep their values or defaults)")
     add_execution_options(p)
     add_examples(p, ["faultlab run smoke --out results/smoke", "nice -n 10 faultlab run paper --out results/paper --jobs 2",
                      "faultlab run my-campaign.toml --out results/mine --backend dask"])
@@ -28,9 +32,21 @@ def register(subparsers) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
+    from faultlab.errors import ConfigError
+    from faultlab.runner import load_experiment
+    from faultlab.stats.sequential import interim_look
+
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
-    summary = run_experiment(args.experiment, out, jobs=args.jobs, backend=args.backend,
-                             force_new=args.force_new, progress=not args.no_progress)
+    experiment = load_experiment(args.experiment)
+    if args.adaptive is not None:
+        try:
+            stages = [int(k) for k in args.adaptive.split(",")]
+        except ValueError:
+            raise ConfigError(f"--adaptive: expected cumulative repetitions such as 5,10, got {args.adaptive!r}") \
+                from None
+        experiment = experiment.replace(adaptive={"stages": stages})
+    summary = run_experiment(experiment, out, jobs=args.jobs, backend=args.backend,
+                             force_new=args.force_new, progress=not args.no_progress, look=interim_look)
     print(f"results: {summary.results}")
     print(summary)
     return 0

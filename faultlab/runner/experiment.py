@@ -45,6 +45,7 @@ from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.metrics.detection import FAMILIES, RULES, DetectionRule
+from faultlab.runner.staging import StagedDesign
 from faultlab.runner.variants import resolve_variant
 from faultlab.scenario.config import DEFAULT_MIN_DISTANCE, DEFAULT_N_STEPS, DEFAULT_SENSOR_RANGE
 from faultlab.slam.fastslam import FastSlamConfig
@@ -64,7 +65,7 @@ __all__ = [
 
 
 _TOP_KEYS = ("description", "seed", "runs", "suites", "n_steps", "sensor_range", "min_distance", "fov_bug",
-             "slam", "variants", "repetitions", "metric", "timeout_s", "detection", "space")
+             "slam", "variants", "repetitions", "metric", "timeout_s", "detection", "space", "adaptive")
 
 
 @dataclass(frozen=True)
@@ -162,6 +163,10 @@ class Experiment:
         The paper's detection rule (Sec. VII-A), stored with the results for the statistics.
     space : dict
         Parameter-space overrides (``[space]`` table), see :func:`faultlab.space.space_from_mapping`.
+    adaptive : StagedDesign, optional
+        ``[adaptive]`` table: run the repetitions in stages and stop decided (case, variant) pairs
+        (:mod:`faultlab.runner.staging`); its last stage equals ``repetitions``.  Left out of the
+        hash when absent, so fixed-K campaigns keep theirs.
     description : str
     """
 
@@ -181,6 +186,7 @@ class Experiment:
     timeout_s: float = 600.0
     detection: DetectionRule = field(default_factory=DetectionRule)
     space: dict = field(default_factory=dict)
+    adaptive: StagedDesign | None = None
     description: str = ""
 
     # ------------------------------------------------------------------ derived
@@ -202,7 +208,7 @@ class Experiment:
             "timeout_s": self.timeout_s,
             "detection": self.detection.to_dict(),
             "space": copy.deepcopy(self.space),
-        }
+        } | ({"adaptive": self.adaptive.to_dict()} if self.adaptive is not None else {})
 
     def canonical_json(self) -> str:
         """Canonical text of everything that affects results (suite order kept, other keys sorted)."""
@@ -301,10 +307,18 @@ def parse_experiment(data: Mapping, *, source: str = "<experiment>", text: str =
         raise top.error("space", f"must be a table, got {type(space).__name__}")
     space = copy.deepcopy(dict(space))
 
+    adaptive = top.get("adaptive", None)
+    if adaptive is not None:
+        if not isinstance(adaptive, Mapping):
+            raise top.error("adaptive", f"must be a table, got {type(adaptive).__name__}")
+        adaptive = StagedDesign.from_mapping(adaptive, where=f"{source}: adaptive")
+        if adaptive.total != repetitions:
+            raise top.error("adaptive", f"the last stage ({adaptive.total}) must equal repetitions ({repetitions})")
+
     exp = Experiment(source=source, text=text, seed=seed, runs=runs, suites=suites, n_steps=n_steps,
                      sensor_range=sensor_range, min_distance=min_distance, fov_bug=fov_bug, slam=slam, variants=variants,
                      repetitions=repetitions, metric=metric, timeout_s=timeout_s, detection=detection,
-                     space=space, description=description)
+                     space=space, adaptive=adaptive, description=description)
     _check_suites(exp)
     return exp
 

@@ -27,7 +27,9 @@ from faultlab.runner.experiment import Experiment, load_experiment
 from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import format_duration
 from faultlab.runner.progress import progress as show_progress
-from faultlab.runner.store import ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, store_lock
+from faultlab.runner.staging import STOPS_KEY, look_at_pairs, stage_jobs
+from faultlab.runner.store import (ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, load_results,
+                                   store_lock)
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
 from faultlab.slam.protocol import SlamAdapter, association_of
@@ -62,7 +64,7 @@ class RunSummary:
     results : Path
         The SQLite store (read it with :func:`faultlab.runner.load_results`).
     n_jobs : int
-        Jobs of the experiment.
+        Jobs of the experiment (with ``[adaptive]`` repetitions: those its stages needed).
     counts : mapping
         Rows per status (ok, crash, timeout) in the whole store.
     n_new : int
@@ -211,7 +213,7 @@ def result_row(case: CaseInfo, res: JobResult) -> dict:
 
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
-                   batch_size: int | None = None) -> RunSummary:
+                   batch_size: int | None = None, look=None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
 
     Parameters
@@ -241,6 +243,11 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         repetitions of a (case, variant) per job (default: all that are missing from the store;
         1: one repetition per job).  The results are the same whatever the batch size, except
         ``runtime_s``.
+    look : callable, optional
+        The stopping rule of an experiment with ``[adaptive]`` repetitions
+        (:func:`faultlab.stats.sequential.interim_look`; required then, ignored otherwise).  The
+        repetitions run in stages (:mod:`faultlab.runner.staging`): a stage's jobs only for the
+        pairs still running, each stage in its own session.
 
     Returns
     -------
@@ -261,6 +268,9 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     if batch_size is not None and (isinstance(batch_size, bool) or not isinstance(batch_size, int)
                                    or batch_size < 1):
         raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")
+    if experiment.adaptive is not None and look is None:
+        raise ConfigError(f"{experiment.source}: [adaptive] repetitions need the stopping rule: pass "
+                          f"look=faultlab.stats.sequential.interim_look (the CLI does)")
     t0 = time.perf_counter()
     out = Path(out)
     sut, skipped = _preflight(experiment)
@@ -272,28 +282,62 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         if skipped:  # variants whose fault does not apply to the SLAM have no jobs
             names = {r.fault for r in skipped}
             specs = [s for s in specs if s.key.variant not in names]
-        done = store.done_keys()
-        todo = [s for s in specs if s.key.astuple() not in done]
-        # the missing repetitions of a (case, variant) run as one batched SLAM if the SUT can
-        batches = batch_jobs(todo, size=batch_size if getattr(sut, "supports_batch", False) else 1)
-        batches.sort(key=lambda b: (-b.cost, b.keys))  # longest first: shorter tail on few workers
+        design = experiment.adaptive
+        stages = range(len(design.stages)) if design is not None else [None]
+        n_needed, n_new, running = 0, 0, None
+        for stage in stages:
+            if stage is None:
+                todo_specs = specs
+            else:
+                if stage > 0:
+                    decisions = look_at_pairs(load_results(out), design=design, upto=design.stages[stage - 1],
+                                              metric=experiment.metric, look=look)
+                    if running is not None:  # a pair stopped at an earlier look stays stopped
+                        decisions = {k: d for k, d in decisions.items() if k in running}
+                    running = {k for k, d in decisions.items() if d == "continue"}
+                    store.set_meta(STOPS_KEY, _stops(decisions, design, stage, store.meta.get(STOPS_KEY, [])))
+                todo_specs = stage_jobs(specs, design=design, stage=stage, running=running)
+            n_needed += len(todo_specs)
+            n_new += _run_specs(store, todo_specs, info, sut, jobs=jobs, backend=backend, batch_size=batch_size,
+                                progress=progress, t0=t0)
         counts = {s.value: 0 for s in JobStatus} | store.status_counts()
-        session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
-        n_new, state = 0, "interrupted"
-        try:
-            with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
-                               enabled=progress,
-                               counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
-                for res in stream_results(batches, jobs=jobs, backend=backend):
-                    k = res.key
-                    store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
-                    n_new += 1
-                    counts[res.status.value] = counts.get(res.status.value, 0) + 1
-                    bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
-            state = "complete"
-        finally:
-            store.end_session(session, state=state, n_new=n_new, wall_time_s=time.perf_counter() - t0)
-        counts = {s.value: 0 for s in JobStatus} | store.status_counts()
-        return RunSummary(out=out, results=store.path, n_jobs=len(specs), counts=counts, n_new=n_new,
-                          n_skipped=len(specs) - len(todo), wall_time_s=time.perf_counter() - t0,
+        n_stored = sum(counts.values())
+        return RunSummary(out=out, results=store.path, n_jobs=n_needed, counts=counts, n_new=n_new,
+                          n_skipped=n_stored - n_new, wall_time_s=time.perf_counter() - t0,
                           experiment_hash=experiment.hash)
+
+
+def _stops(decisions: dict, design, stage: int, previous: list) -> list[dict]:
+    """Stopped pairs for the store: earlier stops kept, this look's stops added (sorted, JSON-ready)."""
+    seen = {(e["run"], e["suite"], e["case"], e["variant"]) for e in previous}
+    new = [{"run": int(k[0]), "suite": k[1], "case": int(k[2]), "variant": k[3],
+            "repetitions": design.stages[stage - 1], "reason": d}
+           for k, d in sorted(decisions.items()) if d != "continue" and k not in seen]
+    return sorted(previous + new, key=lambda e: (e["run"], e["suite"], e["case"], e["variant"]))
+
+
+def _run_specs(store, specs: list, info: dict, sut, *, jobs: int, backend: str, batch_size, progress: bool,
+               t0: float) -> int:
+    """Run the jobs of ``specs`` missing from ``store`` in one session; the number of rows written."""
+    done = store.done_keys()
+    todo = [s for s in specs if s.key.astuple() not in done]
+    # the missing repetitions of a (case, variant) run as one batched SLAM if the SUT can
+    batches = batch_jobs(todo, size=batch_size if getattr(sut, "supports_batch", False) else 1)
+    batches.sort(key=lambda b: (-b.cost, b.keys))  # longest first: shorter tail on few workers
+    counts = {s.value: 0 for s in JobStatus} | store.status_counts()
+    session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
+    n_new, state = 0, "interrupted"
+    try:
+        with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
+                           enabled=progress,
+                           counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
+            for res in stream_results(batches, jobs=jobs, backend=backend):
+                k = res.key
+                store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
+                n_new += 1
+                counts[res.status.value] = counts.get(res.status.value, 0) + 1
+                bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
+        state = "complete"
+    finally:
+        store.end_session(session, state=state, n_new=n_new, wall_time_s=time.perf_counter() - t0)
+    return n_new

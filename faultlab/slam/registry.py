@@ -33,6 +33,7 @@ from faultlab.slam.ekf import EkfSlam, EkfSlamConfig, EkfSlamSteps
 from faultlab.slam.fastslam import FastSlam, FastSlamConfig, FastSlamSteps
 from faultlab.slam.fastslam2 import FastSlam2, FastSlam2Steps
 from faultlab.slam.gtsam import GtsamSlam, GtsamSlamConfig
+from faultlab.slam.process import ProcessSlam, ProcessSlamConfig
 from faultlab.slam.profiles import DEFAULT_PROFILE, get_profile
 from faultlab.slam.protocol import SlamAdapter
 from faultlab.vocabulary import KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION
@@ -159,6 +160,8 @@ BUILTIN_SLAMS: dict[str, SlamKind] = {
         SlamKind("dead_reckoning", "odometry only: the baseline any SLAM should beat", DeadReckoning),
         SlamKind("gtsam", "GTSAM iSAM2: incremental smoothing over all poses with range-bearing factors",
                  GtsamSlam, GtsamSlamConfig, requires="gtsam"),
+        SlamKind("process", "a SLAM program in any language, run as a child process speaking line-delimited "
+                            "JSON (faultlab.slam.process)", ProcessSlam, ProcessSlamConfig),
     )
 }
 

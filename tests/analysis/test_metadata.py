@@ -36,3 +36,23 @@ def test_the_stored_space_overrides_table1():
     assert space["map_size"].class_names == ("small", "big")
     with pytest.raises(ConfigError, match="paper.toml \\[space\\]"):
         read_space({"experiment_source": "paper.toml", "experiment": {"space": {"map_size": {"nope": 1}}}})
+
+
+def test_expected_jobs_and_summary_of_adaptive_repetitions():
+    # 1 run, 2 cases, baseline + a + b, K = 4 in stages 2 + 2.  Case 1: a stops after 2, b runs
+    # on, so the baseline runs 4: 2 + 4 + 4 = 10 jobs.  Case 2: a and b stop after 2, so does the
+    # baseline: 6 jobs.  16 of the fixed design's 24.
+    from faultlab.analysis.metadata import adaptive_summary
+
+    exp = {"runs": 1, "suites": [["fixed", 2]], "variants": ["baseline", "a", "b"], "repetitions": 4,
+           "adaptive": {"stages": [2, 4], "level": 0.05, "alternative": "greater", "futility": 0.5}}
+    stops = [{"run": 1, "suite": "fixed", "case": 1, "variant": "a", "repetitions": 2, "reason": "futile"},
+             {"run": 1, "suite": "fixed", "case": 2, "variant": "a", "repetitions": 2, "reason": "futile"},
+             {"run": 1, "suite": "fixed", "case": 2, "variant": "b", "repetitions": 2, "reason": "curtailed"}]
+    meta = {"experiment": exp, "adaptive_stops": stops}
+    assert count_expected_jobs(meta) == 16
+    assert count_expected_jobs(meta, adaptive=False) == 24
+    text = adaptive_summary(meta)
+    assert "3 (case, variant) pair(s) stopped early (1 curtailed, 2 futile)" in text
+    assert "16 of the fixed design's 24 executions (33.3 % saved)" in text
+    assert adaptive_summary({"experiment": {k: v for k, v in exp.items() if k != "adaptive"}}) is None

@@ -108,3 +108,21 @@ def test_bad_options(tmp_path, capsys):
     with pytest.raises(SystemExit):  # argparse rejects an unknown backend
         main(["run", str(exp), "--out", str(tmp_path / "out"), "--backend", "spark"])
     assert not (tmp_path / "out").exists()
+
+
+def test_run_adaptive_option_sets_the_stages(tmp_path, capsys):
+    # K = 4 in stages 2 + 2 on the tiny SUT: the option sets the experiment's [adaptive] stages, the
+    # store holds what the stages needed, and an unusable value is refused before anything is written
+    exp = write_experiment(tmp_path / "e.toml", runs=1, repetitions=4)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress", "--adaptive", "2,4"]) == 0
+    meta = load_metadata(out)
+    assert meta["experiment"]["adaptive"]["stages"] == [2, 4]
+    stops = meta.get("adaptive_stops", [])
+    df = load_results(out)
+    used = df[df["variant"] != "baseline"].groupby(["suite", "case", "variant"]).size()
+    assert sorted(used.unique()) == sorted({2 for _ in stops} | ({4} if len(stops) < len(used) else set()))
+    assert len(stops) == int((used == 2).sum())
+    assert main(["run", str(exp), "--out", str(tmp_path / "bad"), "--no-progress", "--adaptive", "2,5"]) == 1
+    assert "must equal repetitions" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()

@@ -1,0 +1,91 @@
+"""``check_program``: the example C SLAM passes every check; planted defects fail exactly their checks."""
+
+import sys
+
+import pytest
+
+from faultlab.slam.conformance import CHECKS, check_program
+from tests.processslam import example_slam  # noqa: F401  (fixture)
+
+# A second conforming SLAM (dead reckoning, landmarks at their last observation), in Python, whose
+# argv[1] plants one defect.
+REFERENCE = r"""
+import json, math, os, random, sys
+defect = sys.argv[1]
+pose, lms = None, {}
+for line in sys.stdin:
+    m = json.loads(line)
+    if m["type"] == "reset":
+        if m["protocol"] != 1 and defect != "any-version":
+            print(json.dumps({"type": "error", "message": "protocol 1 only"}), flush=True)
+            continue
+        pose, lms = list(m["pose"]), {}
+        if defect == "clamped-heading":  # assumes a start heading in [-pi, pi]
+            pose[2] = max(-math.pi, min(math.pi, pose[2]))
+        print(json.dumps({"type": "ready", "protocol": 1}), flush=True)
+    elif m["type"] == "step":
+        v, w = m["control"]
+        pose = [pose[0] + v * math.cos(pose[2]), pose[1] + v * math.sin(pose[2]), pose[2] + w]
+        for r, b, i in zip(m["ranges"], m["bearings"], m["ids"]):
+            if defect == "int32-ids":
+                i = (i + 2 ** 31) % 2 ** 32 - 2 ** 31
+            a = pose[2] + b
+            lms[i] = [pose[0] + r * math.cos(a), pose[1] + r * math.sin(a)]
+        print(json.dumps({"type": "ack", "t": m["t"]}), flush=True)
+    elif m["type"] == "estimate":
+        p = list(pose)
+        if defect == "unseeded":
+            p[0] += random.SystemRandom().gauss(0, 1e-9)
+        print(json.dumps({"type": "estimate", "pose": p, "landmarks": [[i, *xy] for i, xy in lms.items()]}),
+              flush=True)
+    elif m["type"] == "bye":
+        sys.exit(3 if defect == "bye-status" else 0)
+sys.exit(4 if defect == "eof-status" else 0)
+"""
+
+
+def _failed(report) -> set[str]:
+    return {r.name for r in report.results if not r.passed}
+
+
+def test_the_example_c_slam_passes_every_check(example_slam):
+    report = check_program([str(example_slam)])
+    assert [r.name for r in report.results] == list(CHECKS)
+    assert report.passed, report.format()
+    assert report.format().splitlines()[-1] == f"{len(CHECKS)} of {len(CHECKS)} checks passed"
+
+
+def test_a_broken_estimate_fails_every_check_with_landmarks_naming_the_rule(example_slam):
+    report = check_program([str(example_slam)], env=[("EXAMPLE_SLAM_BREAK", "estimate")])
+    assert not report.passed
+    # the checks whose estimate has landmarks fail; those with an empty map do not see the defect
+    assert _failed(report) == {"empty-steps", "inactivity", "rotation-offsets", "large-map", "same-seed"}
+    for r in report.results:
+        if not r.passed:
+            assert "rule estimate-landmarks" in r.message and "[id, x, y]" in r.message
+
+
+def test_the_python_reference_passes_every_check():
+    report = check_program([sys.executable, "-c", REFERENCE, "none"])
+    assert report.passed, report.format()
+
+
+@pytest.mark.parametrize("defect, failing, words", [
+    ("any-version", {"protocol-version"}, "reply {\"type\":\"error\""),
+    ("bye-status", {"exit-on-bye"}, "exit status 3; exit with status 0"),
+    ("eof-status", {"exit-on-eof"}, "exit status 4; exit with status 0 at the end of input"),
+    ("unseeded", {"same-seed"}, "different estimates"),
+    ("int32-ids", {"large-map"}, "missing ids"),
+    ("clamped-heading", {"rotation-offsets"}, "modulo 2 pi"),
+])
+def test_each_planted_defect_fails_its_check_with_a_message_to_fix_it(defect, failing, words):
+    report = check_program([sys.executable, "-c", REFERENCE, defect])
+    assert _failed(report) == failing, report.format()
+    message = next(r.message for r in report.results if not r.passed)
+    assert words in message
+
+
+def test_a_silent_program_fails_on_the_reply_timeout():
+    report = check_program([sys.executable, "-c", "import time; time.sleep(30)"], reply_timeout_s=0.2)
+    assert _failed(report) == set(CHECKS)
+    assert all("rule reply-timeout" in r.message for r in report.results if r.name != "protocol-version")
