@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import seaborn as sns
 from matplotlib.figure import Figure
 
 from faultlab import __version__
@@ -22,8 +23,6 @@ from faultlab.analysis.schema import ALL_VARIANTS, PAPER
 from faultlab.errors import FaultlabError
 from faultlab.report.casefig import case_title, plot_case
 from faultlab.report.comparison import Comparison, Verdict
-import seaborn as sns
-
 from faultlab.report.figures import PAGE_SIZE, detection_rate_figure, draw_detection_rates, rms_distribution_figure
 from faultlab.report.pdf import PAGE_TITLE_ATTR, new_page, table_pages, text_pages
 from faultlab.report.tables import (
@@ -46,7 +45,8 @@ from faultlab.stats.class_effects import MIN_EPV
 from faultlab.stats.verdict import min_pairs
 from faultlab.vocabulary import JobStatus
 
-__all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "summary_pages", "title_pages", "table2_pages", "rates_pages", "comparison_pages",
+__all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "summary_pages", "title_pages", "table2_pages", "rates_pages",
+           "comparison_pages",
            "figure_pages", "case_pages", "coverage_pages", "beyond_pages", "metadata_pages"]
 
 #: Runs whose cases are pictured (Fig. 5 style) and whose coverage is tabulated one by one.
@@ -130,7 +130,8 @@ def summary_pages(analysis: Analysis, comparison: Comparison) -> list[Figure]:
     counts = analysis.status_counts
     failed = counts[JobStatus.CRASH.value] + counts[JobStatus.TIMEOUT.value]
     lines = [
-        f"{meta.get('experiment_source', '?')} ({meta.get('description', '')}): {exp.get('runs', '?')} evaluation run(s), "
+        f"{meta.get('experiment_source', '?')} ({meta.get('description', '')}): "
+        f"{exp.get('runs', '?')} evaluation run(s), "
         f"{sum(analysis.cases_per_run.values())} cases per run, {exp.get('repetitions', 1)} SLAM repetition(s) "
         f"per case, SLAM {slam.get('name', '?')}; {analysis.n_rows} SLAM executions ({failed} crashed or timed "
         f"out). Detection rule: {analysis.rule.describe()}.",
@@ -145,7 +146,7 @@ def summary_pages(analysis: Analysis, comparison: Comparison) -> list[Figure]:
     fig = new_page(SUMMARY_TITLE, REPORT_TITLE)
     y = 1 - 1.25 / h
     for block in lines:
-        for i, line in enumerate(textwrap.wrap(block, 150, subsequent_indent="   " if block.startswith("- ") else "")):
+        for line in textwrap.wrap(block, 150, subsequent_indent="   " if block.startswith("- ") else ""):
             fig.text(0.6 / w, y, line, fontsize=9.5, va="top", ha="left")
             y -= 0.19 / h
         y -= 0.06 / h
@@ -253,7 +254,8 @@ def table2_pages(analysis: Analysis) -> list[Figure]:
         if len(blocks) > 1:
             title += (f" (evaluation runs {block[0]}-{block[-1]})" if len(block) > 1
                       else f" (evaluation run {block[0]})")
-        pages += table_pages(title, frame, colours=colours, bold=bold, note=note, max_rows=40, key_columns=3, fontsize=8,
+        pages += table_pages(title, frame, colours=colours, bold=bold, note=note, max_rows=40, key_columns=3,
+                             fontsize=8,
                              subtitle="columns R<run>C<case>: RMS map error of test case <case> "
                                       "in evaluation run <run>, mm")
     return pages
@@ -689,7 +691,8 @@ def metadata_pages(analysis: Analysis, seeds: list) -> list[Figure]:
         rows.append(("SLAM time per job", f"median {every['median_s']:.2f} s, max {every['max_s']:.2f} s, "
                                           f"sum {every['total_s']:.1f} s over {every['n_jobs']} jobs"))
         per = rt[rt["variant"] != ALL_VARIANTS]
-        rows += [(f"median SLAM time: {variant_label(v)}", f"{m:.2f} s") for v, m in zip(per["variant"], per["median_s"])]
+        rows += [(f"median SLAM time: {variant_label(v)}", f"{m:.2f} s")
+                 for v, m in zip(per["variant"], per["median_s"])]
     for key in ("runs", "suites", "n_steps", "sensor_range", "min_distance", "slam", "variants",
                 "repetitions", "metric", "timeout_s", "detection", "space"):
         if key in exp:
