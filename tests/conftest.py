@@ -16,3 +16,35 @@ def site(tmp_path, monkeypatch):
     for name in set(sys.modules) - before:
         if getattr(sys.modules[name], "__file__", "") and str(path) in sys.modules[name].__file__:
             del sys.modules[name]
+
+
+@pytest.fixture
+def tmpfs(tmp_path):
+    """``make(size)``: a fresh tmpfs of ``size`` (e.g. ``"1m"``) mounted under ``tmp_path``, unmounted after the
+    test: a file system that really runs out of space.  Skips where it cannot be mounted (not Linux, not root)."""
+    import subprocess
+    import sys
+
+    mounted = []
+
+    def make(size: str = "1m"):
+        if not sys.platform.startswith("linux"):
+            pytest.skip("a small file system for disk-full tests needs Linux's tmpfs")
+        point = tmp_path / f"tmpfs{len(mounted)}"
+        point.mkdir()
+        done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(point)],
+                              capture_output=True, text=True)
+        if done.returncode != 0:
+            pytest.skip(f"cannot mount a tmpfs for a disk-full test (needs root): {done.stderr.strip()}")
+        mounted.append(point)
+        return point
+
+    yield make
+    for point in mounted:
+        subprocess.run(["umount", "-l", str(point)], check=False)
+
+
+@pytest.fixture
+def small_tmpfs(tmpfs):
+    """A 1 MiB tmpfs (see :func:`tmpfs`)."""
+    return tmpfs("1m")

@@ -23,7 +23,7 @@ from faultlab.analysis.bundle import TableBundle
 from faultlab.analysis.metadata import count_expected_jobs, read_rule
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
-from faultlab.runner.store import STUDY_FILE, load_metadata, load_results
+from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
 from faultlab.stats.cases import detectable_difference
 from faultlab.stats.killmatrix import (StudySpec, compare_scores, detection_table, evaluate_suites, kill_matrix,
                                        score_table, study_spec)
@@ -120,7 +120,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     detection = detection_table(ev, km.variants)
     detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
     status = results["status"].astype(str).value_counts().to_dict()
-    sessions = info.get("sessions", [])
+    sessions = settle_sessions(info.get("sessions", []), load_sessions(out))
     meta_out = {
         "study": spec.to_dict(), "quick": info.get("quick", False), "pool": info.get("pool", {}),
         "runs": exp["runs"], "repetitions": exp["repetitions"], "n_steps": exp["n_steps"], "slam": exp["slam"],

@@ -38,12 +38,12 @@ from pathlib import Path
 
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
-from faultlab.errors import ConfigError
+from faultlab.errors import ConfigError, ResultsError
 from faultlab.mutation.variants import MutantSelection, mutant_variant, select_mutants
 from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, load_results, parse_experiment,
-                             prepare_cases, result_row, stream_results)
+                             prepare_cases, result_row, store_session, stream_results)
 from faultlab.runner.progress import progress as show_progress
-from faultlab.runner.store import MUTATION_FILE, store_lock
+from faultlab.runner.store import MUTATION_FILE, check_store, results_path, store_lock
 from faultlab.stats.killmatrix import suite_kills
 from faultlab.stats.verdict import min_pairs
 from faultlab.vocabulary import BASELINE
@@ -171,6 +171,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
     t0 = time.perf_counter()
     out = Path(out)
     n_new = 0
+    _check_level(out, mexp, force_new=force_new)
     with store_lock(out), ResultStore.open(out, exp, force_new=force_new) as store:
         (out / MUTATION_FILE).write_text(json.dumps(_selection_json(mexp), indent=1))
         cases = prepare_cases(exp, out)
@@ -195,9 +196,10 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
             todo = [s for s in round_specs if s.key.astuple() not in done]
             todo.sort(key=lambda s: (-s.cost, s.key))
             n_needed += len(round_specs)
+            t_round = time.perf_counter()
             session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
-            state, n_round = "interrupted", 0
-            try:
+            n_round = 0
+            with store_session(store, session, t0=t_round) as ended:
                 with show_progress(len(round_specs), done=len(round_specs) - len(todo),
                                    desc=f"faultlab mutate case {r}", unit="job", enabled=progress) as bar:
                     # one job per batch: a mutant may couple the filters of a batch through a unit
@@ -205,10 +207,8 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                         k = res.key
                         store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
                         n_round += 1
+                        ended["n_new"] = n_round
                         bar.update(1)
-                state = "complete"
-            finally:
-                store.end_session(session, state=state, n_new=n_round, wall_time_s=time.perf_counter() - t0)
             n_new += n_round
             df = load_results(out)
             df = df[df["case"] == r]
@@ -222,6 +222,22 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                 killed[(run, suite)].update(k.loc[k["kill"] != "", "fault"])
     return MutationRun(out=out, n_mutants=len(mexp.selection.run), n_jobs_max=len(specs), n_jobs_run=n_needed,
                        n_new=n_new, n_skipped_early=len(specs) - n_needed, wall_time_s=time.perf_counter() - t0)
+
+
+def _check_level(out: Path, mexp: MutationExperiment, *, force_new: bool) -> None:
+    """Refuse, before anything is written, to resume a campaign at another ``alpha``: the level decides
+    which cases ran (early stopping), so the stored rows belong to the level they were run at."""
+    check_store(out, mexp.experiment, force_new=force_new)
+    if force_new or not results_path(out).exists():
+        return
+    try:
+        old = json.loads((out / MUTATION_FILE).read_text())
+    except (OSError, ValueError):
+        return
+    if old.get("alpha") is not None and float(old["alpha"]) != mexp.alpha:
+        raise ResultsError(f"{out} holds a mutation campaign at alpha = {old['alpha']}, not {mexp.alpha}; changed: "
+                           f"mutation.alpha. Rerun with the original level to resume, or use --force-new "
+                           f"(force_new=True) to start a new store (the old one is moved aside, not deleted)")
 
 
 def _selection_json(mexp: MutationExperiment) -> dict:

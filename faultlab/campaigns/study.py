@@ -26,7 +26,6 @@ from __future__ import annotations
 import contextlib
 import copy
 import json
-import math
 import os
 import threading
 import time
@@ -37,10 +36,10 @@ from typing import Iterator, Mapping
 from faultlab.campaigns.mutation import selection_from_table
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
-from faultlab.errors import ConfigError
+from faultlab.errors import ConfigError, FaultlabError
 from faultlab.mutation.variants import MutantSelection, is_mutant_variant, mutant_variant
 from faultlab.runner import Experiment, RunSummary, parse_experiment, run_experiment
-from faultlab.runner.store import STUDY_FILE
+from faultlab.runner.store import STUDY_FILE, check_store, load_sessions, settle_sessions
 from faultlab.stats.killmatrix import StudySpec, study_spec
 from faultlab.stats.verdict import min_pairs
 
@@ -150,10 +149,16 @@ def sampled_load(interval_s: float = 30.0) -> Iterator[list]:
         samples.append([time.time(), *os.getloadavg()])
 
 
-def _saved_sessions(out: Path, sexp: StudyExperiment) -> list:
+def _read_study_file(out: Path) -> dict | None:
     try:
-        old = json.loads((out / STUDY_FILE).read_text())
+        return json.loads((out / STUDY_FILE).read_text())
     except (OSError, ValueError):
+        return None
+
+
+def _saved_sessions(out: Path, sexp: StudyExperiment) -> list:
+    old = _read_study_file(out)
+    if old is None:
         return []
     keys = ("quick", "mutants", "pool", "runs")  # the campaign; [study] settings may change between sessions
     same = all(old.get(k) == sexp.to_json()[k] for k in keys)
@@ -163,28 +168,47 @@ def _saved_sessions(out: Path, sexp: StudyExperiment) -> list:
 def run_study(sexp: StudyExperiment | str | Path, out: str | Path, *, jobs: int = 2, backend: str = "loky",
               force_new: bool = False, progress: bool = True) -> RunSummary:
     """Run (or resume) a study's pools through the runner; record its settings and every session's
-    wall time, jobs and sampled machine load in ``out/study.json``."""
+    wall time, jobs and sampled machine load in ``out/study.json``.
+
+    A session record is written ``running`` before the pools run and completed when they end; a
+    session killed before that is settled from the store when the study is next run or analysed
+    (:func:`~faultlab.runner.store.settle_sessions`).  A run the store refuses (another experiment, a damaged store, the
+    store in use) writes nothing: the check comes before the first write.
+    """
     if not isinstance(sexp, StudyExperiment):
         sexp = load_study_experiment(sexp)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    sessions = [] if force_new else _saved_sessions(out, sexp)
+    check_store(out, sexp.experiment, force_new=force_new)
     record = {"started": time.time(), "jobs": jobs, "backend": backend, "cpus": os.cpu_count(), "n_new": 0,
-              "wall_time_s": math.nan, "state": "interrupted", "load": []}
-    sessions.append(record)
+              "wall_time_s": None, "state": "running", "load": []}
+    sessions: list = []
 
     def save() -> None:
-        (out / STUDY_FILE).write_text(json.dumps(sexp.to_json() | {"sessions": sessions}, indent=1))
+        text = json.dumps(sexp.to_json() | {"sessions": sessions}, indent=1, allow_nan=False)
+        tmp = out / (STUDY_FILE + ".tmp")
+        tmp.write_text(text)
+        tmp.replace(out / STUDY_FILE)  # never half-written
 
-    save()
+    def start() -> None:  # the runner accepted the store: from here on the session is recorded
+        sessions[:] = [] if force_new else settle_sessions(_saved_sessions(out, sexp), load_sessions(out))
+        sessions.append(record)
+        save()
+
     t0 = time.perf_counter()
+    summary = None
     try:
         with sampled_load() as load:
             record["load"] = load
             summary = run_experiment(sexp.experiment, out, jobs=jobs, backend=backend, force_new=force_new,
-                                     progress=progress)
+                                     progress=progress, on_start=start)
             record.update(state="complete", n_new=summary.n_new)
     finally:
-        record["wall_time_s"] = time.perf_counter() - t0
-        save()  # an interrupted session is recorded too
+        if sessions:  # not refused
+            record["wall_time_s"] = time.perf_counter() - t0
+            if summary is None:
+                record["state"] = "interrupted"
+                with contextlib.suppress(FaultlabError):  # a damaged store must not hide the run's own error
+                    sessions[-1:] = settle_sessions(sessions, load_sessions(out))[-1:]
+            with contextlib.suppress(OSError):  # nor a full disk
+                save()
     return summary

@@ -8,12 +8,17 @@ module attaches its handler as ``func`` (``handler(args) -> int`` exit code).
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
+import os
+import sqlite3
 import sys
+import warnings
 
 from faultlab import __version__
 from faultlab.cli.options import epilog
 from faultlab.errors import FaultlabError
+from faultlab.runner.store import UnverifiedStoreWarning
 
 __all__ = ["main", "build_parser"]
 
@@ -59,17 +64,58 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null, so that the interpreter's final flush into a closed pipe stays quiet."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    """A note about a store read without checksums is one line for a user, not a source location."""
+    if issubclass(category, UnverifiedStoreWarning):
+        return f"faultlab: note: {message}\n"
+    return _python_format_warning(message, category, filename, lineno, line)
+
+
+_python_format_warning = warnings.formatwarning
+
+
 def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
-    """Run the command of ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    """Run the command of ``argv`` (default ``sys.argv[1:]``); returns the exit status.
+
+    Every expected failure is one ``faultlab: error:`` line on stderr and exit code 1.
+
+    A reader that closes the pipe early (``faultlab mutate list | head``) ends the command quietly
+    with exit code 141, as a process killed by SIGPIPE (the shell's convention); the command stops
+    at its next write, so a campaign keeps the rows it committed.
+    """
+    warnings.formatwarning = _format_warning
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return 128 + 13  # SIGPIPE
     except FaultlabError as exc:
         print(f"faultlab: error: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:  # the file system refused (disk full, permission, read-only): no traceback
+        where = f" ({exc.filename})" if exc.filename else ""
+        what = "the disk is full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
+        print(f"faultlab: error: {what}{where}", file=sys.stderr)
+        return 1
+    except sqlite3.Error as exc:  # a store read outside faultlab.runner.store's own error handling
+        print(f"faultlab: error: a results store cannot be read or written (SQLite: {exc})", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("faultlab: interrupted; finished results are saved", file=sys.stderr)

@@ -13,7 +13,7 @@ Modules: :mod:`~faultlab.runner.experiment` (experiment files), :mod:`~faultlab.
 
 from faultlab.runner.backends import stream_results
 from faultlab.runner.execution import JobResult, execute_batch, execute_job
-from faultlab.runner.orchestration import CaseInfo, RunSummary, prepare_cases, result_row, run_experiment
+from faultlab.runner.orchestration import CaseInfo, RunSummary, prepare_cases, result_row, run_experiment, store_session
 from faultlab.runner.experiment import (
     Experiment,
     SlamSpec,
@@ -51,6 +51,7 @@ __all__ = [
     "result_row",
     "stream_results",
     "run_experiment",
+    "store_session",
     "RESULT_COLUMNS",
     "ResultStore",
     "load_results",

@@ -12,13 +12,14 @@ rerun one by one in a fresh worker, and a batch that kills its worker again is r
 from __future__ import annotations
 
 import contextlib
+import os
 from typing import Iterator
 
 from joblib import Parallel, delayed, parallel_config
 from joblib.externals.loky.process_executor import BrokenProcessPool, ProcessPoolExecutor
 
 from faultlab.errors import ConfigError
-from faultlab.runner.execution import JobResult, execute_batch, worker_died
+from faultlab.runner.execution import JobResult, execute_batch, watch_parent, worker_died
 from faultlab.runner.jobs import JobBatch, JobKey
 from faultlab.vocabulary import BACKENDS
 
@@ -38,7 +39,8 @@ def _find_killer(suspects: list[JobBatch]) -> tuple[list[JobResult], list[JobBat
     suspects not run yet, which go back to the parallel pool.
     """
     results: list[JobResult] = []
-    executor = ProcessPoolExecutor(max_workers=1)  # private: joblib's reusable executor stays untouched
+    executor = ProcessPoolExecutor(max_workers=1, initializer=watch_parent,  # private: joblib's stays untouched
+                                   initargs=(os.getpid(),))
     try:
         for i, batch in enumerate(suspects):
             try:
@@ -119,7 +121,8 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
                 yield delayed(execute_batch)(b)
 
         try:
-            with _backend(backend, jobs) as (name, n_jobs), parallel_config(backend=name, n_jobs=n_jobs):
+            watch = {"initializer": watch_parent, "initargs": (os.getpid(),)} if backend == "loky" else {}
+            with _backend(backend, jobs) as (name, n_jobs), parallel_config(backend=name, n_jobs=n_jobs, **watch):
                 parallel = Parallel(return_as="generator_unordered", batch_size=1)
                 for results in parallel(tasks(pending)):
                     returned.add(tuple(r.key for r in results))

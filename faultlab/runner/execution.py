@@ -45,9 +45,10 @@ from faultlab.metrics import map_errors
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.slam.protocol import Estimate, SlamAdapter, association_of, run_slam, run_slam_batch
+from faultlab.slam.twins import warm_up
 from faultlab.vocabulary import JobStatus
 
-__all__ = ["JobResult", "execute_job", "execute_batch", "tune_allocator", "worker_died"]
+__all__ = ["JobResult", "execute_job", "execute_batch", "tune_allocator", "worker_died", "watch_parent"]
 
 
 @dataclass(frozen=True)
@@ -171,6 +172,33 @@ def tune_allocator() -> bool:
     return _allocator_tuned
 
 
+#: Seconds between two checks of a worker that its parent is still alive.
+PARENT_POLL_S = 0.5
+
+
+def watch_parent(parent_pid: int, interval_s: float = PARENT_POLL_S) -> None:
+    """Make this worker process end within ``interval_s`` once the process ``parent_pid`` is gone.
+
+    The initializer of the executors' worker processes.  A campaign killed by SIGKILL cannot shut
+    its pool down, and idle loky workers would otherwise wait for work for minutes.  A daemon
+    thread polls :func:`os.getppid`: an orphan is re-parented, so a different parent means the
+    campaign is gone and the worker exits at once (``os._exit``: nothing of the dead campaign is
+    left to clean up).  The thread needs the GIL: a worker inside one long call that holds it exits
+    when that call returns (numpy and the SLAMs' kernels return to Python at every step).
+    (``prctl(PR_SET_PDEATHSIG)`` is not used: it fires when the *thread* that started the worker
+    ends, which for a reused pool need not be the campaign's end.)
+    """
+    if os.getppid() != parent_pid:  # died before the watch began
+        os._exit(1)
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(interval_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="faultlab-parent-watch", daemon=True).start()
+
+
 def _describe(exc: BaseException) -> str:
     """``"Type: message (at file.py:line in func)"`` with the innermost frame."""
     text = f"{type(exc).__name__}: {exc}"
@@ -210,6 +238,7 @@ def execute_job(spec: JobSpec) -> JobResult:
     errors (e.g. a missing case file) raise.
     """
     tune_allocator()
+    warm_up()  # compile or load the SLAM kernels before the clock starts
     scenario = load_scenario(spec.case_path)
     t0 = time.perf_counter()
     try:
@@ -244,6 +273,7 @@ def execute_batch(batch: JobBatch) -> list[JobResult]:
     if len(specs) == 1:
         return [execute_job(specs[0])]
     tune_allocator()
+    warm_up()
     scenario = load_scenario(specs[0].case_path)
     t0 = time.perf_counter()
     try:

@@ -10,13 +10,14 @@ a resumed campaign batches only the missing repetitions.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
+from typing import Callable, Iterator, Mapping
 
 from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
 from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, slam_units
@@ -36,7 +37,7 @@ from faultlab.slam.protocol import SlamAdapter, association_of
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.vocabulary import UNKNOWN_ASSOCIATION, JobStatus
 
-__all__ = ["CaseInfo", "RunSummary", "prepare_cases", "result_row", "run_experiment"]
+__all__ = ["CaseInfo", "RunSummary", "prepare_cases", "result_row", "run_experiment", "store_session"]
 
 
 @dataclass(frozen=True)
@@ -211,9 +212,30 @@ def result_row(case: CaseInfo, res: JobResult) -> dict:
     return row
 
 
+@contextlib.contextmanager
+def store_session(store: ResultStore, session: int, *, t0: float) -> Iterator[dict]:
+    """End ``session`` when the block ends: ``complete``, or ``interrupted`` if it raised.
+
+    Yields a dict whose ``n_new`` the block keeps up to date.  If ending the session fails while
+    the block is already failing (the disk is full: the store cannot take the final update
+    either), the block's error is the one raised; the session is then closed as ``killed`` when
+    the store is next opened.
+    """
+    ended = {"n_new": 0}
+    try:
+        yield ended
+    except BaseException:
+        with contextlib.suppress(FaultlabError):
+            store.end_session(session, state="interrupted", n_new=ended["n_new"],
+                              wall_time_s=time.perf_counter() - t0)
+        raise
+    store.end_session(session, state="complete", n_new=ended["n_new"], wall_time_s=time.perf_counter() - t0)
+
+
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
-                   batch_size: int | None = None, look=None) -> RunSummary:
+                   batch_size: int | None = None, look=None,
+                   on_start: Callable[[], None] | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
 
     Parameters
@@ -248,6 +270,10 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         (:func:`faultlab.stats.sequential.interim_look`; required then, ignored otherwise).  The
         repetitions run in stages (:mod:`faultlab.runner.staging`): a stage's jobs only for the
         pairs still running, each stage in its own session.
+    on_start : callable, optional
+        Called once every check passed and the store is open, before the first write to ``out``
+        (a driver writing files of its own next to the store writes them there, so that a refused
+        run writes nothing).
 
     Returns
     -------
@@ -275,6 +301,8 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     out = Path(out)
     sut, skipped = _preflight(experiment)
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
+        if on_start is not None:
+            on_start()
         store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
         cases = prepare_cases(experiment, out)
         info = {(c.run, c.suite, c.case): c for c in cases}
@@ -326,8 +354,8 @@ def _run_specs(store, specs: list, info: dict, sut, *, jobs: int, backend: str, 
     batches.sort(key=lambda b: (-b.cost, b.keys))  # longest first: shorter tail on few workers
     counts = {s.value: 0 for s in JobStatus} | store.status_counts()
     session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
-    n_new, state = 0, "interrupted"
-    try:
+    n_new = 0
+    with store_session(store, session, t0=t0) as ended:
         with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
                            enabled=progress,
                            counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
@@ -335,9 +363,7 @@ def _run_specs(store, specs: list, info: dict, sut, *, jobs: int, backend: str, 
                 k = res.key
                 store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
                 n_new += 1
+                ended["n_new"] = n_new
                 counts[res.status.value] = counts.get(res.status.value, 0) + 1
                 bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
-        state = "complete"
-    finally:
-        store.end_session(session, state=state, n_new=n_new, wall_time_s=time.perf_counter() - t0)
     return n_new

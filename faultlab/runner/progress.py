@@ -34,7 +34,9 @@ __all__ = ["Progress", "progress", "format_duration"]
 
 
 def format_duration(seconds: float) -> str:
-    """``"12.3 s"``, ``"4 min 5 s"`` or ``"1 h 2 min 3 s"``."""
+    """``"12.3 s"``, ``"4 min 5 s"`` or ``"1 h 2 min 3 s"``; ``"?"`` for a missing or non-finite time."""
+    if seconds is None or not math.isfinite(seconds):
+        return "?"
     if seconds < 60:
         return f"{seconds:.1f} s"
     m, s = divmod(int(round(seconds)), 60)

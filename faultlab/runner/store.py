@@ -12,18 +12,35 @@ SIGKILL loses at most the jobs in flight.  ``UNIQUE (run, suite, case, variant,
 rep)`` makes a duplicate row impossible.  The ``meta`` table holds the
 experiment's hash and text, the package version, the root seed and the
 creation time; the ``sessions`` table one row per invocation (wall time, new rows).
+
+Row integrity.  Every row carries a checksum of its values (:func:`row_checksum`): a 16-byte
+BLAKE2b digest of a type-tagged encoding of the :data:`RESULT_COLUMNS` values, followed by a
+2-byte digest per column.  It is computed when the row is written and verified by every read
+that feeds an analysis (:func:`load_results`), so a byte changed on disk (a bad sector, a stray
+write) is one :class:`~faultlab.errors.ResultsError` naming the store, the row and the column
+instead of a silently wrong number.  SQLite's own ``PRAGMA integrity_check`` only checks the
+b-tree structure, not the values.  Stores written before checksums existed still read, with an
+:class:`UnverifiedStoreWarning`.
+
+Reading never writes: :func:`load_results` and :func:`load_metadata` open the file read-only
+(``immutable=1`` when no writer holds the store and no write-ahead log is pending), so reading
+a committed store leaves no ``-wal``/``-shm`` files behind.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import hashlib
 import json
 import math
 import os
 import shutil
 import sqlite3
+import threading
 import time
+import urllib.parse
+import warnings
 from pathlib import Path
 from typing import Iterator, Mapping
 
@@ -42,9 +59,15 @@ __all__ = [
     "ResultStore",
     "load_results",
     "load_metadata",
+    "load_sessions",
+    "settle_sessions",
     "case_path",
     "results_path",
     "store_lock",
+    "ensure_out_dir",
+    "check_store",
+    "row_checksum",
+    "UnverifiedStoreWarning",
     "SKIPPED_VARIANTS_KEY",
     "MUTATION_FILE",
     "STUDY_FILE",
@@ -78,6 +101,111 @@ _COLUMN_TYPES: dict[str, str] = {
 #: Columns of :func:`load_results`, in order.
 RESULT_COLUMNS: tuple[str, ...] = tuple(_COLUMN_TYPES)
 _DTYPES = {"INTEGER": "int64", "REAL": "float64", "TEXT": "object"}
+#: Metadata key naming the row checksum of a store (absent: a store written before checksums).
+_CHECKSUM_KEY = "row_checksum"
+_CHECKSUM_NAME = "blake2b-16+2/column v1"
+_ROW_DIGEST, _COLUMN_DIGEST = 16, 2
+
+
+class UnverifiedStoreWarning(UserWarning):
+    """A store (or some of its rows) was written before row checksums existed: read without verification."""
+
+
+def _encode(value) -> bytes:
+    """Type-tagged bytes of one stored value (what SQLite returns: None, int, float, str or bytes)."""
+    if value is None:
+        return b"n"
+    if isinstance(value, bool) or not isinstance(value, (int, float, str, bytes)):
+        return b"?" + repr(value).encode()
+    if isinstance(value, int):
+        return b"i" + str(value).encode()
+    if isinstance(value, float):
+        return b"r" + value.hex().encode()
+    if isinstance(value, str):
+        return b"t" + value.encode("utf-8", "surrogatepass")
+    return b"b" + value
+
+
+#: Order of the per-column digests of a checksum.  Never reorder or shorten it: rows already stored
+#: depend on it.  A column added to the table later is placed after these, in table order, and rows
+#: written before it existed (where it is NULL) keep their checksum.
+_DIGEST_ORDER: tuple[str, ...] = (
+    "run", "suite", "case", "variant", "rep", *VALUE_KEYS, *(f"class_{p}" for p in PARAMETER_NAMES),
+    "n_landmarks", "rms_mm", "emd_mm", "n_mapped", "n_unmapped", "runtime_s", "status", "error")
+
+
+def _digest_layout() -> tuple[str, ...]:
+    return _DIGEST_ORDER + tuple(c for c in RESULT_COLUMNS if c not in _DIGEST_ORDER)
+
+
+def _column_digest(column: str, value) -> bytes:
+    return hashlib.blake2b(_encode(value), digest_size=_COLUMN_DIGEST, person=column.encode()[:16]).digest()
+
+
+def row_checksum(values) -> bytes:
+    """Checksum of one row's values (in :data:`RESULT_COLUMNS` order, as stored).
+
+    A 16-byte BLAKE2b digest of every non-NULL value with its column name (length-prefixed,
+    type-tagged: any change of a value, of its type, or from or to NULL changes it), followed by a
+    2-byte BLAKE2b digest per column (which column differs, for the error message).  A column
+    added to the table later leaves the checksums of older rows, where it is NULL, valid.
+
+    Parameters
+    ----------
+    values : sequence, shape (len(RESULT_COLUMNS),)
+        None, int, float or str per column.
+
+    Returns
+    -------
+    bytes, shape (16 + 2 * len(RESULT_COLUMNS),)
+    """
+    by_name = dict(zip(RESULT_COLUMNS, values))
+    return _row_digest(by_name) + b"".join(_column_digest(c, by_name.get(c)) for c in _digest_layout() if c in by_name)
+
+
+def _row_digest(by_name: Mapping) -> bytes:
+    h = hashlib.blake2b(digest_size=_ROW_DIGEST, person=b"faultlab-row-v1")
+    for c in sorted(by_name):
+        if by_name[c] is None:
+            continue
+        for part in (c.encode(), _encode(by_name[c])):
+            h.update(len(part).to_bytes(8, "little"))
+            h.update(part)
+    return h.digest()
+
+
+def _damaged_columns(values, checksum) -> list[str]:
+    """Columns whose value does not match ``checksum`` ([] if it matches; ["checksum"] if only it is damaged)."""
+    if isinstance(checksum, bytes) and checksum[:_ROW_DIGEST] == _row_digest(dict(zip(RESULT_COLUMNS, values))):
+        return []
+    n = (len(checksum) - _ROW_DIGEST) // _COLUMN_DIGEST if isinstance(checksum, bytes) else -1
+    if n < 0 or len(checksum) != _ROW_DIGEST + _COLUMN_DIGEST * n:
+        return ["checksum"]
+    by_name = dict(zip(RESULT_COLUMNS, values))
+    layout = [c for c in _digest_layout() if c in by_name]
+    bad = [c for i, c in enumerate(layout)
+           if (i < n and checksum[_ROW_DIGEST + i * _COLUMN_DIGEST:_ROW_DIGEST + (i + 1) * _COLUMN_DIGEST]
+               != _column_digest(c, by_name[c])) or (i >= n and by_name[c] is not None)]
+    return bad or ["checksum"]
+
+
+def _stored_values(row: Mapping) -> list:
+    """The values of ``row`` as they are stored: the column's type, None for NaN or missing."""
+    values = []
+    for c, t in _COLUMN_TYPES.items():
+        v = row[c]
+        if isinstance(v, np.generic):
+            v = v.item()
+        if v is None or (isinstance(v, float) and math.isnan(v)):
+            v = None
+        elif t == "REAL":
+            v = float(v) + 0.0  # -0.0 -> 0.0: SQLite stores a negative zero as 0
+        elif t == "INTEGER":
+            v = int(v)
+        else:
+            v = str(v)
+        values.append(v)
+    return values
 
 
 def _q(name: str) -> str:
@@ -102,35 +230,118 @@ def case_path(out: str | Path, run: int, suite: str, case: int) -> Path:
     return p / CASES_DIR / f"run{int(run)}" / str(suite) / f"case{int(case)}.npz"
 
 
+def ensure_out_dir(out: str | Path) -> Path:
+    """Create the output directory ``out`` (and its parents); a ResultsError if it is a file."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ResultsError(f"output directory {out} is a file, not a directory; name a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except FileExistsError as exc:  # a parent is a file
+        raise ResultsError(f"output directory {out} cannot be created: {exc.filename} is a file") from exc
+    except OSError as exc:
+        raise ResultsError(f"output directory {out} cannot be created ({exc.strerror or exc})") from exc
+    return out
+
+
+_held_locks: dict[Path, list] = {}  # resolved out -> [fd, depth]
+_held_guard = threading.Lock()
+
+
 @contextlib.contextmanager
 def store_lock(out: str | Path) -> Iterator[None]:
     """Hold an exclusive lock on ``out`` so two campaigns never write the same store.
 
-    The operating system releases it when the process dies, even by SIGKILL.
+    The operating system releases it when the process dies, even by SIGKILL.  Re-entrant within a
+    process (a driver holds it around a call that takes it again).
     """
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = ensure_out_dir(out)
     try:
         import fcntl
     except ImportError:  # not POSIX: no lock
         yield
         return
-    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+    key = out.resolve()
+    with _held_guard:
+        if key in _held_locks:
+            _held_locks[key][1] += 1
+        else:
+            try:
+                fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as exc:
+                raise ResultsError(f"{out}: cannot create the lock file ({exc.strerror or exc})") from exc
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                os.close(fd)
+                raise ResultsError(f"{out} is in use by another faultlab run (lock {out / '.lock'})") from exc
+            _held_locks[key] = [fd, 1]
     try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
-            raise ResultsError(f"{out} is in use by another faultlab run (lock {out / '.lock'})") from exc
         yield
     finally:
-        os.close(fd)
+        with _held_guard:
+            held = _held_locks[key]
+            held[1] -= 1
+            if held[1] == 0:
+                del _held_locks[key]
+                os.close(held[0])
+
+
+def _is_written(path: Path) -> bool:
+    """Whether a writer may be at work on store ``path``: a write-ahead log exists (a connection is open,
+    or a killed writer left committed rows in it) or another process holds its lock."""
+    if path.with_name(path.name + "-wal").exists():
+        return True
+    lock = path.parent / ".lock"
+    if path.parent.resolve() in _held_locks:  # this process: its writing connection has a -wal file
+        return False
+    try:
+        import fcntl
+        fd = os.open(lock, os.O_RDONLY)
+    except (ImportError, OSError):
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError:
+        return True
+    finally:
+        os.close(fd)  # closing releases a lock taken here
+    return False
+
+
+def _database_error(path: Path, exc: sqlite3.Error, doing: str) -> ResultsError:
+    """One clear error for an SQLite failure on store ``path`` while ``doing``."""
+    text = str(exc)
+    if "disk is full" in text or getattr(exc, "sqlite_errorcode", None) == 13:  # SQLITE_FULL
+        return ResultsError(f"{path}: the disk is full while {doing}; the rows committed before are kept. "
+                            f"Free some space and rerun the same command to resume")
+    if isinstance(exc, sqlite3.OperationalError) and "locked" in text:
+        return ResultsError(f"{path}: the store is locked by another process while {doing} ({text})")
+    return ResultsError(f"{path} is damaged or not a faultlab results store ({text}, while {doing})")
 
 
 def _connect(path: Path) -> sqlite3.Connection:
-    conn = sqlite3.connect(path, timeout=30.0, isolation_level=None)  # explicit transactions
-    conn.execute("PRAGMA journal_mode=WAL")
-    conn.execute("PRAGMA synchronous=FULL")
+    try:
+        conn = sqlite3.connect(path, timeout=30.0, isolation_level=None)  # explicit transactions
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "opening it") from exc
+    try:
+        conn.execute("PRAGMA journal_mode=WAL")
+        conn.execute("PRAGMA synchronous=FULL")
+    except sqlite3.Error as exc:
+        conn.close()
+        raise _database_error(path, exc, "opening it") from exc
     return conn
+
+
+def _connect_ro(path: Path) -> sqlite3.Connection:
+    """A read-only connection that creates no file (``immutable=1`` unless a writer may be at work)."""
+    mode = "mode=ro" if _is_written(path) else "mode=ro&immutable=1"
+    uri = f"file:{urllib.parse.quote(str(path.resolve()))}?{mode}"
+    try:
+        return sqlite3.connect(uri, uri=True, timeout=30.0)
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "opening it") from exc
 
 
 def _schema_sql() -> list[str]:
@@ -141,7 +352,7 @@ def _schema_sql() -> list[str]:
         "CREATE TABLE sessions (id INTEGER PRIMARY KEY, started TEXT NOT NULL, finished TEXT, "
         "state TEXT NOT NULL, jobs INTEGER, backend TEXT, faultlab_version TEXT, n_todo INTEGER, "
         "n_new INTEGER, wall_time_s REAL, started_unix REAL NOT NULL)",
-        f"CREATE TABLE results (\n  {cols},\n  session INTEGER, written_unix REAL,\n"
+        f"CREATE TABLE results (\n  {cols},\n  session INTEGER, written_unix REAL, checksum BLOB,\n"
         f"  UNIQUE (run, suite, \"case\", variant, rep))",
     ]
 
@@ -149,12 +360,18 @@ def _schema_sql() -> list[str]:
 def _read_meta(conn: sqlite3.Connection, path: Path) -> dict:
     try:
         rows = conn.execute("SELECT key, value FROM meta").fetchall()
-    except sqlite3.DatabaseError as exc:
-        raise ResultsError(f"{path} is not a faultlab results store ({exc})") from exc
-    meta = {k: json.loads(v) for k, v in rows}
+        meta = {k: json.loads(v) for k, v in rows}
+    except sqlite3.Error as exc:
+        raise ResultsError(f"{path} is damaged or not a faultlab results store ({exc})") from exc
+    except (ValueError, TypeError) as exc:
+        raise ResultsError(f"{path} is damaged: its metadata cannot be read ({exc})") from exc
     if meta.get("format") != FORMAT_VERSION:
         raise ResultsError(f"{path} is not a faultlab results store (format {meta.get('format')!r})")
     return meta
+
+
+def _has_checksum_column(conn: sqlite3.Connection) -> bool:
+    return any(r[1] == "checksum" for r in conn.execute("PRAGMA table_info(results)"))
 
 
 def _diff_keys(old: Mapping, new: Mapping, prefix: str = "") -> list[str]:
@@ -167,6 +384,61 @@ def _diff_keys(old: Mapping, new: Mapping, prefix: str = "") -> list[str]:
         elif a != b:
             keys.append(name)
     return keys
+
+
+def _refusal(out: Path, meta: Mapping, experiment) -> ResultsError:
+    try:
+        old = json.loads(meta.get("experiment", "{}"))
+    except (TypeError, ValueError):
+        old = {}
+    changed = _diff_keys(old, json.loads(experiment.canonical_json()))
+    return ResultsError(
+        f"{out} holds results of a different experiment ({meta.get('experiment_source')}, "
+        f"hash {str(meta.get('experiment_hash'))[:12]}) than {experiment.source} "
+        f"(hash {experiment.hash[:12]}); changed: {', '.join(changed) or 'unknown'}. "
+        f"Rerun with the original experiment to resume, or use --force-new (force_new=True) "
+        f"to start a new store (the old one is moved aside, not deleted)")
+
+
+def _is_blank(path: Path) -> bool:
+    """Whether ``path`` is an SQLite file without any table (its creator died before committing the schema)."""
+    if path.stat().st_size == 0:
+        return True
+    try:
+        conn = _connect_ro(path)
+        try:
+            return conn.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()[0] == 0
+        finally:
+            conn.close()
+    except (sqlite3.Error, ResultsError):
+        return False
+
+
+def check_store(out: str | Path, experiment, *, force_new: bool = False) -> None:
+    """Refuse, writing nothing, what :meth:`ResultStore.open` would refuse.
+
+    Drivers that write files of their own next to the store call it before their first write,
+    so that a refused command leaves the output directory as it was.
+
+    Raises
+    ------
+    ResultsError
+        ``out`` is a file, or holds a damaged store, or the results of a different experiment
+        (without ``force_new``).
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ResultsError(f"output directory {out} is a file, not a directory; name a directory")
+    path = results_path(out)
+    if force_new or not path.exists() or _is_blank(path):
+        return
+    conn = _connect_ro(path)
+    try:
+        meta = _read_meta(conn, path)
+    finally:
+        conn.close()
+    if meta.get("experiment_hash") != experiment.hash:
+        raise _refusal(out, meta, experiment)
 
 
 class ResultStore:
@@ -189,36 +461,43 @@ class ResultStore:
 
         With ``force_new`` an existing store and its cases are first moved to
         ``out/previous-<UTC time>/`` (never deleted) and a fresh store is created.
+        Reopening closes the sessions a killed process left ``running`` as ``killed``
+        (the caller holds :func:`store_lock`, so no other process is running).  A store written
+        before row checksums gets the checksum column: its new rows are verified, its old ones
+        are not.
 
         Raises
         ------
         ResultsError
             If ``out`` holds the results of a different experiment (another
-            hash) and ``force_new`` is False, or a file that is not a store.
+            hash) and ``force_new`` is False, or a file that is not a store
+            (checked before anything is written).
         """
         out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
+        check_store(out, experiment, force_new=force_new)
+        out = ensure_out_dir(out)
         path = results_path(out)
+        if path.exists() and not force_new and _is_blank(path):
+            path.unlink()  # killed before its schema was committed: nothing to keep
         if path.exists() and force_new:
             cls._move_aside(out)
         elif path.exists():
             conn = _connect(path)
             try:
                 meta = _read_meta(conn, path)
+                if meta.get("experiment_hash") != experiment.hash:  # changed since check_store
+                    raise _refusal(out, meta, experiment)
+                store = cls(out, conn, meta)
+                store._close_stale_sessions()
+                if not _has_checksum_column(conn):
+                    conn.execute("ALTER TABLE results ADD COLUMN checksum BLOB")
+            except sqlite3.Error as exc:
+                conn.close()
+                raise _database_error(path, exc, "reopening it") from exc
             except ResultsError:
                 conn.close()
                 raise
-            if meta.get("experiment_hash") == experiment.hash:
-                return cls(out, conn, meta)
-            conn.close()
-            old = json.loads(meta.get("experiment", "{}"))
-            changed = _diff_keys(old, json.loads(experiment.canonical_json()))
-            raise ResultsError(
-                f"{out} holds results of a different experiment ({meta.get('experiment_source')}, "
-                f"hash {str(meta.get('experiment_hash'))[:12]}) than {experiment.source} "
-                f"(hash {experiment.hash[:12]}); changed: {', '.join(changed) or 'unknown'}. "
-                f"Rerun with the original experiment to resume, or use --force-new (force_new=True) "
-                f"to start a new store (the old one is moved aside, not deleted)")
+            return store
         elif force_new and (out / CASES_DIR).exists():
             cls._move_aside(out)  # cases without a store: keep them too
         conn = _connect(path)
@@ -236,13 +515,18 @@ class ResultStore:
             "suites": list(experiment.suite_kinds),
             "variants": list(experiment.variants),
             "created": _now(),
+            _CHECKSUM_KEY: _CHECKSUM_NAME,
         }
-        conn.execute("BEGIN")
-        for stmt in _schema_sql():
-            conn.execute(stmt)
-        conn.executemany("INSERT INTO meta (key, value) VALUES (?, ?)",
-                         [(k, json.dumps(v)) for k, v in meta.items()])
-        conn.execute("COMMIT")
+        try:
+            conn.execute("BEGIN")
+            for stmt in _schema_sql():
+                conn.execute(stmt)
+            conn.executemany("INSERT INTO meta (key, value) VALUES (?, ?)",
+                             [(k, json.dumps(v)) for k, v in meta.items()])
+            conn.execute("COMMIT")
+        except sqlite3.Error as exc:
+            conn.close()
+            raise _database_error(path, exc, "creating it") from exc
         return cls(out, conn, meta)
 
     @staticmethod
@@ -268,52 +552,79 @@ class ResultStore:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def _execute(self, doing: str, statements) -> None:
+        """Run ``statements`` ((sql, params) pairs) in one committed transaction; ResultsError on failure."""
+        try:
+            with self.conn:
+                self.conn.execute("BEGIN")
+                for sql, params in statements:
+                    self.conn.execute(sql, params)
+        except sqlite3.IntegrityError:
+            raise
+        except sqlite3.Error as exc:
+            raise _database_error(self.path, exc, doing) from exc
+
     def set_meta(self, key: str, value) -> None:
         """Set one metadata entry (JSON-serialisable ``value``; committed at once, replacing an older one)."""
-        with self.conn:
-            self.conn.execute("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", (key, json.dumps(value)))
+        self._execute(f"setting {key!r}", [("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
+                                           (key, json.dumps(value)))])
         self.meta[key] = value
 
     # ------------------------------------------------------------ sessions
+    def _close_stale_sessions(self) -> int:
+        """Mark the sessions left ``running`` by a killed process as ``killed``, with the wall time until
+        their last stored row and their stored rows as ``n_new``; returns how many."""
+        stale = self.conn.execute("SELECT id, started_unix FROM sessions WHERE state = 'running'").fetchall()
+        if stale:
+            self._execute("closing killed sessions", [
+                ("UPDATE sessions SET state = 'killed', finished = ?, "
+                 "n_new = (SELECT COUNT(*) FROM results WHERE session = ?), "
+                 "wall_time_s = MAX(0.0, COALESCE((SELECT MAX(written_unix) FROM results WHERE session = ?), "
+                 "started_unix) - started_unix) WHERE id = ?", (_now(), sid, sid, sid))
+                for sid, _ in stale])
+        return len(stale)
+
     def begin_session(self, *, jobs: int, backend: str, n_todo: int) -> int:
-        cur = self.conn.execute(
-            "INSERT INTO sessions (started, state, jobs, backend, faultlab_version, n_todo, n_new, started_unix) "
-            "VALUES (?, 'running', ?, ?, ?, ?, 0, ?)", (_now(), jobs, backend, __version__, n_todo, time.time()))
+        try:
+            cur = self.conn.execute(
+                "INSERT INTO sessions (started, state, jobs, backend, faultlab_version, n_todo, n_new, started_unix) "
+                "VALUES (?, 'running', ?, ?, ?, ?, 0, ?)", (_now(), jobs, backend, __version__, n_todo, time.time()))
+        except sqlite3.Error as exc:
+            raise _database_error(self.path, exc, "starting a session") from exc
         return int(cur.lastrowid)
 
     def end_session(self, session: int, *, state: str, n_new: int, wall_time_s: float) -> None:
-        self.conn.execute("UPDATE sessions SET finished = ?, state = ?, n_new = ?, wall_time_s = ? WHERE id = ?",
-                          (_now(), state, n_new, wall_time_s, session))
+        self._execute("ending a session", [(
+            "UPDATE sessions SET finished = ?, state = ?, n_new = ?, wall_time_s = ? WHERE id = ?",
+            (_now(), state, n_new, wall_time_s, session))])
 
     # ------------------------------------------------------------ rows
     def done_keys(self) -> set[tuple]:
         """Identities (run, suite, case, variant, rep) of the rows already stored."""
-        return set(self.conn.execute('SELECT run, suite, "case", variant, rep FROM results').fetchall())
+        try:
+            return set(self.conn.execute('SELECT run, suite, "case", variant, rep FROM results').fetchall())
+        except sqlite3.Error as exc:
+            raise _database_error(self.path, exc, "reading the stored jobs") from exc
 
     def status_counts(self) -> dict[str, int]:
-        return dict(self.conn.execute("SELECT status, COUNT(*) FROM results GROUP BY status").fetchall())
+        try:
+            return dict(self.conn.execute("SELECT status, COUNT(*) FROM results GROUP BY status").fetchall())
+        except sqlite3.Error as exc:
+            raise _database_error(self.path, exc, "counting the stored rows") from exc
 
     def write(self, row: Mapping, *, session: int | None = None) -> None:
-        """Insert one row (keys = :data:`RESULT_COLUMNS`) in its own committed transaction."""
-        values = []
-        for c in RESULT_COLUMNS:
-            v = row[c]
-            if isinstance(v, np.generic):
-                v = v.item()
-            if isinstance(v, float) and math.isnan(v):
-                v = None
-            values.append(v)
+        """Insert one row (keys = :data:`RESULT_COLUMNS`) with its checksum, in its own committed transaction."""
+        values = _stored_values(row)
         cols = ", ".join(_q(c) for c in RESULT_COLUMNS)
         marks = ", ".join("?" for _ in RESULT_COLUMNS)
+        statements = [(f"INSERT INTO results ({cols}, session, written_unix, checksum) "
+                       f"VALUES ({marks}, ?, ?, ?)", values + [session, time.time(), row_checksum(values)])]
+        if session is not None:
+            statements.append(("UPDATE sessions SET n_new = n_new + 1 WHERE id = ?", (session,)))
+        key = tuple(row[c] for c in ID_COLUMNS)
         try:
-            with self.conn:  # noqa: SIM117 - commit per row
-                self.conn.execute("BEGIN")
-                self.conn.execute(f"INSERT INTO results ({cols}, session, written_unix) VALUES ({marks}, ?, ?)",
-                                  values + [session, time.time()])
-                if session is not None:
-                    self.conn.execute("UPDATE sessions SET n_new = n_new + 1 WHERE id = ?", (session,))
+            self._execute(f"writing job {key}", statements)
         except sqlite3.IntegrityError as exc:
-            key = tuple(row[c] for c in ID_COLUMNS)
             raise ResultsError(f"{self.path}: job {key} is already stored ({exc})") from exc
 
 
@@ -322,7 +633,7 @@ def _open_existing(out: str | Path) -> tuple[Path, sqlite3.Connection]:
     path = results_path(out)
     if not path.is_file():
         raise ResultsError(f"no results store at {path}")
-    return path, sqlite3.connect(path, timeout=30.0)
+    return path, _connect_ro(path)
 
 
 def load_metadata(out: str | Path) -> dict:
@@ -330,24 +641,24 @@ def load_metadata(out: str | Path) -> dict:
 
     ``sessions`` lists every invocation (started, finished, state, jobs, backend,
     n_new, wall_time_s); ``wall_time_s`` is their sum (a session killed before
-    it finished counts until its last stored row); ``n_rows`` the stored rows.
+    it finished counts until its last stored row, its ``n_new`` is its stored rows);
+    ``n_rows`` the stored rows.  Reads the file without writing to it.
     """
     path, conn = _open_existing(out)
     try:
         meta = _read_meta(conn, path)
-        conn.row_factory = sqlite3.Row
-        sessions = [dict(r) for r in conn.execute("SELECT * FROM sessions ORDER BY id")]
-        last = dict(conn.execute("SELECT session, MAX(written_unix) FROM results GROUP BY session").fetchall())
+        sessions = _sessions(conn)
         n_rows = conn.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "reading its metadata") from exc
     finally:
         conn.close()
     for s in sessions:
-        if s["wall_time_s"] is None:  # killed: count until its last row
-            s["wall_time_s"] = max(0.0, (last.get(s["id"]) or s["started_unix"]) - s["started_unix"])
-            if s["state"] == "running":
-                s["state"] = "killed"
         del s["started_unix"]
-    meta["experiment"] = json.loads(meta["experiment"])
+    try:
+        meta["experiment"] = json.loads(meta["experiment"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ResultsError(f"{path} is damaged: its experiment cannot be read ({exc})") from exc
     meta["sessions"] = sessions
     meta["wall_time_s"] = float(sum(s["wall_time_s"] for s in sessions))
     meta["n_rows"] = int(n_rows)
@@ -355,22 +666,141 @@ def load_metadata(out: str | Path) -> dict:
     return meta
 
 
+def _sessions(conn: sqlite3.Connection) -> list[dict]:
+    """Every session of a store, a killed one's wall time counted until its last stored row and its
+    stored rows as ``n_new``."""
+    conn.row_factory = sqlite3.Row
+    try:
+        sessions = [dict(r) for r in conn.execute("SELECT * FROM sessions ORDER BY id")]
+    finally:
+        conn.row_factory = None
+    last = dict(conn.execute("SELECT session, MAX(written_unix) FROM results GROUP BY session").fetchall())
+    rows = dict(conn.execute("SELECT session, COUNT(*) FROM results GROUP BY session").fetchall())
+    for s in sessions:
+        if s["wall_time_s"] is None:  # killed: count until its last row
+            s["wall_time_s"] = max(0.0, (last.get(s["id"]) or s["started_unix"]) - s["started_unix"])
+            if s["state"] == "running":
+                s["state"] = "killed"
+                s["n_new"] = int(rows.get(s["id"], 0))
+    return sessions
+
+
+def load_sessions(out: str | Path) -> list[dict]:
+    """The sessions of a store as :func:`load_metadata` lists them, each with its ``started_unix`` (s since
+    the epoch); [] if there is no store yet."""
+    path = results_path(out)
+    if not path.is_file():
+        return []
+    conn = _connect_ro(path)
+    try:
+        return _sessions(conn)
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "reading its sessions") from exc
+    finally:
+        conn.close()
+
+
+def settle_sessions(sessions: list, store_sessions: list) -> list:
+    """A driver's session records (e.g. ``study.json``'s) with every unfinished one settled from the store's.
+
+    A driver session that did not end normally (killed: still ``running``; interrupted; or a
+    record with a missing or non-finite wall time) gets the new rows the store committed in its
+    time window (from its start to the next record's start: the runner's sessions started
+    in it) and the wall time until its last such row; a killed one is marked ``killed``.
+
+    Parameters
+    ----------
+    sessions : list of dict
+        The driver's records (``started``: s since the epoch; ``state``, ``n_new``, ``wall_time_s``).
+    store_sessions : list of dict
+        :func:`load_sessions`.
+
+    Returns
+    -------
+    list of dict
+        New records; finished ones unchanged.
+    """
+    out = []
+    for i, rec in enumerate(sessions):
+        rec = dict(rec)
+        wall = rec.get("wall_time_s")
+        finite = isinstance(wall, (int, float)) and math.isfinite(wall)
+        if rec.get("state") != "complete" or not finite:
+            start = float(rec.get("started") or 0.0)
+            end = float(sessions[i + 1].get("started") or math.inf) if i + 1 < len(sessions) else math.inf
+            mine = [s for s in store_sessions if start <= s["started_unix"] < end]
+            rec["n_new"] = int(sum(s["n_new"] or 0 for s in mine))
+            if not finite:
+                ends = [s["started_unix"] + s["wall_time_s"] for s in mine]
+                rec["wall_time_s"] = max(0.0, max(ends, default=start) - start)
+            if rec.get("state") == "running":
+                rec["state"] = "killed"
+        out.append(rec)
+    return out
+
+
+_noted: set = set()  # (store, unverified rows) already noted in this process
+
+
+def _verify(path: Path, rows: list, checked: bool) -> None:
+    """Raise ResultsError at the first row whose values do not match its checksum.
+
+    ``rows``: (values..., rowid, checksum) tuples.  ``checked``: whether the store was created
+    with checksums (then a row without one is damaged too).  Rows without a checksum in a store
+    from before checksums are only counted, for the warning.
+    """
+    n = len(RESULT_COLUMNS)
+    unverified = 0
+    for r in rows:
+        values, rowid, checksum = r[:n], r[n], r[n + 1]
+        if checksum is None and not checked:
+            unverified += 1
+            continue
+        bad = _damaged_columns(values, checksum)
+        if bad:
+            key = ", ".join(f"{c} {v!r}" for c, v in zip(ID_COLUMNS, values))
+            what = "its checksum is missing or damaged" if bad == ["checksum"] else \
+                f"column{'s' if len(bad) > 1 else ''} {', '.join(bad)} {'do' if len(bad) > 1 else 'does'} " \
+                f"not match its checksum"
+            raise ResultsError(f"{path} is damaged: row {rowid} ({key}): {what}. The store's values cannot be "
+                               f"trusted; restore it from a copy or rerun the campaign into a new directory")
+    if unverified and (path.resolve(), unverified, len(rows)) not in _noted:
+        _noted.add((path.resolve(), unverified, len(rows)))
+        warnings.warn(f"{path}: {unverified} of {len(rows)} rows were written before row checksums existed "
+                      f"and are read without verification", UnverifiedStoreWarning, stacklevel=3)
+
+
 def load_results(out: str | Path) -> pd.DataFrame:
-    """All rows of a store as a DataFrame (columns :data:`RESULT_COLUMNS`).
+    """All rows of a store as a DataFrame (columns :data:`RESULT_COLUMNS`), each verified against its checksum.
 
     Sorted by run, suite (experiment order), case, variant (experiment order), rep.
     ``rms_mm``/``emd_mm`` are NaN unless ``status == "ok"``; ``error`` is "" when ok.
+    Reads the file without writing to it.
+
+    Raises
+    ------
+    ResultsError
+        No store, a damaged store (SQLite cannot read it, or a row's values do not match its
+        checksum: the message names the store, the row and the column), or not a store.
     """
     path, conn = _open_existing(out)
     try:
         meta = _read_meta(conn, path)
         cols = ", ".join(_q(c) for c in RESULT_COLUMNS)
-        rows = conn.execute(f"SELECT {cols} FROM results").fetchall()
+        checksum = "checksum" if _has_checksum_column(conn) else "NULL"
+        rows = conn.execute(f"SELECT {cols}, rowid, {checksum} FROM results").fetchall()
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "reading its rows") from exc
     finally:
         conn.close()
-    df = pd.DataFrame.from_records(rows, columns=list(RESULT_COLUMNS))
-    for c, t in _COLUMN_TYPES.items():
-        df[c] = df[c].astype(_DTYPES[t])
+    _verify(path, rows, checked=_CHECKSUM_KEY in meta)
+    n = len(RESULT_COLUMNS)
+    df = pd.DataFrame.from_records([r[:n] for r in rows], columns=list(RESULT_COLUMNS))
+    try:
+        for c, t in _COLUMN_TYPES.items():
+            df[c] = df[c].astype(_DTYPES[t])
+    except (TypeError, ValueError) as exc:  # only an unverified row can get here
+        raise ResultsError(f"{path} is damaged: a column has values of the wrong type ({exc})") from exc
     df["error"] = df["error"].fillna("")
     order_s = {s: i for i, s in enumerate(meta.get("suites", []))}
     order_v = {v: i for i, v in enumerate(meta.get("variants", []))}

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import json
 import zipfile
 from dataclasses import dataclass, field
@@ -124,44 +126,91 @@ def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
                 np.lib.format.write_array(fh, np.asanyarray(array), allow_pickle=False)
 
 
+def _digest(data: bytes) -> str:
+    return hashlib.blake2b(data, digest_size=16).hexdigest()
+
+
+def _meta_checksum(meta: dict) -> str:
+    """Checksum of a case's ``.json`` content (every key but ``checksum``, canonical JSON)."""
+    body = {k: v for k, v in meta.items() if k != "checksum"}
+    return _digest(json.dumps(body, sort_keys=True, separators=(",", ":")).encode())
+
+
 def save_scenario(scenario: Scenario, path: str | Path) -> Path:
-    """Save losslessly as ``<path>.npz`` (arrays) plus ``<path>.json`` (case, seed, meta).
+    """Save losslessly as ``<path>.npz`` (arrays) plus ``<path>.json`` (case, seed, meta, checksums).
 
     Returns the ``.npz`` path.  Both files are written to a temporary name and
-    renamed, so an interrupted save never leaves a half-written case.
+    renamed, so an interrupted save never leaves a half-written case.  The ``.json`` records a
+    BLAKE2b digest of the ``.npz`` file's bytes (``npz_blake2b``) and of its own content
+    (``checksum``); :func:`load_scenario` verifies both.
+
+    Raises
+    ------
+    ScenarioError
+        The files cannot be written (e.g. the disk is full); no partial file is left.
     """
     base = Path(path)
     if base.suffix in (".npz", ".json"):
         base = base.with_suffix("")
-    base.parent.mkdir(parents=True, exist_ok=True)
     npz, js = base.with_name(base.name + ".npz"), base.with_name(base.name + ".json")
     tmp_npz, tmp_js = npz.with_name(npz.name + ".tmp.npz"), js.with_name(js.name + ".tmp")
-    _write_npz(tmp_npz, {k: getattr(scenario, k) for k in _ARRAYS})
-    meta = {"format": FORMAT_VERSION, "case": scenario.case.to_dict(), "seed": scenario.seed,
-            "meta": scenario.meta}
-    tmp_js.write_text(json.dumps(meta, indent=1, sort_keys=True))
-    tmp_npz.replace(npz)
-    tmp_js.replace(js)
+    try:
+        base.parent.mkdir(parents=True, exist_ok=True)
+        _write_npz(tmp_npz, {k: getattr(scenario, k) for k in _ARRAYS})
+        meta = {"format": FORMAT_VERSION, "case": scenario.case.to_dict(), "seed": scenario.seed,
+                "meta": scenario.meta, "npz_blake2b": _digest(tmp_npz.read_bytes())}
+        meta["checksum"] = _meta_checksum(meta)
+        tmp_js.write_text(json.dumps(meta, indent=1, sort_keys=True))
+        tmp_npz.replace(npz)
+        tmp_js.replace(js)
+    except OSError as exc:
+        for tmp in (tmp_npz, tmp_js):
+            try:
+                tmp.unlink(missing_ok=True)
+            except OSError:
+                pass
+        reason = "the disk is full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
+        raise ScenarioError(f"test case {base} cannot be written ({reason})") from exc
     return npz
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Load a case written by :func:`save_scenario` (``path`` with or without suffix)."""
+    """Load a case written by :func:`save_scenario` (``path`` with or without suffix).
+
+    Verifies the checksums of both files when the ``.json`` has them (cases saved before
+    checksums existed load without).
+
+    Raises
+    ------
+    ScenarioError
+        A file is missing, truncated, damaged (checksum mismatch) or not a test case.
+    """
     base = Path(path)
     if base.suffix in (".npz", ".json"):
         base = base.with_suffix("")
     npz, js = base.with_name(base.name + ".npz"), base.with_name(base.name + ".json")
     try:
         meta = json.loads(js.read_text())
+        if not isinstance(meta, dict):
+            raise ValueError("not a JSON object")
+        if meta.get("format") != FORMAT_VERSION:
+            raise ScenarioError(f"test case {js}: unsupported format {meta.get('format')!r}")
+        if "checksum" in meta and meta["checksum"] != _meta_checksum(meta):
+            raise ScenarioError(f"test case {js} is damaged (its content does not match its checksum)")
+        if "npz_blake2b" in meta and _digest(npz.read_bytes()) != meta["npz_blake2b"]:
+            raise ScenarioError(f"test case {npz} is damaged (its bytes do not match the checksum in {js.name})")
         with np.load(npz, allow_pickle=False) as data:
             arrays = {k: data[k] for k in _ARRAYS}
+    except ScenarioError:
+        raise
     except FileNotFoundError as exc:
         raise ScenarioError(f"test case {base}: missing file {exc.filename}") from exc
-    except (KeyError, ValueError, OSError) as exc:
-        raise ScenarioError(f"test case {base}: unreadable ({exc})") from exc
-    if meta.get("format") != FORMAT_VERSION:
-        raise ScenarioError(f"test case {js}: unsupported format {meta.get('format')!r}")
-    sc = Scenario(case=CaseSpec.from_dict(meta["case"]), seed=meta.get("seed"), meta=meta.get("meta", {}),
-                  **arrays)
+    except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise ScenarioError(f"test case {base}: unreadable ({type(exc).__name__}: {exc})") from exc
+    try:
+        sc = Scenario(case=CaseSpec.from_dict(meta["case"]), seed=meta.get("seed"), meta=meta.get("meta", {}),
+                      **arrays)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ScenarioError(f"test case {js}: unreadable ({type(exc).__name__}: {exc})") from exc
     sc.validate()
     return sc

@@ -163,7 +163,7 @@ class _UnknownAssociationSlam(ParticleFilterSlam):
             return self._associate_pairs(poses, z)
 
     def _associate_pairs(self, poses: np.ndarray, z: np.ndarray) -> Association:
-        steps, st, Q = self._steps, self._state, self._Q
+        steps, st, Q = self._run_steps, self._state, self._Q
         n, k = poses.shape[0], z.shape[0]
         L = max(1, int(st.size.max()))  # slot 0 is padding while no particle has a landmark
         valid = st.valid[:, :L]
@@ -221,12 +221,12 @@ class _UnknownAssociationSlam(ParticleFilterSlam):
     def _weights(self, logw: np.ndarray, a: Association) -> np.ndarray:
         """``combine_weights`` with the associated likelihood, or ``log_p0`` for a new landmark (unnormalised)."""
         loglik = np.where(a.known, a.loglik, self._log_p0)
-        return np.asarray(self._steps.combine_weights(logw, loglik, np.ones(loglik.shape, dtype=bool)), dtype=float)
+        return np.asarray(self._run_steps.combine_weights(logw, loglik, np.ones(loglik.shape, dtype=bool)), dtype=float)
 
     def _update_maps(self, poses: np.ndarray, z: np.ndarray, known: np.ndarray, slots: np.ndarray,
                      mu: np.ndarray, P: np.ndarray, H: np.ndarray, S: np.ndarray, nu: np.ndarray) -> None:
         """EKF update of the associated landmarks, then the new landmarks appended (from ``poses``)."""
-        steps = self._steps
+        steps = self._run_steps
         st = self._state
         new = ~known
         if known.any():
@@ -275,7 +275,7 @@ class FastSlamUnknown(_UnknownAssociationSlam):
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
         st, u, u_n, k, empty = self._begin_step(control, observations)
-        steps = self._steps
+        steps = self._run_steps
         u_i = u_n if empty else steps.sample_controls(u, st.n_particles, self._streams["sample_controls"], self._config)
         poses = np.asarray(steps.motion_model(st.poses, u_i, wrap=steps.wrap_heading), dtype=float)
         logw = st.logw
@@ -302,7 +302,7 @@ class FastSlam2Unknown(_UnknownAssociationSlam):
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
         st, _, u_n, k, empty = self._begin_step(control, observations)
-        steps = self._steps
+        steps = self._run_steps
         x_hat = np.asarray(steps.motion_model(st.poses, u_n, wrap=steps.wrap_heading), dtype=float)
         if empty:  # the noise-free prediction is the pose
             self._finish(st, x_hat, st.logw, empty)

@@ -19,6 +19,7 @@ import numpy as np
 
 from faultlab.errors import ConfigError, SlamInputError, SlamOutputError
 from faultlab.slam.protocol import Estimate, SlamAdapter, as_start_pose, check_generator
+from faultlab.slam import twins as _twins
 from faultlab.slam.streams import unit_streams
 from faultlab.slam.units import wrap_heading
 from faultlab.vocabulary import KNOWN_ASSOCIATION
@@ -85,6 +86,8 @@ class UnitSlam(SlamAdapter):
                               f"faultlab.slam.registry.build_slam)")
         self._config = config
         self._steps = steps
+        # what the filter calls: the reference units' compiled twins, every other unit as given
+        self._run_steps = _twins.twinned(steps) if _twins.JIT_ENABLED else steps
 
     @property
     def config(self):

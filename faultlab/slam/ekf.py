@@ -142,7 +142,7 @@ class EkfSlam(UnitSlam):
             self._update(control, observations)
 
     def _update(self, control: np.ndarray, observations: Observations) -> None:
-        steps, Q = self._steps, self._Q
+        steps, Q = self._run_steps, self._Q
         u, k, empty = step_kind(control, observations)
         mu, Sigma = self._mu, self._Sigma
         # prediction (Table 10.1, lines 2-5); an empty update adds no control noise
@@ -206,7 +206,7 @@ class EkfSlam(UnitSlam):
     def _correct(self, mu: np.ndarray, Sigma: np.ndarray, cols: np.ndarray,
                  z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Joint correction with the re-observed landmarks in state columns ``cols`` (k,), z (k, 2)."""
-        steps = self._steps
+        steps = self._run_steps
         idx = 3 + 2 * cols
         lm = mu[idx[:, None] + np.arange(2)]  # (k, 2)
         zhat, Hm = steps.predict_measurement(mu[None, :3], lm[None])

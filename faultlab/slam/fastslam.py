@@ -173,6 +173,7 @@ from faultlab.slam.sharing import correct_in_sharer_order
 from faultlab.slam.particles import ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
+from faultlab.slam import twins as _twins
 from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION, PAPER_PROTOCOL
 
 __all__ = ["FastSlamConfig", "FastSlamSteps", "REFERENCE_STEPS", "FastSlam", "Particles", "ParticleState",
@@ -365,6 +366,9 @@ class FastSlam(UnitSlam):
         self._Q = self._config.Q
         self._started = False
         self._batched_steps: FastSlamSteps | None = None
+        self._single_steps: FastSlamSteps | None = None
+        self._jit = _twins.JIT_ENABLED  # compiled twins and bookkeeping (FAULTLAB_JIT)
+        self._fused = self._jit and _twins.fused(self._steps)
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
@@ -518,6 +522,7 @@ class FastSlam(UnitSlam):
         self._mu = np.zeros((2, cap, b * n))  # storage buffers (see "Storage and resampling")
         self._P = np.zeros((2, 2, cap, b * n))
         self._anc = self._local_ancestry(b, cap)
+        self._anc_spare = None  # the second ancestry buffer of _materialise
         self._lineage = [self._ident] * b
         self._owner = [self._ident] * b
         self._sharers = [False] * b  # ParticleState.sequential_sharers of each filter
@@ -538,14 +543,19 @@ class FastSlam(UnitSlam):
             raise SlamInputError(f"{self.name}: reset() must be called first")
 
     def _units(self, slots: int) -> FastSlamSteps:
-        """The units for ``slots`` filters: particle units marked filter-wise are looped per filter."""
+        """The units the filter calls for ``slots`` filters: the reference units' compiled twins
+        (:func:`~faultlab.slam.twins.twinned`), every other unit as given, particle units marked
+        filter-wise looped per filter."""
         if slots == 1:
-            return self._steps
+            if self._single_steps is None:
+                self._single_steps = _twins.twinned(self._steps) if self._jit else self._steps
+            return self._single_steps
         if self._batched_steps is None:
             looped = {name: _looped(getattr(self._steps, name), pos, self._n)
                       for name, pos in _PARTICLE_ARGS.items()
                       if getattr(getattr(self._steps, name), "filter_wise", False)}
-            self._batched_steps = dataclasses.replace(self._steps, **looped) if looped else self._steps
+            steps = dataclasses.replace(self._steps, **looped) if looped else self._steps
+            self._batched_steps = _twins.twinned(steps) if self._jit else steps
         return self._batched_steps
 
     def _call(self, j: int, fn: Callable, *args, **kwargs):
@@ -636,7 +646,7 @@ class FastSlam(UnitSlam):
 
     def _resample(self, j: int, empty: bool) -> None:
         """Effective sample size, resampling decision and resampling of the filter in slot ``j``."""
-        steps = self._steps
+        steps = self._units(1)  # per-filter units: never looped
         given = self._filter_state(j)
         st, resampled = resample_tail(steps, given, empty, self._streams[j]["resample"], self._config,
                                       apply=steps.apply_resample)
@@ -699,16 +709,8 @@ class FastSlam(UnitSlam):
         """
         n = self._n
         slots = len(self._reps)
-        anc = self._anc
         k = cols.size
-        C = self._ids.size
-        # materialise pending resamplings (lineage -> identity), O(N C) ints, only after a resampling
-        for j in range(slots):
-            lineage = self._lineage[j]
-            if lineage is not self._ident:
-                a = anc[self._slice(j)]
-                a[:, :C] = a[lineage, :C]
-                self._lineage[j] = self._ident
+        self._materialise()
         z = np.empty((k, 2))
         z[:, 0] = obs.ranges
         z[:, 1] = obs.bearings
@@ -727,6 +729,33 @@ class FastSlam(UnitSlam):
             start = stop
         return logw
 
+    def _materialise(self) -> None:
+        """Apply the pending resamplings to the ancestry (lineage -> identity), O(N C) ints.
+
+        The rows are gathered into a second ancestry buffer (one read and one write of the used
+        columns), which then becomes the ancestry: the columns beyond C are identity in both.
+        """
+        pending = [j for j in range(len(self._reps)) if self._lineage[j] is not self._ident]
+        if not pending:
+            return
+        C = self._ids.size
+        anc = self._anc
+        spare = self._anc_spare
+        if spare is None or spare.shape != anc.shape:
+            spare = self._local_ancestry(anc.shape[0] // self._n, anc.shape[1])
+        for j in range(len(self._reps)):
+            sl = self._slice(j)
+            if self._lineage[j] is self._ident:
+                spare[sl, :C] = anc[sl, :C]
+            else:
+                if self._jit:
+                    _twins.take_rows(anc[sl], self._lineage[j], spare[sl], C)
+                else:
+                    spare[sl, :C] = anc[sl][self._lineage[j], :C]
+                self._lineage[j] = self._ident
+        self._anc, self._anc_spare = spare, anc
+        self._views = None
+
     def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The stored landmarks of ``cols`` for the particles of slots ``start .. stop - 1``.
 
@@ -743,6 +772,11 @@ class FastSlam(UnitSlam):
             if self._offsets is None:
                 self._offsets = np.repeat(np.arange(bn // n, dtype=np.intp) * n, n)
             base = base + self._offsets[p0:p1]
+        if self._jit:
+            mb = np.empty((2, cols.size, p1 - p0))
+            pb = np.empty((2, 2, cols.size, p1 - p0))
+            _twins.gather_rows(self._mu, self._P, self._anc, cols, p0, n, mb, pb)
+            return mb, pb, base
         flat = self._anc[p0:p1, cols].T + base  # (k, M) positions in the flattened storage
         mb = np.take(self._mu.reshape(2, cap * bn), flat, axis=1)  # (2, k, M), a fresh copy
         pb = np.take(self._P.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, cols.size, p1 - p0)
@@ -811,11 +845,14 @@ class FastSlam(UnitSlam):
         # write every particle's estimate of the observed columns into its own storage row
         owners = self._owner[start:stop]
         if all(o is self._ident or np.array_equal(o, self._ident) for o in owners):
+            owner = owners[0] if len(owners) == 1 else np.tile(self._ident, len(owners))
+            if self._jit:
+                _twins.scatter_rows(mu_new, P_new, cols, p0, owner, mu_store, P_store, self._anc)
+                return
             # rows of the (component, column) x particle views of the storage: contiguous row copies
             rows = cols + (cap * np.arange(4))[:, None]
             mu_store.reshape(2 * cap, bn)[rows[:2].ravel(), p0:p1] = mu_new.reshape(2 * k, m_rows)
             P_store.reshape(4 * cap, bn)[rows.ravel(), p0:p1] = P_new.reshape(4 * k, m_rows)
-            owner = owners[0] if len(owners) == 1 else np.tile(self._ident, len(owners))
         else:
             owner = np.asarray(owners[0]) if len(owners) == 1 else np.concatenate(owners)
             wflat = owner[None, :] + base  # sharers of a row: the last particle's values win
@@ -845,17 +882,21 @@ class FastSlam(UnitSlam):
             m = new[:, new_cols].T
             mb[:, new_cols] = np.where(m, mi, mb[:, new_cols])
             pb[:, :, new_cols] = np.where(m, pi, pb[:, :, new_cols])
-        zhat, H = steps.predict_measurement(x, mu)
-        nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
-        S = steps.innovation_covariance(H, P, Q)
-        loglik = steps.log_likelihood(nu, S)
-        mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
-        mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, M')
-        P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, M')
+        if self._fused:  # every correction unit is the reference: their work in one compiled pass
+            loglik, mu_new, P_new = _twins.correct_pairs(x, z, mb, pb, Q)
+        else:
+            zhat, H = steps.predict_measurement(x, mu)
+            nu = steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+            S = steps.innovation_covariance(H, P, Q)
+            loglik = steps.log_likelihood(nu, S)
+            mu_new, P_new = steps.ekf_update(mu, P, H, S, nu)
+            mu_new = np.asarray(mu_new, dtype=float).transpose(2, 1, 0)  # (2, k, M')
+            P_new = np.asarray(P_new, dtype=float).transpose(2, 3, 1, 0)  # (2, 2, k, M')
+            if new_cols is not None:  # the unit's output may share memory with its inputs
+                mu_new = mu_new.copy()
+                P_new = P_new.copy()
         if new_cols is not None:
             # new pairs keep their initial values
-            mu_new = mu_new.copy()
-            P_new = P_new.copy()
             m = new[:, new_cols].T
             mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
             P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
@@ -877,7 +918,7 @@ class FastSlam(UnitSlam):
         k = cols.size
         mb, pb, base = self._gather(j, j + 1, cols)
         owner = np.asarray(self._owner[j])
-        lw, mu_new, P_new = correct_in_sharer_order(self._steps, self._logw[sl], owner, poses[sl], z, seen,
+        lw, mu_new, P_new = correct_in_sharer_order(self._units(1), self._logw[sl], owner, poses[sl], z, seen,
                                                     mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
         logw[sl] = self._normalise(np.asarray(lw, dtype=float))
         wflat = owner[None, :] + base  # sharers write equal values to their common row

@@ -143,7 +143,7 @@ class FastSlam2(ParticleFilterSlam):
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
         st, _, u_n, k, empty = self._begin_step(control, observations)
-        steps, Q, M = self._steps, self._Q, self._M
+        steps, Q, M = self._run_steps, self._Q, self._M
         n = st.n_particles
         logw = st.logw
         if empty:
@@ -257,7 +257,7 @@ class FastSlam2(ParticleFilterSlam):
         """``mu``, ``P`` with the new pairs set to ``init_landmarks`` from ``poses``."""
         if not new.any():
             return mu, P
-        steps = self._steps
+        steps = self._run_steps
         c = np.flatnonzero(new.any(axis=0))
         mu0, P0 = steps.init_landmarks(poses, z[c], self._Q, wrap=steps.wrap_bearing)
         mu, P = np.copy(mu, order="K"), np.copy(P, order="K")

@@ -82,3 +82,99 @@ def test_study_run_refuses_too_few_repetitions_for_the_largest_size(tmp_path, ca
     err = capsys.readouterr().err
     assert "repetitions = 5 is too few" in err and "K = 6" in err
     assert not (tmp_path / "o").exists()
+
+
+SMALL = """
+seed = 5
+runs = 1
+n_steps = 60
+repetitions = 6
+timeout_s = 60.0
+variants = ["baseline", "motion_sign_error"]
+[suites]
+random = 3
+fixed = 1
+[slam]
+name = "fastslam"
+particles = 20
+[space.inactivity]
+classes = { none = [0], inactive = [5] }
+[space.map_size]
+classes = { small = [4, 5], medium = [5, 6], large = [6, 7] }
+[space.landmark_density]
+classes = { low = [1, 1.5], medium = [1.5, 2], high = [2, 3] }
+[mutation]
+ids = ["motion_model:arithmetic:1"]
+[study]
+sizes = [1]
+draws = 100
+bootstrap = 50
+seed = 1
+"""
+TABLES = ("kill_matrix.csv", "detection.csv", "scores.csv", "comparisons.csv", "power.csv")
+
+
+def _rows(db) -> int:
+    import sqlite3
+    try:
+        conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=5.0)
+        try:
+            return conn.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+        finally:
+            conn.close()
+    except sqlite3.Error:
+        return 0
+
+
+@pytest.mark.slow
+def test_killed_then_resumed_study_reports_as_the_uninterrupted_one(tmp_path, capsys):
+    import json
+    import math
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    exp = tmp_path / "small.toml"
+    exp.write_text(SMALL)
+    ref, out = tmp_path / "ref", tmp_path / "out"
+    args = ["--jobs", "2", "--no-progress"]
+    assert main(["study", "run", str(exp), "--out", str(ref), *args]) == 0
+    proc = subprocess.Popen([sys.executable, "-m", "faultlab", "study", "run", str(exp), "--out", str(out), *args],
+                            cwd=root, env=dict(os.environ, PYTHONPATH=str(root)), start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 300
+        while _rows(out / "results.sqlite") < 1 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=60)
+    assert proc.returncode == -signal.SIGKILL
+    committed = _rows(out / "results.sqlite")
+    assert 1 <= committed < 72  # killed mid-run
+    (killed,) = json.loads((out / "study.json").read_text())["sessions"]
+    assert killed["state"] == "running"  # as the killed process left it
+    # a killed study is reported before resuming (its session settled from the store), or, when too few rows
+    # are stored for a kill matrix, refused with one clear error
+    capsys.readouterr()
+    code = main(["study", "report", str(out), "--reports", str(tmp_path / "rep-killed")])
+    err = capsys.readouterr().err
+    assert code == 0 or (code == 1 and err.startswith("faultlab: error: ") and err.count("\n") == 1), err
+    assert main(["study", "run", str(exp), "--out", str(out), *args]) == 0
+    assert f"({72 - committed} run now, {committed} already done)" in capsys.readouterr().out
+    text = (out / "study.json").read_text()
+    assert "NaN" not in text
+    first, second = json.loads(text)["sessions"]
+    assert first["state"] == "killed" and first["n_new"] == committed and math.isfinite(first["wall_time_s"])
+    assert second["state"] == "complete" and second["n_new"] == 72 - committed
+    for name, d in (("ref", ref), ("out", out)):
+        assert main(["study", "report", str(d), "--reports", str(tmp_path / f"rep-{name}")]) == 0
+    for t in TABLES:
+        assert (tmp_path / "rep-out" / t).read_bytes() == (tmp_path / "rep-ref" / t).read_bytes(), t
+    md = (tmp_path / "rep-out" / "study.md").read_text()
+    assert "2 session(s)" in md and "nan" not in md.lower()

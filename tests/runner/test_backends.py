@@ -1,5 +1,13 @@
 """Backends: a dying worker is a crash row; dask gives the loky table."""
 
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 import pandas as pd
 import pytest
 
@@ -39,3 +47,62 @@ def test_a_batch_that_kills_its_worker_is_a_crash_of_each_repetition(tmp_path):
     died = df[df.variant == f"{SUTS}:FS_EXIT"]
     assert list(died.status) == ["crash", "crash"] and died.error.str.startswith("WorkerDied:").all()
     assert (df[df.variant == "baseline"].status == "ok").all() and summary.complete
+
+
+def _descendants(pid: int) -> set[int]:
+    """Every live descendant of ``pid`` (Linux /proc)."""
+    parents = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    parents[int(d)] = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                pass
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {c for c, p in parents.items() if p in frontier} - found
+        found |= frontier
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="lists processes through Linux's /proc")
+def test_workers_end_when_the_parent_alone_is_killed(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, repetitions=3, n_steps=40,
+                           slam={"name": "tests.runner.suts:make_tiny", "options": {"noise": 0.02, "delay": 0.01}})
+    out = tmp_path / "out"
+    root = Path(__file__).resolve().parents[2]
+    proc = subprocess.Popen([sys.executable, "-m", "faultlab", "run", str(exp), "--out", str(out), "--jobs", "2",
+                             "--no-progress"], cwd=root, env=dict(os.environ, PYTHONPATH=str(root)),
+                            start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        children: set[int] = set()
+        while proc.poll() is None and time.monotonic() < deadline:  # the pool is up and working
+            children = _descendants(proc.pid)
+            if len(children) >= 2 and (out / "results.sqlite").exists():
+                break
+            time.sleep(0.05)
+        assert proc.poll() is None and len(children) >= 2, "the campaign ended before its pool was seen"
+        proc.send_signal(signal.SIGKILL)  # the parent alone: its workers get no signal
+        proc.wait(timeout=30)
+        killed = time.monotonic()
+        while {c for c in children if _alive(c)} and time.monotonic() - killed < 10:
+            time.sleep(0.1)
+        alive = {c for c in children if _alive(c)}
+        assert not alive, f"worker processes alive 10 s after the parent died: {sorted(alive)}"
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        for c in _descendants(proc.pid) | children:
+            with contextlib.suppress(OSError):
+                os.kill(c, signal.SIGKILL)

@@ -1,5 +1,6 @@
 """run_experiment: cases, jobs, store, resumption, skipped variants, every built-in SLAM."""
 
+import dataclasses
 import json
 import math
 import sqlite3
@@ -15,7 +16,7 @@ from faultlab.faults import FaultNotApplicableWarning
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY
 from faultlab.runner.jobs import expand_jobs
 from faultlab.seeds import case_seed, slam_seed, suite_seed_sequence
-from faultlab.scenario import generate_scenario, load_scenario
+from faultlab.scenario import generate_scenario, load_scenario, save_scenario
 from faultlab.space import build_suite
 from tests.runner.suts import SUTS, fastslam_batches, one_case, without_runtime, write_experiment
 
@@ -129,13 +130,22 @@ def test_prepare_cases_reproducible_idempotent_and_verified(tmp_path):
     np.testing.assert_array_equal(load_scenario(path).true_poses, before.true_poses)
     assert case_path(tmp_path / "out", 1, "random", 1).stat().st_mtime_ns == mtime
 
-    # a saved case of another experiment is refused
-    js = path.with_suffix(".json")
-    meta = json.loads(js.read_text())
-    meta["seed"] = 1
-    js.write_text(json.dumps(meta))
+    # a saved case of another experiment (another seed, intact files) is refused
+    save_scenario(dataclasses.replace(before, seed=1), path)
     with pytest.raises(ResultsError, match="does not match"):
         prepare_cases(exp, tmp_path / "out")
+
+    # a damaged case (an edited .json, a truncated .npz) is regenerated from its seed
+    js = path.with_suffix(".json")
+    meta = json.loads(js.read_text())
+    meta["seed"] = 12345
+    js.write_text(json.dumps(meta))
+    npz = case_path(tmp_path / "out", 1, "random", 1)
+    intact = npz.read_bytes()
+    npz.write_bytes(intact[:len(intact) // 3])
+    assert prepare_cases(exp, tmp_path / "out") == infos
+    assert npz.read_bytes() == intact
+    np.testing.assert_array_equal(load_scenario(path).true_poses, before.true_poses)
 
 
 def test_malformed_experiment_refused_before_any_work(tmp_path):

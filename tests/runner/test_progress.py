@@ -89,6 +89,20 @@ def test_resumed_work_counts_towards_done_not_the_rate():
     assert lines[1] == "demo: 12/20 jobs (60 %), elapsed 3.0 s, ETA 12.0 s"
 
 
+def test_resumed_work_counts_towards_done_not_the_rate_of_the_bar():
+    import time
+
+    term = Terminal()
+    with progress(100, done=90, desc="demo", stream=term) as p:
+        time.sleep(0.5)
+        p.update(1)
+        meter = p._bar.format_dict
+    # 1 new job in >= 0.5 s: 9 left take >= 4.5 s (counting the 90 resumed jobs as work would give 0.05 s)
+    rate = (meter["n"] - meter["initial"]) / meter["elapsed"]
+    assert meter["n"] == 91 and meter["initial"] == 90 and (100 - 91) / rate >= 4.5
+    assert re.search(r"91/100 \[00:00<00:0[4-9]", term.getvalue()), term.getvalue()
+
+
 def test_a_slow_step_still_logs_every_interval():
     log = io.StringIO()
     with progress(1000, desc="demo", stream=log, clock=Clock(61.0), interval_s=60.0) as p:
@@ -122,6 +136,7 @@ def test_format_duration():
     assert format_duration(0.04) == "0.0 s" and format_duration(59.94) == "59.9 s"
     assert format_duration(61.4) == "1 min 1 s" and format_duration(3600) == "1 h 0 min 0 s"
     assert format_duration(3 * 3600 + 62) == "3 h 1 min 2 s"
+    assert format_duration(float("nan")) == "?" and format_duration(None) == "?"  # a session never timed
 
 
 def test_a_run_logs_progress_when_stderr_is_not_a_terminal(tmp_path):

@@ -1,8 +1,12 @@
 import math
 import sqlite3
+import struct
+import warnings
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from faultlab.errors import ResultsError
 from faultlab.runner.experiment import parse_experiment
@@ -12,7 +16,9 @@ from faultlab.runner.store import (
     case_path,
     load_metadata,
     load_results,
+    UnverifiedStoreWarning,
     results_path,
+    row_checksum,
     store_lock,
 )
 from faultlab.space.case import FIXED_VALUES, PARAMETER_NAMES, VALUE_KEYS
@@ -160,15 +166,293 @@ def test_missing_store(tmp_path):
         load_metadata(tmp_path)
 
 
+def _other_process_holds(lock_file):
+    """Whether another open file description (as another process has) can take the lock: False if held."""
+    import fcntl
+    import os
+    fd = os.open(lock_file, os.O_RDWR)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return True
+    finally:
+        os.close(fd)
+    return False
+
+
 def test_lock_excludes_a_second_writer(tmp_path):
+    import fcntl
+    import os
     with store_lock(tmp_path):
+        assert _other_process_holds(tmp_path / ".lock")
+        with store_lock(tmp_path):  # re-entrant within the process holding it
+            assert _other_process_holds(tmp_path / ".lock")
+        assert _other_process_holds(tmp_path / ".lock")  # the inner exit keeps it
+    assert not _other_process_holds(tmp_path / ".lock")  # released
+    fd = os.open(tmp_path / ".lock", os.O_RDWR)  # another writer holds it
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         with pytest.raises(ResultsError, match="in use"):
             with store_lock(tmp_path):
                 pass
-    with store_lock(tmp_path):  # released
+    finally:
+        os.close(fd)
+    with store_lock(tmp_path):
         pass
 
 
 def test_case_path_layout(tmp_path):
     assert case_path(tmp_path, 2, "random", 3) == tmp_path / "cases" / "run2" / "random" / "case3.npz"
     assert case_path(tmp_path / "results.sqlite", 1, "fixed", 1) == tmp_path / "cases" / "run1" / "fixed" / "case1.npz"
+
+
+# ---------------------------------------------------------------------- integrity
+def _finished_store(tmp_path, exp, emd=1565.9):
+    """A closed store of three rows; the middle one's EMD is ``emd`` (other rows' EMD: 200.0)."""
+    with ResultStore.open(tmp_path, exp) as store:
+        session = store.begin_session(jobs=1, backend="loky", n_todo=3)
+        store.write(_row(1, "random", 1, "baseline", 0), session=session)
+        row = _row(1, "random", 2, "baseline", 0)
+        row["emd_mm"] = emd
+        store.write(row, session=session)
+        store.write(_row(1, "random", 3, "baseline", 0), session=session)
+        store.end_session(session, state="complete", n_new=3, wall_time_s=1.0)
+    return results_path(tmp_path)
+
+
+def _overwrite(path, old: bytes, new: bytes):
+    data = path.read_bytes()
+    assert data.count(old) == 1, "the planted value must occur once in the file"
+    path.write_bytes(data.replace(old, new))
+
+
+def test_checksum_is_a_function_of_every_value_and_its_type():
+    values = [None if c not in ("run", "case", "rep") else 1 for c in RESULT_COLUMNS]
+    base = row_checksum(values)
+    assert len(base) == 16 + 2 * len(RESULT_COLUMNS)
+    for i, c in enumerate(RESULT_COLUMNS):
+        for other in (2, 1.0, "1", 0.5):
+            changed = list(values)
+            changed[i] = other
+            if changed[i] == values[i] and type(changed[i]) is type(values[i]):
+                continue
+            assert row_checksum(changed) != base, (c, other)
+
+
+def test_overwritten_value_inside_a_page_is_refused_naming_row_and_column(tmp_path, exp):
+    path = _finished_store(tmp_path, exp)
+    assert not path.with_name("results.sqlite-wal").exists()  # checkpointed: the value is in the main file
+    # SQLite stores a REAL as 8 big-endian bytes: overwrite the EMD 1565.9 with 2261634.5 (as in a bad sector)
+    _overwrite(path, struct.pack(">d", 1565.9), struct.pack(">d", 2261634.5))
+    conn = sqlite3.connect(path)
+    assert conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"  # SQLite does not see it
+    assert conn.execute("SELECT emd_mm FROM results WHERE \"case\" = 2").fetchone()[0] == 2261634.5
+    conn.close()
+    with pytest.raises(ResultsError) as err:
+        load_results(tmp_path)
+    msg = str(err.value)
+    assert str(path) in msg and "emd_mm" in msg and "case 2" in msg and "rms_mm" not in msg
+
+
+def test_overwritten_text_is_refused(tmp_path, exp):
+    with ResultStore.open(tmp_path, exp) as store:
+        store.write(_row(1, "random", 1, "baseline", 0))
+        store.write(_row(1, "random", 1, "tests.runner.suts:BIAS", 0, status="crash"))
+    _overwrite(results_path(tmp_path), b"ZeroDivisionError: boom", b"ZeroDivisionError: bang")
+    with pytest.raises(ResultsError, match=r"damaged: row 2 \(run 1, suite 'random', case 1, variant "
+                                           r"'tests.runner.suts:BIAS', rep 0\): column error does not match"):
+        load_results(tmp_path)
+
+
+def test_truncated_and_random_byte_stores_give_one_clear_error(tmp_path, exp):
+    path = _finished_store(tmp_path / "t", exp)
+    path.write_bytes(path.read_bytes()[:4096 + 100])
+    rnd = tmp_path / "r" / "results.sqlite"
+    rnd.parent.mkdir()
+    rnd.write_bytes(np.random.default_rng(5).bytes(20000))
+    for d in (tmp_path / "t", tmp_path / "r"):
+        for read in (load_results, load_metadata, lambda d: ResultStore.open(d, exp)):
+            with pytest.raises(ResultsError, match="damaged or not a faultlab results store"):
+                read(d)
+    assert rnd.read_bytes() == np.random.default_rng(5).bytes(20000)  # refused without writing
+
+
+def test_row_without_checksum_in_a_checked_store_is_damaged(tmp_path, exp):
+    path = _finished_store(tmp_path, exp)
+    conn = sqlite3.connect(path)
+    conn.execute("UPDATE results SET checksum = NULL WHERE \"case\" = 3")
+    conn.commit()
+    conn.close()
+    with pytest.raises(ResultsError, match="checksum is missing or damaged"):
+        load_results(tmp_path)
+
+
+def test_store_from_before_checksums_reads_with_a_warning_and_resumes_checked(tmp_path, exp):
+    path = _finished_store(tmp_path, exp)
+    conn = sqlite3.connect(path)  # as written before checksums: no column, no meta entry
+    conn.execute("ALTER TABLE results DROP COLUMN checksum")
+    conn.execute("DELETE FROM meta WHERE key = 'row_checksum'")
+    conn.commit()
+    conn.close()
+    with pytest.warns(UnverifiedStoreWarning, match="3 of 3 rows"):
+        df = load_results(tmp_path)
+    assert df["emd_mm"].tolist() == [200.0, 1565.9, 200.0]
+    with ResultStore.open(tmp_path, exp) as store:  # resuming adds the column: new rows are checked
+        store.write(_row(1, "random", 4, "baseline", 0, rms=7.0))
+    with pytest.warns(UnverifiedStoreWarning, match="3 of 4 rows"):
+        assert len(load_results(tmp_path)) == 4
+    conn = sqlite3.connect(path)
+    conn.execute("UPDATE results SET rms_mm = 8.0 WHERE \"case\" = 4")
+    conn.commit()
+    conn.close()
+    with pytest.raises(ResultsError, match="column rms_mm does not match"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnverifiedStoreWarning)
+        load_results(tmp_path)
+
+
+def test_reading_leaves_no_files_behind(tmp_path, exp):
+    _finished_store(tmp_path, exp)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    content = results_path(tmp_path).read_bytes()
+    load_results(tmp_path)
+    load_metadata(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+    assert results_path(tmp_path).read_bytes() == content
+
+
+def test_reading_while_a_writer_holds_the_store_sees_its_committed_rows(tmp_path, exp):
+    with ResultStore.open(tmp_path, exp) as store, store_lock(tmp_path):
+        store.write(_row(1, "random", 1, "baseline", 0))
+        assert results_path(tmp_path).with_name("results.sqlite-wal").exists()  # not checkpointed yet
+        assert len(load_results(tmp_path)) == 1
+
+
+def test_stale_running_session_is_closed_as_killed_on_reopen(tmp_path, exp):
+    with ResultStore.open(tmp_path, exp) as store:
+        sid = store.begin_session(jobs=2, backend="loky", n_todo=5)
+        store.write(_row(1, "random", 1, "baseline", 0), session=sid)
+        store.write(_row(1, "random", 2, "baseline", 0), session=sid)
+        # the process dies here (SIGKILL): the session stays 'running'
+    conn = sqlite3.connect(results_path(tmp_path))
+    written = conn.execute("SELECT MAX(written_unix) - MIN(s.started_unix) FROM results, sessions s").fetchone()[0]
+    conn.close()
+    with ResultStore.open(tmp_path, exp):
+        pass
+    conn = sqlite3.connect(results_path(tmp_path))
+    state, n_new, wall, finished = conn.execute(
+        "SELECT state, n_new, wall_time_s, finished FROM sessions WHERE id = ?", (sid,)).fetchone()
+    conn.close()
+    assert (state, n_new) == ("killed", 2) and finished and wall == pytest.approx(written)
+
+
+def test_out_naming_a_file_is_refused(tmp_path, exp):
+    f = tmp_path / "results.txt"
+    f.write_text("mine")
+    with pytest.raises(ResultsError, match="is a file, not a directory"):
+        with store_lock(f):
+            pass
+    with pytest.raises(ResultsError, match="is a file, not a directory"):
+        ResultStore.open(f, exp)
+    assert f.read_text() == "mine"
+
+
+def test_disk_full_while_writing_keeps_committed_rows_and_resumes(tmp_path, exp):
+    with ResultStore.open(tmp_path, exp) as store:
+        store.write(_row(1, "random", 1, "baseline", 0))
+        # SQLite's own disk-full error, deterministically: the file may not grow past its current pages
+        pages = store.conn.execute("PRAGMA page_count").fetchone()[0]
+        store.conn.execute(f"PRAGMA max_page_count = {pages}")
+        with pytest.raises(ResultsError, match="disk is full.*rows committed before are kept"):
+            for c in range(2, 200):
+                store.write(_row(1, "random", c, "baseline", 0, rms=float(c)))
+        n_kept = len(store.done_keys())
+    df = load_results(tmp_path)
+    assert len(df) == n_kept >= 1 and df["rms_mm"].tolist() == [100.0] + [float(c) for c in range(2, n_kept + 1)]
+    with ResultStore.open(tmp_path, exp) as store:  # space again: resume writes the rest
+        store.write(_row(1, "random", n_kept + 1, "baseline", 0))
+    assert len(load_results(tmp_path)) == n_kept + 1
+
+
+_finite = st.floats(allow_nan=False, width=64)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(rms=st.one_of(_finite, st.just(math.nan)), emd=st.floats(width=64), runtime=_finite,
+       error=st.text(max_size=40), n=st.integers(-2**62, 2**62), case=st.integers(1, 10**6))
+def test_any_row_reads_back_verified_and_equal(tmp_path_factory, exp, rms, emd, runtime, error, n, case):
+    out = tmp_path_factory.mktemp("h")
+    row = _row(1, "random", case, "baseline", 0, rms=0.0)
+    row.update(rms_mm=rms, emd_mm=emd, runtime_s=runtime, error=error, n_mapped=n)
+    with ResultStore.open(out, exp) as store:
+        store.write(row)
+    (got,) = load_results(out).to_dict("records")  # verified: no false alarm
+    for c in RESULT_COLUMNS:
+        want = "" if c == "error" and not error else row[c]
+        if isinstance(want, float) and math.isnan(want):
+            assert math.isnan(got[c]), c
+        else:
+            assert got[c] == want, c
+
+
+@settings(max_examples=60, deadline=None)
+@given(column=st.sampled_from(RESULT_COLUMNS), value=st.one_of(st.none(), st.integers(), _finite, st.text(max_size=8)))
+def test_a_changed_value_is_attributed_to_its_column(column, value):
+    from faultlab.runner.store import _damaged_columns, _stored_values
+
+    values = _stored_values(_row(1, "random", 2, "baseline", 0))
+    checksum = row_checksum(values)
+    i = RESULT_COLUMNS.index(column)
+    changed = list(values)
+    changed[i] = value
+    same = value == values[i] and type(value) is type(values[i])
+    bad = _damaged_columns(changed, checksum)
+    # the 16-byte row digest always notices; the 2-byte column digest names the column (or, at a
+    # 1 in 65536 collision, only the row is known to be damaged)
+    assert bad == [] if same else bad in ([column], ["checksum"])
+
+
+def test_store_killed_before_its_schema_was_committed_is_created_afresh(tmp_path, exp):
+    path = results_path(tmp_path)
+    path.write_bytes(b"")  # created, then killed before the schema transaction committed
+    with ResultStore.open(tmp_path, exp) as store:
+        store.write(_row(1, "random", 1, "baseline", 0))
+    assert len(load_results(tmp_path)) == 1 and load_metadata(tmp_path)["experiment_hash"] == exp.hash
+
+
+def test_a_column_added_to_the_table_later_keeps_older_checksums_valid(monkeypatch):
+    from faultlab.runner import store as store_module
+
+    values = store_module._stored_values(_row(1, "random", 2, "baseline", 0))
+    old = row_checksum(values)
+    i = RESULT_COLUMNS.index("rep") + 1  # a new column in the middle of the table, NULL in older rows
+    monkeypatch.setattr(store_module, "RESULT_COLUMNS", RESULT_COLUMNS[:i] + ("repetitions_used",) + RESULT_COLUMNS[i:])
+    assert store_module._damaged_columns(values[:i] + [None] + values[i:], old) == []
+    assert store_module._damaged_columns(values[:i] + [10] + values[i:], old) == ["repetitions_used"]
+    changed = values[:i] + [None] + values[i:]
+    changed[RESULT_COLUMNS.index("emd_mm") + 1] = 1.0
+    assert store_module._damaged_columns(changed, old) == ["emd_mm"]
+    new = row_checksum(values[:i] + [10] + values[i:])  # rows written with the column are checked on it too
+    assert store_module._damaged_columns(values[:i] + [11] + values[i:], new) == ["repetitions_used"]
+
+
+def test_settle_sessions_counts_a_killed_sessions_rows_and_time_from_the_store():
+    import math
+
+    from faultlab.runner.store import settle_sessions
+
+    study = [{"started": 100.0, "state": "complete", "n_new": 5, "wall_time_s": 20.0},
+             {"started": 200.0, "state": "running", "n_new": 0, "wall_time_s": None},      # killed
+             {"started": 300.0, "state": "interrupted", "n_new": 0, "wall_time_s": math.nan},  # an old file's NaN
+             {"started": 400.0, "state": "complete", "n_new": 3, "wall_time_s": 9.0}]
+    store = [{"started_unix": 101.0, "n_new": 5, "wall_time_s": 18.0},
+             {"started_unix": 203.0, "n_new": 231, "wall_time_s": 40.0},  # the runner's session of the killed one
+             {"started_unix": 305.0, "n_new": 7, "wall_time_s": 2.5},
+             {"started_unix": 320.0, "n_new": 1, "wall_time_s": 1.0},     # a second runner session in its window
+             {"started_unix": 401.0, "n_new": 3, "wall_time_s": 8.0}]
+    got = settle_sessions(study, store)
+    assert got[0] == study[0] and got[3] == study[3]  # finished sessions are left alone
+    assert (got[1]["state"], got[1]["n_new"], got[1]["wall_time_s"]) == ("killed", 231, 43.0)
+    assert (got[2]["state"], got[2]["n_new"], got[2]["wall_time_s"]) == ("interrupted", 8, 21.0)
+    assert study[1]["state"] == "running"  # the input is not changed
+    assert settle_sessions([{"started": 10.0, "state": "running"}], []) == [
+        {"started": 10.0, "state": "killed", "n_new": 0, "wall_time_s": 0.0}]

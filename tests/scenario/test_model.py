@@ -55,3 +55,55 @@ def test_observations_slice(scenario):
     a, e = scenario.obs_offsets[t], scenario.obs_offsets[t + 1]
     np.testing.assert_array_equal(ids, scenario.obs_ids[a:e])
     assert len(r) == len(b) == e - a > 0
+
+
+def _saved(tmp_path, scenario):
+    save_scenario(scenario, tmp_path / "c")
+    return tmp_path / "c.npz", tmp_path / "c.json"
+
+
+def test_truncated_npz_is_one_scenario_error(tmp_path, scenario):
+    npz, js = _saved(tmp_path, scenario)
+    npz.write_bytes(npz.read_bytes()[: npz.stat().st_size // 2])
+    with pytest.raises(ScenarioError, match=r"c.npz is damaged"):
+        load_scenario(npz)
+    meta = json.loads(js.read_text())  # a case from before checksums: numpy's own error, wrapped
+    del meta["npz_blake2b"], meta["checksum"]
+    js.write_text(json.dumps(meta))
+    with pytest.raises(ScenarioError, match=r"unreadable \(BadZipFile"):
+        load_scenario(npz)
+
+
+def test_changed_byte_in_npz_is_detected(tmp_path, scenario):
+    npz, _ = _saved(tmp_path, scenario)
+    data = bytearray(npz.read_bytes())
+    data[len(data) // 2] ^= 0x01  # one bit inside an array: np.load alone would not notice
+    npz.write_bytes(bytes(data))
+    with pytest.raises(ScenarioError, match="damaged"):
+        load_scenario(npz)
+
+
+def test_edited_json_is_detected_and_old_cases_still_load(tmp_path, scenario):
+    npz, js = _saved(tmp_path, scenario)
+    meta = json.loads(js.read_text())
+    assert set(meta) >= {"npz_blake2b", "checksum"}
+    meta["seed"] = 13
+    js.write_text(json.dumps(meta))
+    with pytest.raises(ScenarioError, match="does not match its checksum"):
+        load_scenario(npz)
+    meta["seed"] = 12
+    del meta["npz_blake2b"], meta["checksum"]  # as saved before checksums existed
+    js.write_text(json.dumps(meta))
+    back = load_scenario(npz)
+    assert back.seed == 12 and back.landmarks.tobytes() == scenario.landmarks.tobytes()
+
+
+def test_disk_full_while_saving_is_one_error_and_leaves_no_partial_file(small_tmpfs, scenario):
+    filler = small_tmpfs / "filler"
+    with open(filler, "wb", buffering=0) as f:  # fill the file system up completely
+        with pytest.raises(OSError, match="No space left"):
+            while True:
+                f.write(b"\0" * 4096)
+    with pytest.raises(ScenarioError, match="cannot be written \\(the disk is full\\)"):
+        save_scenario(scenario, small_tmpfs / "case1")
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ["filler"]

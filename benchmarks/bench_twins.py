@@ -1,0 +1,157 @@
+"""Compiled twins vs the numpy units: FastSLAM 1.0 side by side in one process (not a test).
+
+Run ``python benchmarks/bench_twins.py`` from the repository root (a few minutes; ``--quick``
+skips the largest case and the memory measurement).  Prints, with the load average before and
+after:
+
+* the fixed-suite case (1000 steps, ~29 observations per step), one execution: CPU and wall time
+  of the compiled path and of the numpy path (``FAULTLAB_JIT=0``), alternated ``--rounds`` times
+  (best kept), their ratio and the particle-observation updates per second per core;
+* the largest Table I case (6000 landmarks, 1000 active + 2000 idle steps), one compiled execution
+  (and one numpy execution unless ``--quick``);
+* K = 10 batched repetitions of the fixed case, CPU per repetition, against K = 1 compiled;
+* the peak memory (max RSS) of a fresh process running the largest case at K = 10 (compiled);
+* the cost of the compilation: a fresh process with an empty cache directory (``NUMBA_CACHE_DIR``)
+  calling :func:`faultlab.slam.twins.warm_up` (first-call compile time), then a second one with
+  the same directory (loading the cache), and the import of numba alone.
+
+Every map of the compiled path is checked bit-identical to the numpy path's.  Targets: >= 4x and
+>= 20M updates/s/core on the fixed case, largest case <= 2 s, peak memory <= 1 GiB at K = 10.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from faultlab.faults.check import estimates_identical  # noqa: E402
+from faultlab.runner.execution import tune_allocator  # noqa: E402
+from faultlab.scenario import generate_scenario  # noqa: E402
+from faultlab.slam import FastSlam, FastSlamConfig, run_slam, run_slam_batch, twins  # noqa: E402
+from faultlab.space.case import FIXED_VALUES, CaseSpec  # noqa: E402
+
+LARGEST = dict(FIXED_VALUES, map_size=400.0, landmark_density=15.0, field_of_view=2 * math.pi, inactivity=2000)
+
+
+def load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def make(jit: bool) -> FastSlam:
+    """A reference FastSLAM on the compiled (``jit``) or the numpy path."""
+    saved = twins.JIT_ENABLED
+    twins.JIT_ENABLED = jit
+    try:
+        return FastSlam()
+    finally:
+        twins.JIT_ENABLED = saved
+
+
+def timed(jit: bool, sc, seed: int, k: int = 1):
+    """(CPU s per repetition, wall s per repetition, estimates) of one run of ``k`` repetitions."""
+    slam = make(jit)
+    t0, c0 = time.perf_counter(), time.process_time()
+    if k == 1:
+        ests = [run_slam(slam, sc, rng=np.random.default_rng(seed))]
+    else:
+        ests = run_slam_batch(slam, sc, rngs=[np.random.default_rng(seed + i) for i in range(k)])
+    return (time.process_time() - c0) / k, (time.perf_counter() - t0) / k, ests
+
+
+def child(code: str, env: dict) -> str:
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), **env))
+    return out.stdout.strip()
+
+
+def peak_memory(k: int, seed: int) -> float:
+    """Peak RSS (GiB) of a fresh process that runs the largest case with ``k`` batched repetitions."""
+    code = ("import resource, sys, numpy as np; sys.argv = ['x']; sys.path.insert(0, %r); import bench_twins as b; "
+            "b.tune_allocator(); b.twins.warm_up(); sc = b.generate_scenario(b.CaseSpec(b.LARGEST), "
+            "rng=np.random.default_rng(%d)); "
+            "b.run_slam_batch(b.FastSlam(), sc, rngs=[np.random.default_rng(%d + i) for i in range(%d)]); "
+            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+            % (str(Path(__file__).resolve().parent), seed, seed, k))
+    return int(child(code, {})) / 2 ** 20
+
+
+def compile_costs() -> tuple[float, float, float]:
+    """(first-call compile s with an empty cache, warm-up s with the cache filled, numba import s)."""
+    warm = "from faultlab.slam import twins; print(twins.warm_up())"
+    imp = "import time; t = time.perf_counter(); import numba; print(time.perf_counter() - t)"
+    with tempfile.TemporaryDirectory() as cache:
+        env = {"NUMBA_CACHE_DIR": cache}
+        first = float(child(warm, env))
+        again = float(child(warm, env))
+    return first, again, float(child(imp, {}))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=3, help="alternations of compiled and numpy; best kept")
+    ap.add_argument("--k", type=int, default=10, help="repetitions of the batched run (default 10)")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--quick", action="store_true", help="skip the numpy largest case and the memory measurement")
+    args = ap.parse_args(argv)
+    tune_allocator()
+    n = FastSlamConfig().n_particles
+    print(f"compiled twins vs numpy units: N = {n}, {os.cpu_count()} CPUs, load average before: {load()}")
+    first, again, imp = compile_costs()
+    print(f"compilation: first call with an empty cache {first:.2f} s, with the cache filled {again:.3f} s "
+          f"(import of numba alone {imp:.2f} s)")
+    twins.warm_up()
+    fixed = generate_scenario(CaseSpec(FIXED_VALUES), rng=np.random.default_rng(args.seed))
+    pairs = n * int(fixed.obs_offsets[-1])
+    best = {True: (math.inf, math.inf), False: (math.inf, math.inf)}
+    maps = {}
+    for _ in range(args.rounds):
+        for jit in (True, False):
+            cpu, wall, ests = timed(jit, fixed, args.seed)
+            best[jit] = min(best[jit], (cpu, wall))
+            maps[jit] = ests[0]
+    same = estimates_identical(maps[True], maps[False])
+    print(f"\nfixed case ({fixed.n_steps} steps, {pairs / n / fixed.n_steps:.1f} obs/step), one execution, best of "
+          f"{args.rounds}; maps bit-identical: {same}")
+    print(f"{'path':<10} {'cpu s':>8} {'wall s':>8} {'updates/s/core':>15}")
+    for jit in (True, False):
+        cpu, wall = best[jit]
+        print(f"{'compiled' if jit else 'numpy':<10} {cpu:>8.3f} {wall:>8.3f} {pairs / cpu:>15.3g}")
+    ratio = best[False][0] / best[True][0]
+    print(f"speed-up (CPU): {ratio:.2f}x  (target >= 4x: {'met' if ratio >= 4 else 'MISSED'}; "
+          f">= 20M updates/s/core: {'met' if pairs / best[True][0] >= 2e7 else 'MISSED'})")
+
+    batch = min(timed(True, fixed, args.seed, args.k)[:2] for _ in range(max(1, args.rounds - 1)))
+    print(f"\nK = {args.k} batched, fixed case, compiled: {batch[0]:.3f} CPU s per repetition "
+          f"({pairs / batch[0]:.3g} updates/s/core); K = 1 compiled / K = {args.k} per repetition: "
+          f"{best[True][0] / batch[0]:.2f}x")
+
+    big = generate_scenario(CaseSpec(LARGEST), rng=np.random.default_rng(args.seed))
+    big_pairs = n * int(big.obs_offsets[-1])
+    cpu, wall, ests = timed(True, big, args.seed)
+    print(f"\nlargest case ({big.n_steps} steps, {big.obs_offsets[-1]} observations), compiled: {cpu:.2f} CPU s, "
+          f"{wall:.2f} wall s, {big_pairs / cpu:.3g} updates/s/core (target <= 2 s, CPU: {'met' if cpu <= 2 else 'MISSED'})")
+    if not args.quick:
+        cpu_n, wall_n, ests_n = timed(False, big, args.seed)
+        print(f"largest case, numpy: {cpu_n:.2f} CPU s, {wall_n:.2f} wall s; speed-up (CPU) {cpu_n / cpu:.2f}x; "
+              f"maps bit-identical: {estimates_identical(ests[0], ests_n[0])}")
+        peak = peak_memory(args.k, args.seed)
+        print(f"peak memory, largest case, K = {args.k}, compiled: {peak:.2f} GiB max RSS "
+              f"(target <= 1 GiB: {'met' if peak <= 1 else 'MISSED'})")
+    print(f"\nload average after: {load()}; this process's max RSS "
+          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20:.2f} GiB")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

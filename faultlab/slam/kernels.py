@@ -1,0 +1,327 @@
+"""Compiled loops behind the twins of the reference units (:mod:`faultlab.slam.twins`).
+
+Each kernel is a plain loop over (observation, particle) pairs that performs, element by element,
+*the same IEEE operations in the same order* as the numpy formulas of the reference unit it
+serves (:mod:`faultlab.slam.units`), so its results are bit-identical to the unit's.  The kernels
+contain only ``+ - * /``, ``sqrt`` and ``floor``, which IEEE 754 defines exactly; the
+transcendental functions (``atan2``, ``log``) stay in numpy, outside the kernels, because numba's
+(the C library's) and numpy's (SIMD) implementations may differ in the last bit.  They are
+compiled without ``fastmath`` (no reassociation, no fused multiply-add) and with numpy's error
+model (a division by zero gives ``inf``/``nan`` as in numpy, never an exception).
+
+Arrays of (particle, observation) values are passed *component by component* as 2-D arrays of
+shape (k, M): observation-major, particle-fastest, the storage order of the filter (so the loops
+read contiguous memory).  Compilation is cached on disk (``cache=True``): next to this file when
+its ``__pycache__`` is writable, else in numba's per-user cache directory (``NUMBA_CACHE_DIR``
+overrides both).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
+           "ekf_correction", "fused_correction", "gather_pairs", "scatter_pairs",
+           "take_rows", "systematic_indices"]
+
+_TWO_PI = 2.0 * math.pi
+_INV_TWO_PI = 1.0 / _TWO_PI
+_PI = math.pi
+_LOG_TWO_PI = math.log(_TWO_PI)
+
+_jit = njit(cache=True, error_model="numpy", nogil=True)
+
+
+@_jit
+def offsets(x, mx, my, dx, dy):
+    """``dx = mx - x[:, 0]``, ``dy = my - x[:, 1]`` for (k, M) landmark coordinates and poses x (M, 3)."""
+    k, m = mx.shape
+    for j in range(k):
+        for i in range(m):
+            dx[j, i] = mx[j, i] - x[i, 0]
+            dy[j, i] = my[j, i] - x[i, 1]
+
+
+@_jit
+def _wrap(a):
+    t = a + _PI
+    t = t * _INV_TWO_PI
+    t = np.floor(t)  # a float (math.floor would round to an int64 and overflow)
+    t = t * _TWO_PI
+    return a - t
+
+
+@_jit
+def measurement(x, dx, dy, bearing, z0, z1, h00, h01, h10, h11):
+    """The rest of ``predict_measurement`` after numpy's ``arctan2``: ``z_hat`` and ``H``.
+
+    ``bearing`` is ``arctan2(dy, dx)`` (k, M); writes ``z0 = sqrt(q)``, ``z1 = bearing - theta``
+    and the four entries of ``H``.
+    """
+    k, m = dx.shape
+    for j in range(k):
+        for i in range(m):
+            ddx = dx[j, i]
+            ddy = dy[j, i]
+            d = math.sqrt(ddx * ddx + ddy * ddy)
+            z0[j, i] = d
+            z1[j, i] = bearing[j, i] - x[i, 2]
+            inv_d = 1.0 / d
+            h00[j, i] = ddx * inv_d
+            h01[j, i] = ddy * inv_d
+            inv_q = inv_d * inv_d
+            h10[j, i] = -(ddy * inv_q)
+            h11[j, i] = ddx * inv_q
+
+
+@_jit
+def innovation_pairs(z, zh0, zh1, nu0, nu1):
+    """``nu = z - z_hat`` with the bearing wrapped to [-pi, pi) (the reference wrap)."""
+    k, m = zh0.shape
+    for j in range(k):
+        r = z[j, 0]
+        b = z[j, 1]
+        for i in range(m):
+            nu0[j, i] = r - zh0[j, i]
+            nu1[j, i] = _wrap(b - zh1[j, i])
+
+
+@_jit
+def sandwich(a, b, c, e, p00, p01, p11, q00, q01, q11, add_q01, o00, o01, o11):
+    """``A P A^T + Q`` for A = [[a, b], [c, e]] and symmetric P, Q (the covariance sandwich).
+
+    ``q01`` is added to the off-diagonal entry only when ``add_q01`` (the reference adds nothing
+    when ``Q[0, 1] == 0``, which keeps the sign of a zero).
+    """
+    k, m = a.shape
+    for j in range(k):
+        for i in range(m):
+            aa = a[j, i]
+            bb = b[j, i]
+            cc = c[j, i]
+            ee = e[j, i]
+            s00 = p00[j, i]
+            s01 = p01[j, i]
+            s11 = p11[j, i]
+            t00 = aa * s00 + bb * s01
+            t01 = aa * s01 + bb * s11
+            t10 = cc * s00 + ee * s01
+            t11 = cc * s01 + ee * s11
+            o00[j, i] = (t00 * aa + t01 * bb) + q00
+            off = t00 * cc + t01 * ee
+            if add_q01:
+                off = off + q01
+            o01[j, i] = off
+            o11[j, i] = (t10 * cc + t11 * ee) + q11
+
+
+@_jit
+def quadratic_form(n0, n1, s00, s01, s11, t, det):
+    """``t = nu^T S^-1 nu`` and ``det = det S`` in the reference's order of operations."""
+    k, m = n0.shape
+    for j in range(k):
+        for i in range(m):
+            a = s00[j, i]
+            b = s01[j, i]
+            c = s11[j, i]
+            d = a * c - b * b
+            u = n0[j, i]
+            v = n1[j, i]
+            q = u * c
+            q = q - 2.0 * (v * b)
+            q = q * u
+            q = q + v * v * a
+            t[j, i] = q / d
+            det[j, i] = d
+
+
+@_jit
+def finish_log_likelihood(t, log_det):
+    """``t = (t + log det) * -0.5 - log(2 pi)`` in place (``log_det`` from numpy's ``log``)."""
+    k, m = t.shape
+    for j in range(k):
+        for i in range(m):
+            t[j, i] = (t[j, i] + log_det[j, i]) * -0.5 - _LOG_TWO_PI
+
+
+@_jit
+def _ekf_pair(mu0, mu1, p00, p01, p11, h00, h01, h10, h11, s00, s01, s11, n0, n1):
+    m00 = p00 * h00 + p01 * h01
+    m01 = p00 * h10 + p01 * h11
+    m10 = p01 * h00 + p11 * h01
+    m11 = p01 * h10 + p11 * h11
+    inv_det = 1.0 / (s00 * s11 - s01 * s01)
+    k00 = (m00 * s11 - m01 * s01) * inv_det
+    k01 = (m01 * s00 - m00 * s01) * inv_det
+    k10 = (m10 * s11 - m11 * s01) * inv_det
+    k11 = (m11 * s00 - m10 * s01) * inv_det
+    return (mu0 + (k00 * n0 + k01 * n1), mu1 + (k10 * n0 + k11 * n1),
+            p00 - (k00 * m00 + k01 * m01), p01 - (k00 * m10 + k01 * m11), p11 - (k10 * m10 + k11 * m11))
+
+
+@_jit
+def ekf_correction(mu0, mu1, p00, p01, p11, h00, h01, h10, h11, s00, s01, s11, n0, n1,
+                   o_mu0, o_mu1, o00, o01, o11):
+    """``ekf_update``: ``K = P H^T S^-1``, ``mu + K nu``, ``P - K (P H^T)^T`` per pair."""
+    k, m = mu0.shape
+    for j in range(k):
+        for i in range(m):
+            a, b, c, d, e = _ekf_pair(mu0[j, i], mu1[j, i], p00[j, i], p01[j, i], p11[j, i],
+                                      h00[j, i], h01[j, i], h10[j, i], h11[j, i],
+                                      s00[j, i], s01[j, i], s11[j, i], n0[j, i], n1[j, i])
+            o_mu0[j, i] = a
+            o_mu1[j, i] = b
+            o00[j, i] = c
+            o01[j, i] = d
+            o11[j, i] = e
+
+
+@_jit
+def fused_correction(x, z, mb, pb, dx, dy, bearing, q00, q01, q11, add_q01, mu_new, P_new, t, det):
+    """``predict_measurement`` (after ``arctan2``), ``innovation``, ``innovation_covariance``, the
+    quadratic form of ``log_likelihood`` and ``ekf_update`` in one pass, without intermediates.
+
+    ``mb`` (2, k, M) and ``pb`` (2, 2, k, M) are the gathered means and covariances, ``bearing``
+    is ``arctan2(dy, dx)``.  Writes ``mu_new`` (2, k, M), ``P_new`` (2, 2, k, M), ``t`` (k, M) as
+    :func:`quadratic_form` and ``det`` (k, M) (``det S``); :func:`finish_log_likelihood` with
+    numpy's ``log(det)`` completes the log likelihood.  Each value is computed by the same
+    operations as the unit-by-unit kernels.
+    """
+    k, m = dx.shape
+    for j in range(k):
+        r = z[j, 0]
+        b = z[j, 1]
+        for i in range(m):
+            # predict_measurement
+            ddx = dx[j, i]
+            ddy = dy[j, i]
+            d = math.sqrt(ddx * ddx + ddy * ddy)
+            zb = bearing[j, i] - x[i, 2]
+            inv_d = 1.0 / d
+            h00 = ddx * inv_d
+            h01 = ddy * inv_d
+            inv_q = inv_d * inv_d
+            h10 = -(ddy * inv_q)
+            h11 = ddx * inv_q
+            # innovation
+            n0 = r - d
+            n1 = _wrap(b - zb)
+            # innovation_covariance
+            p00 = pb[0, 0, j, i]
+            p01 = pb[0, 1, j, i]
+            p11 = pb[1, 1, j, i]
+            t00 = h00 * p00 + h01 * p01
+            t01 = h00 * p01 + h01 * p11
+            t10 = h10 * p00 + h11 * p01
+            t11 = h10 * p01 + h11 * p11
+            s00 = (t00 * h00 + t01 * h01) + q00
+            s01 = t00 * h10 + t01 * h11
+            if add_q01:
+                s01 = s01 + q01
+            s11 = (t10 * h10 + t11 * h11) + q11
+            # log_likelihood, up to numpy's log(det)
+            dd = s00 * s11 - s01 * s01
+            q = n0 * s11
+            q = q - 2.0 * (n1 * s01)
+            q = q * n0
+            q = q + n1 * n1 * s00
+            t[j, i] = q / dd
+            det[j, i] = dd
+            # ekf_update
+            a, bb, c, e, f = _ekf_pair(mb[0, j, i], mb[1, j, i], p00, p01, p11, h00, h01, h10, h11,
+                                       s00, s01, s11, n0, n1)
+            mu_new[0, j, i] = a
+            mu_new[1, j, i] = bb
+            P_new[0, 0, j, i] = c
+            P_new[0, 1, j, i] = e
+            P_new[1, 0, j, i] = e
+            P_new[1, 1, j, i] = f
+
+
+@_jit
+def gather_pairs(mu_store, P_store, anc, cols, p0, n, mb, pb):
+    """The stored landmarks of columns ``cols`` (k,) for particles ``p0 .. p0 + M - 1``.
+
+    ``mu_store`` (2, cap, B N) and ``P_store`` (2, 2, cap, B N) are the filter's storage buffers,
+    ``anc`` (B N, cap) the ancestry (rows numbered within each filter of ``n`` particles).  Writes
+    ``mb[c, j, i] = mu_store[c, cols[j], r]`` and ``pb[a, b, j, i] = P_store[a, b, cols[j], r]``
+    with ``r = anc[p, cols[j]] + (p // n) n``, ``p = p0 + i``: a copy (no arithmetic).
+    """
+    k = cols.shape[0]
+    m = mb.shape[2]
+    rows = np.empty((k, m), dtype=np.intp)
+    for i in range(m):  # particle-major: one row of anc at a time
+        p = p0 + i
+        off = (p // n) * n
+        for j in range(k):
+            rows[j, i] = anc[p, cols[j]] + off
+    for j in range(k):
+        c = cols[j]
+        for i in range(m):
+            r = rows[j, i]
+            mb[0, j, i] = mu_store[0, c, r]
+            mb[1, j, i] = mu_store[1, c, r]
+            pb[0, 0, j, i] = P_store[0, 0, c, r]
+            pb[0, 1, j, i] = P_store[0, 1, c, r]
+            pb[1, 0, j, i] = P_store[1, 0, c, r]
+            pb[1, 1, j, i] = P_store[1, 1, c, r]
+
+
+@_jit
+def scatter_pairs(mu_new, P_new, cols, p0, owner, mu_store, P_store, anc):
+    """Write every particle's new landmarks of ``cols`` into its own storage row (a copy).
+
+    Particle ``p = p0 + i`` writes row ``p`` of the storage and points ``anc[p, cols[j]]`` at
+    ``owner[i]`` (its row numbered within its filter).
+    """
+    k = cols.shape[0]
+    m = mu_new.shape[2]
+    for j in range(k):
+        c = cols[j]
+        for i in range(m):
+            p = p0 + i
+            mu_store[0, c, p] = mu_new[0, j, i]
+            mu_store[1, c, p] = mu_new[1, j, i]
+            P_store[0, 0, c, p] = P_new[0, 0, j, i]
+            P_store[0, 1, c, p] = P_new[0, 1, j, i]
+            P_store[1, 0, c, p] = P_new[1, 0, j, i]
+            P_store[1, 1, c, p] = P_new[1, 1, j, i]
+    for i in range(m):
+        o = owner[i]
+        for j in range(k):
+            anc[p0 + i, cols[j]] = o
+
+
+@_jit
+def take_rows(src, rows, dst, width):
+    """``dst[i, :width] = src[rows[i], :width]`` for every row ``i`` of ``dst`` (a copy)."""
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        for c in range(width):
+            dst[i, c] = src[r, c]
+
+
+@_jit
+def systematic_indices(w, r, out):
+    """Low-variance resampling indices: ``out[m]`` = the first ``i`` with ``cumsum(w)[i] >= r + m / N``,
+    at most ``N - 1``.
+
+    The cumulative sum is accumulated in order (as numpy's ``cumsum``); the thresholds increase
+    with ``m``, so one merge-like scan finds the same leftmost positions as a binary search
+    (``searchsorted(..., side="left")``) for weights without NaN.
+    """
+    n = w.shape[0]
+    cs = np.empty(n)
+    acc = 0.0
+    for i in range(n):
+        acc = acc + w[i] if i > 0 else w[0]
+        cs[i] = acc
+    i = 0
+    for m in range(n):
+        u = r + m / n
+        while i < n and cs[i] < u:
+            i += 1
+        out[m] = i if i < n else n - 1

@@ -1,0 +1,344 @@
+"""Compiled twins of the reference units: the same functions, bit for bit, in one pass each.
+
+The reference units (:mod:`faultlab.slam.units`) are numpy formulas: readable, replaceable by a
+fault, mutated by ``faultlab mutate``.  Each evaluates its 2 x 2 algebra as a chain of whole-array
+operations, about 145 passes over the (particle, observation) arrays per step.  A *twin* has the
+reference unit's signature and returns bit-identical arrays, but does the element-wise work in a
+compiled loop (:mod:`faultlab.slam.kernels`) that keeps every intermediate in registers.
+
+Twins are keyed by function identity (:data:`TWINS`): :func:`twinned` gives a unit table in which
+every slot that holds a reference function holds its twin instead, and leaves every other slot
+(a fault, a mutant, a plugin) as it is.  A filter calls the units of ``twinned(steps)``, so a fault
+author writes numpy as always and the rest of the filter runs compiled.  Where the units of a
+whole correction are references, :func:`correct_pairs` does their work in one fused pass; a fault
+in any of them falls back to the unit-by-unit path.
+
+Exactness.  A twin performs the same IEEE operations in the same order as its unit, with no
+fused multiply-add and no reassociation (no ``fastmath``), and leaves the transcendental
+functions (``arctan2``, ``log``) to numpy, whose SIMD implementations can differ from the C
+library's in the last bit.  So twin and unit agree bit for bit on every input on every CPU, and
+with them every guarantee of the campaigns: an equivalent fault or mutant still gives maps
+bit-identical to the baseline, the random streams are untouched (no twin draws), a batched
+repetition equals the single run and results do not depend on ``--jobs``.  A twin applies only
+to float64 arrays of the documented shapes (without broadcasting); anything else is handed to
+the numpy unit.
+
+``FAULTLAB_JIT=0`` in the environment (read once, here: :data:`JIT_ENABLED`) turns the twins off:
+the filters then run the numpy units only and numba is never imported.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from typing import Callable
+
+import numpy as np
+
+from faultlab.slam import paperunits as _paperunits
+from faultlab.slam import units as _units
+from faultlab.slam.units import _mat22, _vec2
+
+__all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "gather_rows",
+           "scatter_rows", "take_rows", "warm_up",
+           "predict_measurement", "innovation", "innovation_covariance", "log_likelihood", "ekf_update",
+           "predict_measurement_wrapped", "log_likelihood_wrapped", "resample"]
+
+#: The environment variable that turns the compiled twins off (value ``0``).
+JIT_VARIABLE = "FAULTLAB_JIT"
+
+#: Whether the filters run the compiled twins (``FAULTLAB_JIT`` is not ``0``).
+JIT_ENABLED: bool = os.environ.get(JIT_VARIABLE, "1").strip() != "0"
+
+_kernels = None
+
+
+def _k():
+    """The kernels module (imports numba on first use)."""
+    global _kernels
+    if _kernels is None:
+        from faultlab.slam import kernels
+        _kernels = kernels
+    return _kernels
+
+
+_F64 = np.dtype(np.float64)
+
+
+def _pairs(*arrays, ndim: int) -> bool:
+    """True if all ``arrays`` are float64 ndarrays (not subclasses) of one shape with ``ndim`` dimensions.
+
+    Called once per unit call, also on tiny arrays (the sharer-order correction calls the units once
+    per sharer), so written for speed.
+    """
+    first = arrays[0]
+    if type(first) is not np.ndarray:
+        return False
+    shape = first.shape
+    if len(shape) != ndim:
+        return False
+    for a in arrays:
+        if type(a) is not np.ndarray or a.shape != shape or (a.dtype is not _F64 and a.dtype != _F64):
+            return False
+    return True
+
+
+def _kt(a: np.ndarray) -> np.ndarray:
+    """The (k, M) view of an (M, k) component array (the transpose)."""
+    return a.T
+
+
+# ---------------------------------------------------------------------------------------------
+# unit twins (signatures and results of the reference units)
+# ---------------------------------------------------------------------------------------------
+
+
+def predict_measurement(poses: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Twin of :func:`faultlab.slam.units.predict_measurement` (``arctan2`` by numpy)."""
+    if not (_pairs(mu, ndim=3) and mu.shape[2] == 2 and isinstance(poses, np.ndarray) and poses.dtype == np.float64
+            and poses.shape == (mu.shape[0], 3)):
+        return _units.predict_measurement(poses, mu)
+    kn = _k()
+    n, k = mu.shape[:2]
+    dx = np.empty((k, n))
+    dy = np.empty((k, n))
+    kn.offsets(poses, _kt(mu[..., 0]), _kt(mu[..., 1]), dx, dy)
+    bearing = np.arctan2(dy, dx)
+    zbuf, zhat = _vec2((n, k))
+    hbuf, H = _mat22((n, k))
+    kn.measurement(poses, dx, dy, bearing, zbuf[0], zbuf[1], hbuf[0, 0], hbuf[0, 1], hbuf[1, 0], hbuf[1, 1])
+    return zhat, H
+
+
+def innovation(z: np.ndarray, zhat: np.ndarray, *, wrap) -> np.ndarray:
+    """Twin of :func:`faultlab.slam.units.innovation` (with the reference wrap only; any other
+    ``wrap`` runs the numpy unit with it)."""
+    if not (wrap is _units.wrap_bearing and _pairs(zhat, ndim=3) and zhat.shape[2] == 2
+            and isinstance(z, np.ndarray) and z.dtype == np.float64 and z.shape == (zhat.shape[1], 2)):
+        return _units.innovation(z, zhat, wrap=wrap)
+    n, k = zhat.shape[:2]
+    buf, nu = _vec2((n, k))
+    _k().innovation_pairs(z, _kt(zhat[..., 0]), _kt(zhat[..., 1]), buf[0], buf[1])
+    return nu
+
+
+def _q_entries(Q) -> tuple[float, float, float, bool]:
+    Q = np.asarray(Q)
+    return float(Q[0, 0]), float(Q[0, 1]), float(Q[1, 1]), bool(Q[0, 1] != 0.0)
+
+
+def innovation_covariance(H: np.ndarray, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """Twin of :func:`faultlab.slam.units.innovation_covariance` (the covariance sandwich)."""
+    if not (_pairs(H, P, ndim=4) and H.shape[2:] == (2, 2) and np.shape(Q) == (2, 2)
+            and np.asarray(Q).dtype == np.float64):
+        return _units.innovation_covariance(H, P, Q)
+    n, k = H.shape[:2]
+    buf, S = _mat22((n, k))
+    q00, q01, q11, add = _q_entries(Q)
+    _k().sandwich(_kt(H[..., 0, 0]), _kt(H[..., 0, 1]), _kt(H[..., 1, 0]), _kt(H[..., 1, 1]),
+                  _kt(P[..., 0, 0]), _kt(P[..., 0, 1]), _kt(P[..., 1, 1]), q00, q01, q11, add,
+                  buf[0, 0], buf[0, 1], buf[1, 1])
+    buf[1, 0] = buf[0, 1]
+    return S
+
+
+def log_likelihood(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """Twin of :func:`faultlab.slam.units.log_likelihood` (``log`` by numpy)."""
+    if not (_pairs(nu, ndim=3) and nu.shape[2] == 2 and _pairs(S, ndim=4) and S.shape == nu.shape[:2] + (2, 2)):
+        return _units.log_likelihood(nu, S)
+    kn = _k()
+    n, k = nu.shape[:2]
+    t = np.empty((k, n))
+    det = np.empty((k, n))
+    kn.quadratic_form(_kt(nu[..., 0]), _kt(nu[..., 1]), _kt(S[..., 0, 0]), _kt(S[..., 0, 1]), _kt(S[..., 1, 1]),
+                      t, det)
+    kn.finish_log_likelihood(t, np.log(det, out=det))
+    return t.T
+
+
+def ekf_update(mu: np.ndarray, P: np.ndarray, H: np.ndarray, S: np.ndarray,
+               nu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Twin of :func:`faultlab.slam.units.ekf_update`."""
+    if not (_pairs(mu, nu, ndim=3) and mu.shape[2] == 2 and _pairs(P, H, S, ndim=4)
+            and P.shape == mu.shape[:2] + (2, 2)):
+        return _units.ekf_update(mu, P, H, S, nu)
+    n, k = mu.shape[:2]
+    mbuf, mu_new = _vec2((n, k))
+    pbuf, P_new = _mat22((n, k))
+    _k().ekf_correction(_kt(mu[..., 0]), _kt(mu[..., 1]), _kt(P[..., 0, 0]), _kt(P[..., 0, 1]), _kt(P[..., 1, 1]),
+                        _kt(H[..., 0, 0]), _kt(H[..., 0, 1]), _kt(H[..., 1, 0]), _kt(H[..., 1, 1]),
+                        _kt(S[..., 0, 0]), _kt(S[..., 0, 1]), _kt(S[..., 1, 1]), _kt(nu[..., 0]), _kt(nu[..., 1]),
+                        mbuf[0], mbuf[1], pbuf[0, 0], pbuf[0, 1], pbuf[1, 1])
+    pbuf[1, 0] = pbuf[0, 1]
+    return mu_new, P_new
+
+
+def predict_measurement_wrapped(poses: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Twin of :func:`faultlab.slam.paperunits.predict_measurement_wrapped` (the paper's measurement model)."""
+    zhat, H = predict_measurement(poses, mu)
+    zhat[..., 1] = _units._wrap(zhat[..., 1])
+    return zhat, H
+
+
+def log_likelihood_wrapped(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """Twin of :func:`faultlab.slam.paperunits.log_likelihood_wrapped` (the paper's weight)."""
+    nu = np.array(nu, dtype=float)
+    nu[..., 1] = _units._wrap(nu[..., 1])
+    return log_likelihood(nu, S)
+
+
+def resample(w: np.ndarray, n_eff: float, empty: bool, rng: np.random.Generator, config) -> np.ndarray | None:
+    """Twin of :func:`faultlab.slam.units.resample` (same decision, same single draw from ``rng``)."""
+    n = w.shape[0]
+    if empty or n_eff >= n / config.resample_ratio:
+        return None
+    if not (isinstance(w, np.ndarray) and w.dtype == np.float64 and w.ndim == 1 and (w >= 0.0).all()):
+        return _units.low_variance_indices(w, rng)  # NaN or negative weights: numpy's search
+    r = rng.uniform(0.0, 1.0 / n)
+    out = np.empty(n, dtype=np.intp)
+    _k().systematic_indices(w, r, out)
+    return out
+
+
+#: Reference unit (or alternative unit of the paper's filter) -> its compiled twin.
+TWINS: dict[Callable, Callable] = {
+    _units.predict_measurement: predict_measurement,
+    _units.innovation: innovation,
+    _units.innovation_covariance: innovation_covariance,
+    _units.log_likelihood: log_likelihood,
+    _units.ekf_update: ekf_update,
+    _paperunits.predict_measurement_wrapped: predict_measurement_wrapped,
+    _paperunits.log_likelihood_wrapped: log_likelihood_wrapped,
+    _units.resample: resample,
+}
+
+#: The units that :func:`correct_pairs` fuses (with ``wrap_bearing``, which ``innovation`` calls).
+FUSED_UNITS: tuple[str, ...] = ("predict_measurement", "innovation", "wrap_bearing", "innovation_covariance",
+                                "log_likelihood", "ekf_update")
+
+
+def twinned(table):
+    """``table`` (a unit table, :class:`~faultlab.slam.bookkeeping.UnitTable`) with every reference unit
+    that has a twin replaced by it; the table itself if no slot holds such a unit.
+
+    The filters call it only when :data:`JIT_ENABLED`.
+    """
+    swaps = {f.name: TWINS[getattr(table, f.name)] for f in dataclasses.fields(table)
+             if getattr(table, f.name) in TWINS}
+    return dataclasses.replace(table, **swaps) if swaps else table
+
+
+def fused(table) -> bool:
+    """Whether :func:`correct_pairs` may do the work of ``table``'s correction units: every unit of
+    :data:`FUSED_UNITS` is the reference (or its twin).  The filters ask only when :data:`JIT_ENABLED`."""
+    for name in FUSED_UNITS:
+        fn = getattr(table, name, None)
+        ref = getattr(_units, name)
+        if fn is not ref and fn is not TWINS.get(ref):
+            return False
+    return True
+
+
+def correct_pairs(x: np.ndarray, z: np.ndarray, mb: np.ndarray, pb: np.ndarray,
+                  Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The reference correction of M particles x k observations in one fused pass.
+
+    Equals, bit for bit, ``predict_measurement``, ``innovation`` (with ``wrap_bearing``),
+    ``innovation_covariance``, ``log_likelihood`` and ``ekf_update`` of
+    :mod:`faultlab.slam.units` called in that order.
+
+    Parameters
+    ----------
+    x : ndarray, shape (M, 3)
+        Poses.
+    z : ndarray, shape (k, 2)
+        Observations (range, bearing).
+    mb : ndarray, shape (2, k, M)
+        Landmark means, component-major (the filter's gathered layout).
+    pb : ndarray, shape (2, 2, k, M)
+        Landmark covariances (symmetric; ``pb[0, 1]`` is read for both off-diagonal entries).
+    Q : ndarray, shape (2, 2)
+
+    Returns
+    -------
+    loglik : ndarray, shape (M, k)
+    mu_new : ndarray, shape (2, k, M)
+    P_new : ndarray, shape (2, 2, k, M)
+    """
+    kn = _k()
+    k, m = mb.shape[1:]
+    dx = np.empty((k, m))
+    dy = np.empty((k, m))
+    kn.offsets(x, mb[0], mb[1], dx, dy)
+    bearing = np.arctan2(dy, dx)
+    mu_new = np.empty((2, k, m))
+    P_new = np.empty((2, 2, k, m))
+    q00, q01, q11, add = _q_entries(Q)
+    t = np.empty((k, m))
+    det = np.empty((k, m))
+    kn.fused_correction(x, z, mb, pb, dx, dy, bearing, q00, q01, q11, add, mu_new, P_new, t, det)
+    kn.finish_log_likelihood(t, np.log(det, out=det))
+    return t.T, mu_new, P_new
+
+
+def gather_rows(mu_store: np.ndarray, P_store: np.ndarray, anc: np.ndarray, cols: np.ndarray, p0: int, n: int,
+                mb: np.ndarray, pb: np.ndarray) -> None:
+    """Copy the stored landmarks of ``cols`` (k,) for particles ``p0 ..`` into ``mb`` (2, k, M) and
+    ``pb`` (2, 2, k, M) (the filter's gather; see :func:`faultlab.slam.kernels.gather_pairs`)."""
+    _k().gather_pairs(mu_store, P_store, anc, np.asarray(cols, dtype=np.intp), p0, n, mb, pb)
+
+
+def scatter_rows(mu_new: np.ndarray, P_new: np.ndarray, cols: np.ndarray, p0: int, owner: np.ndarray,
+                 mu_store: np.ndarray, P_store: np.ndarray, anc: np.ndarray) -> None:
+    """Write new landmarks of ``cols`` into each particle's own storage row and point ``anc`` at
+    ``owner`` (the filter's write-back; see :func:`faultlab.slam.kernels.scatter_pairs`)."""
+    _k().scatter_pairs(mu_new, P_new, np.asarray(cols, dtype=np.intp), p0, np.asarray(owner, dtype=np.intp),
+                       mu_store, P_store, anc)
+
+
+def take_rows(src: np.ndarray, rows: np.ndarray, dst: np.ndarray, width: int) -> None:
+    """``dst[i, :width] = src[rows[i], :width]`` for 2-D ``src`` and ``dst`` (the filter's ancestry gather)."""
+    _k().take_rows(src, np.asarray(rows, dtype=np.intp), dst, width)
+
+
+_warmed = False
+
+
+def warm_up() -> float:
+    """Compile (or load from the cache) every kernel on a tiny input, once per process.
+
+    Called by a campaign's job executors before they start the clock of their first job, so that
+    no execution's runtime includes the compilation.  Returns the seconds it took (0 when JIT is
+    off or the kernels are already loaded).
+    """
+    global _warmed
+    if not JIT_ENABLED or _warmed:
+        return 0.0
+    import time
+
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(0)
+    n, k = 2, 2
+    poses = rng.normal(size=(n, 3))
+    mu = rng.normal(size=(n, k, 2))
+    Q = np.diag([0.1, 0.01])
+    z = np.abs(rng.normal(size=(k, 2)))
+    P0 = np.broadcast_to(np.eye(2), (n, k, 2, 2)).copy()
+    zhat, H = predict_measurement(poses, mu)
+    nu = innovation(z, zhat, wrap=_units.wrap_bearing)
+    S = innovation_covariance(H, P0, Q)
+    log_likelihood(nu, S)
+    ekf_update(mu, P0, H, S, nu)
+    mb = np.ascontiguousarray(mu.transpose(2, 1, 0))
+    pb = np.ascontiguousarray(P0.transpose(2, 3, 1, 0))
+    _, mu_new, P_new = correct_pairs(poses, z, mb, pb, Q)
+    store_mu, store_P = np.zeros((2, 4, n)), np.zeros((2, 2, 4, n))
+    anc = np.zeros((n, 4), dtype=np.int32)
+    cols = np.arange(k, dtype=np.intp)
+    scatter_rows(mu_new, P_new, cols, 0, np.arange(n, dtype=np.intp), store_mu, store_P, anc)
+    gather_rows(store_mu, store_P, anc, cols, 0, n, mb, pb)
+    take_rows(anc, np.arange(n)[::-1], np.empty_like(anc), k)
+    _k().systematic_indices(np.full(n, 1.0 / n), 0.1, np.empty(n, dtype=np.intp))
+    _warmed = True
+    return time.perf_counter() - t0

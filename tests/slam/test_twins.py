@@ -1,0 +1,322 @@
+"""Compiled twins: bit-identical to the numpy reference units, alone, fused and inside the filter.
+
+The independent reference is always the numpy unit of :mod:`faultlab.slam.units` (the readable
+contract) or the numpy filter (``FAULTLAB_JIT=0``); results are compared bit for bit (the sign of
+zero included, NaN equal to NaN).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from faultlab.faults import builtin_faults
+from faultlab.faults.check import CheckStatus, check_faults, check_scenario, estimates_identical
+from faultlab.mutation.examples import unit_examples
+from faultlab.mutation.mutant import generate_mutants, mutant_fault
+from faultlab.mutation.outcome import MutantOutcome
+from faultlab.mutation.screening import screen_mutants
+from faultlab.slam import (REFERENCE_STEPS, EkfSlam, FastSlam, FastSlam2, FastSlamConfig, FastSlamUnknown, run_slam,
+                           run_slam_batch)
+from faultlab.slam import twins
+from faultlab.slam import paperunits as PU
+from faultlab.slam import units as U
+from faultlab.slam.fastslam import FastSlamSteps
+from faultlab.slam.profiles import get_profile
+
+pytestmark = pytest.mark.skipif(not twins.JIT_ENABLED, reason="compiled twins turned off (FAULTLAB_JIT=0)")
+
+
+def bits(a) -> np.ndarray:
+    """The IEEE bit patterns of ``a`` (all NaNs mapped to one pattern)."""
+    a = np.array(a, dtype=np.float64)
+    a[np.isnan(a)] = np.nan
+    return a.view(np.int64)
+
+
+def same_bits(a, b) -> bool:
+    return np.shape(a) == np.shape(b) and np.array_equal(bits(a), bits(b))
+
+
+# values: ordinary magnitudes, tiny and huge ones, signed zeros and non-finite values
+VALUES = st.one_of(st.floats(-1e3, 1e3), st.floats(-1e-150, 1e-150), st.floats(-1e150, 1e150),
+                   st.sampled_from([0.0, -0.0, np.inf, -np.inf, np.nan, np.pi, -np.pi]))
+SHAPES = st.tuples(st.integers(1, 6), st.integers(0, 4))
+
+
+@st.composite
+def pair_arrays(draw, tail: tuple[int, ...], shape=None, elements=VALUES):
+    """An (N, k) + tail float array, in C order or in the filter's component-major layout."""
+    n, k = shape if shape is not None else draw(SHAPES)
+    a = draw(arrays(np.float64, (n, k) + tail, elements=elements))
+    if draw(st.booleans()):  # component-major, particle-fastest (a transposed view)
+        perm = tuple(range(2, a.ndim)) + (1, 0)
+        a = np.ascontiguousarray(a.transpose(perm)).transpose(tuple(np.argsort(perm)))
+    return a
+
+
+def symmetric(a: np.ndarray) -> np.ndarray:
+    a = np.array(a)
+    a[..., 1, 0] = a[..., 0, 1]
+    return a
+
+
+@st.composite
+def problems(draw):
+    """Inputs of one correction: poses (N, 3), mu (N, k, 2), symmetric P (N, k, 2, 2), z (k, 2), Q (2, 2)."""
+    shape = draw(SHAPES)
+    n, k = shape
+    poses = draw(arrays(np.float64, (n, 3), elements=VALUES))
+    mu = draw(pair_arrays((2,), shape))
+    P = symmetric(draw(pair_arrays((2, 2), shape)))
+    z = draw(arrays(np.float64, (k, 2), elements=VALUES))
+    q01 = draw(st.sampled_from([0.0, 0.0, 1e-3, -0.02]))
+    Q = np.array([[draw(st.floats(1e-6, 10.0)), q01], [q01, draw(st.floats(1e-6, 10.0))]])
+    return poses, mu, P, z, Q
+
+
+def quiet():
+    return np.errstate(all="ignore")
+
+
+@settings(max_examples=150, deadline=None)
+@given(problems())
+def test_every_twin_is_bit_identical_to_its_unit(problem):
+    poses, mu, P, z, Q = problem
+    with quiet():
+        zhat, H = U.predict_measurement(poses, mu)
+        t_zhat, t_H = twins.predict_measurement(poses, mu)
+        assert same_bits(zhat, t_zhat) and same_bits(H, t_H)
+        nu = U.innovation(z, zhat, wrap=U.wrap_bearing)
+        assert same_bits(nu, twins.innovation(z, zhat, wrap=U.wrap_bearing))
+        S = U.innovation_covariance(H, P, Q)
+        assert same_bits(S, twins.innovation_covariance(H, P, Q))
+        ll = U.log_likelihood(nu, S)
+        assert same_bits(ll, twins.log_likelihood(nu, S))
+        m1, P1 = U.ekf_update(mu, P, H, S, nu)
+        t_m1, t_P1 = twins.ekf_update(mu, P, H, S, nu)
+        assert same_bits(m1, t_m1) and same_bits(P1, t_P1)
+        # the same inputs in C order (a replacement unit may return ordinary arrays)
+        C = np.ascontiguousarray
+        assert same_bits(nu, twins.innovation(z, C(zhat), wrap=U.wrap_bearing))
+        assert same_bits(S, twins.innovation_covariance(C(H), C(P), Q))
+        assert same_bits(ll, twins.log_likelihood(C(nu), C(S)))
+        for got, want in zip(twins.ekf_update(C(mu), C(P), C(H), C(S), C(nu)), (m1, P1)):
+            assert same_bits(got, want)
+        # the paper's filter's units
+        for got, want in zip(twins.predict_measurement_wrapped(poses, mu), PU.predict_measurement_wrapped(poses, mu)):
+            assert same_bits(got, want)
+        assert same_bits(PU.log_likelihood_wrapped(nu, S), twins.log_likelihood_wrapped(nu, S))
+
+
+@settings(max_examples=150, deadline=None)
+@given(problems())
+def test_the_fused_correction_is_the_units_in_sequence(problem):
+    poses, mu, P, z, Q = problem
+    with quiet():
+        zhat, H = U.predict_measurement(poses, mu)
+        nu = U.innovation(z, zhat, wrap=U.wrap_bearing)
+        S = U.innovation_covariance(H, P, Q)
+        ll = U.log_likelihood(nu, S)
+        m1, P1 = U.ekf_update(mu, P, H, S, nu)
+        mb = np.ascontiguousarray(mu.transpose(2, 1, 0))
+        pb = np.ascontiguousarray(P.transpose(2, 3, 1, 0))
+        t_ll, t_mb, t_pb = twins.correct_pairs(poses, z, mb, pb, Q)
+    assert same_bits(ll, t_ll)
+    assert same_bits(m1, t_mb.transpose(2, 1, 0))
+    assert same_bits(P1, t_pb.transpose(3, 2, 0, 1))
+
+
+def test_twins_hand_other_inputs_to_the_numpy_unit():
+    """A wrap other than the reference, broadcast or integer inputs: the unit's own result."""
+    rng = np.random.default_rng(4)
+    z, zhat = rng.normal(size=(3, 2)), rng.normal(size=(5, 3, 2)) * 10
+    no_wrap = lambda a: a  # noqa: E731
+    np.testing.assert_array_equal(twins.innovation(z, zhat, wrap=no_wrap), U.innovation(z, zhat, wrap=no_wrap))
+    assert not np.array_equal(twins.innovation(z, zhat, wrap=no_wrap), U.innovation(z, zhat, wrap=U.wrap_bearing))
+    mu_int = rng.integers(-5, 5, size=(5, 3, 2))
+    poses = rng.normal(size=(5, 3))
+    with quiet():
+        for got, want in zip(twins.predict_measurement(poses, mu_int), U.predict_measurement(poses, mu_int)):
+            assert same_bits(got, want)
+
+
+def test_twinned_swaps_reference_units_only():
+    fault = lambda *a, **kw: U.ekf_update(*a, **kw)  # noqa: E731
+    steps = dataclasses.replace(REFERENCE_STEPS, ekf_update=fault)
+    run = twins.twinned(steps)
+    assert run.ekf_update is fault
+    assert run.predict_measurement is twins.predict_measurement
+    assert run.motion_model is U.motion_model  # no twin
+    assert twins.fused(REFERENCE_STEPS) and twins.fused(twins.twinned(REFERENCE_STEPS))
+    assert not twins.fused(steps)
+    assert not twins.fused(dataclasses.replace(REFERENCE_STEPS, wrap_bearing=lambda a: a))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Ratio:
+    resample_ratio: float
+
+
+WEIGHTS = st.one_of(st.floats(0.0, 1.0), st.floats(0.0, 1e-300), st.sampled_from([0.0, 1e-320, 0.5, 1.0]))
+
+
+@settings(max_examples=200, deadline=None)
+@given(arrays(np.float64, st.integers(1, 40), elements=WEIGHTS), st.booleans(), st.booleans(),
+       st.integers(0, 2 ** 32 - 1))
+def test_the_resampling_twin_draws_and_picks_as_the_unit(w, normalise, empty, seed):
+    if normalise and w.sum() > 0:
+        w = w / w.sum()
+    config = _Ratio(resample_ratio=1.5)
+    n_eff = float(len(w)) / 2.0  # below N / 1.5: resample unless empty
+    rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
+    want = U.resample(w, n_eff, empty, rng_a, config)
+    got = twins.resample(w, n_eff, empty, rng_b, config)
+    if want is None:
+        assert got is None
+    else:
+        assert got.dtype == want.dtype and np.array_equal(got, want)
+    assert rng_a.random() == rng_b.random()  # the same draws were consumed
+
+
+# --------------------------------------------------------------------------- the filter
+
+
+N = 24
+CFG = FastSlamConfig(n_particles=N)
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return check_scenario(seed=3, n_steps=60)
+
+
+def numpy_filter(monkeypatch, make):
+    """A filter built with the twins turned off (the pure numpy path)."""
+    with monkeypatch.context() as m:
+        m.setattr(twins, "JIT_ENABLED", False)
+        slam = make()
+    assert not getattr(slam, "_jit", False)
+    return slam
+
+
+def final(slam, sc, seed):
+    with quiet():
+        try:
+            est = run_slam(slam, sc, rng=np.random.default_rng(seed))
+        except Exception as exc:  # a fault may end the run: both paths must end it alike
+            return repr(exc), None
+    return est, slam.particles()
+
+
+def assert_same_run(a, b, what):
+    if a[1] is None or b[1] is None:
+        assert a[0] == b[0], what
+        return
+    assert estimates_identical(a[0], b[0]), what
+    for field in ("poses", "weights", "landmark_ids", "means", "covariances"):
+        assert same_bits(getattr(a[1], field), getattr(b[1], field)), f"{what}: {field}"
+
+
+@pytest.mark.parametrize("seed", [1, 7])
+def test_compiled_filter_equals_the_numpy_filter(monkeypatch, scenario, seed):
+    compiled = FastSlam(CFG)
+    assert compiled._jit and compiled._fused
+    assert_same_run(final(compiled, scenario, seed), final(numpy_filter(monkeypatch, lambda: FastSlam(CFG)),
+                                                          scenario, seed), f"seed {seed}")
+
+
+@pytest.mark.slow
+def test_compiled_filter_equals_the_numpy_filter_on_a_generated_case(monkeypatch):
+    """A fixed-suite scenario (200 particles, ~29 observations per step), first 150 steps."""
+    from faultlab.scenario import generate_scenario
+    from faultlab.space.case import FIXED_VALUES, CaseSpec
+    sc = generate_scenario(CaseSpec(dict(FIXED_VALUES, n_steps=150)), rng=np.random.default_rng(2))
+    assert_same_run(final(FastSlam(), sc, 2), final(numpy_filter(monkeypatch, FastSlam), sc, 2), "fixed suite")
+
+
+@pytest.mark.parametrize("fault", list(builtin_faults().values()), ids=lambda f: f.name)
+def test_every_builtin_fault_under_the_compiled_path_equals_numpy(monkeypatch, scenario, fault):
+    compiled = fault.apply(FastSlam(CFG))
+    plain = numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG)))
+    assert_same_run(final(compiled, scenario, 5), final(plain, scenario, 5), fault.name)
+
+
+@pytest.mark.parametrize("profile", ["paper", "paper_no_aliasing"])
+def test_the_papers_filter_under_the_compiled_path_equals_numpy(monkeypatch, scenario, profile):
+    """Twins of the paper's wrapped units; with aliasing, the sharer-order correction runs them too."""
+    make = lambda: dataclasses.replace(get_profile(profile), config=dataclasses.replace(  # noqa: E731
+        get_profile(profile).config, n_particles=N)).slam()
+    compiled = make()
+    assert compiled._units(1).predict_measurement is twins.predict_measurement_wrapped
+    assert_same_run(final(compiled, scenario, 4), final(numpy_filter(monkeypatch, make), scenario, 4), profile)
+
+
+def test_batched_compiled_repetitions_equal_single_numpy_runs(monkeypatch, scenario):
+    seeds = (11, 5, 902)
+    with quiet():
+        batch = run_slam_batch(FastSlam(CFG), scenario, rngs=[np.random.default_rng(s) for s in seeds])
+    for seed, est in zip(seeds, batch):
+        want = final(numpy_filter(monkeypatch, lambda: FastSlam(CFG)), scenario, seed)[0]
+        assert estimates_identical(est, want), seed
+
+
+def test_equivalent_mutants_stay_hidden_under_the_compiled_path():
+    """Screened-equivalent mutants of twinned units give maps bit-identical to the compiled baseline."""
+    units = ["innovation_covariance", "log_likelihood", "ekf_update"]
+    mutants = generate_mutants(REFERENCE_STEPS, units=units, plugins=False)
+    report = screen_mutants(mutants, unit_examples())
+    equivalent = [i for i, r in report.results.items() if r.outcome is MutantOutcome.EQUIVALENT]
+    eq = [next(i for i in equivalent if i.startswith(f"{unit}:")) for unit in units]  # one per unit
+    live = next(i for i, r in report.results.items() if r.live and i.startswith("ekf_update"))
+    checked = check_faults([mutant_fault(mutants.get(i), FastSlamSteps) for i in eq + [live]], n_steps=40,
+                           n_particles=20, n_seeds=1, plugins=False)
+    statuses = [c.status for c in checked]
+    assert statuses[:-1] == [CheckStatus.EQUIVALENT] * len(eq) and statuses[-1] is not CheckStatus.EQUIVALENT
+
+
+@pytest.mark.parametrize("make", [
+    lambda: FastSlam2(FastSlamConfig(n_particles=N)),
+    EkfSlam,
+    lambda: FastSlamUnknown(FastSlamConfig(n_particles=N, association="unknown")),
+], ids=["fastslam2", "ekf", "fastslam1-unknown"])
+def test_the_other_unit_slams_run_the_twins_bit_identically(monkeypatch, scenario, make):
+    compiled = make()
+    assert compiled._run_steps is not compiled.steps  # some slot holds a reference unit with a twin
+    plain = numpy_filter(monkeypatch, make)
+    assert plain._run_steps is plain.steps
+    with quiet():
+        a = run_slam(compiled, scenario, rng=np.random.default_rng(3))
+        b = run_slam(plain, scenario, rng=np.random.default_rng(3))
+    assert estimates_identical(a, b)
+
+
+_CHILD = """
+import json, sys
+import numpy as np
+from faultlab.faults.check import check_scenario
+from faultlab.slam import FastSlam, FastSlamConfig, run_slam, twins
+est = run_slam(FastSlam(FastSlamConfig(n_particles=24)), check_scenario(seed=3, n_steps=60),
+               rng=np.random.default_rng(9))
+print(json.dumps({"jit": twins.JIT_ENABLED, "numba": "numba" in sys.modules,
+                  "landmarks": est.landmarks.view(np.int64).tolist(), "pose": est.pose.view(np.int64).tolist()}))
+"""
+
+
+def test_faultlab_jit_0_runs_pure_numpy_with_the_same_result(scenario):
+    env = dict(os.environ, FAULTLAB_JIT="0")
+    out = subprocess.run([sys.executable, "-c", _CHILD], env=env, capture_output=True, text=True, check=True)
+    child = json.loads(out.stdout)
+    assert child["jit"] is False and child["numba"] is False
+    est = run_slam(FastSlam(CFG), scenario, rng=np.random.default_rng(9))
+    assert child["landmarks"] == est.landmarks.view(np.int64).tolist()
+    assert child["pose"] == est.pose.view(np.int64).tolist()
