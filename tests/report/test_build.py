@@ -18,6 +18,7 @@ from faultlab.report.comparison import Verdict
 from faultlab.report.pages import REPORT_TITLE
 from faultlab.report.tables import round_mm
 from faultlab.runner import case_path, load_metadata, load_results
+from faultlab.runner.store import RESULT_COLUMNS, row_checksum
 
 
 def _forbid_running(monkeypatch):
@@ -226,6 +227,10 @@ def test_a_fault_identical_to_the_baseline_everywhere_is_flagged(built, tiny_sto
         conn.execute("UPDATE results SET rms_mm = (SELECT b.rms_mm FROM results b WHERE b.variant = 'baseline' "
                      "AND b.run = results.run AND b.suite = results.suite AND b.\"case\" = results.\"case\" "
                      "AND b.rep = results.rep) WHERE variant = 'missing_angle_wrap'")
+        columns = ", ".join(f'"{c}"' for c in RESULT_COLUMNS)  # re-sign the edited rows: a valid store
+        for rowid, *values in conn.execute(f"SELECT rowid, {columns} FROM results "
+                                           "WHERE variant = 'missing_angle_wrap'").fetchall():
+            conn.execute("UPDATE results SET checksum = ? WHERE rowid = ?", (row_checksum(values), rowid))
     conn.close()
     original, _ = built  # the unmodified store's report
     assert not any("equivalent mutant" in n for n in original.notes)
