@@ -22,7 +22,11 @@ def _pct(x: float) -> str:
 
 
 def _interval(rate: float, lo: float, hi: float) -> str:
-    return f"{_pct(rate)} % ({100 * lo:.1f}-{100 * hi:.1f})"
+    """``rate % (lo-hi)`` with as many decimals (up to 4) as keep a non-zero width visible."""
+    digits = 1
+    while digits < 4 and hi > lo and f"{100 * lo:.{digits}f}" == f"{100 * hi:.{digits}f}":
+        digits += 1
+    return f"{_pct(rate)} % ({100 * lo:.{digits}f}-{100 * hi:.{digits}f})"
 
 
 def allocation_markdown(table: pd.DataFrame, summary: pd.DataFrame, meta: dict) -> str:
