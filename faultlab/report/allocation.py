@@ -22,11 +22,16 @@ def _pct(x: float) -> str:
 
 
 def _interval(rate: float, lo: float, hi: float) -> str:
-    """``rate % (lo-hi)`` with as many decimals (up to 4) as keep a non-zero width visible."""
+    """``rate % (lo-hi)`` with as many decimals (up to 2) as keep a non-zero width visible; a bound
+    closer to 0 or 100 % than that is shown as ``<0.01`` / ``>99.99``."""
     digits = 1
-    while digits < 4 and hi > lo and f"{100 * lo:.{digits}f}" == f"{100 * hi:.{digits}f}":
+    while digits < 2 and hi > lo and f"{100 * lo:.{digits}f}" == f"{100 * hi:.{digits}f}":
         digits += 1
-    return f"{_pct(rate)} % ({100 * lo:.{digits}f}-{100 * hi:.{digits}f})"
+    low = f"{100 * lo:.{digits}f}" if lo == 0 or f"{100 * lo:.{digits}f}" != f"{100 * hi:.{digits}f}" or hi < 1 \
+        else ">99.99"
+    high = f"{100 * hi:.{digits}f}" if hi == 1 or f"{100 * lo:.{digits}f}" != f"{100 * hi:.{digits}f}" or lo > 0 \
+        else "<0.01"
+    return f"{_pct(rate)} % ({low}-{high})"
 
 
 def allocation_markdown(table: pd.DataFrame, summary: pd.DataFrame, meta: dict) -> str:
