@@ -59,6 +59,12 @@ def _render_robustness(stores: Path, out: Path) -> None:
                             intro=(REPORTS / "robustness" / "intro.md").read_text())
 
 
+def _render_allocation(store: Path, out: Path) -> None:
+    from faultlab.report.allocation import write_allocation_report
+
+    write_allocation_report(store, out, budget=72, ks=[6, 9, 12])
+
+
 #: (committed report directory, its store relative to it, renderer, store holds one store per SLAM)
 COMMITTED = [
     ("", "store", _render_paper, False),
@@ -66,6 +72,7 @@ COMMITTED = [
     ("mutation", "store", _render_mutation, False),
     ("slams", "store", _render_slams, True),
     ("robustness", "store", _render_robustness, True),
+    ("study-k", "store", _render_allocation, False),
 ]
 
 
