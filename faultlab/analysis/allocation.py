@@ -31,13 +31,17 @@ allocations rests on them without a paired comparison across the pool.
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from statsmodels.stats.proportion import proportion_confint
 
+from faultlab.analysis.metadata import read_rule
 from faultlab.errors import ConfigError, ResultsError
+from faultlab.runner.store import STUDY_FILE, load_metadata, load_results
 from faultlab.seeds import study_seed_sequence
 from faultlab.stats.killmatrix import (detection_probability, draw_suites, exact_detection_interval, kill_matrix,
                                        strong_cases)
@@ -192,19 +196,13 @@ def allocation_summary(table: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def analyse_allocation(out, *, budget: int, ks, draws: int = 2000, seed: int = 0,
+def analyse_allocation(out: str | Path, *, budget: int, ks, draws: int = 2000, seed: int = 0,
                        alpha: float = DEFAULT_ALPHA) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
     """:func:`allocation_study` and :func:`allocation_summary` of a study's store (runs nothing).
 
     Returns the table, the summary and a meta dict: scale (pool, stored K, steps, particles,
     variants), SLAM time, the sessions' wall time and sampled load (from ``study.json``).
     """
-    import json
-    from pathlib import Path
-
-    from faultlab.analysis.metadata import read_rule
-    from faultlab.runner.store import STUDY_FILE, load_metadata, load_results
-
     out = Path(out)
     results = load_results(out)
     meta = load_metadata(out)
