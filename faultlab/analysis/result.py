@@ -88,8 +88,8 @@ JSON_FILE = "analysis.json"
 #: Tables of the statistics beyond the paper; a :class:`Note` under one of these names says why
 #: the table holds nothing to show.
 BEYOND_THE_PAPER: tuple[str, ...] = ("false_alarms", "oracle", "suite_comparisons", "parameter_effects",
-                                      "case_verdicts", "case_rates", "case_comparisons", "replica_false_alarms",
-                                      "paper_comparisons", "class_effects")
+                                      "case_verdicts", "case_rates", "suite_verdicts", "case_comparisons",
+                                      "replica_false_alarms", "paper_comparisons", "class_effects")
 
 
 @dataclass(frozen=True)
