@@ -48,6 +48,7 @@ from faultlab.analysis.schema import (
     PARAMETER_EFFECTS,
     REPLICA_FALSE_ALARMS,
     SUITE_COMPARISONS,
+    SUITE_VERDICTS,
     TABLE2_CELLS,
     TABLES,
     THIS_RUN,
@@ -73,6 +74,7 @@ from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.stats.effects import fit_effects, validate_parameters
 from faultlab.stats.oracle import oracle_detections
 from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, data_label, paper_table, resolve_data_path
+from faultlab.stats.pooling import suite_verdicts
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
 from faultlab.space.case import PARAMETER_NAMES
 from faultlab.vocabulary import DEFAULT_ALPHA, REPLICA, SUITE_ORDER, JobStatus, ordered
@@ -86,8 +88,8 @@ JSON_FILE = "analysis.json"
 #: Tables of the statistics beyond the paper; a :class:`Note` under one of these names says why
 #: the table holds nothing to show.
 BEYOND_THE_PAPER: tuple[str, ...] = ("false_alarms", "oracle", "suite_comparisons", "parameter_effects",
-                                      "case_verdicts", "case_rates", "case_comparisons", "replica_false_alarms",
-                                      "paper_comparisons", "class_effects")
+                                      "case_verdicts", "case_rates", "suite_verdicts", "case_comparisons",
+                                      "replica_false_alarms", "paper_comparisons", "class_effects")
 
 
 @dataclass(frozen=True)
@@ -138,7 +140,7 @@ class Analysis:
     ------
     jobs, cases, outcomes, detection_rates, by_suite, false_alarms, oracle, oracle_summary,
     suite_comparisons, parameter_effects, table2_cells, paper_rates, paper_by_suite, coverage,
-    runtimes, case_verdicts, case_rates, case_comparisons, replica_false_alarms, paper_comparisons, class_effects : DataFrame
+    runtimes, case_verdicts, case_rates, suite_verdicts, case_comparisons, replica_false_alarms, paper_comparisons, class_effects : DataFrame
         Treat them as read-only.
     """
 
@@ -168,6 +170,7 @@ class Analysis:
     runtimes: pd.DataFrame
     case_verdicts: pd.DataFrame
     case_rates: pd.DataFrame
+    suite_verdicts: pd.DataFrame
     case_comparisons: pd.DataFrame
     replica_false_alarms: pd.DataFrame
     paper_comparisons: pd.DataFrame
@@ -502,6 +505,9 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
     if v_note is not None:
         notes.append(v_note)
     rates, r_note = _guarded(CASE_RATES, lambda: case_rates(faults, alpha=alpha), "Case-level rates")
+    sv, s_note = _guarded(SUITE_VERDICTS, lambda: suite_verdicts(results[results["variant"] != REPLICA], alpha=rule.alpha,
+                                                                 metric=metric, direction=rule.direction),
+                          "Suite-level verdicts")
     cmp, c_note = _guarded(CASE_COMPARISONS, lambda: compare_suites_by_case(faults), "Case-level suite comparisons")
     if c_note is None and (cmp["method"] == "degenerate").any():
         c_note = Note("case_comparisons", f"{int((cmp['method'] == 'degenerate').sum())} degenerate comparison(s) "
@@ -528,8 +534,8 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
     names = [p for p in PARAMETER_NAMES if f"class_{p}" in cases.columns]  # every Table I parameter, by class
     eff, e_note = _guarded(CLASS_EFFECTS, lambda: fit_class_effects(faults, cases, names), "Class effects",
                            (FaultlabError, ValueError, np.linalg.LinAlgError))
-    notes += [n for n in (r_note, c_note, f_note, p_note, e_note) if n is not None]
-    tables = {"case_verdicts": verdicts, "case_rates": rates, "case_comparisons": cmp,
+    notes += [n for n in (r_note, s_note, c_note, f_note, p_note, e_note) if n is not None]
+    tables = {"case_verdicts": verdicts, "case_rates": rates, "suite_verdicts": sv, "case_comparisons": cmp,
               "replica_false_alarms": fa, "paper_comparisons": pc, "class_effects": eff}
     return tables, notes
 

@@ -35,12 +35,13 @@ from faultlab.stats.comparison import COMPARISON_COLUMNS
 from faultlab.stats.detection import OUTCOME_COLUMNS
 from faultlab.stats.effects import EFFECT_COLUMNS
 from faultlab.stats.paper import PAPER_BY_SUITE_COLUMNS, PAPER_RATE_COLUMNS
+from faultlab.stats.pooling import SUITE_VERDICT_COLUMNS
 from faultlab.stats.rates import BY_SUITE_COLUMNS, FALSE_ALARM_COLUMNS, RATE_COLUMNS
 
 __all__ = ["TableSchema", "KINDS", "THIS_RUN", "PAPER", "ALL_VARIANTS", "TABLES"] + [
     "JOBS", "CASES", "OUTCOMES", "DETECTION_RATES", "BY_SUITE", "FALSE_ALARMS", "ORACLE", "ORACLE_SUMMARY",
     "SUITE_COMPARISONS", "PARAMETER_EFFECTS", "TABLE2_CELLS", "PAPER_RATES", "PAPER_BY_SUITE", "COVERAGE",
-    "RUNTIMES", "CASE_VERDICTS", "CASE_RATES", "CASE_COMPARISONS", "REPLICA_FALSE_ALARMS", "PAPER_COMPARISONS",
+    "RUNTIMES", "CASE_VERDICTS", "CASE_RATES", "SUITE_VERDICTS", "CASE_COMPARISONS", "REPLICA_FALSE_ALARMS", "PAPER_COMPARISONS",
     "CLASS_EFFECTS"]
 
 #: ``source`` of rows from the analysed campaign.
@@ -272,6 +273,14 @@ CASE_RATES = TableSchema.define(
     "case_rates", "Per suite and fault: detected / judged cases (cases are the unit; cannot-judge cases "
     "counted apart) with Clopper-Pearson and Wilson intervals (faultlab.stats.cases.case_rates).",
     CASE_RATE_COLUMNS, k="int", n="int")
+SUITE_VERDICTS = TableSchema.define(
+    "suite_verdicts", "Per suite, run and fault: the suite-level decision over the suite run's cases by the "
+    "exact sign-flip tests whatever the campaign's rule -- the per-case minimum at alpha / n (detected_min) and, "
+    "beside it, combined with the pooled test over the cases' mean log ratios, each at alpha / 2 "
+    "(detected_combined; faultlab.stats.pooling.suite_verdicts).", SUITE_VERDICT_COLUMNS,
+    run="int", n_cases="int", n_tested="int", n_crashed="int", min_p="float", pooled_p="float",
+    detected_min="bool", by_case="bool",
+    by_pool="bool", detected_combined="bool")
 CASE_COMPARISONS = TableSchema.define(
     "case_comparisons", "Per fault and pair of suites: cases as units, runs as clusters (binomial GEE, "
     "exchangeable, robust SEs; cluster bootstrap where GEE cannot fit), Holm within the fault "
@@ -296,4 +305,4 @@ CLASS_EFFECTS = TableSchema.define(
 TABLES: tuple[TableSchema, ...] = (JOBS, CASES, OUTCOMES, DETECTION_RATES, BY_SUITE, FALSE_ALARMS, ORACLE,
                                    ORACLE_SUMMARY, SUITE_COMPARISONS, PARAMETER_EFFECTS, TABLE2_CELLS,
                                    PAPER_RATES, PAPER_BY_SUITE, COVERAGE, RUNTIMES, CASE_VERDICTS, CASE_RATES,
-                                   CASE_COMPARISONS, REPLICA_FALSE_ALARMS, PAPER_COMPARISONS, CLASS_EFFECTS)
+                                   SUITE_VERDICTS, CASE_COMPARISONS, REPLICA_FALSE_ALARMS, PAPER_COMPARISONS, CLASS_EFFECTS)

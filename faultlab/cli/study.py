@@ -1,4 +1,4 @@
-"""``python -m faultlab study run|report``: which test-design strategy detects faults with fewer cases."""
+"""``python -m faultlab study run|report|k-report``: which test-design strategy detects faults with fewer cases."""
 
 from __future__ import annotations
 
@@ -41,6 +41,20 @@ def register(subparsers) -> None:
     rep.add_argument("--reports", default=None, help="where to write (default: RESULTS/report)")
     add_examples(rep, ["faultlab study report results/study", "faultlab study report reports/study/store --reports reports/study"])
     rep.set_defaults(func=_report)
+
+    alloc = sub.add_parser("k-report", help="repetitions K against cases n at a fixed budget (one pool, runs nothing)",
+                           description="Judge every case of a study's single pool again on its first K "
+                                       "repetitions for each K, draw suites of n = budget / K cases and write "
+                                       "allocation.csv, allocation_summary.csv, allocation_meta.json and "
+                                       "allocation.md.")
+    alloc.add_argument("results", help="output directory of `faultlab study run` (one suite kind)")
+    alloc.add_argument("--budget", type=positive_int, required=True, help="paired executions K x n per suite")
+    alloc.add_argument("--k", type=positive_int, nargs="+", required=True, help="repetitions compared")
+    alloc.add_argument("--draws", type=positive_int, default=2000, help="suites drawn per allocation")
+    alloc.add_argument("--seed", type=int, default=0, help="seed of the suite draws")
+    alloc.add_argument("--reports", default=None, help="where to write (default: RESULTS/k-report)")
+    add_examples(alloc, ["faultlab study k-report results/study-k --budget 72 --k 6 9 12 --reports reports/study-k"])
+    alloc.set_defaults(func=_k_report)
 
     plan = sub.add_parser("plan", help="the scale a study needs to detect given differences, its cost, what fits",
                           description="Power before running: the pool cases per strategy, mutants and repetitions "
@@ -87,6 +101,13 @@ def _report(args: argparse.Namespace) -> int:
     reports = args.reports if args.reports is not None else Path(args.results) / "report"
     return print_paths(write_study_report(args.results, reports))
 
+
+def _k_report(args: argparse.Namespace) -> int:
+    from faultlab.report.allocation import write_allocation_report
+
+    reports = args.reports if args.reports is not None else Path(args.results) / "k-report"
+    return print_paths(write_allocation_report(args.results, reports, budget=args.budget, ks=args.k,
+                                               draws=args.draws, seed=args.seed))
 
 def _sides(exp) -> int:
     """Sides of the per-case sign-flip test of ``exp``'s detection rule (its declared direction)."""

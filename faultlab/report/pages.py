@@ -514,6 +514,29 @@ def _case_rate_pages(analysis: Analysis) -> list[Figure]:
                             "cannot-judge cases are counted apart.")
 
 
+def _suite_verdict_pages(analysis: Analysis) -> list[Figure]:
+    v = analysis.suite_verdicts
+    a = analysis.rule.alpha
+    alternative = alternative_of(analysis.rule.direction)
+
+    def yes(x) -> str:
+        return "yes" if x else "no"
+
+    show = pd.DataFrame({
+        "suite": v["suite"].map(suite_label), "run": v["run"], "fault": v["fault"].map(variant_label),
+        "tested/cases": [f"{t}/{n}" for t, n in zip(v["n_tested"], v["n_cases"])], "crashed": v["n_crashed"],
+        "min p": [_g3(x) for x in v["min_p"]], "per-case min": v["detected_min"].map(yes),
+        "pooled p": [_g3(x) for x in v["pooled_p"]], "combined": v["detected_combined"].map(yes),
+    })
+    return table_pages("Suite-level decisions: per-case minimum and pooled", show, fontsize=8,
+                       note=f"Per suite run: 'per-case min' detects when the fault crashes alone on a case or the "
+                            f"smallest per-case exact {alternative} sign-flip p is at "
+                            f"most {a:g} / n; 'combined' when it crashes, that p is at most {a:g} / (2 n), or the "
+                            f"pooled sign-flip test over the cases' mean log ratios gives p at most {a:g} / 2 "
+                            f"(family-wise {a:g}). The pooled test can reject at {a / 2:g} only from "
+                            f"{min_pairs(a / 2, alternative=alternative)} tested cases.")
+
+
 def _case_comparison_pages(analysis: Analysis) -> list[Figure]:
     c = analysis.case_comparisons
     show = pd.DataFrame({
@@ -684,6 +707,7 @@ def _class_effect_pages(analysis: Analysis) -> list[Figure]:
 _BEYOND_PAGES = {"false_alarms": _false_alarm_pages, "oracle": _oracle_pages,
                  "suite_comparisons": _suite_comparison_pages, "parameter_effects": _effect_pages,
                  "case_verdicts": _case_verdict_pages, "case_rates": _case_rate_pages,
+                 "suite_verdicts": _suite_verdict_pages,
                  "case_comparisons": _case_comparison_pages, "replica_false_alarms": _replica_false_alarm_pages,
                  "paper_comparisons": _paper_comparison_pages, "class_effects": _class_effect_pages}
 

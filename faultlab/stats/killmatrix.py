@@ -78,7 +78,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
@@ -98,7 +98,7 @@ from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, SUITE_ORDER, JobStatus, ordered
 
-__all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects",
+__all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects", "combined_detects",
            "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "exact_detection_interval", "score_table", "compare_scores", "detectable_score_difference", "smallest_showable_difference",
@@ -401,6 +401,10 @@ class SuiteDraws:
         strategy -> N.
     n_strong : dict
         (strategy, n) -> (V,) number of strong pool cases (:func:`strong_cases`).
+    detects_pooled : dict
+        (strategy, n) -> (draws, V) bool, the combined suite decision of
+        :func:`~faultlab.stats.pooling.suite_decisions` (per-case minimum or pooled test, each at
+        ``alpha / 2``; crashes detect); empty when not computed.
     """
 
     variants: tuple[str, ...]
@@ -412,6 +416,44 @@ class SuiteDraws:
     mutants: tuple[str, ...]
     pool_sizes: dict
     n_strong: dict
+    detects_pooled: dict = field(default_factory=dict)
+
+
+def combined_detects(p, crash, means, *, alpha: float = DEFAULT_ALPHA,
+                     rng: np.random.Generator | None = None) -> np.ndarray:
+    """The combined suite decision of drawn suites: per-case minimum or pooled test at ``alpha / 2`` each.
+
+    Parameters
+    ----------
+    p, crash, means : ndarray, shape (..., n)
+        Per-case p values, failures that detect and case mean log ratios, the suite's cases on
+        the last axis.
+    rng : numpy.random.Generator, optional
+        For suites of more than ``MAX_EXACT_PAIRS`` tested cases (Monte Carlo pooled test).
+
+    Returns
+    -------
+    ndarray of bool, shape (...,)
+        :func:`~faultlab.stats.pooling.suite_decisions` with ``combination = "both"``; the pooled
+        test is computed only for suites that neither crash nor reject by the per-case minimum
+        (it cannot change their decision), over their tested cases (finite mean and p value).
+    """
+    p = np.asarray(p, dtype=float)
+    shape, n = p.shape[:-1], p.shape[-1]
+    p2 = p.reshape(-1, n)
+    crash2 = np.asarray(crash, dtype=bool).reshape(-1, n)
+    means2 = np.asarray(means, dtype=float).reshape(-1, n)
+    pooled = np.full(p2.shape[0], np.nan)
+    first = suite_decisions(p2, pooled, crash2, alpha=alpha)["detected"].to_numpy()
+    todo = np.flatnonzero(~first)
+    tested = np.isfinite(means2[todo]) & np.isfinite(p2[todo])
+    full = tested.all(axis=1)
+    if full.any():
+        pooled[todo[full]] = pooled_pvalues(means2[todo[full]], rng=rng)[0]
+    for i, row in zip(todo[~full], tested[~full]):       # suites holding an untested case
+        if row.any():
+            pooled[i] = pooled_pvalues(means2[i, row][None, :], rng=rng)[0][0]
+    return suite_decisions(p2, pooled, crash2, alpha=alpha)["detected"].to_numpy().reshape(shape)
 
 
 def evaluate_suites(km: KillMatrix, sizes, *, draws: int, bootstrap: int, seed: int, alpha: float = DEFAULT_ALPHA,
@@ -420,16 +462,22 @@ def evaluate_suites(km: KillMatrix, sizes, *, draws: int, bootstrap: int, seed: 
 
     Streams (:func:`faultlab.seeds.study_seed_sequence`): the suites of (strategy, n) from
     ``("draw", strategy, n)``, the pool resamples of a strategy from ``("bootstrap", strategy)``
-    (the same resampled pools for every size), the mutant resample from ``("mutants",)``.
+    (the same resampled pools for every size), the mutant resample from ``("mutants",)``, the
+    Monte Carlo pooled test of suites of more than ``MAX_EXACT_PAIRS`` cases from ``("pooled", strategy, n)``.
+    The combined decision (:func:`combined_detects`) is computed only for a pool whose every tested
+    case has its mean log ratio.
     """
     _check(alpha, method)
     mutants = tuple(m for m in mutants if m in km.variants)
-    detects, detects_paper, exact, boot, pool_sizes, n_strong = {}, {}, {}, {}, {}, {}
+    detects, detects_paper, exact, boot, pool_sizes, n_strong, pooled = {}, {}, {}, {}, {}, {}, {}
     for strategy in km.strategies:
         rows = km.rows(strategy)
         n_pool = rows.size
         pool_sizes[strategy] = n_pool
         p, crash, paper = km.p[rows], _failures(km, timeouts_detect)[rows], km.paper[rows]
+        means = km.mean_log_ratio[rows]
+        # a kill matrix saved without the case means (older analyses) cannot be pooled
+        poolable = bool(np.isfinite(means[np.isfinite(p)]).all())
         boot_rng = np.random.default_rng(study_seed_sequence(seed, "bootstrap", strategy))
         boot_state = boot_rng.bit_generator.state
         for n in sizes:
@@ -442,6 +490,10 @@ def evaluate_suites(km: KillMatrix, sizes, *, draws: int, bootstrap: int, seed: 
             detects[(strategy, n)] = suite_detects(np.moveaxis(p[idx], 1, -1), np.moveaxis(crash[idx], 1, -1),
                                                    alpha=alpha, method=method)
             detects_paper[(strategy, n)] = paper[idx].any(axis=1)
+            if poolable:
+                pooled[(strategy, n)] = combined_detects(
+                    np.moveaxis(p[idx], 1, -1), np.moveaxis(crash[idx], 1, -1), np.moveaxis(means[idx], 1, -1),
+                    alpha=alpha, rng=np.random.default_rng(study_seed_sequence(seed, "pooled", strategy, n)))
             strong = strong_cases(km, n, alpha=alpha, timeouts_detect=timeouts_detect)[rows]
             n_strong[(strategy, n)] = strong.sum(axis=0)
             exact[(strategy, n)] = detection_probability(n_strong[(strategy, n)], n_pool, n)
@@ -451,7 +503,8 @@ def evaluate_suites(km: KillMatrix, sizes, *, draws: int, bootstrap: int, seed: 
     mutant_boot = (mrng.integers(0, len(mutants), size=(bootstrap, len(mutants))) if mutants
                    else np.zeros((bootstrap, 0), dtype=np.int64))
     return SuiteDraws(variants=km.variants, detects=detects, detects_paper=detects_paper, exact=exact, boot=boot,
-                      mutant_boot=mutant_boot, mutants=mutants, pool_sizes=pool_sizes, n_strong=n_strong)
+                      mutant_boot=mutant_boot, mutants=mutants, pool_sizes=pool_sizes, n_strong=n_strong,
+                      detects_pooled=pooled)
 
 
 def _ci(values: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
@@ -481,7 +534,11 @@ def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
     detect), ``rate_exact`` (hypergeometric, on the pool), ``ci_low, ci_high`` (exact interval,
     :func:`exact_detection_interval`), ``boot_low, boot_high`` (95 % percentile bootstrap over
     pool cases, zero-width when every resample agrees), ``se_boot``, ``rate_paper`` (paper rule)
-    and ``strong_cases`` (pool cases that alone make a suite of this size detect).
+    and ``strong_cases`` (pool cases that alone make a suite of this size detect); beside ``rate``
+    (the per-case minimum at ``alpha``), ``rate_combined``: share of the drawn suites detected by the
+    combined decision (per-case minimum or pooled test over the suite's case mean log ratios, each
+    at ``alpha / 2``, :func:`combined_detects`; NaN when not computed).  It depends on which cases
+    meet in a suite, so it has no exact interval over pool cases.
     """
     col = {v: i for i, v in enumerate(ev.variants)}
     rows = []
@@ -495,7 +552,10 @@ def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
             j = col[v]
             ex = ev.exact[(strategy, n)][j]
             rows.append({"variant": v, "strategy": strategy, "size": n, "pool": n_pool, "draws": det.shape[0],
-                         "rate": float(det[:, j].mean()), "rate_exact": float(ex), "ci_low": float(ex_lo[j]),
+                         "rate": float(det[:, j].mean()),
+                         "rate_combined": (float(ev.detects_pooled[(strategy, n)][:, j].mean())
+                                           if (strategy, n) in ev.detects_pooled else math.nan),
+                         "rate_exact": float(ex), "ci_low": float(ex_lo[j]),
                          "ci_high": float(ex_hi[j]), "boot_low": float(lo[j]), "boot_high": float(hi[j]),
                          "se_boot": float(se[j]),
                          "rate_paper": float(ev.detects_paper[(strategy, n)][:, j].mean()),

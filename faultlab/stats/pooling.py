@@ -41,11 +41,12 @@ from scipy.stats import permutation_test
 
 from faultlab.errors import ConfigError
 from faultlab.seeds import study_seed_sequence
-from faultlab.stats.verdict import MAX_EXACT_PAIRS, min_pairs, sign_flip_pvalues
-from faultlab.vocabulary import DEFAULT_ALPHA
+from faultlab.stats.verdict import (MAX_EXACT_PAIRS, Verdict, alternative_of, case_verdicts, min_pairs,
+                                    sign_flip_pvalues)
+from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_DIRECTION
 
-__all__ = ["COMBINATIONS", "DEFAULT_COMBINATION", "MONTE_CARLO_RESAMPLES", "case_log_ratio_means",
-           "pooled_pvalues", "suite_decisions", "pooling_power"]
+__all__ = ["COMBINATIONS", "DEFAULT_COMBINATION", "MONTE_CARLO_RESAMPLES", "SUITE_VERDICT_COLUMNS",
+           "case_log_ratio_means", "pooled_pvalues", "suite_decisions", "suite_verdicts", "pooling_power"]
 
 #: How the per-case minimum and the pooled test combine into a suite's verdict.
 COMBINATIONS: tuple[str, ...] = ("both", "min", "pooled")
@@ -154,6 +155,60 @@ def suite_decisions(case_p, pooled_p, crash, *, alpha: float = DEFAULT_ALPHA,
     by_pool = (pooled <= level) if combination != "min" else np.zeros(p.shape[0], bool)
     return pd.DataFrame({"by_case": by_case, "by_pool": by_pool, "crashed": crashed,
                          "detected": crashed | by_case | by_pool})
+
+
+#: Columns of :func:`suite_verdicts`.
+SUITE_VERDICT_COLUMNS: tuple[str, ...] = (
+    "suite", "run", "fault", "alternative", "n_cases", "n_tested", "n_crashed", "min_p", "detected_min",
+    "pooled_p", "by_case", "by_pool", "detected_combined")
+
+#: Seed of the Monte Carlo pooled test of a suite run with more than ``MAX_EXACT_PAIRS`` tested cases.
+SUITE_VERDICT_SEED = 20261126
+
+
+def suite_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric: str = "rms",
+                   direction: str = DEFAULT_DIRECTION) -> pd.DataFrame:
+    """Per (suite, run, fault): the suite-level decision by the per-case minimum and combined with pooling.
+
+    The family is the suite run's ``n`` cases.  ``detected_min``: the fault crashed alone on a
+    case, or the smallest per-case exact sign-flip p value (over the case's K repetitions,
+    :func:`~faultlab.stats.verdict.case_verdicts`) is at most ``alpha / n`` (Holm's first step);
+    ``detected_combined``: a crash, or ``by_case`` (smallest p <= ``alpha / (2 n)``), or
+    ``by_pool`` (the pooled sign-flip test over the tested cases' mean log ratios, ``pooled_p``, at
+    most ``alpha / 2``) -- :func:`suite_decisions` with ``"both"``, family-wise level ``alpha``.
+    A case that cannot be judged enters with p = 1 and no mean.  Sidedness from ``direction``
+    (two-sided by default, ``"worse"`` one-sided) for both tests.
+
+    Parameters
+    ----------
+    results : DataFrame
+        The runner's results (``run, suite, case, rep, variant, status`` and the metric's column).
+
+    Returns
+    -------
+    DataFrame
+        :data:`SUITE_VERDICT_COLUMNS`, one row per (suite, run, fault).
+    """
+    alternative = alternative_of(direction)
+    v = case_verdicts(results, alpha=alpha, metric=metric, direction=direction)
+    rows = []
+    rng = np.random.default_rng(SUITE_VERDICT_SEED)
+    for (suite, run, fault), g in v.groupby(["suite", "run", "fault"], sort=False):
+        p = g["p"].to_numpy(float)
+        crash = (g["verdict"] == Verdict.CRASH_DETECTED.value).to_numpy(bool)
+        means = g["mean_log_ratio"].to_numpy(float)
+        tested = np.isfinite(p) & np.isfinite(means) & ~crash
+        pooled = (pooled_pvalues(means[tested][None, :], alternative=alternative, rng=rng)[0][0]
+                  if tested.any() else np.nan)
+        minimum = suite_decisions(p[None, :], [pooled], crash[None, :], alpha=alpha, combination="min")
+        both = suite_decisions(p[None, :], [pooled], crash[None, :], alpha=alpha, combination="both")
+        rows.append({"suite": suite, "run": int(run), "fault": fault, "alternative": alternative,
+                     "n_cases": len(g), "n_tested": int(tested.sum()), "n_crashed": int(crash.sum()),
+                     "min_p": float(np.nanmin(p)) if np.isfinite(p).any() else np.nan,
+                     "detected_min": bool(minimum["detected"].iloc[0]), "pooled_p": float(pooled),
+                     "by_case": bool(both["by_case"].iloc[0]), "by_pool": bool(both["by_pool"].iloc[0]),
+                     "detected_combined": bool(both["detected"].iloc[0])})
+    return pd.DataFrame(rows, columns=list(SUITE_VERDICT_COLUMNS))
 
 
 def pooling_power(*, n_cases: int = 10, k: int = 11, draws: int = 1000, alpha: float = DEFAULT_ALPHA,

@@ -302,6 +302,29 @@ def test_the_analysis_layer_imports_no_report_cli_or_plotting():
     assert "matplotlib" not in outside and "seaborn" not in outside and "statsmodels" in outside
 
 
+def test_suite_verdicts_report_the_combined_decision_beside_the_per_case_minimum():
+    """One suite run of 12 cases, K = 11: a fault ~13 % worse on every case (noisy) is seen only by the
+    pooled test; a fault 50 % worse on one case only by the per-case minimum; the A/A replica is no fault."""
+    factors = np.exp(np.random.default_rng(9).normal(0.12, 0.3, (12, 11)))
+    rng = np.random.default_rng(3)
+    rows = []
+    for case in range(12):
+        base = 1000.0 + 200.0 * rng.random(11)
+        for rep in range(11):
+            rows += [job(1, "random", case, "baseline", rep, base[rep]),
+                     job(1, "random", case, "baseline_replica", rep, base[rep] * factors[case, rep]),
+                     job(1, "random", case, "naive_resampling", rep, base[rep] * factors[case, rep]),
+                     job(1, "random", case, "motion_sign_error", rep, base[rep] * (1.5 if case == 0 else 1.0))]
+    a = Analysis.from_frame(frame(rows), {"detection": {"rule": "statistical", "alpha": 0.05, "direction": "either"}},
+                            paper=False)
+    sv = a.suite_verdicts.set_index("fault")
+    assert set(sv.index) == {"naive_resampling", "motion_sign_error"}
+    assert sv.loc["naive_resampling", "detected_combined"] and not sv.loc["naive_resampling", "detected_min"]
+    assert sv.loc["naive_resampling", "pooled_p"] <= 0.025 and sv.loc["naive_resampling", "min_p"] > 0.05 / 12
+    assert sv.loc["motion_sign_error", "detected_min"] and not sv.loc["motion_sign_error", "by_pool"]
+    assert sv.loc["motion_sign_error", "min_p"] == pytest.approx(2.0 ** -10)
+
+
 def test_saved_analysis_names_no_machine_path_and_older_ones_load_portable(strict, tmp_path):
     assert (strict.paper_raw, strict.paper_reported) == ("paper_repro/paper_table2_rms.csv",
                                                         "paper_repro/paper_table2_reported.csv")

@@ -67,6 +67,12 @@ def _render_calibration(store: Path, out: Path) -> None:
     result.rates.to_csv(out / "calibration.csv", index=False)
 
 
+def _render_allocation(store: Path, out: Path) -> None:
+    from faultlab.report.allocation import write_allocation_report
+
+    write_allocation_report(store, out, budget=72, ks=[6, 9, 12])
+
+
 #: (committed report directory, its store relative to it, renderer, store holds one store per SLAM)
 COMMITTED = [
     ("", "store", _render_paper, False),
@@ -75,6 +81,7 @@ COMMITTED = [
     ("slams", "store", _render_slams, True),
     ("robustness", "store", _render_robustness, True),
     ("calibrate-quick", "store", _render_calibration, False),
+    ("study-k", "store", _render_allocation, False),
 ]
 
 

@@ -128,6 +128,16 @@ def test_case_level_pages_state_test_alpha_family_and_what_could_not_be_judged()
     assert np.allclose(sign["p"], 1 / 32) and np.allclose(sign["p_holm"], 4 / 32)
     assert (sign["direction"] == "worse").all() and (sign["median_diff_mm"] > 800).all()
     assert (sign["verdict"] == "not_detected").all()
+    # the suite-level page: every case's p is 2^-5, so the per-case minimum detects exactly the suite runs of
+    # n cases with 2^-5 <= 0.05 / n (the combined one with 2^-5 <= 0.025 / n); at most 2 case means give a
+    # pooled p of at least 1/2; the note states where pooling starts
+    assert "Suite-level decisions: per-case minimum and pooled" in titles
+    assert "only from 7 tested cases" in text
+    sv = a.suite_verdicts.query("fault == 'motion_sign_error'")
+    assert len(sv) == res.groupby(["suite", "run"]).ngroups
+    assert (sv["detected_min"] == (1 / 32 <= 0.05 / sv["n_cases"])).all()
+    assert (sv["detected_combined"] == (1 / 32 <= 0.025 / sv["n_cases"])).all()
+    assert np.allclose(sv["min_p"], 1 / 32) and (sv["pooled_p"] >= 0.5).all()
     # no empty class-effect page: the continuous effects pages say why nothing is fitted, and what size would be
     assert "Which classes drive detection (logistic regression over cases)" not in titles
     assert "Beyond the paper: which scenario parameters drive the map error and the faults" in titles

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -17,7 +18,8 @@ from faultlab.errors import ConfigError, ResultsError
 from faultlab.metrics.detection import DetectionRule
 from faultlab.stats.killmatrix import (KillMatrix, StudySpec, bootstrap_probabilities, compare_scores,
                                        detection_probability, detection_table, draw_suites, evaluate_suites,
-                                       judge_suite, kill_matrix, score_table, strong_cases, study_spec,
+                                       combined_detects, judge_suite, kill_matrix, score_table, strong_cases,
+                                       study_spec,
                                        suite_detects, suite_kills, suite_rejections)
 from faultlab.stats.verdict import min_pairs
 
@@ -369,6 +371,61 @@ def test_study_spec_defaults_and_types():
         study_spec({"alpha": 1.5}, source="x")
     with pytest.raises(ConfigError, match="study.timeouts_detect must be true or false"):
         study_spec({"timeouts_detect": "no"}, source="x")
+
+
+def _pooled_matrix() -> KillMatrix:
+    """hand_matrix with case mean log ratios of both signs, mostly positive (NaN where not tested)."""
+    km = hand_matrix()
+    rng = np.random.default_rng(11)
+    means = np.where(np.isnan(km.p), np.nan, rng.normal(0.3, 0.4, km.p.shape))
+    return dataclasses.replace(km, mean_log_ratio=means)
+
+
+def brute_force_combined(p_cases, crash_cases, means, alpha) -> bool:
+    """Crash, or some case's p <= alpha / (2 n), or the textbook sign-flip p over the tested cases'
+    means <= alpha / 2."""
+    n = len(p_cases)
+    if np.any(crash_cases) or np.nanmin(np.where(np.isnan(p_cases), 1.0, p_cases)) <= alpha / 2 / n:
+        return True
+    tested = ~np.isnan(means) & ~np.isnan(p_cases)
+    return bool(tested.any()) and _sign_flip_p(np.asarray(means)[tested]) <= alpha / 2
+
+
+def test_combined_decision_of_drawn_suites_matches_brute_force_and_judge_suite():
+    km = _pooled_matrix()
+    rows = km.rows("systematic")
+    idx = draw_suites(rows.size, 5, 60, rng=np.random.default_rng(2))
+    det = combined_detects(np.moveaxis(km.p[rows][idx], 1, -1), np.moveaxis(km.crash[rows][idx], 1, -1),
+                           np.moveaxis(km.mean_log_ratio[rows][idx], 1, -1), alpha=ALPHA)
+    assert det.shape == (60, 3)
+    seen = set()
+    for d, suite in enumerate(idx):
+        judged = judge_suite(km, rows[suite]).set_index("variant")
+        for j, v in enumerate(km.variants):
+            expected = brute_force_combined(km.p[rows][suite, j], km.crash[rows][suite, j],
+                                            km.mean_log_ratio[rows][suite, j], ALPHA)
+            assert det[d, j] == expected == judged.loc[v, "detected_pooled"]
+            seen.add(expected)
+    assert seen == {True, False}   # the hand matrix exercises both decisions
+
+
+def test_detection_table_reports_the_combined_rate_beside_the_per_case_minimum():
+    km = _pooled_matrix()
+    ev = evaluate_suites(km, [2, 4], draws=200, bootstrap=20, seed=4, mutants=["mutant:x"])
+    table = detection_table(ev, km.variants).set_index(["variant", "strategy", "size"])
+    for (strategy, n), det in ev.detects.items():
+        for j, v in enumerate(km.variants):
+            combined = ev.detects_pooled[(strategy, n)][:, j]
+            assert table.loc[(v, strategy, n), "rate_combined"] == pytest.approx(combined.mean())
+            assert table.loc[(v, strategy, n), "rate"] == pytest.approx(det[:, j].mean())
+
+
+def test_a_kill_matrix_without_case_means_has_no_combined_rate():
+    km = hand_matrix()
+    km = dataclasses.replace(km, mean_log_ratio=np.full(km.p.shape, np.nan))
+    ev = evaluate_suites(km, [2], draws=20, bootstrap=5, seed=4)
+    assert ev.detects_pooled == {}
+    assert detection_table(ev, km.variants)["rate_combined"].isna().all()
 
 
 def test_whole_suites_judge_each_runs_suite_by_textbook_holm_and_count_suites_as_units():

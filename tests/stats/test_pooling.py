@@ -100,3 +100,49 @@ def test_power_simulation_keeps_the_level_and_each_test_wins_on_its_own_kind_of_
     assert sim[("concentrated", "min")] > sim[("concentrated", "both")] > sim[("concentrated", "pooled")]
     assert pooling_power(n_cases=5, k=9, draws=50, diffuse=(2.0,), concentrated=()).set_index(
         ["effect", "combination"])["power"][("diffuse", "pooled")] == 0.0
+
+
+def _runner_results(errors: dict, k: int = 11, n: int = 12, seed: int = 3):
+    """Runner-shaped results of one suite run: ``errors[fault](case, baseline) -> faulty errors or "crash"``."""
+    import pandas as pd
+
+    rng = np.random.default_rng(seed)
+    rows = []
+    for case in range(n):
+        base = 1000.0 + 200.0 * rng.random(k)
+        rows += [dict(run=1, suite="random", case=case, rep=r, variant="baseline", status="ok", rms_mm=base[r],
+                      emd_mm=1.0, runtime_s=0.1) for r in range(k)]
+        for fault, f in errors.items():
+            e = f(case, base)
+            rows += [dict(run=1, suite="random", case=case, rep=r, variant=fault,
+                          status="crash" if isinstance(e, str) else "ok",
+                          rms_mm=np.nan if isinstance(e, str) else e[r], emd_mm=1.0, runtime_s=0.1) for r in range(k)]
+    return pd.DataFrame(rows)
+
+
+def test_suite_verdicts_pool_a_diffuse_effect_and_keep_a_concentrated_one_and_a_crash():
+    from faultlab.stats.pooling import suite_verdicts
+
+    noise = np.random.default_rng(9)
+    diffuse_factors = np.exp(noise.normal(0.12, 0.3, (12, 11)))   # every case ~13 % worse, noisy
+    res = _runner_results({
+        "diffuse": lambda c, b: b * diffuse_factors[c],
+        "concentrated": lambda c, b: b * (1.5 if c == 0 else 1.0),
+        "crashes": lambda c, b: "crash" if c == 5 else b,
+    })
+    table = suite_verdicts(res).set_index("fault")
+    # independent reference: the textbook two-sided sign-flip p over the case means of log(faulty / baseline)
+    base = res[res["variant"] == "baseline"].sort_values(["case", "rep"])["rms_mm"].to_numpy().reshape(12, 11)
+    means = np.log(diffuse_factors).mean(axis=1)
+    assert np.allclose(np.log(res[res["variant"] == "diffuse"].sort_values(["case", "rep"])["rms_mm"].to_numpy()
+                              .reshape(12, 11) / base).mean(axis=1), means)
+    assert table.loc["diffuse", "pooled_p"] == pytest.approx(_brute_two_sided(means))
+    assert table.loc["diffuse", "pooled_p"] <= 0.025 and table.loc["diffuse", "min_p"] > 0.05 / 12
+    assert table.loc["diffuse", "detected_combined"] and not table.loc["diffuse", "detected_min"]
+    # one case 50 % worse in all 11 repetitions: p = 2^-10 <= 0.025 / 12; the other 11 cases have mean 0
+    assert table.loc["concentrated", "min_p"] == pytest.approx(2.0 ** -10)
+    assert table.loc["concentrated", "detected_min"] and table.loc["concentrated", "by_case"]
+    assert not table.loc["concentrated", "by_pool"]
+    assert table.loc["crashes", "n_crashed"] == 1 and table.loc["crashes", "n_tested"] == 11
+    assert table.loc["crashes", "detected_min"] and table.loc["crashes", "detected_combined"]
+    assert not table.loc["crashes", "by_case"] and not table.loc["crashes", "by_pool"]
