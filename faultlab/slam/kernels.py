@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
+__all__ = ["noisy_controls", "motion", "offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
            "ekf_correction", "fused_correction", "gather_pairs", "scatter_pairs",
            "take_rows", "systematic_indices"]
 
@@ -52,6 +52,26 @@ def _wrap(a):
     t = np.floor(t)  # a float (math.floor would round to an int64 and overflow)
     t = t * _TWO_PI
     return a - t
+
+
+@_jit
+def noisy_controls(u, eps, std_v, std_omega, out):
+    """``out = u + eps * (std_v, std_omega)`` for the control ``u`` (2,) and the draws ``eps`` (N, 2)
+    (``sample_controls`` after its draw)."""
+    for i in range(eps.shape[0]):
+        out[i, 0] = u[0] + eps[i, 0] * std_v
+        out[i, 1] = u[1] + eps[i, 1] * std_omega
+
+
+@_jit
+def motion(poses, u, cos_th, sin_th, out):
+    """``motion_model`` with the reference heading wrap, after numpy's ``cos`` and ``sin`` of the
+    headings: ``out = (x + v cos, y + v sin, wrap(theta + omega))`` for poses (N, 3), controls (N, 2)."""
+    for i in range(poses.shape[0]):
+        v = u[i, 0]
+        out[i, 0] = poses[i, 0] + v * cos_th[i]
+        out[i, 1] = poses[i, 1] + v * sin_th[i]
+        out[i, 2] = _wrap(poses[i, 2] + u[i, 1])
 
 
 @_jit
