@@ -786,31 +786,37 @@ class FastSlam(UnitSlam):
         self._anc, self._anc_spare = spare, anc
         self._views = None
 
-    def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The stored landmarks of ``cols`` for the particles of slots ``start .. stop - 1``.
 
-        Returns ``(mb (2, k, M), pb (2, 2, k, M), base (k, M) or (k, 1))``, ``M`` the filters'
-        particles: fresh copies of the means and covariances, and the storage offset of each
-        (column, particle's filter) in the flattened (component, column x particle) storage.
+        Returns ``(mb (2, k, M), pb (2, 2, k, M))``, ``M`` the filters' particles: fresh copies of
+        the means and covariances.
         """
         n = self._n
-        bn = self._mu.shape[2]
-        cap = self._mu.shape[1]
         p0, p1 = start * n, stop * n
-        base = (cols * bn)[:, None]
-        if bn > n:  # each filter's rows of the storage start at its slot's offset
-            if self._offsets is None:
-                self._offsets = np.repeat(np.arange(bn // n, dtype=np.intp) * n, n)
-            base = base + self._offsets[p0:p1]
         if self._jit:
             mb = np.empty((2, cols.size, p1 - p0))
             pb = np.empty((2, 2, cols.size, p1 - p0))
             _twins.gather_rows(self._mu, self._P, self._anc, cols, p0, n, mb, pb)
-            return mb, pb, base
-        flat = self._anc[p0:p1, cols].T + base  # (k, M) positions in the flattened storage
+            return mb, pb
+        bn = self._mu.shape[2]
+        cap = self._mu.shape[1]
+        flat = self._anc[p0:p1, cols].T + self._base(start, stop, cols)  # (k, M) positions in the flattened storage
         mb = np.take(self._mu.reshape(2, cap * bn), flat, axis=1)  # (2, k, M), a fresh copy
         pb = np.take(self._P.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, cols.size, p1 - p0)
-        return mb, pb, base
+        return mb, pb
+
+    def _base(self, start: int, stop: int, cols: np.ndarray) -> np.ndarray:
+        """The storage offset of each (column of ``cols``, particle's filter) of slots ``start .. stop - 1``
+        in the flattened (component, column x particle) storage, shape (k, M) or (k, 1)."""
+        n = self._n
+        bn = self._mu.shape[2]
+        base = (cols * bn)[:, None]
+        if bn > n:  # each filter's rows of the storage start at its slot's offset
+            if self._offsets is None:
+                self._offsets = np.repeat(np.arange(bn // n, dtype=np.intp) * n, n)
+            base = base + self._offsets[start * n:stop * n]
+        return base
 
     def _blocks(self, m_rows: int, k: int) -> list[tuple[int, int]]:
         """Row ranges that split ``m_rows`` particles into blocks of about :attr:`block_pairs` pairs.
@@ -847,7 +853,7 @@ class FastSlam(UnitSlam):
         m_rows = p1 - p0
         x = poses if m_rows == poses.shape[0] else poses[p0:p1]
         blocks = self._blocks(m_rows, k)
-        mb, pb, base = self._gather(start, stop, cols)
+        mb, pb = self._gather(start, stop, cols)
         if len(blocks) == 1:
             loglik, known, mu_new, P_new = self._correct_rows(steps, x, mb, pb, seen, z)
         else:
@@ -875,7 +881,7 @@ class FastSlam(UnitSlam):
             P_store.reshape(4 * cap, bn)[rows.ravel(), p0:p1] = P_new.reshape(4 * k, m_rows)
         else:
             owner = np.asarray(owners[0]) if len(owners) == 1 else np.concatenate(owners)
-            wflat = owner[None, :] + base  # sharers of a row: the last particle's values win
+            wflat = owner[None, :] + self._base(start, stop, cols)  # sharers of a row: the last particle's values win
             mu_store.reshape(2, cap * bn)[:, wflat] = mu_new
             P_store.reshape(4, cap * bn)[:, wflat] = P_new.reshape(4, k, m_rows)
         self._anc[p0:p1, cols] = owner[:, None]
@@ -957,12 +963,12 @@ class FastSlam(UnitSlam):
         bn = mu_store.shape[2]
         cap = mu_store.shape[1]
         k = cols.size
-        mb, pb, base = self._gather(j, j + 1, cols)
+        mb, pb = self._gather(j, j + 1, cols)
         owner = np.asarray(self._owner[j])
         lw, mu_new, P_new = correct_in_sharer_order(self._units(1), self._logw[sl], owner, poses[sl], z, seen,
                                                     mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
         logw[sl] = self._normalise(np.asarray(lw, dtype=float))
-        wflat = owner[None, :] + base  # sharers write equal values to their common row
+        wflat = owner[None, :] + self._base(j, j + 1, cols)  # sharers write equal values to their common row
         mu_store.reshape(2, cap * bn)[:, wflat] = np.asarray(mu_new).transpose(2, 1, 0)
         P_store.reshape(4, cap * bn)[:, wflat] = np.asarray(P_new).transpose(2, 3, 1, 0).reshape(4, k, n)
         self._anc[sl, cols] = owner[:, None]

@@ -42,7 +42,8 @@ from faultlab.slam.units import _mat22, _vec2
 
 __all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "gather_rows",
            "scatter_rows", "take_rows", "warm_up",
-           "sample_controls", "motion_model", "predict_measurement", "innovation", "innovation_covariance", "log_likelihood", "ekf_update",
+           "sample_controls", "motion_model", "predict_measurement", "innovation", "innovation_covariance",
+           "log_likelihood", "ekf_update",
            "predict_measurement_wrapped", "log_likelihood_wrapped", "resample"]
 
 #: The environment variable that turns the compiled twins off (value ``0``).
