@@ -915,12 +915,14 @@ class FastSlam(UnitSlam):
         mu = mb.transpose(2, 1, 0)  # (M', k, 2) view
         P = pb.transpose(3, 2, 0, 1)  # (M', k, 2, 2) view
         if self._ref_classify:  # the reference: the never-seen ids are new for every particle
-            unseen = ~seen
-            new = np.broadcast_to(unseen[None, :], mu.shape[:2])
-            new_cols = None if seen.all() else np.flatnonzero(unseen)
+            known = np.empty(mu.shape[:2], dtype=bool)
+            known[...] = seen
+            new_cols = None if seen.all() else np.flatnonzero(~seen)
+            new = ~known if new_cols is not None else None
         else:
             new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
             new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
+            known = ~new
         if new_cols is not None:
             # initialise where new (only the observations with at least one new pair)
             mu_i, P_i = steps.init_landmarks(x, z[new_cols], Q, wrap=steps.wrap_bearing)
@@ -947,7 +949,7 @@ class FastSlam(UnitSlam):
             m = new[:, new_cols].T
             mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
             P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
-        return loglik, ~new, mu_new, P_new
+        return loglik, known, mu_new, P_new
 
     def _correct_in_sharer_order(self, j: int, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
                                  z: np.ndarray, logw: np.ndarray) -> None:

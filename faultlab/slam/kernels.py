@@ -4,8 +4,9 @@ Each kernel is a plain loop over (observation, particle) pairs that performs, el
 *the same IEEE operations in the same order* as the numpy formulas of the reference unit it
 serves (:mod:`faultlab.slam.units`), so its results are bit-identical to the unit's.  The kernels
 contain only ``+ - * /``, ``sqrt`` and ``floor``, which IEEE 754 defines exactly; the
-transcendental functions (``atan2``, ``log``) stay in numpy, outside the kernels, because numba's
-(the C library's) and numpy's (SIMD) implementations may differ in the last bit.  They are
+transcendental functions (``atan2``, ``log``, ``cos``, ``sin``) stay in numpy, outside the
+kernels, because numba's (the C library's) and numpy's (SIMD) implementations may differ in the
+last bit.  They are
 compiled without ``fastmath`` (no reassociation, no fused multiply-add) and with numpy's error
 model (a division by zero gives ``inf``/``nan`` as in numpy, never an exception).
 

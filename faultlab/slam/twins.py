@@ -15,10 +15,11 @@ in any of them falls back to the unit-by-unit path.
 
 Exactness.  A twin performs the same IEEE operations in the same order as its unit, with no
 fused multiply-add and no reassociation (no ``fastmath``), and leaves the transcendental
-functions (``arctan2``, ``log``) to numpy, whose SIMD implementations can differ from the C
-library's in the last bit.  So twin and unit agree bit for bit on every input on every CPU, and
-with them every guarantee of the campaigns: an equivalent fault or mutant still gives maps
-bit-identical to the baseline, the random streams are untouched (no twin draws), a batched
+functions (``arctan2``, ``log``, ``cos``, ``sin``) to numpy, whose SIMD implementations can
+differ from the C library's in the last bit.  So twin and unit agree bit for bit on every input
+on every CPU, and with them every guarantee of the campaigns: an equivalent fault or mutant still
+gives maps bit-identical to the baseline, the random streams are untouched (a twin draws exactly
+what its unit draws, from the unit's stream), a batched
 repetition equals the single run and results do not depend on ``--jobs``.  A twin applies only
 to float64 arrays of the documented shapes (without broadcasting); anything else is handed to
 the numpy unit.
