@@ -1,4 +1,4 @@
-"""Speed of the vectorised reference FastSLAM 1.0 (issue 3 benchmark; not a test).
+"""Speed of the vectorised reference FastSLAM 1.0 (a benchmark, not a test).
 
 Run ``python benchmarks/bench_fastslam.py`` from the repository root.  Prints
 one table row per run: wall time, steps/s and particle-observation updates/s
@@ -14,7 +14,7 @@ one table row per run: wall time, steps/s and particle-observation updates/s
   vectorised filter on the same truncated trace; the full-trace oracle time is
   extrapolated linearly and marked as such.
 
-Targets (issue 3): fixed case < 1 s; largest case < 15 s with either
+Targets: fixed case < 1 s; largest case < 15 s with either
 resampler; vectorised >= 100x faster than the per-particle loop.
 Timings are single runs (``--repeat`` takes the best of several) on whatever
 else the machine is doing; the load average is printed with the table.

@@ -1,4 +1,4 @@
-"""Wall time of the scenario generator on the largest Table I case (issue 2: must be < 5 s).
+"""Wall time of the scenario generator on the largest Table I case (target: < 5 s).
 
     python benchmarks/bench_generator.py [--repeat 3]
 

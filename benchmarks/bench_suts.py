@@ -85,7 +85,7 @@ def main(argv=None) -> int:
                 if getattr(slam, "association", "known") == "unknown":
                     rms[name] = map_errors(sc, est, association="unknown").emd_mm
                 else:
-                    rms[name] = map_errors(sc, est, emd=False).rms_mm
+                    rms[name] = map_errors(sc, est, metrics=("rms",)).rms_mm
         base, cpu_base = min(times["FastSLAM 1.0"]), cpu["FastSLAM 1.0"]
         for name in suts:
             best = min(times[name])

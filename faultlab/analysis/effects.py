@@ -287,8 +287,9 @@ def study_weights(analysis: EffectsAnalysis, response: str, *, space=None, floor
     """Class weights for an ``effect-guided`` suite from an effects study (documented rule).
 
     1. The *influential* parameters of ``response``: those whose total Sobol index is clear of 0
-       (interval above 0); for a response without Sobol indices, those whose Morris ``mu*``
-       interval is clear of 0.
+       (interval above 0); for a study without a Sobol stage, those whose Morris ``mu*`` interval
+       is clear of 0.  A response the Sobol stage did not estimate (repetition noise at least its
+       variance over the design, or no variation) has no influential parameter.
     2. For every class of an influential parameter, the response's mean over the study's cases in
        that class (both stages), on the ratio scale: ``exp(mean)`` for the log responses
        (difficulty, effect size: the geometric-mean error, or faulty/baseline error ratio, of the
@@ -325,8 +326,8 @@ def study_weights(analysis: EffectsAnalysis, response: str, *, space=None, floor
         raise ResultsError(f"study_weights: no response {response!r} in this study (responses: "
                            f"{', '.join(analysis.responses)})")
     space = space or table1_space()
-    s = analysis.sobol[analysis.sobol["response"] == response] if not analysis.sobol.empty else analysis.sobol
-    if len(s):
+    if not analysis.sobol.empty:
+        s = analysis.sobol[analysis.sobol["response"] == response]
         influential = list(s.loc[s["ST_low"] > 0, "parameter"])
     else:
         m = analysis.morris[analysis.morris["response"] == response] if not analysis.morris.empty else analysis.morris

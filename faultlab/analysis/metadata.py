@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from typing import Mapping
 
-from faultlab.errors import FaultlabError, ResultsError
+from faultlab.errors import ConfigError, FaultlabError, ResultsError
 from faultlab.runner.staging import STOPS_KEY
-from faultlab.runner.store import SKIPPED_VARIANTS_KEY
+from faultlab.runner.store import SKIPPED_VARIANTS_KEY, recorded_metrics
 from faultlab.space import ParameterSpace, space_from_mapping, table1_space
 from faultlab.stats.detection import DetectionRule
-from faultlab.vocabulary import BASELINE, DEFAULT_DIRECTION, PAPER_DIRECTION
+from faultlab.vocabulary import BASELINE, DEFAULT_DIRECTION, METRICS, PAPER_DIRECTION
 
-__all__ = ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary"]
+__all__ = ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary", "judged_metric", "metrics_note"]
 
 
 def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
@@ -49,6 +49,47 @@ def read_rule(metadata: Mapping) -> tuple[DetectionRule, bool]:
     except (TypeError, ValueError, FaultlabError) as exc:
         raise ResultsError(f"results metadata has an invalid detection rule {det!r} ({exc})") from exc
     return rule, bool(det)
+
+
+def judged_metric(metadata: Mapping, metric: str | None = None) -> str:
+    """The metric a campaign's results are judged by: ``metric``, by default the stored primary one.
+
+    Parameters
+    ----------
+    metadata : mapping
+        :func:`faultlab.runner.load_metadata` (its ``metric`` and ``metrics`` entries).
+    metric : {"rms", "emd"}, optional
+        Judge by this metric instead of the experiment's.
+
+    Raises
+    ------
+    ConfigError
+        ``metric`` is not a metric name.
+    ResultsError
+        The store did not record that metric (the experiment's ``metrics`` left it out).
+    """
+    if metric is None:
+        metric = metadata.get("metric") or (metadata.get("experiment") or {}).get("metric") or "rms"
+        metric = metric if metric in METRICS else "rms"
+    elif metric not in METRICS:
+        raise ConfigError(f"analysis: metric must be one of {', '.join(map(repr, METRICS))}, got {metric!r}")
+    recorded = recorded_metrics(metadata)
+    if metric not in recorded:
+        raise ResultsError(f"the results of {metadata.get('experiment_source', 'this campaign')} cannot be judged "
+                           f"by {metric!r}: the experiment recorded only {', '.join(map(repr, recorded))} "
+                           f"(its metrics option); rerun it with {metric!r} in metrics")
+    return metric
+
+
+def metrics_note(metadata: Mapping) -> str | None:
+    """One sentence naming the recorded metrics when the experiment left some out (None when it recorded all)."""
+    recorded = recorded_metrics(metadata)
+    if recorded == METRICS:
+        return None
+    left = [m.upper() for m in METRICS if m not in recorded]
+    return (f"Metrics recorded: {', '.join(m.upper() for m in recorded)} only; {', '.join(left)} "
+            f"{'was' if len(left) == 1 else 'were'} not computed (the experiment's metrics option) and "
+            f"{'is' if len(left) == 1 else 'are'} empty in every row.")
 
 
 def read_space(metadata: Mapping) -> ParameterSpace:

@@ -26,6 +26,7 @@ from statsmodels.stats.contingency_tables import mcnemar
 from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.analysis.bundle import TableBundle
+from faultlab.analysis.metadata import judged_metric
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import mutant_variant
 from faultlab.mutation.outcome import MutantOutcome
@@ -223,7 +224,7 @@ def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> Mutati
     meta = load_metadata(out)
     exp = meta.get("experiment", {})
     results = load_results(out)
-    metric = exp.get("metric", "rms") if isinstance(exp, dict) else "rms"
+    metric = judged_metric(meta)
     spec = exp.get("suites", {}) if isinstance(exp, dict) else {}
     pairs = spec.items() if isinstance(spec, dict) else (tuple(p) for p in spec)  # stored as [[kind, n], ...]
     outcomes = mutant_outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)})

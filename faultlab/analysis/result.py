@@ -28,7 +28,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from faultlab.analysis.metadata import adaptive_summary, count_expected_jobs, read_rule, read_space
+from faultlab.analysis.metadata import (adaptive_summary, count_expected_jobs, judged_metric, metrics_note,
+                                        read_rule, read_space)
 from faultlab.analysis.schema import (
     BY_SUITE,
     CASE_COMPARISONS,
@@ -71,10 +72,10 @@ from faultlab.stats.comparison import compare_suite_rates
 from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.stats.effects import fit_effects, validate_parameters
 from faultlab.stats.oracle import oracle_detections
-from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, paper_table, resolve_data_path
+from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, data_label, paper_table, resolve_data_path
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
 from faultlab.space.case import PARAMETER_NAMES
-from faultlab.vocabulary import DEFAULT_ALPHA, METRICS, REPLICA, SUITE_ORDER, JobStatus, ordered
+from faultlab.vocabulary import DEFAULT_ALPHA, REPLICA, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["Analysis", "Note", "analyse", "FORMAT_VERSION", "JSON_FILE", "BEYOND_THE_PAPER"]
 
@@ -127,8 +128,9 @@ class Analysis:
         The results store's metadata (:func:`faultlab.runner.load_metadata`), JSON-shaped.
     equivalent_faults : tuple of str
         Faults whose every result equals the baseline's (:func:`faultlab.stats.find_identical_faults`).
-    paper_raw, paper_reported : Path or None
-        The paper's data files the paper tables were computed from (None: no paper data).
+    paper_raw, paper_reported : str or None
+        The paper's data files the paper tables were computed from, named without a machine path
+        (:func:`faultlab.stats.paper.data_label`; None: no paper data).
     notes : tuple of Note
         What could not be computed, and why; caveats.
 
@@ -146,8 +148,8 @@ class Analysis:
     parameters: tuple[str, ...] | None
     metadata: dict
     equivalent_faults: tuple[str, ...]
-    paper_raw: Path | None
-    paper_reported: Path | None
+    paper_raw: str | None
+    paper_reported: str | None
     notes: tuple[Note, ...]
     jobs: pd.DataFrame
     cases: pd.DataFrame
@@ -177,7 +179,7 @@ class Analysis:
     def from_frame(cls, results: pd.DataFrame, metadata: Mapping | None = None, *, alpha: float = DEFAULT_ALPHA,
                    paper: bool = True, paper_raw: str | Path | None = None,
                    paper_reported: str | Path | None = None, rep: int | None = None,
-                   parameters: Sequence[str] | None = None) -> "Analysis":
+                   parameters: Sequence[str] | None = None, metric: str | None = None) -> "Analysis":
         """Analyse a results frame.
 
         Parameters
@@ -197,16 +199,21 @@ class Analysis:
             The SLAM repetition shown in Table II's RMS cells; default the smallest stored.
         parameters : sequence of str, optional
             Predictors of the parameter effects (:func:`faultlab.stats.fit_effects`); default all.
+        metric : {"rms", "emd"}, optional
+            The metric of the per-case verdicts; default the experiment's
+            (:func:`faultlab.analysis.metadata.judged_metric`).
 
         Raises
         ------
         ResultsError
-            No rows, no rows of repetition ``rep``, a missing column, or an invalid stored rule.
+            No rows, no rows of repetition ``rep``, a missing column, an invalid stored rule, or
+            ``metric`` not recorded by the campaign (its ``metrics`` option).
         ConfigError
             ``alpha`` outside (0, 1) or an unknown parameter.
         """
         _check_input(results, alpha)
         metadata = _json_shaped(dict(metadata or {}))
+        metric = judged_metric(metadata, metric)
         rep = _shown_repetition(results, rep)
         parameters = None if parameters is None else validate_parameters(parameters)
         rule, stored = read_rule(metadata)
@@ -224,14 +231,14 @@ class Analysis:
         beyond, beyond_notes = _beyond_the_paper(results, shown, rates, rule=rule, alpha=alpha,
                                                  parameters=parameters, n_reps=results["rep"].nunique())
         by_case, case_notes = _case_tables(results, pairs, metadata, rule=rule, alpha=alpha, paper=paper_tab,
-                                           cases=cases, parameters=parameters)
-        notes = (_rule_notes(metadata, stored, rule) + _equivalence_notes(equivalent) + [paper_note]
+                                           cases=cases, parameters=parameters, metric=metric)
+        notes = (_rule_notes(metadata, stored, rule, metric) + _equivalence_notes(equivalent) + [paper_note]
                  + _completeness_notes(metadata, len(results)) + [coverage_note] + beyond_notes + case_notes)
         return cls(
             rule=rule, alpha=float(alpha), rep=rep, parameters=parameters, metadata=metadata,
             equivalent_faults=equivalent,
-            paper_raw=None if paper_tab is None else paper_tab.raw_path,
-            paper_reported=None if paper_tab is None else paper_tab.reported_path,
+            paper_raw=None if paper_tab is None else data_label(paper_tab.raw_path),
+            paper_reported=None if paper_tab is None else data_label(paper_tab.reported_path),
             notes=tuple(n for n in notes if n is not None),
             cases=cases,
             detection_rates=detection_rate_table(rates, None if paper_tab is None else paper_tab.rates),
@@ -343,9 +350,10 @@ class Analysis:
             scalars = dict(
                 rule=DetectionRule(**data["rule"]), alpha=float(data["alpha"]), rep=int(data["rep"]),
                 parameters=None if data["parameters"] is None else tuple(data["parameters"]),
-                metadata=data["metadata"], equivalent_faults=tuple(data["equivalent_faults"]),
-                paper_raw=_located(data["paper_raw"]),
-                paper_reported=_located(data["paper_reported"]),
+                metadata=_portable_metadata(data["metadata"]), equivalent_faults=tuple(data["equivalent_faults"]),
+                # analyses saved with machine paths load with portable names
+                paper_raw=None if data["paper_raw"] is None else data_label(data["paper_raw"]),
+                paper_reported=None if data["paper_reported"] is None else data_label(data["paper_reported"]),
                 notes=tuple(Note(n["topic"], n["text"]) for n in data["notes"]))
         except (KeyError, TypeError, ValueError, FaultlabError) as exc:
             raise ResultsError(f"{path}: malformed saved analysis ({type(exc).__name__}: {exc})") from exc
@@ -360,10 +368,10 @@ class Analysis:
             "alpha": self.alpha,
             "rep": self.rep,
             "parameters": None if self.parameters is None else list(self.parameters),
-            "metadata": self.metadata,
+            "metadata": _portable_metadata(self.metadata),  # what is saved names no machine path
             "equivalent_faults": list(self.equivalent_faults),
-            "paper_raw": _portable(self.paper_raw),
-            "paper_reported": _portable(self.paper_reported),
+            "paper_raw": self.paper_raw,
+            "paper_reported": self.paper_reported,
             "notes": [{"topic": n.topic, "text": n.text} for n in self.notes],
         }
 
@@ -374,14 +382,15 @@ assert set(_TABLE_NAMES) <= {f.name for f in fields(Analysis)}, "every table of 
 
 def analyse(results_dir: str | Path, *, alpha: float = DEFAULT_ALPHA, paper: bool = True,
             paper_raw: str | Path | None = None, paper_reported: str | Path | None = None,
-            rep: int | None = None, parameters: Sequence[str] | None = None) -> Analysis:
+            rep: int | None = None, parameters: Sequence[str] | None = None,
+            metric: str | None = None) -> Analysis:
     """Analyse the results store of a campaign (:meth:`Analysis.from_frame` of its rows and metadata).
 
     Parameters
     ----------
     results_dir : path
         Output directory of :func:`faultlab.runner.run_experiment` (or its results.sqlite).
-    alpha, paper, paper_raw, paper_reported, rep, parameters
+    alpha, paper, paper_raw, paper_reported, rep, parameters, metric
         As for :meth:`Analysis.from_frame`.
 
     Raises
@@ -394,7 +403,8 @@ def analyse(results_dir: str | Path, *, alpha: float = DEFAULT_ALPHA, paper: boo
     if results.empty:
         raise ResultsError(f"the results store at {results_dir} holds no rows yet: nothing to analyse")
     return Analysis.from_frame(results, metadata, alpha=alpha, paper=paper, paper_raw=paper_raw,
-                               paper_reported=paper_reported, rep=rep, parameters=parameters)
+                               paper_reported=paper_reported, rep=rep, parameters=parameters,
+                               metric=metric)
 
 
 # --------------------------------------------------------------------------- parts of from_frame
@@ -414,6 +424,23 @@ def _json_shaped(value):
         raise TypeError(f"metadata value {v!r} ({type(v).__name__}) cannot be saved as JSON")
 
     return json.loads(json.dumps(value, default=default, allow_nan=True))
+
+
+def _portable_metadata(metadata: dict) -> dict:
+    """``metadata`` with its store ``path`` free of machine paths.
+
+    An absolute path becomes relative to the working directory when it lies below it, else its
+    last two parts (``<results directory>/results.sqlite``).
+    """
+    path = metadata.get("path")
+    if not isinstance(path, str) or not Path(path).is_absolute():
+        return metadata
+    p = Path(path)
+    try:
+        portable = p.relative_to(Path.cwd())
+    except ValueError:
+        portable = Path(*p.parts[-2:])
+    return metadata | {"path": portable.as_posix()}
 
 
 def _check_input(results: pd.DataFrame, alpha: float) -> None:
@@ -451,18 +478,11 @@ def _per_source_tables(results: pd.DataFrame, pairs: pd.DataFrame, paper: PaperT
     }
 
 
-def _metric(metadata: Mapping) -> str:
-    """The campaign's primary metric (``rms`` unless the stored experiment says otherwise)."""
-    metric = metadata.get("metric") or (metadata.get("experiment") or {}).get("metric") or "rms"
-    return metric if metric in METRICS else "rms"
-
-
 def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mapping, *, rule: DetectionRule,
-                 alpha: float, cases: pd.DataFrame, parameters,
+                 alpha: float, cases: pd.DataFrame, parameters, metric: str,
                  paper: PaperTable | None) -> tuple[dict, list[Note]]:
-    """The case-level tables: verdicts by the stored rule, rates and suite comparisons over cases, the A/A
-    false alarms and the two-sample comparison with the paper's printed figures."""
-    metric = _metric(metadata)
+    """The case-level tables: verdicts by the stored rule on ``metric``, rates and suite comparisons over
+    cases, the A/A false alarms and the two-sample comparison with the paper's printed figures."""
     col = f"{metric}_mm"
     # the paper's thresholds on the campaign's metric (Table II stays on RMS, as in the paper)
     pairs = rms_pairs if metric == "rms" else outcomes(results.assign(rms_mm=results[col]), rule=rule)
@@ -518,16 +538,21 @@ def _equivalence_notes(equivalent: tuple[str, ...]) -> list[Note]:
     return [Note("equivalent_faults", _EQUIVALENT_NOTE.format(", ".join(equivalent)))] if equivalent else []
 
 
-def _rule_notes(metadata: Mapping, rule_stored: bool, rule: DetectionRule) -> list[Note]:
+def _rule_notes(metadata: Mapping, rule_stored: bool, rule: DetectionRule, metric: str) -> list[Note]:
     notes = []
     if not rule_stored:
         notes.append(Note("rule", f"the results metadata stores no detection rule; the paper's is used "
                                   f"({rule.describe()})."))
-    if metadata.get("metric", "rms") != "rms":
-        notes.append(Note("metric", f"the experiment's primary metric is {metadata.get('metric')!r}; Table II "
-                                    "and the per-job detection figures use the Kabsch-aligned RMS error, as the "
-                                    "paper does; the per-case verdicts, case rates and case comparisons use the "
-                                    "primary metric."))
+    recorded = metrics_note(metadata)
+    if recorded is not None:
+        notes.append(Note("metric", recorded))
+    if metric != "rms":
+        used = "the primary metric" if metric == metadata.get("metric") else repr(metric)
+        lead = ("the experiment's primary metric is" if metric == metadata.get("metric")
+                else "the analysis was asked to judge by")
+        notes.append(Note("metric", f"{lead} {metric!r}; Table II and the per-job detection figures use the "
+                                    "Kabsch-aligned RMS error, as the paper does; the per-case verdicts, case "
+                                    f"rates and case comparisons use {used}."))
     return notes
 
 
@@ -603,25 +628,3 @@ def _beyond_the_paper(results: pd.DataFrame, pairs: pd.DataFrame, rates: pd.Data
     tables = {"false_alarms": fa, "oracle": orc, "oracle_summary": oracle_summary_table(orc),
               "suite_comparisons": cmp, "parameter_effects": eff}
     return tables, [n for n in (fa_note, orc_note, cmp_note, eff_note) if n is not None]
-
-
-#: Directory that holds the faultlab package: saved paths below it are stored relative to it.
-_ROOT = Path(__file__).resolve().parent.parent.parent
-
-
-def _portable(path: Path | None) -> str | None:
-    """``path`` relative to :data:`_ROOT` when it lies below it (no machine path in saved files)."""
-    if path is None:
-        return None
-    try:
-        return Path(path).relative_to(_ROOT).as_posix()
-    except ValueError:
-        return str(path)
-
-
-def _located(text: str | None) -> Path | None:
-    """Inverse of :func:`_portable`."""
-    if text is None:
-        return None
-    path = Path(text)
-    return path if path.is_absolute() else _ROOT / path

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from faultlab.analysis.metadata import judged_metric
 from faultlab.analysis.result import analyse
 from faultlab.runner.store import load_results
 from faultlab.stats.accuracy import ACCURACY_COLUMNS, case_mean_accuracy
@@ -98,7 +99,7 @@ def compare_slams(stores: Mapping[str, str | Path], *, alpha: float = DEFAULT_AL
     for label, store in stores.items():
         a = analyse(store, alpha=alpha, paper=False)
         md = a.metadata
-        metric = str(md.get("metric", "rms"))
+        metric = judged_metric(md)
         exp = md.get("experiment") or {}
         slam = dict(exp.get("slam") or {})
         association = str(slam.get("association", "known"))

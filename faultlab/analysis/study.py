@@ -22,20 +22,21 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import count_expected_jobs, read_rule
+from faultlab.analysis.metadata import count_expected_jobs, judged_metric, read_rule
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
 from faultlab.stats.cases import detectable_difference
-from faultlab.stats.killmatrix import (KillMatrix, StudySpec, compare_scores, detection_table, evaluate_suites,
-                                       kill_matrix, score_table, study_spec)
+from faultlab.stats.killmatrix import (WHOLE_COLUMNS, KillMatrix, StudySpec, compare_scores, detection_table,
+                                       evaluate_suites, kill_matrix, score_table, study_spec, whole_suite_table,
+                                       whole_suites)
 from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import PAPER_FAULTS
 
 __all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]
 
 #: Tables of a :class:`StudyAnalysis`, saved as ``<name>.csv``.
-STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power")
+STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power", "whole")
 _META_FILE = "study_meta.json"
 
 
@@ -58,6 +59,9 @@ class StudyAnalysis(TableBundle):
         of a drawn-suite rate and the smallest difference in a size-1 detection probability (a
         share of pool cases) between this and every other pool that a two-sample test detects
         with 80 % power at 0.05, at rates 0.5 and 0.1.
+    whole : DataFrame
+        :func:`~faultlab.stats.killmatrix.whole_suite_table` of the strategies in ``[study] whole``:
+        each evaluation run's generated suite (e.g. a whole pairwise covering array) judged whole.
     meta : dict
         Settings, mutants, run time per session, sampled machine load, SLAM time, job counts.
     """
@@ -67,6 +71,7 @@ class StudyAnalysis(TableBundle):
     scores: pd.DataFrame
     comparisons: pd.DataFrame
     power: pd.DataFrame
+    whole: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(WHOLE_COLUMNS)))
     meta: dict = field(default_factory=dict)
 
     TABLES = STUDY_TABLES
@@ -99,6 +104,22 @@ def _of_run(by_id: dict, variants) -> dict:
     return {v: by_id[mutant_id_of(v)] for v in variants if mutant_id_of(v) in by_id}
 
 
+def _whole(km: KillMatrix, spec: StudySpec, mutants, *, k: int | None = None,
+           alternative: str = "greater") -> tuple[pd.DataFrame, dict]:
+    """:func:`whole_suite_table` of ``spec.whole``, leaving out (and listing, strategy -> K needed)
+    the strategies whose whole suites are too large for the stored K to reach alpha / n."""
+    skipped = {}
+    if k is not None:
+        for strategy in spec.whole:
+            rows = km.rows(strategy)
+            n = int(km.cases.iloc[rows].groupby("run").size().max()) if rows.size else 1
+            if k < min_pairs(spec.alpha / n, alternative=alternative):
+                skipped[strategy] = min_pairs(spec.alpha / n, alternative=alternative)
+    judged = whole_suites(km, [w for w in spec.whole if w not in skipped], alpha=spec.alpha,
+                          method=spec.multiplicity, timeouts_detect=spec.timeouts_detect)
+    return whole_suite_table(judged, mutants=mutants, alpha=spec.alpha), skipped
+
+
 def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
     """A saved study analysis evaluated again from its kill matrix (``kill_matrix.csv`` and
     ``study_meta.json``), without the store: the suite draws, intervals and comparisons are
@@ -125,10 +146,12 @@ def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
                          timeouts_detect=spec.timeouts_detect)
     detection = detection_table(ev, km.variants)
     detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
-    meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {})}
+    whole, skipped = _whole(km, spec, mutants, k=meta.get("repetitions"), alternative=alternative)
+    meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {}),
+                   "whole_not_evaluated": skipped}
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         meta=meta)
+                         whole=whole, meta=meta)
 
 
 def analyse_study(out: str | Path) -> StudyAnalysis:
@@ -161,13 +184,14 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         raise ResultsError(f"{out}: K = {k} repetitions reach no suite size's per-case level with the "
                            f"{alternative} test (sizes {list(spec.sizes)})")
     spec = dataclasses.replace(spec, sizes=tuple(n for n in spec.sizes if n not in too_large))
-    km = kill_matrix(results, rule=rule, metric=exp.get("metric", "rms"))
+    km = kill_matrix(results, rule=rule, metric=judged_metric(meta))
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))
     ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
                          alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
                          timeouts_detect=spec.timeouts_detect)
     detection = detection_table(ev, km.variants)
     detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
+    whole, whole_skipped = _whole(km, spec, mutants, k=k, alternative=alternative)
     status = results["status"].astype(str).value_counts().to_dict()
     sessions = settle_sessions(info.get("sessions", []), load_sessions(out))
     meta_out = {
@@ -184,10 +208,11 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "load": _load_summary(sessions), "complete": int(meta["n_rows"]) == count_expected_jobs(meta),
         "cannot_judge_cases": int((~km.judged).any(axis=1).sum()),
         "alternative": alternative, "sizes_not_evaluated": {str(n): need for n, need in too_large.items()},
+        "whole_not_evaluated": whole_skipped,
         "crash_cases": {v: int(n) for v, n in zip(km.variants, km.crash.sum(axis=0)) if n},
         "timeout_cases": {v: int(n) for v, n in zip(km.variants, km.timeout.sum(axis=0)) if n},
     }
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         meta=meta_out)
+                         whole=whole, meta=meta_out)
 

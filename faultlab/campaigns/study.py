@@ -116,11 +116,18 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
         if s.n_cases is not None and max(spec.sizes) > pool:
             raise ConfigError(f"{source}: study.sizes: a suite of {max(spec.sizes)} cases cannot be drawn from the "
                               f"{pool} cases of the {s.kind} pool (runs x suites.{s.kind})")
+    kinds = [s.kind for s in exp.suites]
+    for strategy in spec.whole:
+        if strategy not in kinds:
+            raise ConfigError(f"{source}: study.whole: {strategy!r} is not one of the study's suites "
+                              f"({', '.join(kinds)})")
+    # the largest family judged: the largest drawn size, or a whole generated suite
+    largest = max([*spec.sizes, *(s.n_cases or 0 for s in exp.suites if s.kind in spec.whole)])
     alternative = alternative_of(exp.detection.direction)
-    need = min_pairs(spec.alpha / max(spec.sizes), alternative=alternative)
+    need = min_pairs(spec.alpha / largest, alternative=alternative)
     if exp.repetitions < need:
         raise ConfigError(f"{source}: repetitions = {exp.repetitions} is too few: a case of a suite of "
-                          f"{max(spec.sizes)} cases is judged at {spec.alpha}/{max(spec.sizes)}, which the exact "
+                          f"{largest} cases is judged at {spec.alpha}/{largest}, which the exact "
                           f"{alternative} sign-flip test reaches only from K = {need}")
     return StudyExperiment(experiment=exp, study=spec, selection=selection, quick=quick)
 

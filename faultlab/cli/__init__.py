@@ -35,7 +35,7 @@ COMMAND_MODULES = (
     "faultlab.cli.calibrate",  # calibrate
     "faultlab.cli.mutate",  # mutate list, mutate show
     "faultlab.cli.metamorphic",  # metamorphic
-    "faultlab.cli.study",  # study run, study report
+    "faultlab.cli.study",  # study plan, study run, study report
     "faultlab.cli.adapter",  # adapter check
     "faultlab.cli.export",  # export
 )

@@ -25,8 +25,12 @@ def register(subparsers) -> None:
                    help="run the repetitions in stages, e.g. 5,10 (cumulative; the last equals the "
                         "experiment's repetitions), stopping decided (case, variant) pairs: sets the "
                         "experiment's [adaptive] stages (its other keys keep their values or defaults)")
+    p.add_argument("--metrics", default=None, metavar="M,...",
+                   help="record only these map errors, e.g. rms (default: the experiment's metrics option, "
+                        "both rms and emd unless it says otherwise); the others are stored as NaN and cost nothing")
     add_execution_options(p)
-    add_examples(p, ["faultlab run smoke --out results/smoke", "nice -n 10 faultlab run paper --out results/paper --jobs 2",
+    add_examples(p, ["faultlab run smoke --out results/smoke --metrics rms",
+                     "nice -n 10 faultlab run paper --out results/paper --jobs 2",
                      "faultlab run my-campaign.toml --out results/mine --backend dask"])
     p.set_defaults(func=handler)
 
@@ -45,6 +49,8 @@ def handler(args: argparse.Namespace) -> int:
             raise ConfigError(f"--adaptive: expected cumulative repetitions such as 5,10, got {args.adaptive!r}") \
                 from None
         experiment = experiment.replace(adaptive={"stages": stages})
+    if args.metrics is not None:
+        experiment = experiment.replace(metrics=[m.strip() for m in args.metrics.split(",")])
     summary = run_experiment(experiment, out, jobs=args.jobs, backend=args.backend,
                              force_new=args.force_new, progress=not args.no_progress, look=interim_look)
     print(f"results: {summary.results}")

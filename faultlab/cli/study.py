@@ -9,7 +9,7 @@ from faultlab.cli.options import add_examples, add_execution_options, add_verb_g
 
 __all__ = ["register"]
 
-_HELP = "test-design strategies study: case pools, kill matrix, suites drawn from the pools"
+_HELP = "test-design strategies study: power plan, case pools, kill matrix, suites drawn from the pools"
 _DESCRIPTION = ("Run a pool of cases of every strategy once per fault and sampled mutant (K repetitions, common "
                 "random numbers), keep every case's exact p value (the kill matrix), then evaluate suites of each "
                 "size drawn from the pools at no further SLAM cost.")
@@ -17,7 +17,8 @@ _DESCRIPTION = ("Run a pool of cases of every strategy once per fault and sample
 
 def register(subparsers) -> None:
     sub = add_verb_group(subparsers, "study", help=_HELP, description=_DESCRIPTION,
-                         examples=["faultlab study run --quick --out results/study-quick",
+                         examples=["faultlab study plan study --reports reports/study",
+                                   "faultlab study run --quick --out results/study-quick",
                                    "faultlab study report results/study-quick"])
     run = sub.add_parser("run", help="run (or resume) a study's case pools",
                          description="Run every pool case against the baseline, the file's faults and its "
@@ -41,6 +42,33 @@ def register(subparsers) -> None:
     add_examples(rep, ["faultlab study report results/study", "faultlab study report reports/study/store --reports reports/study"])
     rep.set_defaults(func=_report)
 
+    plan = sub.add_parser("plan", help="the scale a study needs to detect given differences, its cost, what fits",
+                          description="Power before running: the pool cases per strategy, mutants and repetitions "
+                                      "K at which the study's own tests (Holm over the strategy pairs) detect the "
+                                      "target differences with the given power; the cost in SLAM executions and "
+                                      "CPU hours from a store's measured runtimes; and, when that does not fit the "
+                                      "budget, the largest scale that does. Runs nothing.")
+    plan.add_argument("study", nargs="?", default="study",
+                      help="a study file or a shipped name: 'study' (strategies) or 'mutation' (default: study)")
+    plan.add_argument("--target-detection-pp", type=float, default=20.0,
+                      help="difference in single-case detection probability to detect, pp (default: 20)")
+    plan.add_argument("--target-score-pp", type=float, default=10.0,
+                      help="difference in mutation score to detect, pp (default: 10)")
+    plan.add_argument("--power", type=float, default=0.8, help="power (default: 0.8)")
+    plan.add_argument("--reverse-discordance", type=float, default=0.05,
+                      help="assumed share of mutants killed only by the weaker strategy (default: 0.05)")
+    plan.add_argument("--budget-hours", type=float, default=3.0, help="wall-time budget, hours (default: 3)")
+    plan.add_argument("--cores", type=positive_int, default=2, help="cores of the budget (default: 2)")
+    plan.add_argument("--cost-store", default="reports/paper-k10/store",
+                      help="store whose mean runtime per execution is the cost (default: reports/paper-k10/store)")
+    plan.add_argument("--seconds-per-execution", type=float, default=None,
+                      help="assume this cost of one SLAM execution instead of measuring it from --cost-store")
+    plan.add_argument("--reports", default=None, help="also write plan.md into this directory")
+    add_examples(plan, ["faultlab study plan study --reports reports/study",
+                        "faultlab study plan mutation --reports reports/mutation",
+                        "faultlab study plan study --target-detection-pp 30 --budget-hours 24 --cores 64"])
+    plan.set_defaults(func=_plan)
+
 
 def _run(args: argparse.Namespace) -> int:
     from faultlab.campaigns.study import load_study_experiment, run_study
@@ -58,3 +86,59 @@ def _report(args: argparse.Namespace) -> int:
 
     reports = args.reports if args.reports is not None else Path(args.results) / "report"
     return print_paths(write_study_report(args.results, reports))
+
+
+def _sides(exp) -> int:
+    """Sides of the per-case sign-flip test of ``exp``'s detection rule (its declared direction)."""
+    from faultlab.stats.verdict import alternative_of
+
+    return 2 if alternative_of(exp.detection.direction) == "two-sided" else 1
+
+
+def _plan(args: argparse.Namespace) -> int:
+    from faultlab.analysis.planning import execution_cost
+    from faultlab.config import read_toml
+    from faultlab.data import resolve_experiment
+    from faultlab.errors import ConfigError
+    from faultlab.report.planning import PLAN_FILE, plan_markdown
+    from faultlab.mutation.variants import is_mutant_variant
+    from faultlab.stats.planning import plan_study
+    from faultlab.vocabulary import BASELINE
+
+    data, _ = read_toml(resolve_experiment(args.study, what="study file"), what="study file")
+    if args.seconds_per_execution is not None and not args.seconds_per_execution > 0:
+        raise ConfigError(f"--seconds-per-execution must be positive, got {args.seconds_per_execution}")
+    cost = execution_cost(args.cost_store) if args.seconds_per_execution is None else None
+    seconds = cost.seconds if cost is not None else args.seconds_per_execution
+    common = dict(target_detection=args.target_detection_pp / 100, target_score=args.target_score_pp / 100,
+                  power=args.power, reverse=args.reverse_discordance, seconds_per_execution=seconds,
+                  budget_hours=args.budget_hours, cores=args.cores)
+    if "study" in data:
+        from faultlab.campaigns.study import load_study_experiment
+
+        sexp = load_study_experiment(args.study)
+        exp = sexp.experiment
+        faults = sum(1 for v in exp.variants if v != BASELINE and not is_mutant_variant(v))
+        # the largest family of cases judged: the largest drawn size or a whole generated suite
+        largest = max([*sexp.study.sizes, *(s.n_cases or 0 for s in exp.suites if s.kind in sexp.study.whole)])
+        plan = plan_study("strategies", strategies=len(exp.suites), faults=faults, max_suite=largest,
+                          alpha=sexp.study.alpha, sides=_sides(exp), **common)
+    else:
+        from faultlab.campaigns.mutation import load_mutation_experiment
+
+        mexp = load_mutation_experiment(args.study)
+        exp = mexp.experiment
+        plan = plan_study("mutation", strategies=len(exp.suites), suite_cases=max(s.n_cases or 0 for s in exp.suites),
+                          runs=exp.runs, alpha=mexp.alpha, sides=_sides(exp), **common)
+    particles = dict(exp.slam.options).get("particles")
+    settings = f"{exp.slam.name}, {particles} particles, {exp.n_steps} active steps"
+    text = plan_markdown(plan, study=Path(args.study).stem, cost=cost, cost_source=str(args.cost_store),
+                         settings=settings, same_settings=cost is None or (particles, exp.n_steps, exp.slam.name) ==
+                         (cost.particles, cost.n_steps, cost.slam))
+    print(text)
+    if args.reports is not None:
+        out = Path(args.reports)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / PLAN_FILE).write_text(text)
+        print(out / PLAN_FILE)
+    return 0

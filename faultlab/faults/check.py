@@ -16,6 +16,15 @@ the output comes from the fault, never from the filter drawing other random
 numbers.  A fault that merely draws a different amount of randomness from its
 own unit's stream still differs (its unit's later draws move).
 
+Sensor faults (:class:`~faultlab.faults.sensor.SensorFault`) are checked like code faults: a stream
+fault runs the unmodified reference on the stream it perturbs
+(:func:`~faultlab.scenario.feed.fed_scenario`, as the campaign runner feeds it; the perturbation's
+seed is drawn from the repetition's SeedSequence, the SLAM's generator is the reference's), a
+hardware limit runs the reference built with its option changed
+(:meth:`~faultlab.faults.sensor.SensorFault.configure_options`); either is compared with the
+reference's estimate of the same seed.  A stream fault that leaves the stream unchanged on the check
+scenario (e.g. a dropout that drew no drop) is reported ``equivalent`` like a code fault.
+
 :func:`unit_outputs` is the unit-level counterpart (cosmic-ray style): it runs
 the original and the faulty unit on a fault's :class:`UnitExample` inputs.
 """
@@ -34,8 +43,10 @@ from faultlab.errors import FaultError
 from faultlab.faults.fault import Fault, UnitExample
 from faultlab.faults.discovery import load_plugins
 from faultlab.faults.registry import all_faults, resolve_fault
+from faultlab.faults.sensor import SensorFault
 from faultlab.metrics import map_errors
 from faultlab.scenario import fixed_case_scenario
+from faultlab.scenario.feed import fed_scenario
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlam, FastSlamConfig
 from faultlab.slam.protocol import run_slam
 
@@ -209,7 +220,7 @@ def _num(x: float) -> str:
 
 def _rms_mm(scenario, estimate) -> float:
     try:
-        return float(map_errors(scenario, estimate, emd=False).rms_mm)
+        return float(map_errors(scenario, estimate, metrics=("rms",)).rms_mm)
     except Exception:  # a malformed faulty estimate has no map error
         return math.nan
 
@@ -309,7 +320,8 @@ def check_faults(
                                ref_estimates[0]):
         raise FaultError("check_faults: the reference FastSLAM is not deterministic for a fixed seed; "
                          "the equivalence check is meaningless")
-    checks = tuple(_check_one(fault.apply(reference), fault, scenario, seeds, ref_estimates) for fault in faults)
+    checks = tuple(_check_one(_faulty(reference, config, fault), fault, scenario, seeds, ref_estimates)
+                   for fault in faults)
     desc = (f"{origin}: {scenario.n_steps} steps, {scenario.landmarks.shape[0]} landmarks, "
             f"scenario seed {scenario.seed}, {config.n_particles} particles")
     spread = estimate_difference(ref_estimates[0], ref_estimates[1])[0] if n_seeds > 1 else math.nan
@@ -341,13 +353,27 @@ def _scenario_to_check(scenario, *, seed: int, n_steps: int | None):
     return scenario, "the given scenario"
 
 
+def _faulty(reference: FastSlam, config: FastSlamConfig, fault) -> FastSlam:
+    """The reference with ``fault``: its unit replaced, or (a hardware limit) its option changed."""
+    if isinstance(fault, SensorFault):
+        return FastSlam(FastSlamConfig.from_options(fault.configure_options(config.to_options()),
+                                                    where=f"sensor fault {fault.name!r}"))
+    return fault.apply(reference)
+
+
+def _perturbation_seed(ss: np.random.SeedSequence) -> int:
+    """The integer seed a sensor fault's perturbation is keyed by in the repetition of ``ss``."""
+    return int(ss.generate_state(1, dtype=np.uint64)[0])
+
+
 def _check_one(faulty, fault: Fault, scenario, seeds, ref_estimates) -> FaultCheck:
     """Run ``faulty`` with every seed and compare each estimate with the reference's."""
     n_same, maps, poses, rms, mismatch, error = 0, [], [], [], 0, ""
     for ss, ref in zip(seeds, ref_estimates):
         try:
+            fed = fed_scenario(fault, scenario, seed=_perturbation_seed(ss))
             with np.errstate(all="ignore"):  # a faulty SLAM may produce NaN on its way to a crash
-                est = run_slam(faulty, scenario, rng=np.random.default_rng(ss))
+                est = run_slam(faulty, fed, rng=np.random.default_rng(ss))
         except Exception as exc:  # a crash is an outcome (the runner records it as such)
             error = f"{type(exc).__name__}: {exc}"
             break

@@ -47,14 +47,18 @@ class PluginFailure:
         (distribution broken-faults 1.0)"``.
     error : str
         The exception type and text, or what is wrong with the loaded object.
+    kind : str
+        What the plugin provides: ``"fault"`` (group ``faultlab.faults``) or ``"sensor-fault"``
+        (group ``faultlab.sensor_faults``).
     """
 
     plugin: str
     source: str
     error: str
+    kind: str = "fault"
 
     def __str__(self) -> str:
-        return f"fault plugin {self.plugin!r} ({self.source}) failed to load: {self.error}"
+        return f"{self.kind} plugin {self.plugin!r} ({self.source}) failed to load: {self.error}"
 
 
 @dataclass(frozen=True)

@@ -79,15 +79,16 @@ def get_fault(name: str) -> Fault | SensorFault:
     builtins = builtin_faults() | builtin_sensor_faults()
     if name in builtins:
         return builtins[name]
-    report = load_plugins(warn=False)
-    known = {**builtins, **report.by_name(), **load_sensor_plugins(warn=False).by_name()}
+    report, sensor = load_plugins(warn=False), load_sensor_plugins(warn=False)
+    known = {**builtins, **report.by_name(), **sensor.by_name()}
     if name in known:
         return known[name]
     close = difflib.get_close_matches(name, list(known), n=3, cutoff=0.6)
     hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
     msg = f"unknown fault {name!r}{hint} Known faults: {', '.join(known)}"
-    if "/" in name and report.errors:
-        msg += ". Plugins that failed to load: " + "; ".join(str(e) for e in report.errors)
+    failures = (*report.errors, *sensor.errors)
+    if "/" in name and failures:
+        msg += ". Plugins that failed to load: " + "; ".join(str(e) for e in failures)
     raise FaultError(msg)
 
 

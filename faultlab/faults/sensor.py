@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 
 from faultlab.errors import FaultError
-from faultlab.plugins import PluginCatalogue, PluginLoad
+from faultlab.faults.discovery import FaultCatalogue, PluginFailure, PluginWarning
+from faultlab.plugins import PluginLoad
 from faultlab.scenario.model import Scenario
 from faultlab.seeds import sensor_seed_sequence
 from faultlab.vocabulary import UNMODIFIED
@@ -223,8 +224,12 @@ def gather_steps(scenario: Scenario, source: np.ndarray) -> Scenario:
 
 @dataclass(frozen=True)
 class SensorPluginReport(PluginLoad):
-    """Result of :func:`load_sensor_plugins`: the plugin sensor faults by name, their sources, the failures."""
+    """Result of :func:`load_sensor_plugins`: the plugin sensor faults by name, their sources, the failures.
 
+    ``errors`` are :class:`~faultlab.faults.discovery.PluginFailure` records, as for code faults.
+    """
+
+    errors: tuple[PluginFailure, ...] = ()
     sources: Mapping[str, str] = field(default_factory=dict)
 
     @property
@@ -236,8 +241,15 @@ class SensorPluginReport(PluginLoad):
 
 
 @dataclass(frozen=True)
-class SensorFaultCatalogue(PluginCatalogue):
-    """The sensor-fault plugins: ``provider/name`` :class:`SensorFault` instances (or iterables of them)."""
+class SensorFaultCatalogue(FaultCatalogue):
+    """The sensor-fault plugins: ``provider/name`` :class:`SensorFault` instances (or iterables of them).
+
+    Entry points are described and failures recorded as for code faults
+    (:class:`~faultlab.faults.discovery.PluginFailure`, of kind ``"sensor-fault"``).
+    """
+
+    def failure(self, plugin: str, source: str, error: str, *, loading: bool) -> PluginFailure:
+        return PluginFailure(plugin, source, error, kind="sensor-fault")
 
     def instances(self, obj: Any) -> list[Any]:
         if isinstance(obj, SensorFault):
@@ -270,8 +282,6 @@ def load_sensor_plugins(*, group: str = SENSOR_ENTRY_POINT_GROUP, warn: bool = T
     Each entry point loads to a :class:`SensorFault` or an iterable of them, named ``provider/name``;
     a plugin that fails is reported (and warned about) and the others still load.
     """
-    from faultlab.faults.discovery import PluginWarning
-
     catalogue = SensorFaultCatalogue(kind="sensor fault", group=group, base=SensorFault, builtins=(),
                                      error=FaultError, warning=PluginWarning)
     return catalogue.load(group=group, warn=warn)

@@ -44,6 +44,21 @@ error varies by metres from run to run is violated or not almost by chance (a me
 differences).  The result therefore reports every discrepancy, the unmodified SLAM's
 discrepancies and spread, the tolerance and its basis, not the verdict alone.
 
+Sensor faults (:class:`~faultlab.faults.sensor.SensorFault`) leave the SLAM's code alone and
+perturb the stream it is fed.  A stream fault is applied as the campaign runner applies it
+(:func:`~faultlab.scenario.feed.fed_scenario`): in repetition ``k`` the faulty sensor delivers its
+perturbation of the source case and of the follow-up case, both drawn from the fault's own stream
+keyed by the repetition's seed (the same perturbation draws for both cases), while the relation's
+discrepancy is measured against the unperturbed cases' ground truth.  For an *exact* relation this
+is only meaningful when the fault and the relation's transform commute on the case (perturbing the
+follow-up gives the transform of the perturbed source): otherwise even a correct SLAM would be
+reported as violating the relation.  The check verifies that on every repetition before running a
+SLAM and refuses a pair that does not commute, naming it (e.g. ``id_permutation`` re-sorts the
+observations of a step, so a fault that drops observations by their position drops others).  A
+statistical relation is judged on the perturbed follow-up as it is: the same faulty sensor in the
+transformed world.  A hardware limit (a fault that changes a SLAM option) is refused: the check
+receives a SLAM factory, not options; check the SLAM built with the limited option instead.
+
 Repetitions in which the SLAM under test crashes (raises, or returns a non-finite estimate) on
 exactly one of the two cases count as infinitely discrepant; those in which it crashes on both
 are left out, and if that leaves none the verdict is ``crash``.  The unmodified SLAM must not crash
@@ -62,6 +77,7 @@ import numpy as np
 from faultlab.errors import ConfigError, SlamOutputError
 from faultlab.metamorphic.relation import MetamorphicRelation
 from faultlab.scenario.generator import fixed_case_scenario
+from faultlab.scenario.feed import fed_scenario, perturbs_stream, sets_option
 from faultlab.scenario.model import Scenario
 from faultlab.slam.protocol import Estimate, SlamAdapter, run_slam
 from faultlab.vocabulary import BASELINE
@@ -171,6 +187,20 @@ def _fmt(x: float) -> str:
 
 # --------------------------------------------------------------------------- the checker
 
+#: The arrays of a scenario that make up the stream a SLAM is fed.
+_STREAM_FIELDS = ("controls", "obs_offsets", "obs_range", "obs_bearing", "obs_ids")
+
+
+def _refuse_unjudgeable(checker: "_Checker", relations: Sequence[MetamorphicRelation], faults: Sequence) -> None:
+    """Raise one :class:`ConfigError` naming every (relation, fault) pair that cannot be judged."""
+    problems = [reason for fault in faults for relation in relations
+                if (reason := checker.unjudgeable(relation, fault)) is not None]
+    problems = list(dict.fromkeys(problems))
+    if problems:
+        raise ConfigError("metamorphic check refused: " + "; ".join(problems)
+                          + " (leave these relations or faults out)")
+
+
 class _Checker:
     """Runs and caches the SLAM runs that several checks on one source case share."""
 
@@ -204,12 +234,38 @@ class _Checker:
             self._followups[key] = relation.transform(self.scenario, self._rng(k, 1))
         return self._followups[key]
 
+    def fed(self, fault, relation: MetamorphicRelation | None, k: int) -> Scenario:
+        """The source (``relation`` None) or follow-up case as the SLAM with ``fault`` is fed it in repetition ``k``."""
+        scenario = self.scenario if relation is None else self.followup(relation, k)
+        return fed_scenario(fault, scenario, seed=self.seeds[k])
+
+    def unjudgeable(self, relation: MetamorphicRelation, fault) -> str | None:
+        """Why ``relation`` cannot be judged on the SLAM with ``fault``, or None (module docstring)."""
+        if sets_option(fault):
+            return (f"sensor fault {fault.name!r} is a hardware limit (it changes the SLAM option "
+                    f"{fault.option!r}); the metamorphic check cannot set SLAM options: check the SLAM built "
+                    f"with that option instead")
+        if not perturbs_stream(fault) or not relation.exact:
+            return None
+        for k in range(self.n_reps):
+            expected = relation.transform(self.fed(fault, None, k), self._rng(k, 1))
+            actual = self.fed(fault, relation, k)
+            for name in _STREAM_FIELDS:
+                a, b = getattr(actual, name), getattr(expected, name)
+                if a.shape != b.shape or not np.array_equal(a, b):
+                    return (f"relation {relation.name!r} cannot be judged under sensor fault {fault.name!r}: "
+                            f"the fault and the relation's transform do not commute on this case (repetition "
+                            f"{k}: perturbing the follow-up case and transforming the perturbed source case "
+                            f"give different {name}), so even a correct SLAM would violate this exact "
+                            f"relation")
+        return None
+
     def run(self, fault, relation: MetamorphicRelation | None, k: int) -> Estimate | str:
         """The estimate of the SLAM (with ``fault``) on the source (``relation`` None) or follow-up case."""
         variant = BASELINE if fault is None else fault.name
         key = (variant, 0 if relation is None else id(relation), k)
         if key not in self._runs:
-            scenario = self.scenario if relation is None else self.followup(relation, k)
+            scenario = self.fed(fault, relation, k)
             slam = self.factory()
             if fault is not None:
                 slam = fault.apply(slam)  # a fault that does not apply is the caller's error
@@ -310,17 +366,25 @@ def check_relation(slam_factory: Callable[[], SlamAdapter], relation: Metamorphi
         The source case.
     rngs : sequence of numpy.random.Generator
         One per repetition (K >= 2); one integer is drawn from each.
-    fault : Fault, optional
-        Applied with ``fault.apply(slam)``; None checks the unmodified SLAM.
+    fault : Fault or SensorFault, optional
+        A code fault is applied with ``fault.apply(slam)``, a stream fault perturbs both cases the
+        SLAM is fed (module docstring); None checks the unmodified SLAM.
     factor, atol : float
         The decision rule's parameters (module docstring).
 
     Returns
     -------
     RelationResult
+
+    Raises
+    ------
+    ConfigError
+        A hardware limit, or an exact relation whose transform does not commute with the stream fault.
     """
     _check_options(factor, atol)
-    return _Checker(slam_factory, scenario, rngs).check(relation, fault, factor=factor, atol=atol)
+    checker = _Checker(slam_factory, scenario, rngs)
+    _refuse_unjudgeable(checker, [relation], [] if fault is None else [fault])
+    return checker.check(relation, fault, factor=factor, atol=atol)
 
 
 # --------------------------------------------------------------------------- the matrix
@@ -419,6 +483,7 @@ def relation_matrix(slam_factory: Callable[[], SlamAdapter], relations: Iterable
     relations = list(relations)
     faults = list(faults)
     checker = _Checker(slam_factory, scenario, rngs)
+    _refuse_unjudgeable(checker, relations, faults)
     results: dict[tuple[str, str], RelationResult] = {}
     for fault in [None, *faults]:
         for relation in relations:

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Collection
 
 import numpy as np
 
 from faultlab.errors import ConfigError
 from faultlab.metrics.alignment import kabsch_rms
 from faultlab.metrics.transport import earth_movers_distance
-from faultlab.vocabulary import ASSOCIATIONS, UNKNOWN_ASSOCIATION
+from faultlab.vocabulary import ASSOCIATIONS, METRICS, UNKNOWN_ASSOCIATION
 
 __all__ = ["MapErrors", "map_errors"]
 
@@ -39,7 +40,7 @@ class MapErrors:
     n_unmapped: int
 
 
-def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", emd: bool = True,
+def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", metrics: Collection[str] = METRICS,
                association: str = "known") -> MapErrors:
     """RMS (Kabsch) and EMD map errors of ``estimate`` against ``scenario``'s map.
 
@@ -57,10 +58,11 @@ def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", emd: bool =
         without landmark ids would be scored.  In both cases the EMD uses
         *all* ground-truth landmarks (unmapped ones cost transport) and, when
         nothing was mapped, is NaN.
-    emd : bool
-        Compute the EMD at all (default True).  It is exact optimal transport
-        and costs seconds for maps of several thousand landmarks (see
-        :func:`earth_movers_distance`); ``False`` leaves ``emd_mm`` NaN.
+    metrics : collection of {"rms", "emd"}
+        The metrics to compute (default both); one left out is NaN and costs nothing.  The EMD is
+        exact optimal transport and costs seconds for maps of several thousand landmarks (see
+        :func:`earth_movers_distance`).  The landmark counts and the rigid alignment the EMD uses
+        are computed whatever this says, so every value computed is the one computed with both.
     association : {"known", "unknown"}
         ``"unknown"``: the estimate comes from a SLAM that saw no landmark ids
         (:mod:`faultlab.slam.protocol`, "Data association"), so its labels correspond to nothing
@@ -82,6 +84,11 @@ def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", emd: bool =
     if association not in ASSOCIATIONS:
         raise ConfigError(f"map_errors: association must be one of {', '.join(map(repr, ASSOCIATIONS))}, "
                           f"got {association!r}")
+    unknown = sorted(set(metrics) - set(METRICS))
+    if unknown or not metrics or isinstance(metrics, str):
+        raise ConfigError(f"map_errors: metrics must be a non-empty collection of "
+                          f"{', '.join(map(repr, METRICS))}, got {metrics!r}")
+    emd = "emd" in metrics
     estimate.validate(where="map_errors: estimate")
     if association == UNKNOWN_ASSOCIATION:
         est_xy = np.asarray(estimate.landmarks, dtype=float).reshape(-1, 2)
@@ -96,5 +103,5 @@ def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", emd: bool =
         if emd_alignment == "kabsch":
             est_xy = err.apply(est_xy)
         emd_m = earth_movers_distance(scenario.landmarks, est_xy)
-    return MapErrors(rms_mm=err.rms * _MM_PER_M, emd_mm=emd_m * _MM_PER_M,
+    return MapErrors(rms_mm=err.rms * _MM_PER_M if "rms" in metrics else float("nan"), emd_mm=emd_m * _MM_PER_M,
                      n_mapped=err.n_mapped, n_unmapped=err.n_unmapped)

@@ -679,7 +679,7 @@ def metadata_pages(analysis: Analysis, seeds: list) -> list[Figure]:
     if exp:
         blocks.append("## Effective experiment settings")
         for key in ("runs", "suites", "n_steps", "sensor_range", "min_distance", "slam", "variants",
-                    "repetitions", "metric", "timeout_s", "detection", "space"):
+                    "repetitions", "metric", "metrics", "timeout_s", "detection", "space"):
             if key in exp:
                 blocks.append(f"- {key}: {exp[key]}")
     pages = text_pages("Run metadata", blocks)

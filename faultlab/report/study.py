@@ -121,6 +121,14 @@ def _comparisons_md(analysis: StudyAnalysis) -> pd.DataFrame:
         "drawn pairs with McNemar p <= 0.05": [_pct(x) for x in c["mcnemar_share_sig"]]})
 
 
+def _whole_md(whole: pd.DataFrame) -> pd.DataFrame:
+    return pd.DataFrame({"strategy": whole["strategy"], "variant": whole["variant"],
+                         "cases": whole["size"].map(lambda x: f"{x:g}"), "suites": whole["suites"],
+                         "detected": [_interval(r, lo, hi) for r, lo, hi in
+                                      zip(whole["rate"], whole["ci_low"], whole["ci_high"])],
+                         "paper rule": whole["rate_paper"].map(_pct)})
+
+
 def _run_text(meta: dict) -> str:
     load = meta.get("load") or {}
     sessions = meta.get("sessions", [])
@@ -230,6 +238,14 @@ def study_markdown(analysis: StudyAnalysis) -> str:
                "error; and exact McNemar tests over the mutants for the suites drawn with the same index (statsmodels), "
                "summarised over the drawn pairs (they concern a typical pair of suites, not the strategies).", "",
                markdown_table(_comparisons_md(analysis))]
+    if not analysis.whole.empty:
+        w = analysis.whole
+        md += ["## Whole generated suites", "",
+               "Each evaluation run's suite of " + ", ".join(f"`{x}`" for x in dict.fromkeys(w["strategy"]))
+               + " judged whole (for pairwise: one whole covering array, randomised independently per run), by the "
+               "same suite rule at its own size. The unit is the generated suite: the interval is Clopper-Pearson "
+               "over suites; for the mutation score, the lowest and highest score of one suite (a range).", "",
+               markdown_table(_whole_md(w))]
     md += ["## Power", "",
            f"Suites drawn per strategy and size: {st['draws']}; bootstrap replicates: {st['bootstrap']}; pool sizes: "
            + ", ".join(f"{s} {n}" for s, n in pool_sizes.items()) + ". "
@@ -249,7 +265,7 @@ def write_study_report(results: str | Path, reports: str | Path) -> list[Path]:
     analysis = analyse_study(results)
     out = Path(reports)
     analysis.save(out)
-    paths = [out / f"{name}.csv" for name in ("kill_matrix", "detection", "scores", "comparisons", "power")]
+    paths = [out / f"{name}.csv" for name in ("kill_matrix", "detection", "scores", "comparisons", "power", "whole")]
     (out / REPORT_FILE).write_text(study_markdown(analysis))
     fig = detection_figure(analysis)
     fig.savefig(out / FIGURE_FILE, dpi=110)

@@ -50,6 +50,7 @@ from faultlab.faults.sensor import SensorFault
 from faultlab.runner.variants import resolve_variant
 from faultlab.metrics import map_errors
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec
+from faultlab.scenario.feed import fed_scenario, perturbs_stream
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.slam.protocol import Estimate, SlamAdapter, association_of, run_slam, run_slam_batch
 from faultlab.slam.twins import warm_up
@@ -231,23 +232,24 @@ def _fed(spec: JobSpec, scenario: Scenario) -> Scenario:
 
     The metrics always score against ``scenario`` itself (the ground truth).
     """
-    fault = resolve_variant(spec.key.variant)
-    return fault.perturb(scenario, seed=spec.seed) if isinstance(fault, SensorFault) else scenario
+    return fed_scenario(resolve_variant(spec.key.variant), scenario, seed=spec.seed)
 
 
 def _perturbs_stream(spec: JobSpec) -> bool:
-    fault = resolve_variant(spec.key.variant)
-    return isinstance(fault, SensorFault) and fault.perturbs_stream
+    return perturbs_stream(resolve_variant(spec.key.variant))
 
-def _score(key: JobKey, scenario: Scenario, estimate: Estimate, runtime: float, *, association: str) -> JobResult:
+
+def _score(spec: JobSpec, scenario: Scenario, estimate: Estimate, runtime: float, *, association: str) -> JobResult:
     """The ``ok`` result of an estimate, or ``crash`` if the metrics cannot score it.
 
     ``association`` is the SLAM's (:func:`~faultlab.slam.protocol.association_of`): a map without
-    landmark ids is scored by the EMD alone (:func:`~faultlab.metrics.map_errors`).
+    landmark ids is scored by the EMD alone (:func:`~faultlab.metrics.map_errors`).  Only the
+    job's ``metrics`` are computed; the others are NaN.
     """
+    key = spec.key
     try:
         with np.errstate(all="ignore"):
-            err = map_errors(scenario, estimate, association=association)
+            err = map_errors(scenario, estimate, association=association, metrics=spec.metrics)
     except Exception as exc:  # e.g. an estimate the metrics cannot score
         return JobResult(key, JobStatus.CRASH, runtime_s=runtime, error=f"metrics: {_describe(exc)}")
     return JobResult(key, JobStatus.OK, rms_mm=float(err.rms_mm), emd_mm=float(err.emd_mm),
@@ -280,7 +282,7 @@ def execute_job(spec: JobSpec) -> JobResult:
                          error=f"timeout: wall-clock limit of {spec.timeout_s:g} s exceeded")
     except (Exception, SystemExit) as exc:  # the SUT's fault, never the campaign's
         return JobResult(spec.key, JobStatus.CRASH, runtime_s=runtime, error=_describe(exc))
-    return _score(spec.key, scenario, estimate, runtime, association=association_of(slam))
+    return _score(spec, scenario, estimate, runtime, association=association_of(slam))
 
 
 def execute_batch(batch: JobBatch) -> list[JobResult]:
@@ -326,7 +328,7 @@ def execute_batch(batch: JobBatch) -> list[JobResult]:
     share = runtime / len(specs)
     association = association_of(slam)
     return [JobResult(s.key, JobStatus.CRASH, runtime_s=share, error=_describe(out))
-            if isinstance(out, BaseException) else _score(s.key, scenario, out, share, association=association)
+            if isinstance(out, BaseException) else _score(s, scenario, out, share, association=association)
             for s, out in zip(specs, outcomes)]
 
 

@@ -17,6 +17,7 @@ Example (``experiments/paper.toml`` is the paper's protocol)::
     variants = ["baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error"]
     repetitions = 1
     metric = "rms"
+    # metrics = ["rms"]     # record only these (default both); the others are stored as NaN
     timeout_s = 600
 
     [suites]
@@ -65,7 +66,7 @@ __all__ = [
 
 
 _TOP_KEYS = ("description", "seed", "runs", "suites", "n_steps", "sensor_range", "min_distance", "fov_bug",
-             "slam", "variants", "repetitions", "metric", "timeout_s", "detection", "space", "adaptive")
+             "slam", "variants", "repetitions", "metric", "metrics", "timeout_s", "detection", "space", "adaptive")
 
 
 @dataclass(frozen=True)
@@ -157,6 +158,13 @@ class Experiment:
         Primary metric, ``"rms"`` or ``"emd"`` (both are recorded).  Default ``"rms"``, or ``"emd"``
         when the SLAM associates landmarks itself (``association = "unknown"`` in ``[slam]``), which
         then requires it.
+    metrics : tuple of str
+        The map errors recorded for every job, in :data:`~faultlab.vocabulary.METRICS` order
+        (default both).  A metric left out is stored as NaN and its work is skipped (the EMD is
+        exact optimal transport, seconds on large maps); the store's metadata lists the recorded
+        ones and the analysis refuses to judge by another.  It must hold ``metric``, and ``"rms"``
+        for a SLAM with landmark ids (Table II judges by the RMS, as the paper does).  Left out of
+        the hash when both are recorded, so older campaigns keep theirs.
     timeout_s : float
         Wall-clock limit of one SLAM execution, s.
     detection : DetectionRule
@@ -183,6 +191,7 @@ class Experiment:
     variants: tuple[str, ...] = (BASELINE,)
     repetitions: int = 1
     metric: str = "rms"
+    metrics: tuple[str, ...] = METRICS
     timeout_s: float = 600.0
     detection: DetectionRule = field(default_factory=DetectionRule)
     space: dict = field(default_factory=dict)
@@ -205,6 +214,7 @@ class Experiment:
             "variants": list(self.variants),
             "repetitions": self.repetitions,
             "metric": self.metric,
+            "metrics": list(self.metrics),
             "timeout_s": self.timeout_s,
             "detection": self.detection.to_dict(),
             "space": copy.deepcopy(self.space),
@@ -216,6 +226,8 @@ class Experiment:
         d.pop("description")
         if not d["fov_bug"]:
             d.pop("fov_bug")  # the default: hashes of campaigns from before the key existed stay valid
+        if tuple(d["metrics"]) == METRICS:
+            d.pop("metrics")  # the default (every metric), as before the key existed
         d["suites"] = [[s.kind, s.n_cases] for s in self.suites]
         return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
@@ -299,6 +311,7 @@ def parse_experiment(data: Mapping, *, source: str = "<experiment>", text: str =
     if unknown and metric != "emd":
         raise top.error("metric", f"must be 'emd' with slam.association = 'unknown' (a map without landmark "
                                   f"ids has no RMS error), got {metric!r}")
+    metrics = _parse_metrics(top, metric=metric, unknown=unknown)
     variants = _parse_variants(top, source)
     detection = _parse_detection(top, source)
 
@@ -317,7 +330,7 @@ def parse_experiment(data: Mapping, *, source: str = "<experiment>", text: str =
 
     exp = Experiment(source=source, text=text, seed=seed, runs=runs, suites=suites, n_steps=n_steps,
                      sensor_range=sensor_range, min_distance=min_distance, fov_bug=fov_bug, slam=slam, variants=variants,
-                     repetitions=repetitions, metric=metric, timeout_s=timeout_s, detection=detection,
+                     repetitions=repetitions, metric=metric, metrics=metrics, timeout_s=timeout_s, detection=detection,
                      space=space, adaptive=adaptive, description=description)
     _check_suites(exp)
     return exp
@@ -365,6 +378,24 @@ def _parse_slam(top: Table, source: str) -> SlamSpec:
             raise t.error("options", f"must be a table, got {type(options).__name__}")
     options = normalise_options(name, options, where=where)
     return SlamSpec(name=name, options=tuple((str(k), v) for k, v in options.items()))
+
+
+def _parse_metrics(top: Table, *, metric: str, unknown: bool) -> tuple[str, ...]:
+    """``metrics``: the recorded map errors, in :data:`METRICS` order (default all of them)."""
+    names = top.get("metrics", list(METRICS))
+    if (not isinstance(names, list) or not names or any(not isinstance(n, str) for n in names)
+            or len(set(names)) != len(names)):
+        raise top.error("metrics", f"must be a non-empty list of distinct metric names "
+                                   f"({', '.join(map(repr, METRICS))}), got {names!r}")
+    bad = [n for n in names if n not in METRICS]
+    if bad:
+        raise top.error("metrics", f"unknown metric {bad[0]!r}; the metrics are {', '.join(map(repr, METRICS))}")
+    if metric not in names:
+        raise top.error("metrics", f"must record the experiment's metric {metric!r}, got {names!r}")
+    if not unknown and "rms" not in names:
+        raise top.error("metrics", f"must record 'rms' for a SLAM with landmark ids (Table II and the per-job "
+                                   f"detection figures judge by the RMS error), got {names!r}")
+    return tuple(m for m in METRICS if m in names)
 
 
 def _parse_variants(top: Table, source: str) -> tuple[str, ...]:

@@ -17,7 +17,7 @@ from typing import Iterable, Sequence
 from faultlab.errors import ConfigError
 from faultlab.runner.experiment import Experiment, SlamSpec
 from faultlab.seeds import slam_seed
-from faultlab.vocabulary import REPLICA
+from faultlab.vocabulary import METRICS, REPLICA
 
 __all__ = ["JobKey", "JobSpec", "JobBatch", "expand_jobs", "batch_jobs"]
 
@@ -55,6 +55,8 @@ class JobSpec:
         Wall-clock limit of the SLAM execution, s.
     cost : float
         Rough relative cost estimate, used only to dispatch long jobs first.
+    metrics : tuple of str
+        The map errors to compute (the experiment's ``metrics``); the others are stored as NaN.
     """
 
     key: JobKey
@@ -63,6 +65,7 @@ class JobSpec:
     seed: int
     timeout_s: float
     cost: float = 0.0
+    metrics: tuple[str, ...] = METRICS
 
 
 def expand_jobs(experiment: Experiment, cases: Iterable[tuple[int, str, int, str, float]]) -> list[JobSpec]:
@@ -82,7 +85,8 @@ def expand_jobs(experiment: Experiment, cases: Iterable[tuple[int, str, int, str
                                     slam=experiment.slam,
                                     seed=slam_seed(experiment.seed, run, suite, case, rep,
                                                    replica=variant == REPLICA),
-                                    timeout_s=experiment.timeout_s, cost=float(cost)))
+                                    timeout_s=experiment.timeout_s, cost=float(cost),
+                                    metrics=experiment.metrics))
     return jobs
 
 

@@ -49,6 +49,7 @@ import pandas as pd
 
 from faultlab import __version__
 from faultlab.errors import ResultsError
+from faultlab.vocabulary import METRICS
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 
 __all__ = [
@@ -69,6 +70,8 @@ __all__ = [
     "row_checksum",
     "UnverifiedStoreWarning",
     "SKIPPED_VARIANTS_KEY",
+    "METRICS_KEY",
+    "recorded_metrics",
     "MUTATION_FILE",
     "STUDY_FILE",
 ]
@@ -80,6 +83,9 @@ FORMAT_VERSION = 1
 #: fault does not apply to the SLAM: one dict per variant with ``fault`` (the variant), ``step``,
 #: ``slam``, ``n_units`` and ``reason`` (one sentence).
 SKIPPED_VARIANTS_KEY = "skipped_variants"
+#: Key of the store's metadata listing the metrics recorded for every job (the experiment's
+#: ``metrics``); the others are NULL in every row.  Stores from before the key recorded all.
+METRICS_KEY = "metrics"
 #: File in a mutation campaign's output directory recording its mutant selection and level
 #: (written by :func:`faultlab.campaigns.mutation.run_mutation`).
 MUTATION_FILE = "mutation.json"
@@ -511,6 +517,7 @@ class ResultStore:
             "faultlab_version": __version__,
             "root_seed": experiment.seed,
             "metric": experiment.metric,
+            METRICS_KEY: list(experiment.metrics),
             "detection": experiment.detection.to_dict(),
             "suites": list(experiment.suite_kinds),
             "variants": list(experiment.variants),
@@ -664,6 +671,12 @@ def load_metadata(out: str | Path) -> dict:
     meta["n_rows"] = int(n_rows)
     meta["path"] = str(path)
     return meta
+
+
+def recorded_metrics(metadata: Mapping) -> tuple[str, ...]:
+    """The metrics a store recorded (its :data:`METRICS_KEY` entry; every metric when it has none)."""
+    names = metadata.get(METRICS_KEY)
+    return METRICS if names is None else tuple(m for m in METRICS if m in names)
 
 
 def _sessions(conn: sqlite3.Connection) -> list[dict]:

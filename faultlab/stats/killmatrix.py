@@ -102,7 +102,7 @@ __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRI
            "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "exact_detection_interval", "score_table", "compare_scores", "detectable_score_difference", "smallest_showable_difference",
-           "COMPARISON_POWER"]
+           "COMPARISON_POWER", "WHOLE_COLUMNS", "whole_suites", "whole_suite_table"]
 
 #: Multiplicity rules within a suite's cases.
 MULTIPLICITY: tuple[str, ...] = ("holm", "bonferroni")
@@ -639,7 +639,7 @@ def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms"
     return v.assign(kill=kill)
 
 
-_STUDY_KEYS = ("sizes", "draws", "bootstrap", "seed", "alpha", "multiplicity", "timeouts_detect", "quick")
+_STUDY_KEYS = ("sizes", "draws", "bootstrap", "seed", "alpha", "multiplicity", "timeouts_detect", "whole", "quick")
 
 
 @dataclass(frozen=True)
@@ -663,6 +663,10 @@ class StudySpec:
     timeouts_detect : bool
         Whether a variant's timeout on a case detects it (default false: on a shared machine the
         wall-clock limit measures the load as much as the variant; crashes always detect).
+    whole : tuple of str
+        Strategies whose generated suites are also judged whole (:func:`whole_suites`): each
+        evaluation run's suite of such a strategy -- e.g. one pairwise covering array -- is one
+        suite, beside the suites drawn from the pool.
     """
 
     sizes: tuple[int, ...] = (1, 2, 5, 10, 20)
@@ -672,10 +676,12 @@ class StudySpec:
     alpha: float = DEFAULT_ALPHA
     multiplicity: str = "holm"
     timeouts_detect: bool = False
+    whole: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         return {"sizes": list(self.sizes), "draws": self.draws, "bootstrap": self.bootstrap, "seed": self.seed,
-                "alpha": self.alpha, "multiplicity": self.multiplicity, "timeouts_detect": self.timeouts_detect}
+                "alpha": self.alpha, "multiplicity": self.multiplicity, "timeouts_detect": self.timeouts_detect,
+                "whole": list(self.whole)}
 
 
 def study_spec(data: Mapping, *, source: str) -> StudySpec:
@@ -689,10 +695,76 @@ def study_spec(data: Mapping, *, source: str) -> StudySpec:
         raise t.error("sizes", f"must be a non-empty list of integers >= 1, got {sizes!r}")
     if len(set(sizes)) != len(sizes):
         raise t.error("sizes", f"lists a size twice: {sizes!r}")
+    whole = t.get("whole", list(d.whole))
+    if not isinstance(whole, list) or any(not isinstance(w, str) for w in whole) or len(set(whole)) != len(whole):
+        raise t.error("whole", f"must be a list of distinct strategy names, got {whole!r}")
     alpha = t.float("alpha", d.alpha, positive=True)
     if not alpha < 1:
         raise t.error("alpha", f"must lie in (0, 1), got {alpha!r}")
     return StudySpec(sizes=tuple(sorted(sizes)), draws=t.int("draws", d.draws, minimum=1),
                      bootstrap=t.int("bootstrap", d.bootstrap, minimum=1), seed=t.int("seed", d.seed, minimum=0),
                      alpha=alpha, multiplicity=t.str("multiplicity", d.multiplicity, choices=MULTIPLICITY),
-                     timeouts_detect=t.bool("timeouts_detect", d.timeouts_detect))
+                     timeouts_detect=t.bool("timeouts_detect", d.timeouts_detect), whole=tuple(whole))
+
+
+# --------------------------------------------------------------------------- whole generated suites
+
+#: Columns of :func:`whole_suite_table`.
+WHOLE_COLUMNS = ("strategy", "variant", "size", "suites", "detected", "rate", "ci_low", "ci_high", "rate_paper")
+
+
+def whole_suites(km: KillMatrix, strategies, *, alpha: float = 0.05, method: str = "holm",
+                 timeouts_detect: bool = False) -> pd.DataFrame:
+    """Each evaluation run's suite of ``strategies`` judged whole by the suite rule.
+
+    A strategy's pool holds one generated suite per evaluation run (for ``pairwise``, one whole
+    covering array, randomised independently per run: relabelled classes, values drawn inside
+    classes); the suites drawn from the pool are subsets of these.  Here every run's suite is one
+    suite of all its cases (:func:`judge_suite`).  Returns one row per (strategy, run, variant):
+    ``strategy, run, size, variant, detected, paper``.
+    """
+    frames = []
+    for strategy in strategies:
+        rows = km.rows(strategy)
+        if rows.size == 0:
+            raise ConfigError(f"study.whole: {strategy!r} has no pool in the kill matrix "
+                              f"(strategies: {', '.join(km.strategies)})")
+        runs = km.cases["run"].to_numpy()[rows]
+        for run in np.unique(runs):
+            suite = rows[runs == run]
+            judged = judge_suite(km, suite, alpha=alpha, method=method, timeouts_detect=timeouts_detect)
+            frames.append(judged[["variant", "detected", "paper"]].assign(strategy=strategy, run=int(run),
+                                                                          size=int(suite.size)))
+    if not frames:
+        return pd.DataFrame(columns=["strategy", "run", "size", "variant", "detected", "paper"])
+    return pd.concat(frames, ignore_index=True)[["strategy", "run", "size", "variant", "detected", "paper"]]
+
+
+def whole_suite_table(whole: pd.DataFrame, *, mutants=(), alpha: float = 0.05) -> pd.DataFrame:
+    """Per (strategy, variant): share of the whole suites that detect, with its exact interval.
+
+    The unit is the independently generated suite (one per evaluation run), so the interval is
+    Clopper-Pearson over suites (statsmodels ``proportion_confint(method="beta")``, level
+    ``1 - alpha``).  With ``mutants``, a row ``variant = "mutation score"`` per strategy gives the
+    mean over suites of the share of ``mutants`` each kills (``detected`` = mutants killed over
+    all suites, ``ci_low``/``ci_high`` = the lowest and highest score of one suite: a range, not
+    an interval).  ``size`` is the suites' mean number of cases.
+    """
+    from statsmodels.stats.proportion import proportion_confint
+
+    rows = []
+    for (strategy, variant), g in whole.groupby(["strategy", "variant"], sort=False):
+        k, n = int(g["detected"].sum()), len(g)
+        lo, hi = proportion_confint(k, n, alpha=alpha, method="beta")
+        rows.append({"strategy": strategy, "variant": variant, "size": float(g["size"].mean()), "suites": n,
+                     "detected": k, "rate": k / n, "ci_low": float(lo), "ci_high": float(hi),
+                     "rate_paper": float(g["paper"].mean())})
+    mutants = set(mutants)
+    if mutants:
+        for strategy, g in whole[whole["variant"].isin(mutants)].groupby("strategy", sort=False):
+            per_suite = g.groupby("run")["detected"].mean()
+            rows.append({"strategy": strategy, "variant": "mutation score", "size": float(g["size"].mean()),
+                         "suites": int(per_suite.size), "detected": int(g["detected"].sum()),
+                         "rate": float(per_suite.mean()), "ci_low": float(per_suite.min()),
+                         "ci_high": float(per_suite.max()), "rate_paper": float(g.groupby("run")["paper"].mean().mean())})
+    return pd.DataFrame(rows, columns=list(WHOLE_COLUMNS))

@@ -17,6 +17,7 @@ rows with variant ``by_suite``, the printed values of Table II are taken from
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -30,7 +31,7 @@ from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.stats.rates import tabulate_by_suite, tabulate_rates
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
-__all__ = ["PaperTable", "paper_table", "load_paper_raw", "load_paper_reported", "resolve_data_path",
+__all__ = ["PaperTable", "paper_table", "load_paper_raw", "load_paper_reported", "resolve_data_path", "data_label",
            "percent", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV", "PAPER_RATE_COLUMNS",
            "PAPER_BY_SUITE_COLUMNS"]
 
@@ -80,6 +81,34 @@ def resolve_data_path(path: str | Path | None, default: str) -> Path:
         if c.is_file():
             return c
     raise ResultsError(f"paper data file not found: tried {', '.join(str(c) for c in candidates)}")
+
+
+def data_label(path: str | Path) -> str:
+    """A name of a paper data file that holds no machine path, for what an analysis saves.
+
+    The paper's own data (a file with the content of a shipped copy and its name) is named by
+    its repository path (:data:`RAW_CSV`, :data:`REPORTED_CSV`), which
+    :func:`resolve_data_path` finds again on any machine; any other file by its name and the
+    sha256 of its content (``"mine.csv (sha256 <hex>)"``).  A relative path is kept as given.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file read (as :func:`resolve_data_path` returned it), or an older saved label.
+        An absolute path of a file that no longer exists keeps its name only.
+    """
+    p = Path(path)
+    if not p.is_absolute():
+        return str(path)
+    if not p.is_file():
+        return p.name
+    digest = hashlib.sha256(p.read_bytes()).hexdigest()
+    for repo_path in (RAW_CSV, REPORTED_CSV):
+        shipped = shipped_file(repo_path)
+        if (shipped is not None and p.name == shipped.name
+                and hashlib.sha256(shipped.read_bytes()).hexdigest() == digest):
+            return repo_path
+    return f"{p.name} (sha256 {digest})"
 
 
 def _read_csv(path: Path, required: tuple[str, ...]) -> pd.DataFrame:
@@ -170,7 +199,8 @@ class PaperTable:
     by_suite : DataFrame
         Per suite, columns :data:`PAPER_BY_SUITE_COLUMNS`: ``detected_pairs, n_pairs, rate,
         wilson_low, wilson_high, computed_pct, reported_pct, agrees, missed``.
-    raw_path, reported_path : Path
+    raw_path, reported_path : Path or str
+        The files read, or their :func:`data_label` when the table comes from a saved analysis.
     """
 
     rule: DetectionRule
@@ -178,8 +208,8 @@ class PaperTable:
     outcomes: pd.DataFrame
     rates: pd.DataFrame
     by_suite: pd.DataFrame
-    raw_path: Path
-    reported_path: Path
+    raw_path: Path | str
+    reported_path: Path | str
 
     @cached_property
     def rms(self) -> pd.DataFrame:
@@ -217,9 +247,9 @@ class PaperTable:
         cells = self.rms.map(lambda v: "" if np.isnan(v) else f"{int(np.floor(v + 0.5))}")
         cells = cells.where(~self.detected, cells + "*")
         cells.columns = [f"{r}.{c}" for r, c in cells.columns]
-        lines = [f"Table II recomputed from {self.raw_path}",
+        lines = [f"Table II recomputed from {data_label(self.raw_path)}",
                  f"RMS map error, mm, column = run.case; * = {self.rule.describe()}", "",
-                 cells.to_string(), "", f"Detected Faults: computed vs printed ({self.reported_path})"]
+                 cells.to_string(), "", f"Detected Faults: computed vs printed ({data_label(self.reported_path)})"]
         r = self.rates.copy()
         r["computed"] = [f"{p:d} % ({k}/{n})" if n else "-"
                          for p, k, n in zip(r["computed_pct"], r["detected"], r["n"])]

@@ -36,6 +36,21 @@ def test_weights_follow_the_planted_class_ratios_of_influential_parameters_only(
     table1_space().with_weights({p: dict(zip(g["class"], g["weight"])) for p, g in w.groupby("parameter")})
 
 
+def test_a_response_the_sobol_stage_did_not_estimate_gets_no_weights_even_with_morris_rows():
+    study = _study()
+    cases = study.cases.assign(**{"effect:g": study.cases["effect:f"]})
+    # Morris mu* of g is clear of 0 for map_size, but the Sobol stage (run: it has rows for f) has none for g
+    morris = pd.DataFrame({"response": "effect:g", "parameter": ["map_size"], "mu_star": [0.5],
+                           "mu_star_low": [0.3], "mu_star_high": [0.7]})
+    both = EffectsAnalysis(responses=("effect:f", "effect:g"), morris=morris, sobol=study.sobol,
+                           regression=pd.DataFrame(), cases=cases, partial=pd.DataFrame())
+    assert study_weights(both, "effect:g").empty
+    # without a Sobol stage the Morris screening decides
+    screening_only = EffectsAnalysis(responses=("effect:f", "effect:g"), morris=morris, sobol=pd.DataFrame(),
+                                     regression=pd.DataFrame(), cases=cases, partial=pd.DataFrame())
+    assert set(study_weights(screening_only, "effect:g")["parameter"]) == {"map_size"}
+
+
 def test_unknown_response_is_one_clear_error():
     with pytest.raises(ResultsError, match="no response 'effect:g'"):
         study_weights(_study(), "effect:g")

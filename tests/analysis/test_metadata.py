@@ -64,3 +64,20 @@ def test_expected_jobs_and_summary_of_adaptive_repetitions():
     assert "3 (case, variant) pair(s) stopped early (1 curtailed, 2 futile)" in text
     assert "16 of the fixed design's 24 executions (33.3 % saved)" in text
     assert adaptive_summary({"experiment": {k: v for k, v in exp.items() if k != "adaptive"}}) is None
+
+
+def test_judged_metric_is_the_stored_one_and_must_have_been_recorded():
+    from faultlab.analysis.metadata import judged_metric, metrics_note
+    from faultlab.errors import ConfigError, ResultsError
+
+    old = {"metric": "rms"}  # a store from before the metrics option recorded both
+    assert judged_metric(old) == "rms" and judged_metric(old, "emd") == "emd" and metrics_note(old) is None
+    assert judged_metric({"experiment": {"metric": "emd"}}) == "emd"
+    only = {"metric": "rms", "metrics": ["rms"], "experiment_source": "e.toml"}
+    assert judged_metric(only) == "rms" and "EMD was not computed" in metrics_note(only)
+    with pytest.raises(ResultsError, match=r"e.toml cannot be judged by 'emd': the experiment recorded only 'rms'"):
+        judged_metric(only, "emd")
+    with pytest.raises(ResultsError, match="cannot be judged by 'emd'"):
+        judged_metric({"metric": "emd", "metrics": ["rms"]})
+    with pytest.raises(ConfigError, match="metric must be one of"):
+        judged_metric(old, "mae")

@@ -1,6 +1,7 @@
 """The Analysis: computed once, with the campaign's stored rule, saved and loaded back exactly."""
 
 import ast
+import hashlib
 import dataclasses
 import json
 import shutil
@@ -16,6 +17,7 @@ from faultlab.analysis import Analysis, Note, analyse
 from faultlab.analysis.schema import TABLES
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import load_metadata, load_results
+from faultlab.stats.paper import data_label
 from faultlab.stats import (
     DetectionRule,
     by_suite,
@@ -173,7 +175,9 @@ def test_load_refuses_what_is_not_a_saved_analysis(strict, tmp_path):
 
 
 def test_paper_table_view_equals_the_stats_function(strict):
-    ref = paper_table(strict.paper_raw, strict.paper_reported, rule=strict.rule)
+    ref = paper_table(resolve_data_path(strict.paper_raw, "paper_repro/paper_table2_rms.csv"),
+                      resolve_data_path(strict.paper_reported, "paper_repro/paper_table2_reported.csv"),
+                      rule=strict.rule)
     view = strict.paper_table
     pd.testing.assert_frame_equal(view.rms, ref.rms)
     pd.testing.assert_frame_equal(view.detected, ref.detected)
@@ -245,6 +249,8 @@ def test_analyse_reads_the_store_and_its_rule(tmp_path):
     shutil.copytree(STORE, store)
     a = analyse(store, paper=False)
     assert a.rule == DetectionRule() and a.n_rows == 180 and a.metadata == json.loads(json.dumps(load_metadata(store)))
+    a.save(tmp_path / "saved")  # the live analysis knows where its store is; the saved one names no machine path
+    assert json.loads((tmp_path / "saved" / "analysis.json").read_text())["metadata"]["path"] == "store/results.sqlite"
     with sqlite3.connect(store / "results.sqlite") as conn:
         conn.execute("UPDATE meta SET value = ? WHERE key = 'detection'", (json.dumps(STRICT["detection"]),))
     conn.close()
@@ -294,3 +300,25 @@ def test_the_analysis_layer_imports_no_report_cli_or_plotting():
     assert "faultlab.analysis.result" in seen and "faultlab.stats.rates" in seen and "faultlab.runner.store" in seen
     assert not [m for m in seen if m.startswith(("faultlab.report", "faultlab.cli"))]
     assert "matplotlib" not in outside and "seaborn" not in outside and "statsmodels" in outside
+
+
+def test_saved_analysis_names_no_machine_path_and_older_ones_load_portable(strict, tmp_path):
+    assert (strict.paper_raw, strict.paper_reported) == ("paper_repro/paper_table2_rms.csv",
+                                                        "paper_repro/paper_table2_reported.csv")
+    strict.save(tmp_path / "a")
+    text = (tmp_path / "a" / "analysis.json").read_text()
+    assert str(Path.cwd()) not in text and "sha256" not in text
+    # an analysis saved with absolute paths (before they were made portable) loads with portable names
+    data = json.loads(text)
+    shipped = resolve_data_path(None, "paper_repro/paper_table2_rms.csv")
+    data.update(paper_raw=str(shipped.resolve()), paper_reported="/elsewhere/gone/paper_table2_reported.csv")
+    data["metadata"]["path"] = "/some/machine/runs/quick/results.sqlite"
+    (tmp_path / "a" / "analysis.json").write_text(json.dumps(data))
+    old = Analysis.load(tmp_path / "a")
+    assert (old.paper_raw, old.paper_reported) == ("paper_repro/paper_table2_rms.csv", "paper_table2_reported.csv")
+    assert old.metadata["path"] == "quick/results.sqlite"
+    # a user's own file is named by its name and content hash
+    mine = tmp_path / "mine.csv"
+    mine.write_bytes(shipped.read_bytes() + b"\n")
+    digest = hashlib.sha256(mine.read_bytes()).hexdigest()
+    assert data_label(mine) == f"mine.csv (sha256 {digest})" and data_label("rel/mine.csv") == "rel/mine.csv"

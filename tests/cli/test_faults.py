@@ -104,3 +104,13 @@ def test_faults_for_a_slam_drops_a_hardware_limit_it_has_no_option_for(capsys):
     assert "obs_dropout" in section and "particle_budget" not in section
     assert main(["faults", "--no-plugins", "--slam", "fastslam"]) == 0
     assert "particle_budget" in capsys.readouterr().out
+
+
+def test_faults_check_runs_sensor_faults_on_their_stream_and_option(capsys):
+    code = main(["faults", "--check", "--steps", "30", "--particles", "20", "--repetitions", "1",
+                 "obs_dropout", "particle_budget"])
+    out = capsys.readouterr().out
+    rows = {line.split()[0]: line for line in out.splitlines() if line.split()}
+    assert code == 0 and "all 2 faults change the output" in out
+    assert "sensor stream" in rows["obs_dropout"] and "differs" in rows["obs_dropout"]
+    assert "slam option particles" in rows["particle_budget"] and "differs" in rows["particle_budget"]

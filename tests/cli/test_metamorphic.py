@@ -32,3 +32,15 @@ def test_metamorphic_says_which_faults_do_not_apply(capsys):
 def test_metamorphic_refuses_a_single_repetition(capsys, option):
     assert main(["metamorphic", option, "1"]) == 1
     assert "--repetitions must be >= 2" in capsys.readouterr().err
+
+
+def test_metamorphic_runs_a_stream_fault_and_refuses_a_hardware_limit(capsys):
+    code = main(["metamorphic", "--steps", "20", "--repetitions", "2", "--particles", "20", "--no-plugins",
+                 "--faults", "obs_dropout", "--relations", "rigid_motion"])
+    out = capsys.readouterr().out
+    assert code == 0 and [line.split()[0] for line in out.splitlines()].count("obs_dropout") == 1
+    assert main(["metamorphic", "--steps", "20", "--repetitions", "2", "--no-plugins",
+                 "--faults", "particle_budget", "--relations", "rigid_motion"]) == 1
+    captured = capsys.readouterr()
+    assert captured.out == "" and "'particle_budget' is a hardware limit" in captured.err
+    assert "Traceback" not in captured.err

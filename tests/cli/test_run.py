@@ -126,3 +126,17 @@ def test_run_adaptive_option_sets_the_stages(tmp_path, capsys):
     assert main(["run", str(exp), "--out", str(tmp_path / "bad"), "--no-progress", "--adaptive", "2,5"]) == 1
     assert "must equal repetitions" in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()
+
+
+def test_run_metrics_option_records_only_those(tmp_path, capsys):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress", "--metrics", "rms"]) == 0
+    df = load_results(out)
+    assert load_metadata(out)["metrics"] == ["rms"]
+    assert df["emd_mm"].isna().all() and df["rms_mm"].notna().all()
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(tmp_path / "bad"), "--no-progress", "--metrics", "rms,mae"]) == 1
+    err = capsys.readouterr().err
+    assert "metrics unknown metric 'mae'" in err and "Traceback" not in err
+    assert not (tmp_path / "bad").exists()  # a refused command writes nothing

@@ -35,6 +35,7 @@ sizes = [1, 2]
 draws = 300
 bootstrap = 100
 seed = 1
+whole = ["random"]
 """
 
 
@@ -68,6 +69,22 @@ def test_study_run_and_report_on_a_tiny_pool(tmp_path, capsys):
     md = (rep / "study.md").read_text()
     assert "## Power" in md and "bootstrap" in md
 
+    # the whole random suite (its 3 cases) judged by Holm over its cases (statsmodels), crashes detect
+    from statsmodels.stats.multitest import multipletests
+    from statsmodels.stats.proportion import proportion_confint
+
+    whole = pd.read_csv(rep / "whole.csv")
+    assert set(whole["strategy"]) == {"random"} and "## Whole generated suites" in md
+    for variant in km["variant"].unique():
+        cases = km[(km["strategy"] == "random") & (km["variant"] == variant)]
+        holm = multipletests(cases["p"].fillna(1.0), alpha=0.05, method="holm")[0]
+        detected = bool(cases["crash"].any() or holm.any())
+        row = whole[whole["variant"] == variant].iloc[0]
+        assert (row["suites"], row["detected"], row["size"]) == (1, int(detected), 3)
+        lo, hi = proportion_confint(int(detected), 1, alpha=0.05, method="beta")
+        assert (row["ci_low"], row["ci_high"]) == pytest.approx((lo, hi))
+    assert "mutation score" in set(whole["variant"])
+
     # the report is a pure function of the store: the same tables again
     rep2 = tmp_path / "rep2"
     assert main(["study", "report", str(out), "--reports", str(rep2)]) == 0
@@ -81,6 +98,18 @@ def test_study_run_and_report_on_a_tiny_pool(tmp_path, capsys):
     assert (det["ci_high"] > det["ci_low"]).all()  # exact intervals: never zero width
 
 
+def test_study_run_refuses_a_whole_suite_its_repetitions_cannot_judge(tmp_path, capsys):
+    exp = tmp_path / "tiny.toml"
+    # 5 cases: 0.05 / 5 needs K = 8 two-sided (2 * 2^-8 <= 0.01 < 2 * 2^-7)
+    exp.write_text(TINY.replace('whole = ["random"]', 'whole = ["systematic"]'))
+    assert main(["study", "run", str(exp), "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err
+    assert "repetitions = 7 is too few" in err and "K = 8" in err
+    exp.write_text(TINY.replace('whole = ["random"]', 'whole = ["pairwise"]'))
+    assert main(["study", "run", str(exp), "--out", str(tmp_path / "o")]) == 1
+    assert "study.whole" in capsys.readouterr().err and not (tmp_path / "o").exists()
+
+
 def test_study_run_refuses_too_few_repetitions_for_the_largest_size(tmp_path, capsys):
     exp = tmp_path / "tiny.toml"
     exp.write_text(TINY.replace("sizes = [1, 2]", "sizes = [1, 2, 3]").replace("repetitions = 7", "repetitions = 6"))
@@ -88,6 +117,62 @@ def test_study_run_refuses_too_few_repetitions_for_the_largest_size(tmp_path, ca
     err = capsys.readouterr().err
     assert "repetitions = 6 is too few" in err and "K = 7" in err  # 0.05 / 3 two-sided
     assert not (tmp_path / "o").exists()
+
+
+def test_study_plan_writes_the_plan_of_a_tiny_study(tmp_path, capsys):
+    from faultlab.stats.planning import plan_study
+
+    from faultlab.analysis.planning import execution_cost
+
+    (tmp_path / "tiny.toml").write_text(TINY)
+    from pathlib import Path
+
+    store = str(Path(__file__).resolve().parents[2] / "reports/mutation/store")
+    rc = main(["study", "plan", str(tmp_path / "tiny.toml"), "--cost-store", store, "--budget-hours", "0.5",
+               "--reports", str(tmp_path / "plan")])
+    assert rc == 0
+    text = (tmp_path / "plan" / "plan.md").read_text()
+    assert text in capsys.readouterr().out
+    # the file's 2 strategies (1 pair), 2 faults, largest size 2 and the store's mean runtime
+    plan = plan_study("strategies", strategies=2, faults=2, max_suite=2,
+                      seconds_per_execution=execution_cost(store).seconds, budget_hours=0.5)
+    assert f"| pool cases per strategy | {plan.needed.cases} |" in text
+    assert f"| mutants | {plan.needed.mutants} |" in text
+    assert f"| SLAM executions | {plan.needed.executions:,} |" in text
+    assert "alpha / 1 = 0.05" in text and str(tmp_path) not in text
+
+
+def test_study_plan_with_an_assumed_cost_says_so(tmp_path, capsys):
+    from faultlab.stats.planning import plan_study
+
+    (tmp_path / "tiny.toml").write_text(TINY)
+    assert main(["study", "plan", str(tmp_path / "tiny.toml"), "--seconds-per-execution", "2.5",
+                 "--cost-store", str(tmp_path / "nowhere")]) == 0
+    out = capsys.readouterr().out
+    plan = plan_study("strategies", strategies=2, faults=2, max_suite=2, seconds_per_execution=2.5)
+    assert "2.50 s per execution: a stated assumption" in out
+    assert f"| CPU hours | {plan.needed.cpu_hours:,.1f} |" in out
+    assert main(["study", "plan", str(tmp_path / "tiny.toml"), "--seconds-per-execution", "0"]) == 1
+    assert "--seconds-per-execution" in capsys.readouterr().err
+
+
+def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
+    rc = main(["study", "plan", "mutation", "--cost-store", str(tmp_path / "nowhere")])
+    assert rc != 0
+    assert "nowhere" in capsys.readouterr().err
+    assert not (tmp_path / "nowhere").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("study, folder", [("study", "study"), ("mutation", "mutation")])
+def test_the_committed_plan_is_what_the_verb_renders(study, folder, tmp_path, capsys):
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    assert main(["study", "plan", study, "--cost-store", str(repo / "reports/paper-k10/store"),
+                 "--reports", str(tmp_path)]) == 0
+    rendered = (tmp_path / "plan.md").read_text().replace(str(repo) + "/", "")
+    assert rendered == (repo / "reports" / folder / "plan.md").read_text()
 
 
 SMALL = """

@@ -144,3 +144,39 @@ def test_estimate_difference_by_hand():
     assert estimates_identical(a, a) and not estimates_identical(a, b)
     c = Estimate(a.pose.copy(), a.landmark_ids.copy(), a.landmarks + 1e-15)
     assert not estimates_identical(a, c)  # bitwise, not approximate
+
+
+def _dropout(p):
+    import dataclasses
+    import functools
+
+    from faultlab.faults.sensorfaults import drop_observations
+
+    return dataclasses.replace(get_fault("obs_dropout"), name=f"test/dropout_{p:g}".replace(".", "_"),
+                               perturbation=functools.partial(drop_observations, p=p))
+
+
+def test_sensor_faults_are_checked_on_their_stream_and_option_with_the_same_seeds():
+    import dataclasses
+
+    scenario = check_scenario(seed=2, n_steps=40)
+    budget = get_fault("particle_budget")
+    report = check_faults([_dropout(1.0), _dropout(0.0), budget], scenario=scenario, n_seeds=2, n_particles=20)
+    by_name = {c.name: c for c in report}
+    # planted references: the reference FastSLAM run by hand on the case without observations, and
+    # with a quarter of the particles, each with the check's SeedSequence([seed, 1, k])
+    seeds = [np.random.SeedSequence([0, 1, k]) for k in range(2)]
+    config = FastSlamConfig(n_particles=20)
+    blind = dataclasses.replace(scenario, obs_offsets=np.zeros_like(scenario.obs_offsets),
+                                obs_range=scenario.obs_range[:0], obs_bearing=scenario.obs_bearing[:0],
+                                obs_ids=scenario.obs_ids[:0])
+    ref = [run_slam(FastSlam(config), scenario, rng=np.random.default_rng(ss)) for ss in seeds]
+    none = [run_slam(FastSlam(config), blind, rng=np.random.default_rng(ss)) for ss in seeds]
+    few = [run_slam(FastSlam(FastSlamConfig(n_particles=5)), scenario, rng=np.random.default_rng(ss)) for ss in seeds]
+    total = by_name["test/dropout_1"]
+    assert total.status is CheckStatus.DIFFERS and total.n_identical == 0
+    assert total.pose_diff_m == pytest.approx(np.mean([estimate_difference(a, b)[1] for a, b in zip(none, ref)]))
+    assert by_name["test/dropout_0"].status is CheckStatus.EQUIVALENT  # drops nothing: the stream is unchanged
+    limited = by_name["particle_budget"]
+    assert limited.status is CheckStatus.DIFFERS and limited.step == "slam option particles"
+    assert limited.map_diff_m == pytest.approx(np.mean([estimate_difference(a, b)[0] for a, b in zip(few, ref)]))

@@ -149,3 +149,21 @@ def test_plugins_may_replace_units_of_any_builtin_slam(site):
     gain = report.by_name()["acme/gain"]
     assert "kalman_update" in known_steps() and set(step_names()) < set(known_steps())
     assert fault_applies(gain, "ekf") and not fault_applies(gain, "fastslam")
+
+
+def test_broken_sensor_fault_plugin_is_a_plugin_failure_like_a_code_fault_plugin(site):
+    from faultlab.faults import SENSOR_ENTRY_POINT_GROUP, PluginFailure, load_sensor_plugins
+
+    make_distribution(site, "broken-sensors", SENSOR_ENTRY_POINT_GROUP, {"shaky": "broken_sensors_mod:FAULTS"},
+                      {"broken_sensors_mod": "raise RuntimeError('boom in a sensor plugin')\n"}, version="1.0")
+    with pytest.warns(PluginWarning, match=r"sensor-fault plugin 'shaky'.*broken-sensors 1\.0.*RuntimeError: boom"):
+        report = load_sensor_plugins()
+    assert [type(e) for e in report.errors] == [PluginFailure]
+    failure = report.errors[0]
+    assert (failure.plugin, failure.kind) == ("shaky", "sensor-fault")
+    assert failure.error == "RuntimeError: boom in a sensor plugin"
+    assert "broken_sensors_mod:FAULTS" in failure.source
+    # listings and look-ups report it like a code-fault plugin
+    assert "sensor-fault plugin 'shaky'" in list_faults().format()
+    with pytest.raises(FaultError, match="Plugins that failed to load: sensor-fault plugin 'shaky'"):
+        get_fault("shaky/thing")

@@ -1,6 +1,7 @@
 """check_relation and the relation x fault matrix: the reference passes, faults violate, the rule by hand."""
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 
@@ -21,7 +22,9 @@ from faultlab.metamorphic import (
     relation_matrix,
 )
 from faultlab.metamorphic.check import _decide
+from faultlab.seeds import sensor_seed_sequence
 from faultlab.slam import Estimate, FastSlam, FastSlamConfig, SlamAdapter
+from faultlab.slam.protocol import run_slam
 
 RELATION = {r.name: r for r in BUILTIN_RELATIONS}
 
@@ -239,3 +242,51 @@ def test_bad_arguments_and_a_crashing_baseline_are_errors(case):
         check_relation(ToyMapper, BearingTurn(), case, rngs=_rngs(2), factor=-1.0)
     with pytest.raises(SlamOutputError, match="the unmodified SLAM failed on the source case in repetition 0"):
         check_relation(lambda: ToyMapper(MapperSteps(_always_crash(_place))), BearingTurn(), case, rngs=_rngs(2))
+
+
+# --------------------------------------------------------------------------- sensor faults
+
+def _dropout(p):
+    from faultlab.faults.sensorfaults import drop_observations
+
+    return dataclasses.replace(get_fault("obs_dropout"), perturbation=functools.partial(drop_observations, p=p))
+
+
+def test_total_dropout_feeds_the_slam_no_observation_and_changes_the_result(case):
+    from faultlab.metamorphic.check import _Checker
+
+    fault = _dropout(1.0)
+    res = check_relation(ToyMapper, RigidMotion(), case, rngs=_rngs(2), fault=fault)
+    base = check_relation(ToyMapper, RigidMotion(), case, rngs=_rngs(2))
+    # planted reference: the same case with every observation removed by hand, run without any fault
+    blind = dataclasses.replace(case, obs_offsets=np.zeros_like(case.obs_offsets), obs_range=case.obs_range[:0],
+                                obs_bearing=case.obs_bearing[:0], obs_ids=case.obs_ids[:0])
+    expected = run_slam(ToyMapper(), blind, rng=np.random.default_rng(0))
+    checker = _Checker(ToyMapper, case, _rngs(2))
+    for k in range(2):
+        faulty, unmodified = checker.run(fault, None, k), checker.run(None, None, k)
+        assert faulty.landmark_ids.size == 0 and unmodified.landmark_ids.size > 0
+        np.testing.assert_array_equal(faulty.pose, expected.pose)
+    assert res.variant == "obs_dropout" and res.discrepancies != base.discrepancies
+
+
+def test_stream_fault_is_fed_as_the_runner_feeds_it_and_a_correct_slam_keeps_a_commuting_relation(case):
+    from faultlab.metamorphic.check import _Checker
+
+    fault = _dropout(0.3)
+    checker = _Checker(ToyMapper, case, _rngs(2))
+    for k in range(2):
+        fed = checker.fed(fault, None, k)
+        ref = fault.perturbation(case, np.random.default_rng(sensor_seed_sequence(checker.seeds[k], fault.name)))
+        np.testing.assert_array_equal(fed.obs_ids, ref.obs_ids)
+        assert 0 < fed.obs_ids.size < case.obs_ids.size
+    res = check_relation(ToyMapper, BearingTurn(), case, rngs=_rngs(2), fault=fault)
+    assert res.verdict is Verdict.HOLDS  # dropping the same observations commutes with adding 2 pi
+
+
+def test_unjudgeable_sensor_faults_are_refused_with_one_clear_error(case):
+    # id_permutation re-sorts each step's observations: dropping by position then drops others
+    with pytest.raises(ConfigError, match="'id_permutation' cannot be judged under sensor fault 'obs_dropout'"):
+        relation_matrix(ToyMapper, [BearingTurn(), IdPermutation()], [_dropout(0.5)], case, rngs=_rngs(2))
+    with pytest.raises(ConfigError, match="'particle_budget' is a hardware limit"):
+        check_relation(ToyMapper, BearingTurn(), case, rngs=_rngs(2), fault=get_fault("particle_budget"))

@@ -54,7 +54,7 @@ def test_truth_estimate_and_map_error():
     assert truth.landmark_ids.tolist() == [10, 20]
     assert map_error(sc, truth) == 0.0
     moved = Estimate(truth.pose, truth.landmark_ids, truth.landmarks + [[0.3, 0.0], [-0.3, 0.0]])
-    assert map_error(sc, moved) * 1000 == pytest.approx(map_errors(sc, moved, emd=False).rms_mm)
+    assert map_error(sc, moved) * 1000 == pytest.approx(map_errors(sc, moved, metrics=("rms",)).rms_mm)
 
 
 def test_with_record_replaces_arrays_and_records_parameters():

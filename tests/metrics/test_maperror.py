@@ -55,6 +55,34 @@ def test_nothing_mapped_gives_nan_and_bad_estimates_raise():
 def test_emd_can_be_skipped():
     scen = make_scenario([[0, 0], [1, 1], [3, 0]], [1, 2, 3])
     est = Estimate(np.zeros(3), np.array([1, 3]), np.array([[0.1, 0.0], [3.0, 0.2]]))
-    out = map_errors(scen, est, emd=False)
+    out = map_errors(scen, est, metrics=("rms",))
     assert np.isnan(out.emd_mm)
     np.testing.assert_allclose(out.rms_mm, map_errors(scen, est).rms_mm)
+
+
+def test_metrics_option_computes_only_the_listed_errors_bit_for_bit():
+    rng = np.random.default_rng(11)
+    p = rng.uniform(0, 8, size=(40, 2))
+    ids = np.arange(40)
+    scen = make_scenario(p, ids)
+    mapped = rng.permutation(40)[:30]
+    est = Estimate(np.zeros(3), ids[mapped], p[mapped] + rng.normal(scale=0.1, size=(30, 2)))
+    both = map_errors(scen, est)
+    rms = map_errors(scen, est, metrics=("rms",))
+    emd = map_errors(scen, est, metrics=["emd"])
+    ref = kabsch_rms(ids, p, ids[mapped], est.landmarks)
+    assert rms.rms_mm == both.rms_mm == 1000 * ref.rms and np.isnan(rms.emd_mm)
+    assert emd.emd_mm == both.emd_mm == 1000 * earth_movers_distance(p, ref.apply(est.landmarks))
+    assert np.isnan(emd.rms_mm)
+    assert (rms.n_mapped, rms.n_unmapped) == (emd.n_mapped, emd.n_unmapped) == (30, 10)
+    unknown = map_errors(scen, est, association="unknown", metrics=("rms",))
+    assert np.isnan(unknown.rms_mm) and np.isnan(unknown.emd_mm)
+
+
+@pytest.mark.parametrize("metrics", [(), ("rms", "bogus"), "rms"])
+def test_metrics_option_rejects_unknown_names(metrics):
+    from faultlab.errors import ConfigError
+
+    scen = make_scenario([[0.0, 0.0], [1.0, 0.0]], [1, 2])
+    with pytest.raises(ConfigError, match="metrics must be"):
+        map_errors(scen, Estimate(np.zeros(3), np.array([1, 2]), np.zeros((2, 2))), metrics=metrics)

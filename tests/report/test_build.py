@@ -201,6 +201,15 @@ def test_package_exports_resolve():
         report.nope  # noqa: B018
 
 
+def _reseal(conn: sqlite3.Connection) -> None:
+    """Recompute every row's checksum after a deliberate edit of the store's values."""
+    from faultlab.runner.store import RESULT_COLUMNS, row_checksum
+
+    cols = ", ".join(f'"{c}"' for c in RESULT_COLUMNS)
+    for rowid, *values in conn.execute(f"SELECT rowid, {cols} FROM results").fetchall():
+        conn.execute("UPDATE results SET checksum = ? WHERE rowid = ?", (row_checksum(values), rowid))
+
+
 def test_a_fault_identical_to_the_baseline_everywhere_is_flagged(tiny_store, tmp_path):
     copy = tmp_path / "copy"
     shutil.copytree(tiny_store, copy)
@@ -208,6 +217,7 @@ def test_a_fault_identical_to_the_baseline_everywhere_is_flagged(tiny_store, tmp
         conn.execute("UPDATE results SET rms_mm = (SELECT b.rms_mm FROM results b WHERE b.variant = 'baseline' "
                      "AND b.run = results.run AND b.suite = results.suite AND b.\"case\" = results.\"case\" "
                      "AND b.rep = results.rep) WHERE variant = 'missing_angle_wrap'")
+        _reseal(conn)  # the edit is deliberate: the rows' checksums are recomputed, as a writer would
     conn.close()
     original = build_report(tiny_store, tmp_path / "original")
     assert not any("equivalent mutant" in n for n in original.notes)

@@ -120,3 +120,15 @@ def test_the_committed_analysis_tables_of_paper_k10_are_what_its_store_gives(tmp
     for name in tables:
         pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "analysis" / name), pd.read_csv(committed / name),
                                       check_exact=False, rtol=1e-9, obj=f"reports/paper-k10/analysis/{name}")
+
+
+MACHINE_PATHS = ("/tmp/", "/work/", "/home/", "/root/", "/check/")
+
+
+def test_no_committed_report_names_a_machine_path():
+    """Committed tables and texts (CSV, Markdown, LaTeX, JSON) name no directory of the machine they were made on."""
+    files = sorted(p for p in REPORTS.rglob("*") if p.is_file() and p.suffix in TABLE_SUFFIXES)
+    assert len(files) > 50  # the scan saw the committed reports
+    found = [f"{p.relative_to(REPO)}: {m}" for p in files for m in MACHINE_PATHS
+             if m in p.read_text(encoding="utf-8", errors="replace")]
+    assert not found, "machine paths in committed reports:\n" + "\n".join(found)

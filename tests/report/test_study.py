@@ -54,3 +54,20 @@ def test_saved_analysis_loads_back_equal(tmp_path):
     b = StudyAnalysis.load(tmp_path)
     pd.testing.assert_frame_equal(a.detection, b.detection, check_dtype=False)
     assert b.meta["study"]["sizes"] == [1, 2, 4]
+
+
+def test_markdown_lists_whole_suites_with_their_exact_interval():
+    from dataclasses import replace
+
+    from faultlab.stats.killmatrix import whole_suite_table, whole_suites
+
+    a = _analysis()
+    assert "## Whole generated suites" not in study_markdown(a)        # none configured: no section
+    km = hand_matrix()
+    whole = whole_suite_table(whole_suites(km, ["random"]), mutants=["mutant:x"])
+    md = study_markdown(replace(a, whole=whole))
+    assert "## Whole generated suites" in md and "`random`" in md
+    row = whole[whole["variant"] == "fault_a"].iloc[0]
+    # one suite of 5 cases: 0 % or 100 % with the Clopper-Pearson interval of 1 suite (2.5 % or 97.5 %)
+    text = f"{100 * row['rate']:.0f} % ({100 * row['ci_low']:.0f}-{100 * row['ci_high']:.0f})"
+    assert text in md and row["ci_high"] - row["ci_low"] > 0.9

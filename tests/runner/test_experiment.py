@@ -199,3 +199,23 @@ def test_unknown_association_selects_the_emd_and_refuses_the_rms():
     assert "association" not in dict(known.slam.options)  # existing experiments keep their hash
     with pytest.raises(ConfigError, match="slam.association must be one of 'known', 'unknown'"):
         parse_experiment({**base, "slam": {"name": "fastslam", "association": "sometimes"}}, source="u.toml")
+
+
+def test_metrics_option_is_validated_and_hashed_only_when_not_all(tmp_path):
+    a = load_experiment(write_experiment(tmp_path / "a.toml"))
+    both = load_experiment(write_experiment(tmp_path / "both.toml", metrics=["emd", "rms"]))
+    rms = load_experiment(write_experiment(tmp_path / "rms.toml", metrics=["rms"]))
+    assert a.metrics == both.metrics == ("rms", "emd") and rms.metrics == ("rms",)
+    assert both.hash == a.hash and "metrics" not in a.canonical_json()  # older campaigns keep their hash
+    assert rms.hash != a.hash and a.replace(metrics=["rms"]).hash == rms.hash
+    assert parse_experiment(rms.to_dict()).hash == rms.hash and pickle.loads(pickle.dumps(rms)) == rms
+    for bad, message in ((["rms", "mae"], r"metrics unknown metric 'mae'"), ([], "metrics must be a non-empty"),
+                         ("rms", "metrics must be a non-empty"), (["rms", "rms"], "metrics must be a non-empty"),
+                         (["emd"], r"metrics must record the experiment's metric 'rms'")):
+        with pytest.raises(ConfigError, match=message) as info:
+            load_experiment(write_experiment(tmp_path / "bad.toml", metrics=bad))
+        assert "bad.toml" in str(info.value)
+    with pytest.raises(ConfigError, match="metrics must record 'rms' for a SLAM with landmark ids"):
+        a.replace(metric="emd", metrics=["emd"])
+    unknown = parse_experiment({"seed": 1, "slam": {"name": "fastslam", "association": "unknown"}, "metrics": ["emd"]})
+    assert unknown.metric == "emd" and unknown.metrics == ("emd",)

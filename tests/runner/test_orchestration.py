@@ -313,6 +313,30 @@ def test_a_slam_without_ids_is_scored_by_emd(tmp_path):
     assert row.emd_mm == pytest.approx(1000 * earth_movers_distance(sc.landmarks, est.landmarks))
 
 
+def test_metrics_rms_records_nan_emd_and_the_same_rms_bit_for_bit(tmp_path):
+    from faultlab.analysis import analyse
+    from faultlab.errors import ResultsError
+
+    spec = dict(repetitions=2, variants=["baseline", "missing_angle_wrap"])
+    both = load_experiment(fastslam_batches(tmp_path, **spec))
+    only = both.replace(metrics=["rms"])
+    run_experiment(both, tmp_path / "both", jobs=1, progress=False)
+    run_experiment(only, tmp_path / "rms", jobs=1, progress=False)
+    a, b = load_results(tmp_path / "both"), load_results(tmp_path / "rms")
+    assert (a["status"] == "ok").all() and a["emd_mm"].gt(0).all()
+    assert b["emd_mm"].isna().all()
+    np.testing.assert_array_equal(a["rms_mm"].to_numpy(), b["rms_mm"].to_numpy())  # bit for bit
+    pd.testing.assert_frame_equal(without_runtime(a).drop(columns="emd_mm"), without_runtime(b).drop(columns="emd_mm"))
+    assert load_metadata(tmp_path / "rms")["metrics"] == ["rms"]
+    assert load_metadata(tmp_path / "both")["metrics"] == ["rms", "emd"]
+    by_emd = analyse(tmp_path / "both", paper=False, metric="emd")
+    assert "judge by 'emd'" in " ".join(n.text for n in by_emd.notes_on("metric"))
+    with pytest.raises(ResultsError, match=r"cannot be judged by 'emd': the experiment recorded only 'rms'"):
+        analyse(tmp_path / "rms", paper=False, metric="emd")
+    by_rms = analyse(tmp_path / "rms", paper=False)
+    assert any("Metrics recorded: RMS only; EMD was not computed" in n.text for n in by_rms.notes_on("metric"))
+
+
 def test_given_cases_replace_the_suites_draws_and_are_checked_on_resume(tmp_path):
     """A designed experiment passes its cases: each is generated from its own seed and run for every variant."""
     import dataclasses

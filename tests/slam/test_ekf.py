@@ -35,7 +35,7 @@ def scenario(seed, *, n_steps=200, **values):
 
 
 def rms_mm(sc, est):
-    return map_errors(sc, est, emd=False).rms_mm
+    return map_errors(sc, est, metrics=("rms",)).rms_mm
 
 
 def angle_diff(a, b):

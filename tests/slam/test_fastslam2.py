@@ -45,7 +45,7 @@ def fixed_case(seed, n_steps):
 
 
 def rms_mm(sc, est):
-    return map_errors(sc, est, emd=False).rms_mm
+    return map_errors(sc, est, metrics=("rms",)).rms_mm
 
 
 def angle_diff(a, b):

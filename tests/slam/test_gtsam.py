@@ -79,8 +79,8 @@ def case150():
 
 
 def test_beats_dead_reckoning_on_a_short_fixed_suite_case(gtsam, case150):
-    smoothed = map_errors(case150, _run(GtsamSlam(), case150), emd=False)
-    odometry = map_errors(case150, _run(DeadReckoning(), case150), emd=False)
+    smoothed = map_errors(case150, _run(GtsamSlam(), case150), metrics=("rms",))
+    odometry = map_errors(case150, _run(DeadReckoning(), case150), metrics=("rms",))
     assert smoothed.n_unmapped == odometry.n_unmapped  # both map every landmark seen
     # measured: 25 mm against 119 mm (the 2 % outliers of the fixed suite dominate what is left)
     assert smoothed.rms_mm < 0.5 * odometry.rms_mm
@@ -141,8 +141,8 @@ def test_batched_updates_still_beat_dead_reckoning(gtsam, case150):
     batched = _run(GtsamSlam(GtsamSlamConfig(update_every=7)), case150)  # 150 steps: a partial last batch
     assert batched.landmark_ids.tolist() == every.landmark_ids.tolist()
     assert not np.array_equal(batched.landmarks, every.landmarks)  # relinearised at other moments
-    odometry = map_errors(case150, _run(DeadReckoning(), case150), emd=False).rms_mm
-    assert map_errors(case150, batched, emd=False).rms_mm < 0.5 * odometry
+    odometry = map_errors(case150, _run(DeadReckoning(), case150), metrics=("rms",)).rms_mm
+    assert map_errors(case150, batched, metrics=("rms",)).rms_mm < 0.5 * odometry
 
 
 def test_zero_range_observations_are_ignored_and_bad_ids_refused(gtsam):

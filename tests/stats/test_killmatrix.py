@@ -369,3 +369,41 @@ def test_study_spec_defaults_and_types():
         study_spec({"alpha": 1.5}, source="x")
     with pytest.raises(ConfigError, match="study.timeouts_detect must be true or false"):
         study_spec({"timeouts_detect": "no"}, source="x")
+
+
+def test_whole_suites_judge_each_runs_suite_by_textbook_holm_and_count_suites_as_units():
+    import dataclasses
+
+    from scipy.stats import binomtest
+
+    from faultlab.stats.killmatrix import whole_suite_table, whole_suites
+
+    km = hand_matrix()
+    # the systematic pool as two runs of 3 cases each: two whole generated suites
+    km = dataclasses.replace(km, cases=km.cases.assign(run=[1, 1, 1, 2, 2, 2] + [1] * 5))
+    whole = whole_suites(km, ["systematic"], alpha=ALPHA)
+    assert len(whole) == 2 * 3 and set(whole["size"]) == {3}
+    for run, rows in ((1, [0, 1, 2]), (2, [3, 4, 5])):
+        for j, v in enumerate(km.variants):
+            got = whole[(whole["run"] == run) & (whole["variant"] == v)].iloc[0]
+            assert bool(got["detected"]) == brute_force_detects(km.p[rows, j], km.crash[rows, j], ALPHA)
+            assert bool(got["paper"]) == bool(km.paper[rows, j].any())
+    table = whole_suite_table(whole, mutants=["mutant:x"], alpha=ALPHA)
+    for _, r in table[table["variant"] != "mutation score"].iterrows():
+        k = int(whole[whole["variant"] == r["variant"]]["detected"].sum())
+        ci = binomtest(k, 2).proportion_ci(0.95, method="exact")
+        assert (r["detected"], r["suites"], r["rate"]) == (k, 2, k / 2)
+        assert (r["ci_low"], r["ci_high"]) == pytest.approx((ci.low, ci.high))
+        assert r["ci_low"] < r["ci_high"]                      # never a zero-width interval from 2 suites
+    score = table[table["variant"] == "mutation score"].iloc[0]
+    assert score["rate"] == pytest.approx(whole[whole["variant"] == "mutant:x"]["detected"].mean())
+    with pytest.raises(ConfigError, match="study.whole"):
+        whole_suites(km, ["pairwise"])
+
+
+def test_study_spec_reads_whole_suites():
+    assert study_spec({"whole": ["pairwise"]}, source="f.toml").whole == ("pairwise",)
+    assert study_spec({}, source="f.toml").whole == ()
+    for bad in ("pairwise", ["pairwise", "pairwise"], [1]):
+        with pytest.raises(ConfigError, match="whole"):
+            study_spec({"whole": bad}, source="f.toml")

@@ -1,0 +1,102 @@
+"""A study's power plan as Markdown (``faultlab study plan``): the scale it needs, its cost, what fits."""
+
+from __future__ import annotations
+
+import math
+
+from faultlab.analysis.planning import ExecutionCost
+from faultlab.stats.planning import StudyPlan, StudyScale, detectable_detection, detectable_score, mutants_for_score
+
+__all__ = ["PLAN_FILE", "plan_markdown"]
+
+#: File name of a rendered plan.
+PLAN_FILE = "plan.md"
+_POOLS = (20, 50, 100, 150, 200)
+_MUTANTS = (50, 100, 150, 200, 300)
+_REVERSE = (0.0, 0.02, 0.05, 0.10)
+
+
+def _pp(x: float) -> str:
+    if math.isnan(x):
+        return "-"
+    return "none detectable" if math.isinf(x) else f"{x:.1f} pp"
+
+
+def _scale_rows(plan: StudyPlan, scale: StudyScale) -> list[str]:
+    what = "pool cases per strategy" if plan.kind == "strategies" else "cases per suite"
+    rows = [f"| {what} | {scale.cases} |", f"| largest suite judged | {scale.largest_suite} |",
+            f"| mutants | {scale.mutants} |", f"| repetitions K | {scale.repetitions} |"]
+    if plan.kind == "strategies":
+        rows.append(f"| detectable single-case detection difference | {_pp(scale.detection_pp)} |")
+    rows += [f"| detectable mutation-score difference | {_pp(scale.score_pp)} |",
+             f"| SLAM executions | {scale.executions:,} |", f"| CPU hours | {scale.cpu_hours:,.1f} |",
+             f"| wall hours on {plan.cores} cores | {scale.cpu_hours / plan.cores:,.1f} |"]
+    return rows
+
+
+def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, cost_source: str,
+                  settings: str, same_settings: bool = True) -> str:
+    """The plan of ``study`` (its name), with the cost's provenance and the study's SLAM ``settings``
+    (``same_settings``: whether they are those the cost was measured at); ``cost`` None: the plan's
+    seconds per execution are an assumption."""
+    a = plan.comparison_alpha
+    side = "two-sided" if plan.sides == 2 else "one-sided"
+    lines = [f"# Power plan: {study} ({plan.kind} study)", "",
+             f"Targets: {plan.target_detection_pp:.0f} pp in single-case detection probability"
+             if plan.kind == "strategies" else "Targets:",
+             f"{'and ' if plan.kind == 'strategies' else ''}{plan.target_score_pp:.0f} pp in mutation score between "
+             f"two strategies, power {plan.power:.0%}.", "",
+             "## Tests and family", "",
+             f"- {plan.strategies} strategies, {plan.comparisons} pairs; Holm over the pairs at alpha = "
+             f"{plan.alpha}: planned at Holm's first step, alpha / {plan.comparisons} = {a:.4g}."]
+    if plan.kind == "strategies":
+        lines.append(f"- Detection probability: two-sided arcsine two-proportion test (statsmodels NormalIndPower) "
+                     f"on the pool cases, difference centred on {plan.centre:.2f}.")
+    lines += [f"- Mutation score: exact McNemar test over the mutants, discordance against the effect "
+              f"(mutants killed only by the weaker strategy) assumed {plan.reverse:.0%}.",
+              f"- Repetitions: a case of a family of {plan.case_family} cases is judged at alpha / "
+              f"{plan.case_family}; the {side} exact sign-flip test reaches it from K = {plan.needed.repetitions}.",
+              "", "## Cost", "",
+              (f"- {cost.seconds:.2f} s per execution: mean of {cost.jobs} executions in `{cost_source}` "
+               f"({cost.slam}, {cost.particles} particles, {cost.n_steps} active steps; the machine's load when "
+               f"they ran is not recorded, so this is a noisy figure)." if cost is not None else
+               f"- {plan.seconds_per_execution:.2f} s per execution: a stated assumption, not measured here."),
+              f"- The study's settings: {settings}."
+              + ("" if same_settings else " They differ from the cost store's: the cost is that of the store's "
+                 "settings, i.e. the plan is for a study run at them.")]
+    lines.append("- K is the number of repetitions a case may need; a campaign with adaptive repetitions stops a "
+                 "case earlier when its verdict is settled, so the executions are an upper bound.")
+    if plan.kind == "mutation":
+        lines.append("- Mutation executions are an upper bound: the campaign stops a mutant's suite at its first kill.")
+    lines += ["", "## Scale needed for the targets", "", "| | |", "|---|---|", *_scale_rows(plan, plan.needed), ""]
+    budget = plan.budget_hours * plan.cores
+    if plan.fits:
+        lines.append(f"It fits the budget ({plan.budget_hours:g} h on {plan.cores} cores = {budget:g} CPU hours).")
+    else:
+        lines += [f"It does **not** fit the budget ({plan.budget_hours:g} h on {plan.cores} cores = {budget:g} CPU "
+                  f"hours): in {plan.budget_hours:g} h it needs {plan.cluster_cores} cores (e.g. a dask cluster).", ""]
+        if plan.fitting is None:
+            lines.append("Not even the smallest scale fits the budget.")
+        else:
+            lines += ["## Largest scale that fits", "",
+                      "Chosen to minimise the larger detectable difference relative to its target.", "",
+                      "| | |", "|---|---|", *_scale_rows(plan, plan.fitting)]
+    lines += ["", "## Detectable differences by scale", ""]
+    if plan.kind == "strategies":
+        lines += ["| pool cases per strategy | " + " | ".join(map(str, _POOLS)) + " |",
+                  "|---" * (len(_POOLS) + 1) + "|",
+                  "| detection difference | " + " | ".join(
+                      _pp(100 * detectable_detection(n, centre=plan.centre, alpha=a, power=plan.power))
+                      for n in _POOLS) + " |", ""]
+    lines += ["| mutants | " + " | ".join(map(str, _MUTANTS)) + " |", "|---" * (len(_MUTANTS) + 1) + "|",
+              "| score difference | " + " | ".join(
+                  _pp(100 * detectable_score(m, reverse=plan.reverse, alpha=a, power=plan.power)) for m in _MUTANTS)
+              + " |", "",
+              f"Mutants needed for {plan.target_score_pp:.0f} pp by the assumed reverse discordance:", "",
+              "| reverse discordance | " + " | ".join(f"{r:.0%}" for r in _REVERSE) + " |",
+              "|---" * (len(_REVERSE) + 1) + "|",
+              "| mutants | " + " | ".join(
+                  str(mutants_for_score(plan.target_score_pp / 100, reverse=r, alpha=a, power=plan.power))
+                  for r in _REVERSE) + " |", "",
+              "Generated by `faultlab study plan`; see `faultlab.stats.planning` for the method.", ""]
+    return "\n".join(lines)
