@@ -277,7 +277,7 @@ def show_mutant(mutant_id: str, slam: str = "fastslam", *, cache: bool = True) -
 
 
 def class_counts(catalogue: Catalogue) -> dict[str, dict[str, int]]:
-    """Operator -> class -> number of mutants (for reports and the README)."""
+    """Operator -> class -> number of mutants (for reports and the docs)."""
     c = Counter((m.operator, catalogue.report.results[m.id].label) for m in catalogue.mutants)
     labels = ("live", *map(str, SCREENED_OUT))
     return {op: {label: c.get((op, label), 0) for label in labels}

@@ -2,7 +2,7 @@
 
 Renders a :class:`faultlab.analysis.ablation.AblationResult` (nothing is computed here):
 ``ablation.csv`` (the table as computed), ``ablation.md`` (what ran, the rule, one table per
-difference, and a sentence per row the README quotes) and the same as pages of ``report.pdf``.
+difference, and a sentence per row the paper-fidelity page quotes) and the same as pages of ``report.pdf``.
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ def _display(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def effect_sentence(result: AblationResult, point: str) -> str:
-    """One sentence on ``point``'s effect (for the README's figure column), or "" if it was not run."""
+    """One sentence on ``point``'s effect (the paper-fidelity page's figure column), or "" if it was not run."""
     t = result.table[result.table["point"] == point]
     if t.empty:
         return ""

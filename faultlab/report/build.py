@@ -33,6 +33,7 @@ from faultlab.report.pages import (
     figure_pages,
     metadata_pages,
     rates_pages,
+    summary_pages,
     table2_pages,
     title_pages,
 )
@@ -157,7 +158,8 @@ def render_report(analysis: Analysis, reports_dir: str | Path, *, store_dir: str
     notes = general + picture_notes
     extra = ((fidelity_pages(fidelity, ablation) if fidelity is not None else [])
              + (ablation_pages(ablation) if ablation is not None else []))
-    pages = (title_pages(analysis, comparison, notes) + _body_pages(analysis, comparison, pictures, extra)
+    pages = (summary_pages(analysis, comparison) + title_pages(analysis, comparison, notes)
+             + _body_pages(analysis, comparison, pictures, extra)
              + metadata_pages(analysis, seeds))
     pdf = _write_pdf(analysis, reports_dir, pages)
     return ReportFiles(

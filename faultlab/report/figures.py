@@ -19,7 +19,7 @@ from faultlab.analysis import Analysis
 from faultlab.analysis.schema import PAPER, THIS_RUN
 from faultlab.report.tables import order_suites, order_variants, round_mm, suite_label, variant_label
 
-__all__ = ["detection_rate_figure", "rms_distribution_figure", "suite_palette", "PAGE_SIZE"]
+__all__ = ["detection_rate_figure", "draw_detection_rates", "rms_distribution_figure", "suite_palette", "PAGE_SIZE"]
 
 #: A4 landscape, inches.
 PAGE_SIZE = (11.69, 8.27)
@@ -48,17 +48,30 @@ def detection_rate_figure(analysis: Analysis, *, interval: str = "wilson", figsi
     interval : {"wilson", "cp"}
         Which interval to draw (Wilson or Clopper-Pearson).
     """
-    detection = analysis.detection_rates
     fig = Figure(figsize=figsize)
     with sns.axes_style("whitegrid"):  # rc styles apply to axes created inside the context
         ax = fig.add_subplot(1, 1, 1)
+    if draw_detection_rates(ax, analysis, interval=interval):
+        fig.tight_layout(rect=(0.0, 0.035, 1.0, 1.0))  # room for the page footer
+    return fig
+
+
+def draw_detection_rates(ax, analysis: Analysis, *, interval: str = "wilson") -> bool:
+    """Draw :func:`detection_rate_figure`'s bars into ``ax`` (made under seaborn's whitegrid style).
+
+    Returns
+    -------
+    bool
+        False if the run has no faulty variant (``ax`` then says so and is hidden).
+    """
+    detection = analysis.detection_rates
     conf = round_mm(100 * (1 - analysis.alpha))
     name = {"wilson": "Wilson", "cp": "Clopper-Pearson"}[interval]
     if detection.empty:
         ax.text(0.5, 0.5, "no faulty variant in this run", ha="center", va="center",
                 transform=ax.transAxes)
         ax.set_axis_off()
-        return fig
+        return False
     suites = order_suites(detection["suite"])
     faults = order_variants(detection["variant"])
     palette = suite_palette(suites)
@@ -79,8 +92,7 @@ def detection_rate_figure(analysis: Analysis, *, interval: str = "wilson", figsi
     ax.set_title(f"Detection rate per suite and fault with {conf} % {name} intervals "
                  "(numbers: detecting cases / cases)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    fig.tight_layout(rect=(0.0, 0.035, 1.0, 1.0))  # room for the page footer
-    return fig
+    return True
 
 
 def _draw_suite_bars(ax, x: np.ndarray, rows: pd.DataFrame, *, interval: str, width: float, colour,

@@ -9,10 +9,12 @@ statistic.
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import seaborn as sns
 from matplotlib.figure import Figure
 
 from faultlab import __version__
@@ -21,10 +23,9 @@ from faultlab.analysis.schema import ALL_VARIANTS, PAPER
 from faultlab.errors import FaultlabError
 from faultlab.report.casefig import case_title, plot_case
 from faultlab.report.comparison import Comparison, Verdict
-from faultlab.report.figures import PAGE_SIZE, detection_rate_figure, rms_distribution_figure
-from faultlab.report.pdf import PAGE_TITLE_ATTR, table_pages, text_pages
+from faultlab.report.figures import PAGE_SIZE, detection_rate_figure, draw_detection_rates, rms_distribution_figure
+from faultlab.report.pdf import PAGE_TITLE_ATTR, new_page, table_pages, text_pages
 from faultlab.report.tables import (
-    RUNS_PER_BLOCK,
     detection_records,
     format_pct,
     format_pct_interval,
@@ -44,13 +45,16 @@ from faultlab.stats.class_effects import MIN_EPV
 from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import JobStatus
 
-__all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "title_pages", "table2_pages", "rates_pages", "comparison_pages",
+__all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "summary_pages", "title_pages", "table2_pages", "rates_pages",
+           "comparison_pages",
            "figure_pages", "case_pages", "coverage_pages", "beyond_pages", "metadata_pages"]
 
 #: Runs whose cases are pictured (Fig. 5 style) and whose coverage is tabulated one by one.
 MAX_PICTURED_RUNS = 3
 #: Title of the report (first page and PDF metadata).
 REPORT_TITLE = "faultlab report: the paper's Table II reproduced"
+#: Evaluation runs per page of Table II in the PDF (5 case columns each: two fit a page at 8 pt).
+PDF_RUNS_PER_BLOCK = 2
 _GREEN = "#c6efce"  # the paper's green "detected" cells
 _RED = "#f4cccc"
 _GREY = "#eeeeee"
@@ -89,6 +93,68 @@ def _frame_text(frame: pd.DataFrame, digits: int = 3) -> pd.DataFrame:
 
 def _g3(value: float) -> str:
     return "" if not math.isfinite(value) else f"{value:.3g}"
+
+
+# --------------------------------------------------------------------------- summary
+
+#: Title of the report's first page.
+SUMMARY_TITLE = "Summary: what this run detected"
+
+
+def _detected_lines(analysis: Analysis) -> list[str]:
+    """One line per fault: the cases whose test detects it, per suite (the campaign's own rule)."""
+    lines = []
+    case_rates = analysis.case_rates
+    if len(case_rates):  # K >= 2 repetitions: one verdict per case from all its repetitions
+        conf = round_mm(100 * (1 - analysis.alpha))
+        for fault, rows in case_rates.groupby("fault", sort=False):
+            k, n = int(rows["k"].sum()), int(rows["n"].sum())
+            per = ", ".join(f"{suite_label(r.suite)} {int(r.k)}/{int(r.n)}" for r in rows.itertuples())
+            lines.append(f"- {variant_label(fault)}: detected on {k} of {n} judged cases by the "
+                         f"{rows['rule'].iloc[0]} rule ({per}; {conf} % Clopper-Pearson per suite in the tables).")
+        return lines
+    rates = analysis.detection_rates
+    for fault in dict.fromkeys(rates["variant"]):
+        rows = rates[rates["variant"] == fault]
+        k, n = int(rows["k"].sum()), int(rows["n"].sum())
+        per = ", ".join(f"{suite_label(r.suite)} {int(r.k)}/{int(r.n)}" for r in rows.itertuples())
+        lines.append(f"- {variant_label(fault)}: detected on {k} of {n} case pairs ({per}).")
+    return lines
+
+
+def summary_pages(analysis: Analysis, comparison: Comparison) -> list[Figure]:
+    """One page: what was run, what was detected, the agreement with the paper, and one figure."""
+    meta = analysis.metadata
+    exp = meta.get("experiment") or {}
+    slam = exp.get("slam") or {}
+    counts = analysis.status_counts
+    failed = counts[JobStatus.CRASH.value] + counts[JobStatus.TIMEOUT.value]
+    lines = [
+        f"{meta.get('experiment_source', '?')} ({meta.get('description', '')}): "
+        f"{exp.get('runs', '?')} evaluation run(s), "
+        f"{sum(analysis.cases_per_run.values())} cases per run, {exp.get('repetitions', 1)} SLAM repetition(s) "
+        f"per case, SLAM {slam.get('name', '?')}; {analysis.n_rows} SLAM executions ({failed} crashed or timed "
+        f"out). Detection rule: {analysis.rule.describe()}.",
+        *(_detected_lines(analysis) or ["- No faulty variant was run."]),
+        "Agreement with the paper: " + comparison.summary(),
+    ]
+    rules = set(analysis.case_rates["rule"]) if len(analysis.case_rates) else set()
+    if rules - {"paper"} or int(exp.get("repetitions", 1) or 1) > 1:
+        lines.append("The figure: the paper's rule on one SLAM pair per case (repetition 0), as the paper judged "
+                     "it; the lines above judge each case from all its repetitions.")
+    w, h = PAGE_SIZE
+    fig = new_page(SUMMARY_TITLE, REPORT_TITLE)
+    y = 1 - 1.25 / h
+    for block in lines:
+        for line in textwrap.wrap(block, 150, subsequent_indent="   " if block.startswith("- ") else ""):
+            fig.text(0.6 / w, y, line, fontsize=9.5, va="top", ha="left")
+            y -= 0.19 / h
+        y -= 0.06 / h
+    with sns.axes_style("whitegrid"):
+        ax = fig.add_axes([0.9 / w, 0.75 / h, (w - 3.6) / w, max(0.2, y - 1.35 / h)])
+    if not draw_detection_rates(ax, analysis):
+        ax.set_visible(False)
+    return [fig]
 
 
 # --------------------------------------------------------------------------- title
@@ -143,8 +209,7 @@ def title_pages(analysis: Analysis, comparison: Comparison, notes: list[str]) ->
         blocks.append("## Notes")
         blocks += [f"- {n}" for n in notes]
     meta = analysis.metadata
-    return text_pages(REPORT_TITLE, blocks, subtitle=f"results {meta.get('path', '')}  ·  experiment hash "
-                                                     f"{str(meta.get('experiment_hash', ''))[:16]}")
+    return text_pages(REPORT_TITLE, blocks, subtitle=f"experiment hash {str(meta.get('experiment_hash', ''))[:16]}")
 
 
 # --------------------------------------------------------------------------- Table II and rates
@@ -177,7 +242,7 @@ def _table2_styles(analysis: Analysis, frame: pd.DataFrame) -> tuple[pd.DataFram
 def table2_pages(analysis: Analysis) -> list[Figure]:
     """Table II beside the paper's, three evaluation runs per page block, the paper's colours."""
     runs = table2_runs(analysis)
-    blocks = [runs[i:i + RUNS_PER_BLOCK] for i in range(0, len(runs), RUNS_PER_BLOCK)] or [[]]
+    blocks = [runs[i:i + PDF_RUNS_PER_BLOCK] for i in range(0, len(runs), PDF_RUNS_PER_BLOCK)] or [[]]
     note = (table2_caption(analysis) + " Green: detected. Red: crash or timeout. Paper rows: the "
             "replication package's raw RMS errors rounded to mm (the printed Table II differs from "
             "them in a few cells: python -m faultlab paper-table lists them).")
@@ -187,8 +252,10 @@ def table2_pages(analysis: Analysis) -> list[Figure]:
         colours, bold = _table2_styles(analysis, frame)
         title = "Table II: this run beside the paper"
         if len(blocks) > 1:
-            title += f" (evaluation runs {block[0]}-{block[-1]})"
-        pages += table_pages(title, frame, colours=colours, bold=bold, note=note, max_rows=40,
+            title += (f" (evaluation runs {block[0]}-{block[-1]})" if len(block) > 1
+                      else f" (evaluation run {block[0]})")
+        pages += table_pages(title, frame, colours=colours, bold=bold, note=note, max_rows=40, key_columns=3,
+                             fontsize=8,
                              subtitle="columns R<run>C<case>: RMS map error of test case <case> "
                                       "in evaluation run <run>, mm")
     return pages
@@ -639,52 +706,54 @@ def beyond_pages(analysis: Analysis) -> list[Figure]:
 # --------------------------------------------------------------------------- metadata
 
 
-def _runtime_blocks(analysis: Analysis) -> list[str]:
-    rt = analysis.runtimes
-    if not len(rt) or int(rt["n_jobs"].iloc[-1]) == 0:
-        return []
-    every = rt[rt["variant"] == ALL_VARIANTS].iloc[0]
-    per = rt[rt["variant"] != ALL_VARIANTS]
-    return ["## SLAM execution times",
-            f"- per job: median {every['median_s']:.2f} s, max {every['max_s']:.2f} s, sum "
-            f"{every['total_s']:.1f} s over {every['n_jobs']} jobs",
-            "- median per variant: " + ", ".join(f"{variant_label(v)} {m:.2f} s"
-                                                 for v, m in zip(per["variant"], per["median_s"]))]
+def _setting_rows(value, key: str = "") -> list[tuple[str, str]]:
+    """(dotted key, value) rows of a nested experiment setting, e.g. ("slam.particles", "200")."""
+    if isinstance(value, dict):
+        rows = []
+        for k, v in value.items():
+            rows += _setting_rows(v, f"{key}.{k}" if key else str(k))
+        return rows or [(key, "(none)")]
+    if isinstance(value, (list, tuple)):
+        items = (" ".join(str(x) for x in v) if isinstance(v, (list, tuple)) else str(v) for v in value)
+        return [(key, ", ".join(items) or "(none)")]
+    return [(key, str(value))]
 
 
 def metadata_pages(analysis: Analysis, seeds: list) -> list[Figure]:
-    """Versions, experiment hash, seeds, sessions, run times and the effective experiment settings."""
+    """Versions, experiment hash, seeds, sessions, run times and the effective experiment settings, as tables."""
     meta = analysis.metadata
     exp = meta.get("experiment") or {}
-    blocks = [
-        f"- faultlab version (results): {meta.get('faultlab_version', '?')}; report built with "
-        f"{__version__}",
-        f"- Experiment: {meta.get('experiment_source', '?')}",
-        f"- Experiment hash (sha256 of its canonical form): {meta.get('experiment_hash', '?')}",
-        f"- Root seed: {meta.get('root_seed', '?')} (every case and SLAM seed derives from it with "
-        f"numpy SeedSequence)",
-        f"- Detection rule: {analysis.rule.describe()}",
-        f"- Results store: {meta.get('path', '?')}, {meta.get('n_rows', analysis.n_rows)} rows, created "
-        f"{meta.get('created', '?')}",
-        f"- Total wall time: {_fmt_seconds(meta.get('wall_time_s'))}",
+    rows = [
+        ("faultlab version", f"{meta.get('faultlab_version', '?')} (results); {__version__} (this report)"),
+        ("experiment", str(meta.get("experiment_source", "?"))),
+        ("experiment hash", f"{meta.get('experiment_hash', '?')} (sha256 of its canonical form)"),
+        ("root seed", f"{meta.get('root_seed', '?')} (every case and SLAM seed derives from it: numpy SeedSequence)"),
+        ("detection rule", analysis.rule.describe()),
+        ("results store", f"{meta.get('n_rows', analysis.n_rows)} rows, created {meta.get('created', '?')}"),
+        ("total wall time", _fmt_seconds(meta.get("wall_time_s"))),
     ]
+    rt = analysis.runtimes
+    if len(rt) and int(rt["n_jobs"].iloc[-1]) > 0:
+        every = rt[rt["variant"] == ALL_VARIANTS].iloc[0]
+        rows.append(("SLAM time per job", f"median {every['median_s']:.2f} s, max {every['max_s']:.2f} s, "
+                                          f"sum {every['total_s']:.1f} s over {every['n_jobs']} jobs"))
+        per = rt[rt["variant"] != ALL_VARIANTS]
+        rows += [(f"median SLAM time: {variant_label(v)}", f"{m:.2f} s")
+                 for v, m in zip(per["variant"], per["median_s"])]
+    for key in ("runs", "suites", "n_steps", "sensor_range", "min_distance", "slam", "variants",
+                "repetitions", "metric", "metrics", "timeout_s", "detection", "space"):
+        if key in exp:
+            rows += [(f"setting {k}", v) for k, v in _setting_rows(exp[key], key)]
+    pages = table_pages("Run metadata", pd.DataFrame(rows, columns=["item", "value"]), align="left")
     sessions = meta.get("sessions") or []
     if sessions:
-        blocks.append("## Sessions (each invocation of the runner)")
-        for s in sessions:
-            blocks.append(f"- {s.get('started', '?')}: {s.get('state', '?')}, {s.get('n_new', '?')} new "
-                          f"jobs, {s.get('jobs', '?')} worker(s), backend {s.get('backend', '?')}, "
-                          f"wall time {_fmt_seconds(s.get('wall_time_s'))}")
-    blocks += _runtime_blocks(analysis)
-    if exp:
-        blocks.append("## Effective experiment settings")
-        for key in ("runs", "suites", "n_steps", "sensor_range", "min_distance", "slam", "variants",
-                    "repetitions", "metric", "metrics", "timeout_s", "detection", "space"):
-            if key in exp:
-                blocks.append(f"- {key}: {exp[key]}")
-    pages = text_pages("Run metadata", blocks)
+        frame = pd.DataFrame([{"started": s.get("started", "?"), "state": s.get("state", "?"),
+                               "new jobs": s.get("n_new", "?"), "workers": s.get("jobs", "?"),
+                               "backend": s.get("backend", "?"), "wall time": _fmt_seconds(s.get("wall_time_s"))}
+                              for s in sessions])
+        pages += table_pages("Run metadata: sessions (each invocation of the runner)", frame)
     if seeds:
         frame = pd.DataFrame(seeds, columns=["run", "suite", "case", "seed (SeedSequence entropy)",
                                              "landmarks", "steps"]).astype(str)
-        pages += table_pages("Run metadata: test-case seeds", frame, fontsize=8, max_rows=32)
+        pages += table_pages("Run metadata: test-case seeds", frame, key_columns=3)
     return pages

@@ -7,6 +7,8 @@ no GUI backend is needed; :func:`write_pdf` renders them with matplotlib's PDF b
 
 from __future__ import annotations
 
+import functools
+import math
 import sys
 import textwrap
 from dataclasses import dataclass
@@ -16,12 +18,15 @@ from typing import Iterable, Sequence
 import matplotlib
 import numpy as np
 import pandas as pd
+from matplotlib.backends.backend_agg import RendererAgg
 from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.font_manager import FontProperties
 from matplotlib.figure import Figure
 
 from faultlab.report.figures import PAGE_SIZE
 
-__all__ = ["PAGE_TITLE_ATTR", "PdfReport", "text_pages", "table_pages", "write_pdf", "page_title"]
+__all__ = ["PAGE_TITLE_ATTR", "TABLE_FONT_RANGE", "PdfReport", "new_page", "text_pages", "table_pages",
+           "write_pdf", "page_title"]
 
 _TITLE_SIZE = 15
 _TEXT_SIZE = 9.5
@@ -35,7 +40,8 @@ def page_title(fig: Figure) -> str:
     return getattr(fig, PAGE_TITLE_ATTR, "") or fig.get_suptitle()
 
 
-def _new_page(title: str, subtitle: str | None = None, *, figsize=PAGE_SIZE) -> Figure:
+def new_page(title: str, subtitle: str | None = None, *, figsize=PAGE_SIZE) -> Figure:
+    """An empty page with its title (bold, top left) and an optional grey subtitle."""
     fig = Figure(figsize=figsize)
     setattr(fig, PAGE_TITLE_ATTR, title)
     w, h = figsize
@@ -78,7 +84,7 @@ def text_pages(title: str, blocks: Sequence[str], *, subtitle: str | None = None
     pages = []
     chunks = [lines[i:i + per_page] for i in range(0, len(lines), per_page)] or [[]]
     for n, chunk in enumerate(chunks):
-        fig = _new_page(title if n == 0 else f"{title} (continued)", subtitle if n == 0 else None,
+        fig = new_page(title if n == 0 else f"{title} (continued)", subtitle if n == 0 else None,
                         figsize=figsize)
         y = top
         for text, bold in chunk:
@@ -91,33 +97,103 @@ def text_pages(title: str, blocks: Sequence[str], *, subtitle: str | None = None
     return pages
 
 
-def _text_lengths(frame: pd.DataFrame) -> np.ndarray:
-    """Longest text (header or cell) of every column, characters."""
-    return np.array([max([len(str(c))] + [len(str(v)) for v in frame[c]]) for c in frame.columns],
-                    dtype=float)
+#: Font sizes of table text, pt: never below the smaller (legible in print), at most the larger.
+TABLE_FONT_RANGE = (8.0, 9.5)
+_RENDERER = RendererAgg(10, 10, 72)  # measures text only
+#: Horizontal padding of a cell and height of a row, em.
+_PAD_EM = 0.9
+_ROW_EM = 1.6
+#: Shortest line a long cell text is wrapped to, characters.
+_MIN_WRAP = 14
+_NOTE_SIZE = 8.5
+_NOTE_LINE_IN = 1.45 * _NOTE_SIZE / 72
 
 
-def _col_widths(frame: pd.DataFrame) -> np.ndarray:
-    """Column widths (fractions of the table width) proportional to their longest text."""
-    lengths = np.clip(_text_lengths(frame), 3, 60) + 1.5
-    return lengths / lengths.sum()
+def _cell_text(value) -> str:
+    """A cell's text: ``str(value)``, and "" for a missing value."""
+    return "" if value is None or (isinstance(value, float) and math.isnan(value)) or value is pd.NA else str(value)
 
 
-#: Width of a (bold) character in em, generous: DejaVu Sans Bold digits are 0.70 em.
-_CHAR_EM = 0.72
+def _wrap(text: str, width: int | None) -> str:
+    return text if width is None or len(text) <= width else "\n".join(textwrap.wrap(text, width) or [""])
 
 
-def _fitting_fontsize(frame: pd.DataFrame, widths: np.ndarray, table_width_pt: float) -> float:
-    """Largest font size (pt) at which every column's longest text fits its width."""
-    lengths = np.maximum(_text_lengths(frame), 1.0)
-    return float(np.min(0.94 * widths * table_width_pt / (lengths * _CHAR_EM)))
+def _longest_line(text: str) -> int:
+    return max((len(line) for line in text.split("\n")), default=0)
+
+
+def _wrapped(frame: pd.DataFrame, width: int | None) -> pd.DataFrame:
+    """``frame`` (header included) with every text longer than ``width`` characters wrapped."""
+    out = frame.map(lambda v: _wrap(v, width))
+    out.columns = [_wrap(str(c), width) for c in frame.columns]
+    return out
+
+
+@functools.lru_cache(maxsize=65536)
+def _text_width_em(text: str, bold: bool) -> float:
+    """Width of one line of ``text`` in DejaVu Sans (the report's font), em."""
+    prop = FontProperties(family="DejaVu Sans", weight="bold" if bold else "normal", size=100)
+    width, _, _ = _RENDERER.get_text_width_height_descent(text, prop, ismath=False)
+    return width / 100  # the renderer works at 72 dpi: points at 100 pt
+
+
+def _lines_em(text: str, bold: bool) -> float:
+    return max((_text_width_em(line, bold) for line in text.split("\n")), default=0.0)
+
+
+def _column_widths_pt(frame: pd.DataFrame, fontsize: float) -> np.ndarray:
+    """Width of every column at ``fontsize``: its widest line (the header and cells in bold, as
+    highlighted cells are) plus padding, pt."""
+    widths = [max([_lines_em(str(c), True)] + [_lines_em(v, True) for v in frame[c]]) for c in frame.columns]
+    return (np.maximum(np.array(widths, dtype=float), 0.7) + _PAD_EM) * fontsize
+
+
+def _fit_columns(frame: pd.DataFrame, fontsize: float, available: float) -> pd.DataFrame:
+    """``frame`` with its longest texts wrapped at the widest line length that lets the table fit
+    ``available`` pt (never narrower than :data:`_MIN_WRAP` characters)."""
+    longest = max([_longest_line(str(c)) for c in frame.columns]
+                  + [_longest_line(v) for c in frame.columns for v in frame[c]])
+    for width in range(longest, _MIN_WRAP - 1, -1):
+        wrapped = _wrapped(frame, width)
+        if _column_widths_pt(wrapped, fontsize).sum() <= available:
+            return wrapped
+    return _wrapped(frame, _MIN_WRAP)
+
+
+def _column_groups(widths: np.ndarray, available: float, key_columns: int) -> list[list[int]]:
+    """Split the columns into about equally wide groups that fit ``available`` pt, each repeating
+    the key columns."""
+    n = len(widths)
+    keys = list(range(min(key_columns, n)))
+    if widths.sum() <= available or n <= len(keys) + 1:
+        return [list(range(n))]
+
+    def fill(capacity: float) -> list[list[int]]:
+        groups, current, used = [], list(keys), widths[keys].sum()
+        for c in range(len(keys), n):
+            if used + widths[c] > capacity and len(current) > len(keys):
+                groups.append(current)
+                current, used = list(keys), widths[keys].sum()
+            current.append(c)
+            used += widths[c]
+        return groups + [current]
+
+    count = len(fill(available))
+    balanced = widths[keys].sum() + widths[len(keys):].sum() / count
+    groups = fill(min(available, 1.02 * balanced))
+    return groups if len(groups) == count else fill(available)
 
 
 def table_pages(title: str, frame: pd.DataFrame, *, note: str | None = None,
                 colours: pd.DataFrame | None = None, bold: pd.DataFrame | None = None,
-                max_rows: int = 30, fontsize: float | None = None, subtitle: str | None = None,
-                figsize=PAGE_SIZE) -> list[Figure]:
-    """A frame of strings as a table, split over pages of at most ``max_rows`` rows.
+                max_rows: int = 40, fontsize: float | None = None, subtitle: str | None = None,
+                key_columns: int = 1, align: str = "center", figsize=PAGE_SIZE) -> list[Figure]:
+    """A frame of strings as a table sized to its content, with its caption right under it.
+
+    Every column is as wide as its longest text; the font is ``fontsize`` (default the larger of
+    :data:`TABLE_FONT_RANGE`), reduced down to the smaller bound when that lets the table fit the
+    page width.  A table still too wide is split into groups of columns, each repeating the first
+    ``key_columns`` columns; rows are split over pages by the page height (at most ``max_rows``).
 
     Parameters
     ----------
@@ -125,51 +201,86 @@ def table_pages(title: str, frame: pd.DataFrame, *, note: str | None = None,
         Same shape as ``frame``: a cell colour (any matplotlib colour, "" for none) and a
         boolean for bold text, per cell.
     note : str, optional
-        Wrapped text under the table (a caption), on every page.
+        Wrapped text right under the table (its caption), on every page.
+    key_columns : int
+        Columns that identify a row, repeated when the columns are split.
+    align : {"center", "left", "right"}
+        Alignment of the text in its cells.
     """
     w, h = figsize
-    frame = frame.astype(str).reset_index(drop=True)
-    chunks = [frame.iloc[i:i + max_rows] for i in range(0, len(frame), max_rows)] or [frame]
-    widths = _col_widths(frame) if frame.shape[1] else None
-    # never larger than what fits the columns (cells would overlap), never below 4.5 pt
-    fit = _fitting_fontsize(frame, widths, (w - 2 * _MARGIN_IN) * 72) if frame.shape[1] else 9.5
-    fontsize = float(np.clip(min(9.5 if fontsize is None else fontsize, fit), 4.5, 9.5))
+    frame = frame.reset_index(drop=True).map(_cell_text)
+    colours = None if colours is None else colours.reset_index(drop=True)
+    bold = None if bold is None else bold.reset_index(drop=True)
+    small, large = TABLE_FONT_RANGE
+    fontsize = float(np.clip(large if fontsize is None else fontsize, small, large))
+    available = (w - 2 * _MARGIN_IN) * 72
+    if frame.shape[1]:
+        natural = _column_widths_pt(frame, 1.0).sum()  # widths are proportional to the font size
+        fontsize = float(np.clip(min(fontsize, available / natural), small, fontsize))
+        frame = _fit_columns(frame, fontsize, available)
+        widths = _column_widths_pt(frame, fontsize)
+        groups = _column_groups(widths, available, key_columns)
+    else:
+        widths, groups = np.zeros(0), [[]]
+    line_in = 1.2 * fontsize / 72
+    pad_in = (_ROW_EM - 1.2) * fontsize / 72
+
+    def height(lines: int) -> float:
+        return lines * line_in + pad_in
+
+    header_in = height(max([str(c).count("\n") + 1 for c in frame.columns], default=1))
+    row_heights = [height(max([v.count("\n") + 1 for v in row], default=1)) for row in frame.to_numpy()]
+    note_lines = textwrap.wrap(note, int((w - 2 * _MARGIN_IN) * 72 / (0.52 * _NOTE_SIZE))) if note else []
+    note_in = len(note_lines) * _NOTE_LINE_IN + (0.12 if note_lines else 0)
+    top_in = _MARGIN_IN + (0.7 if subtitle else 0.55)  # from the top edge
+    room = h - top_in - _MARGIN_IN - 0.2 - note_in - header_in  # the footer below
+    row_chunks: list[list[int]] = []
+    used = 0.0
+    for i, rh in enumerate(row_heights):
+        if not row_chunks or len(row_chunks[-1]) >= max_rows or used + rh > room:
+            row_chunks.append([])
+            used = 0.0
+        row_chunks[-1].append(i)
+        used += rh
+    row_chunks = row_chunks or [[]]
     pages = []
-    for n, chunk in enumerate(chunks):
-        fig = _new_page(title if n == 0 else f"{title} (continued)", subtitle, figsize=figsize)
-        note_lines = textwrap.wrap(note, int((w - 2 * _MARGIN_IN) * 72 / (0.56 * 8.5))) if note else []
-        note_h = (len(note_lines) * 1.45 * 8.5 / 72 + 0.15) / h if note_lines else 0
-        top = 1 - (_MARGIN_IN + (0.65 if subtitle else 0.5)) / h
-        ax = fig.add_axes([_MARGIN_IN / w, _MARGIN_IN / h + note_h,
-                           1 - 2 * _MARGIN_IN / w, top - _MARGIN_IN / h - note_h])
-        ax.set_axis_off()
-        if chunk.empty:
-            ax.text(0, 1, "(no rows)", va="top", fontsize=fontsize + 1)
-        else:
-            cell_colours = None
-            if colours is not None:
-                cc = colours.reset_index(drop=True).iloc[chunk.index]
-                cell_colours = [[c if c else "white" for c in row] for row in cc.to_numpy()]
-            table = ax.table(cellText=chunk.to_numpy().tolist(), colLabels=list(chunk.columns),
-                             cellColours=cell_colours, colWidths=list(widths), loc="upper center",
-                             cellLoc="center")
-            table.auto_set_font_size(False)
-            table.set_fontsize(fontsize)
-            row_h = min(0.06, 0.95 / (len(chunk) + 1))
-            for (r, c), cell in table.get_celld().items():
-                cell.set_height(row_h)
-                cell.set_linewidth(0.4)
-                cell.set_edgecolor("0.7")
-                if r == 0:
-                    cell.set_text_props(fontweight="bold")
-                    cell.set_facecolor("0.9")
-                elif bold is not None and bool(bold.reset_index(drop=True).iloc[chunk.index[r - 1], c]):
-                    cell.set_text_props(fontweight="bold")
-        y = _MARGIN_IN / h + note_h - 0.1 / h
-        for line in note_lines:
-            fig.text(_MARGIN_IN / w, y, line, fontsize=8.5, va="top", ha="left", color="0.2")
-            y -= 1.45 * 8.5 / 72 / h
-        pages.append(fig)
+    for g, cols in enumerate(groups):
+        for n, rows in enumerate(row_chunks):
+            label = title if g == 0 and n == 0 else f"{title} (continued)"
+            if len(groups) > 1:
+                label += f" [columns {g + 1}/{len(groups)}]"
+            fig = new_page(label, subtitle, figsize=figsize)
+            table_h = header_in + sum(row_heights[i] for i in rows) if rows else 0.3
+            table_w = widths[cols].sum() / 72 if cols else w - 2 * _MARGIN_IN
+            ax = fig.add_axes([_MARGIN_IN / w, 1 - (top_in + table_h) / h, table_w / w, table_h / h])
+            ax.set_axis_off()
+            if not rows:
+                ax.text(0, 1, "(no rows)", va="top", fontsize=fontsize + 1)
+            else:
+                chunk = frame.iloc[rows, cols]
+                cell_colours = None
+                if colours is not None:
+                    cell_colours = [[c if c else "white" for c in row] for row in colours.iloc[rows, cols].to_numpy()]
+                table = ax.table(cellText=chunk.to_numpy().tolist(), colLabels=list(chunk.columns),
+                                 cellColours=cell_colours, colWidths=list(widths[cols] / widths[cols].sum()),
+                                 bbox=[0, 0, 1, 1], cellLoc=align, colLoc=align)
+                table.auto_set_font_size(False)
+                table.set_fontsize(fontsize)
+                for (r, c), cell in table.get_celld().items():
+                    cell.set_height((header_in if r == 0 else row_heights[rows[r - 1]]) / table_h)
+                    cell.set_linewidth(0.4)
+                    cell.set_edgecolor("0.7")
+                    cell.PAD = 0.5 * _PAD_EM * fontsize / widths[cols[c]]  # fraction of the cell width
+                    if r == 0:
+                        cell.set_text_props(fontweight="bold")
+                        cell.set_facecolor("0.9")
+                    elif bold is not None and bool(bold.iloc[rows[r - 1], cols[c]]):
+                        cell.set_text_props(fontweight="bold")
+            y = 1 - (top_in + table_h + 0.12) / h
+            for line in note_lines:
+                fig.text(_MARGIN_IN / w, y, line, fontsize=_NOTE_SIZE, va="top", ha="left", color="0.2")
+                y -= _NOTE_LINE_IN / h
+            pages.append(fig)
     return pages
 
 

@@ -13,7 +13,8 @@ particles that share a map: about 40 times slower than ``reference`` on a fixed-
 ``paper_no_aliasing`` runs at the reference's speed.
 
 Every profile carries its ``differences`` from the paper's filter, one :class:`Difference` row per
-point (the table in the README is generated from them with :func:`differences_markdown`).
+point (the table of ``docs/explanation/paper-fidelity.md`` is generated from them with
+:func:`differences_markdown`).
 
 >>> from faultlab.slam.profiles import get_profile
 >>> slam = get_profile("paper").slam()          # a FastSlam; faults apply to it as to the reference

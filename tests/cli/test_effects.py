@@ -11,9 +11,9 @@ def test_design_prints_sizes_from_the_formulas_and_writes_only_with_out(tmp_path
     monkeypatch.chdir(tmp_path)
     assert main(["effects", "design", "effects", "--quick"]) == 0
     out = capsys.readouterr().out
-    # Morris: 8 trajectories x (11 + 1) points; Sobol at most 16 x (11 + 2); 4 variants x K = 4 each
-    assert "Morris: 96 cases" in out and "1536 SLAM executions" in out
-    assert "at most 208 cases" in out and "at most 4864 SLAM executions" in out
+    # Morris: 8 trajectories x (11 + 1) points; Sobol at most 16 x (11 + 2); 7 variants x K = 3 each
+    assert "Morris: 96 cases" in out and f"{96 * 7 * 3} SLAM executions" in out
+    assert "at most 208 cases" in out and f"at most {96 * 21 + 208 * 21} SLAM executions" in out
     assert list(tmp_path.iterdir()) == []
     assert main(["effects", "design", "effects", "--quick", "--out", "d"]) == 0
     design = pd.read_csv(tmp_path / "d" / "morris_design.csv")

@@ -138,7 +138,7 @@ MUTATION = """
 seed = 3
 runs = 1
 n_steps = 30
-repetitions = 6
+repetitions = 7   # two-sided: 2^-(K-1) <= 0.05 / 2 cases
 timeout_s = 60.0
 [suites]
 random = 2

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import fnmatch
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -20,7 +21,8 @@ REPO = Path(__file__).resolve().parents[2]
 PACKAGE_DATA = REPO / "faultlab" / "data"
 #: The repository's top-level folders and the package folders they link into.
 LINKED = {"experiments": PACKAGE_DATA / "experiments", "paper_repro": PACKAGE_DATA / "paper"}
-SHIPPED = ("mutation", "paper-k10", "paper", "slams", "smoke", "space_table1", "study")  # sorted by file name: "-" < "."
+SHIPPED = ("effects", "mutation", "paper-k10", "paper", "robustness", "slams", "smoke", "space_table1", "study")  # sorted by file name: "-" < "."
+_LISTED = re.escape(", ".join(SHIPPED))  # as an error message lists them
 
 
 def _files(folder: Path) -> list[str]:
@@ -64,13 +66,13 @@ def test_a_directory_named_like_a_shipped_experiment_does_not_hide_it(tmp_path, 
 
 def test_unknown_name_is_one_error_listing_the_shipped_names(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    with pytest.raises(ConfigError, match=r"^unknown experiment file 'papr': .*\(mutation, paper-k10, paper, slams, smoke, space_table1, study\)$"):
+    with pytest.raises(ConfigError, match=rf"^unknown experiment file 'papr': .*\({_LISTED}\)$"):
         data.resolve_experiment("papr")
-    with pytest.raises(ConfigError, match=r"^unknown experiment 'papr'.*mutation, paper-k10, paper, slams, smoke, space_table1, study"):
+    with pytest.raises(ConfigError, match=rf"^unknown experiment 'papr'.*{_LISTED}"):
         data.experiment_file("papr")
     with pytest.raises(ConfigError, match=r"^unknown parameter-space file 'tabel1'.*space_table1"):
         load_space("tabel1")
-    with pytest.raises(ConfigError, match=r"^unknown experiment file 'papr'.*paper, slams, smoke"):
+    with pytest.raises(ConfigError, match=r"^unknown experiment file 'papr'.*paper, robustness, slams, smoke"):
         load_experiment("papr")
 
 
@@ -78,7 +80,7 @@ def test_a_missing_path_cannot_be_read_and_the_error_lists_the_shipped_names(tmp
     monkeypatch.chdir(tmp_path)
     for arg in ("paper.toml", "experiments/other.toml", tmp_path / "x" / "paper.toml"):
         with pytest.raises(ConfigError, match=r"experiment file cannot be read \(no such file; .*"
-                                              r"mutation, paper-k10, paper, slams, smoke, space_table1, study\)"):
+                                              rf"{_LISTED}\)"):
             data.resolve_experiment(arg)
 
 
@@ -141,7 +143,7 @@ def test_paper_table_runs_from_another_directory(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "faultlab", "paper-table"], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert "faultlab/data/paper/paper_table2_rms.csv" in proc.stdout
+    assert "Table II recomputed from paper_repro/paper_table2_rms.csv" in proc.stdout  # the data's portable label
     assert proc.stdout.count("<-- DIFFERS") == 1
     assert "random / missing_angle_wrap: computed 73 %, printed 80 %" in proc.stdout
     assert list(tmp_path.iterdir()) == []  # reads only

@@ -15,8 +15,10 @@ from faultlab.analysis import Analysis, analyse
 from faultlab.errors import ResultsError
 from faultlab.report.build import ReportFiles, build_report, render_report
 from faultlab.report.comparison import Verdict
+from faultlab.report.pages import REPORT_TITLE
 from faultlab.report.tables import round_mm
 from faultlab.runner import case_path, load_metadata, load_results
+from faultlab.runner.store import RESULT_COLUMNS, row_checksum
 
 
 def _forbid_running(monkeypatch):
@@ -88,8 +90,8 @@ def test_pdf_pages_and_their_contents(built, tiny_store):
                   "Beyond the paper: a statistical oracle over the SLAM repetitions",
                   "Comparison with the paper, row by row",
                   "Run metadata"):
-        assert title in files.page_titles, title
-    table_page = text[files.page_titles.index("Table II: this run beside the paper")]
+        assert any(t.startswith(title) for t in files.page_titles), title
+    table_page = text[[t.startswith("Table II: this run beside the paper") for t in files.page_titles].index(True)]
     res = load_results(tiny_store)
     first = res[(res["suite"] == "fixed") & (res["variant"] == "baseline") & (res["rep"] == 0)
                 & (res["case"] == 1)]["rms_mm"].iloc[0]
@@ -98,8 +100,25 @@ def test_pdf_pages_and_their_contents(built, tiny_store):
     meta = load_metadata(tiny_store)
     meta_page = "\n".join(t for t, title in zip(text, files.page_titles) if title.startswith("Run metadata"))
     assert meta["experiment_hash"] in meta_page.replace("\n", "")
-    assert "Root seed: 11" in meta_page
+    assert "root seed" in meta_page and "11 (every case and SLAM seed derives from it" in meta_page
+    assert "{'" not in meta_page and "'}" not in meta_page  # a table of settings, not a Python repr
     assert "tiny campaign for the report tests" in text[0]
+
+
+def test_the_first_page_summarises_what_was_detected(built, tiny_store):
+    files, _ = built
+    assert files.page_titles[0] == "Summary: what this run detected"
+    first = " ".join(_pdf_text(files.pdf)[0].split())
+    # Independent count from the store: the campaign's rule per (case, fault) over its repetitions.
+    analysis = analyse(tiny_store)
+    verdicts = analysis.case_verdicts
+    faults = set(analysis.case_rates["fault"])
+    assert faults
+    for fault, rows in verdicts[verdicts["fault"].isin(faults)].groupby("fault"):
+        judged = rows[rows["verdict"] != "cannot_judge"]
+        k = int(judged["verdict"].isin(["detected", "crash_detected"]).sum())
+        assert f"detected on {k} of {len(judged)} judged cases" in first, fault
+    assert "Detection rate per suite and fault" in first  # the figure is on the same page
 
 
 def test_table2_cells_match_the_store_and_the_rule(built, tiny_store):
@@ -174,7 +193,7 @@ def test_damaged_store_still_reports_with_notes(tiny_store, tmp_path, monkeypatc
     assert "1 saved test case file(s)" in notes
     assert "incomplete: 17 of 18 jobs" in notes
     assert files.n_rows == 17 and files.pdf.is_file()
-    assert "incomplete" in _pdf_text(files.pdf)[0]
+    assert "incomplete" in _pdf_text(files.pdf)[files.page_titles.index(REPORT_TITLE)]
 
 
 def test_without_the_paper_data(tiny_store, tmp_path):
@@ -203,14 +222,13 @@ def test_package_exports_resolve():
 
 def _reseal(conn: sqlite3.Connection) -> None:
     """Recompute every row's checksum after a deliberate edit of the store's values."""
-    from faultlab.runner.store import RESULT_COLUMNS, row_checksum
 
     cols = ", ".join(f'"{c}"' for c in RESULT_COLUMNS)
     for rowid, *values in conn.execute(f"SELECT rowid, {cols} FROM results").fetchall():
         conn.execute("UPDATE results SET checksum = ? WHERE rowid = ?", (row_checksum(values), rowid))
 
 
-def test_a_fault_identical_to_the_baseline_everywhere_is_flagged(tiny_store, tmp_path):
+def test_a_fault_identical_to_the_baseline_everywhere_is_flagged(built, tiny_store, tmp_path):
     copy = tmp_path / "copy"
     shutil.copytree(tiny_store, copy)
     with sqlite3.connect(copy / "results.sqlite") as conn:  # as if the fault never changed anything
@@ -219,12 +237,12 @@ def test_a_fault_identical_to_the_baseline_everywhere_is_flagged(tiny_store, tmp
                      "AND b.rep = results.rep) WHERE variant = 'missing_angle_wrap'")
         _reseal(conn)  # the edit is deliberate: the rows' checksums are recomputed, as a writer would
     conn.close()
-    original = build_report(tiny_store, tmp_path / "original")
+    original, _ = built  # the unmodified store's report
     assert not any("equivalent mutant" in n for n in original.notes)
     files = build_report(copy, tmp_path / "rep")
     (note,) = [n for n in files.notes if "equivalent mutant" in n]
     assert note.startswith("missing_angle_wrap:")
-    assert "equivalent mutant" in " ".join(_pdf_text(files.pdf)[0].split())
+    assert "equivalent mutant" in " ".join(_pdf_text(files.pdf)[files.page_titles.index(REPORT_TITLE)].split())
 
 
 def test_the_report_classifies_every_job_once(built):

@@ -59,6 +59,14 @@ def _render_robustness(stores: Path, out: Path) -> None:
                             intro=(REPORTS / "robustness" / "intro.md").read_text())
 
 
+def _render_calibration(store: Path, out: Path) -> None:
+    from faultlab.analysis.calibration import assess_calibration
+
+    result = assess_calibration(store)
+    result.analysis.save(out)
+    result.rates.to_csv(out / "calibration.csv", index=False)
+
+
 #: (committed report directory, its store relative to it, renderer, store holds one store per SLAM)
 COMMITTED = [
     ("", "store", _render_paper, False),
@@ -66,6 +74,7 @@ COMMITTED = [
     ("mutation", "store", _render_mutation, False),
     ("slams", "store", _render_slams, True),
     ("robustness", "store", _render_robustness, True),
+    ("calibrate-quick", "store", _render_calibration, False),
 ]
 
 

@@ -80,3 +80,45 @@ def test_write_pdf_is_readable_and_searchable(tmp_path):
     meta = reader.metadata
     assert meta.title == "T" and meta.subject == "S"
     assert "Table II: a table" in meta["/Keywords"]
+
+
+def _drawn(fig: Figure):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    return canvas.get_renderer()
+
+
+def test_tables_are_at_least_8_pt_sized_to_their_content_with_the_caption_under_them():
+    wide = pd.DataFrame({f"column {i}": [f"{1000 * i + r}" for r in range(12)] for i in range(22)})
+    wide.insert(0, "name", [f"row {r}" for r in range(12)])
+    pages = table_pages("Wide", wide, note="the caption", key_columns=1)
+    assert len(pages) > 1 and all("[columns" in page_title(p) for p in pages)  # split by columns, not shrunk
+    for page in pages:
+        renderer = _drawn(page)
+        (ax,) = page.axes
+        (table,) = ax.tables
+        cells = table.get_celld()
+        assert min(cell.get_text().get_fontsize() for cell in cells.values()) >= 8.0
+        # Every column is about as wide as its widest text: never 40 % blank.
+        columns = {c for _, c in cells}
+        for c in columns:
+            col = [cells[(r, cc)] for r, cc in cells if cc == c]
+            text_w = max(cell.get_text().get_window_extent(renderer).width for cell in col)
+            cell_w = col[0].get_window_extent(renderer).width
+            assert text_w <= cell_w and text_w >= 0.6 * cell_w
+        # The key column is repeated on every page; the caption sits right under the table.
+        assert cells[(1, 0)].get_text().get_text() == "row 0"
+        table_bottom = ax.get_window_extent(renderer).y0
+        (caption,) = [t for t in page.texts if t.get_text() == "the caption"]
+        gap = table_bottom - caption.get_window_extent(renderer).y1
+        assert 0 <= gap < 0.3 * page.dpi
+
+
+def test_long_cell_texts_wrap_instead_of_shrinking_the_font():
+    frame = pd.DataFrame({"name": ["a", "b"], "text": ["word " * 80, "short"]})
+    (page,) = table_pages("Long", frame)
+    cells = page.axes[0].tables[0].get_celld()
+    assert cells[(1, 1)].get_text().get_text().count("\n") >= 2
+    assert cells[(1, 1)].get_text().get_fontsize() >= 8.0
