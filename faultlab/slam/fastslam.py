@@ -369,6 +369,12 @@ class FastSlam(UnitSlam):
         self._single_steps: FastSlamSteps | None = None
         self._jit = _twins.JIT_ENABLED  # compiled twins and bookkeeping (FAULTLAB_JIT)
         self._fused = self._jit and _twins.fused(self._steps)
+        # decided once per filter: which per-step units are the references, so that the compiled
+        # path may do their work directly (same operations on the same values, no unit call)
+        ref = REFERENCE_STEPS
+        self._ref_classify = self._jit and self._steps.classify_new is ref.classify_new
+        self._ref_resample = self._jit and all(getattr(self._steps, name) is getattr(ref, name) for name in
+                                               ("effective_sample_size", "resample", "apply_resample"))
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
@@ -646,6 +652,9 @@ class FastSlam(UnitSlam):
 
     def _resample(self, j: int, empty: bool) -> None:
         """Effective sample size, resampling decision and resampling of the filter in slot ``j``."""
+        if self._ref_resample:
+            self._resample_reference(j, empty)
+            return
         steps = self._units(1)  # per-filter units: never looped
         given = self._filter_state(j)
         st, resampled = resample_tail(steps, given, empty, self._streams[j]["resample"], self._config,
@@ -653,6 +662,27 @@ class FastSlam(UnitSlam):
         if resampled:
             self._store(j, given, st)
             self._n_resampled[self._reps[j]] += 1
+
+    def _resample_reference(self, j: int, empty: bool) -> None:
+        """:meth:`_resample` when ``effective_sample_size``, ``resample`` and ``apply_resample`` are
+        the references: their work (the resampling by its twin) without building a particle state."""
+        n = self._n
+        sl = self._slice(j)
+        w = np.exp(self._logw[sl])
+        idx = _twins.resample(w, _units.effective_sample_size(w), empty, self._streams[j]["resample"],
+                              self._config)
+        if idx is None:
+            return
+        if len(self._reps) == 1:
+            self._poses = self._poses[idx]
+            self._logw = np.full(n, -math.log(n))
+        else:
+            if not self._poses.flags.writeable:
+                self._poses = self._poses.copy()
+            self._poses[sl] = self._poses[sl][idx]
+            self._logw[sl] = -math.log(n)
+        self._lineage[j] = self._lineage[j][idx]
+        self._n_resampled[self._reps[j]] += 1
 
     def _normalise(self, logw: np.ndarray) -> np.ndarray:
         """Normalised log weights (log-sum-exp) of one filter."""
@@ -756,31 +786,37 @@ class FastSlam(UnitSlam):
         self._anc, self._anc_spare = spare, anc
         self._views = None
 
-    def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _gather(self, start: int, stop: int, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The stored landmarks of ``cols`` for the particles of slots ``start .. stop - 1``.
 
-        Returns ``(mb (2, k, M), pb (2, 2, k, M), base (k, M) or (k, 1))``, ``M`` the filters'
-        particles: fresh copies of the means and covariances, and the storage offset of each
-        (column, particle's filter) in the flattened (component, column x particle) storage.
+        Returns ``(mb (2, k, M), pb (2, 2, k, M))``, ``M`` the filters' particles: fresh copies of
+        the means and covariances.
         """
         n = self._n
-        bn = self._mu.shape[2]
-        cap = self._mu.shape[1]
         p0, p1 = start * n, stop * n
-        base = (cols * bn)[:, None]
-        if bn > n:  # each filter's rows of the storage start at its slot's offset
-            if self._offsets is None:
-                self._offsets = np.repeat(np.arange(bn // n, dtype=np.intp) * n, n)
-            base = base + self._offsets[p0:p1]
         if self._jit:
             mb = np.empty((2, cols.size, p1 - p0))
             pb = np.empty((2, 2, cols.size, p1 - p0))
             _twins.gather_rows(self._mu, self._P, self._anc, cols, p0, n, mb, pb)
-            return mb, pb, base
-        flat = self._anc[p0:p1, cols].T + base  # (k, M) positions in the flattened storage
+            return mb, pb
+        bn = self._mu.shape[2]
+        cap = self._mu.shape[1]
+        flat = self._anc[p0:p1, cols].T + self._base(start, stop, cols)  # (k, M) positions in the flattened storage
         mb = np.take(self._mu.reshape(2, cap * bn), flat, axis=1)  # (2, k, M), a fresh copy
         pb = np.take(self._P.reshape(4, cap * bn), flat, axis=1).reshape(2, 2, cols.size, p1 - p0)
-        return mb, pb, base
+        return mb, pb
+
+    def _base(self, start: int, stop: int, cols: np.ndarray) -> np.ndarray:
+        """The storage offset of each (column of ``cols``, particle's filter) of slots ``start .. stop - 1``
+        in the flattened (component, column x particle) storage, shape (k, M) or (k, 1)."""
+        n = self._n
+        bn = self._mu.shape[2]
+        base = (cols * bn)[:, None]
+        if bn > n:  # each filter's rows of the storage start at its slot's offset
+            if self._offsets is None:
+                self._offsets = np.repeat(np.arange(bn // n, dtype=np.intp) * n, n)
+            base = base + self._offsets[start * n:stop * n]
+        return base
 
     def _blocks(self, m_rows: int, k: int) -> list[tuple[int, int]]:
         """Row ranges that split ``m_rows`` particles into blocks of about :attr:`block_pairs` pairs.
@@ -815,9 +851,9 @@ class FastSlam(UnitSlam):
         k = cols.size
         p0, p1 = start * n, stop * n
         m_rows = p1 - p0
-        mb, pb, base = self._gather(start, stop, cols)
         x = poses if m_rows == poses.shape[0] else poses[p0:p1]
         blocks = self._blocks(m_rows, k)
+        mb, pb = self._gather(start, stop, cols)
         if len(blocks) == 1:
             loglik, known, mu_new, P_new = self._correct_rows(steps, x, mb, pb, seen, z)
         else:
@@ -831,17 +867,7 @@ class FastSlam(UnitSlam):
                 known[b0:b1] = kn
                 mu_new[:, :, b0:b1] = mn
                 P_new[:, :, :, b0:b1] = pn
-        # weights, filter by filter: combine_weights, then normalise (log-sum-exp)
-        for j in range(start, stop):
-            sl = self._slice(j)
-            local = slice(sl.start - p0, sl.stop - p0)
-            lw = self._call(j, self._weights, self._logw[sl], loglik[local], known[local])
-            if lw is _FAILED:
-                continue
-            if bn > n and np.shape(lw) != (n,):
-                raise BatchUnsupported(f"{self.name}: combine_weights returned shape {np.shape(lw)}, expected "
-                                       f"({n},); run the repetitions one at a time")
-            logw[sl] = lw
+        self._combine(start, stop, p0, loglik, known, logw)
         # write every particle's estimate of the observed columns into its own storage row
         owners = self._owner[start:stop]
         if all(o is self._ident or np.array_equal(o, self._ident) for o in owners):
@@ -855,10 +881,26 @@ class FastSlam(UnitSlam):
             P_store.reshape(4 * cap, bn)[rows.ravel(), p0:p1] = P_new.reshape(4 * k, m_rows)
         else:
             owner = np.asarray(owners[0]) if len(owners) == 1 else np.concatenate(owners)
-            wflat = owner[None, :] + base  # sharers of a row: the last particle's values win
+            wflat = owner[None, :] + self._base(start, stop, cols)  # sharers of a row: the last particle's values win
             mu_store.reshape(2, cap * bn)[:, wflat] = mu_new
             P_store.reshape(4, cap * bn)[:, wflat] = P_new.reshape(4, k, m_rows)
         self._anc[p0:p1, cols] = owner[:, None]
+
+    def _combine(self, start: int, stop: int, p0: int, loglik: np.ndarray, known: np.ndarray,
+                 logw: np.ndarray) -> None:
+        """The weights of slots ``start .. stop - 1`` (particles from ``p0``), filter by filter:
+        ``combine_weights``, then the normalisation (log-sum-exp), written into ``logw``."""
+        n = self._n
+        for j in range(start, stop):
+            sl = self._slice(j)
+            local = slice(sl.start - p0, sl.stop - p0)
+            lw = self._call(j, self._weights, self._logw[sl], loglik[local], known[local])
+            if lw is _FAILED:
+                continue
+            if self._mu.shape[2] > n and np.shape(lw) != (n,):
+                raise BatchUnsupported(f"{self.name}: combine_weights returned shape {np.shape(lw)}, expected "
+                                       f"({n},); run the repetitions one at a time")
+            logw[sl] = lw
 
     def _correct_rows(self, steps: FastSlamSteps, x: np.ndarray, mb: np.ndarray, pb: np.ndarray,
                       seen: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -872,8 +914,15 @@ class FastSlam(UnitSlam):
         Q = self._Q
         mu = mb.transpose(2, 1, 0)  # (M', k, 2) view
         P = pb.transpose(3, 2, 0, 1)  # (M', k, 2, 2) view
-        new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
-        new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
+        if self._ref_classify:  # the reference: the never-seen ids are new for every particle
+            known = np.empty(mu.shape[:2], dtype=bool)
+            known[...] = seen
+            new_cols = None if seen.all() else np.flatnonzero(~seen)
+            new = ~known if new_cols is not None else None
+        else:
+            new = np.asarray(steps.classify_new(seen, mu), dtype=bool)
+            new_cols = np.flatnonzero(new.any(axis=0)) if new.any() else None
+            known = ~new
         if new_cols is not None:
             # initialise where new (only the observations with at least one new pair)
             mu_i, P_i = steps.init_landmarks(x, z[new_cols], Q, wrap=steps.wrap_bearing)
@@ -900,7 +949,7 @@ class FastSlam(UnitSlam):
             m = new[:, new_cols].T
             mu_new[:, new_cols] = np.where(m, mb[:, new_cols], mu_new[:, new_cols])
             P_new[:, :, new_cols] = np.where(m, pb[:, :, new_cols], P_new[:, :, new_cols])
-        return loglik, ~new, mu_new, P_new
+        return loglik, known, mu_new, P_new
 
     def _correct_in_sharer_order(self, j: int, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
                                  z: np.ndarray, logw: np.ndarray) -> None:
@@ -916,12 +965,12 @@ class FastSlam(UnitSlam):
         bn = mu_store.shape[2]
         cap = mu_store.shape[1]
         k = cols.size
-        mb, pb, base = self._gather(j, j + 1, cols)
+        mb, pb = self._gather(j, j + 1, cols)
         owner = np.asarray(self._owner[j])
         lw, mu_new, P_new = correct_in_sharer_order(self._units(1), self._logw[sl], owner, poses[sl], z, seen,
                                                     mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
         logw[sl] = self._normalise(np.asarray(lw, dtype=float))
-        wflat = owner[None, :] + base  # sharers write equal values to their common row
+        wflat = owner[None, :] + self._base(j, j + 1, cols)  # sharers write equal values to their common row
         mu_store.reshape(2, cap * bn)[:, wflat] = np.asarray(mu_new).transpose(2, 1, 0)
         P_store.reshape(4, cap * bn)[:, wflat] = np.asarray(P_new).transpose(2, 3, 1, 0).reshape(4, k, n)
         self._anc[sl, cols] = owner[:, None]

@@ -4,8 +4,9 @@ Each kernel is a plain loop over (observation, particle) pairs that performs, el
 *the same IEEE operations in the same order* as the numpy formulas of the reference unit it
 serves (:mod:`faultlab.slam.units`), so its results are bit-identical to the unit's.  The kernels
 contain only ``+ - * /``, ``sqrt`` and ``floor``, which IEEE 754 defines exactly; the
-transcendental functions (``atan2``, ``log``) stay in numpy, outside the kernels, because numba's
-(the C library's) and numpy's (SIMD) implementations may differ in the last bit.  They are
+transcendental functions (``atan2``, ``log``, ``cos``, ``sin``) stay in numpy, outside the
+kernels, because numba's (the C library's) and numpy's (SIMD) implementations may differ in the
+last bit.  They are
 compiled without ``fastmath`` (no reassociation, no fused multiply-add) and with numpy's error
 model (a division by zero gives ``inf``/``nan`` as in numpy, never an exception).
 
@@ -23,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
+__all__ = ["noisy_controls", "motion", "offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
            "ekf_correction", "fused_correction", "gather_pairs", "scatter_pairs",
            "take_rows", "systematic_indices"]
 
@@ -52,6 +53,26 @@ def _wrap(a):
     t = np.floor(t)  # a float (math.floor would round to an int64 and overflow)
     t = t * _TWO_PI
     return a - t
+
+
+@_jit
+def noisy_controls(u, eps, std_v, std_omega, out):
+    """``out = u + eps * (std_v, std_omega)`` for the control ``u`` (2,) and the draws ``eps`` (N, 2)
+    (``sample_controls`` after its draw)."""
+    for i in range(eps.shape[0]):
+        out[i, 0] = u[0] + eps[i, 0] * std_v
+        out[i, 1] = u[1] + eps[i, 1] * std_omega
+
+
+@_jit
+def motion(poses, u, cos_th, sin_th, out):
+    """``motion_model`` with the reference heading wrap, after numpy's ``cos`` and ``sin`` of the
+    headings: ``out = (x + v cos, y + v sin, wrap(theta + omega))`` for poses (N, 3), controls (N, 2)."""
+    for i in range(poses.shape[0]):
+        v = u[i, 0]
+        out[i, 0] = poses[i, 0] + v * cos_th[i]
+        out[i, 1] = poses[i, 1] + v * sin_th[i]
+        out[i, 2] = _wrap(poses[i, 2] + u[i, 1])
 
 
 @_jit

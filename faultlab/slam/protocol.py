@@ -103,6 +103,17 @@ class Observations:
         return int(self.ranges.shape[0])
 
     @classmethod
+    def _checked(cls, ranges: np.ndarray, bearings: np.ndarray, ids: np.ndarray) -> "Observations":
+        """Observations of arrays that are known to pass the checks of ``__post_init__`` (float64,
+        float64 and int64 of one length, see :func:`_all_valid`), built without repeating them."""
+        obs = object.__new__(cls)
+        object.__setattr__(obs, "ranges", ranges)
+        object.__setattr__(obs, "bearings", bearings)
+        object.__setattr__(obs, "ids", ids)
+        object.__setattr__(obs, "hidden", False)
+        return obs
+
+    @classmethod
     def empty(cls) -> "Observations":
         return cls(np.empty(0), np.empty(0), np.empty(0, dtype=np.int64))
 
@@ -260,19 +271,50 @@ def _label(slam) -> str:
     return getattr(slam, "name", type(slam).__name__)
 
 
+def _all_valid(scenario) -> bool:
+    """Whether the observations of every step of ``scenario`` pass the checks of :class:`Observations`
+    as float64 ranges and bearings and int64 ids (one vectorised pass over the whole scenario).
+
+    If not, the driver builds each step's observations with the checks, which raise at the step
+    concerned with the message of that step.
+    """
+    r, b, ids = scenario.obs_range, scenario.obs_bearing, scenario.obs_ids
+    offsets = np.asarray(scenario.obs_offsets)
+    if not all(type(a) is np.ndarray and a.ndim == 1 and a.shape == r.shape for a in (r, b, ids)):
+        return False
+    if r.dtype != np.float64 or b.dtype != np.float64 or ids.dtype != np.int64:
+        return False
+    if not r.size:
+        return True
+    if not (np.isfinite(r).all() and np.isfinite(b).all() and r.min() >= 0):
+        return False
+    step = np.repeat(np.arange(offsets.size - 1), np.diff(offsets))
+    if step.size != ids.size:
+        return False
+    order = np.lexsort((ids, step))
+    s_ids, s_step = ids[order], step[order]
+    return not ((s_ids[1:] == s_ids[:-1]) & (s_step[1:] == s_step[:-1])).any()
+
+
 def _feed(slam: SlamAdapter, scenario) -> None:
     """Step ``slam`` through the scenario: each step's control and the observations made after it, with
     the ids hidden if the SLAM associates observations itself."""
     offsets = scenario.obs_offsets
     controls = scenario.controls
     hide = association_of(slam) == UNKNOWN_ASSOCIATION
+    checked = not hide and _all_valid(scenario)
+    make = Observations._checked if checked else Observations
+    # step() only checks the control and the observations: with every one known to pass, update() is called
+    controls_ok = (type(controls) is np.ndarray and controls.dtype == np.float64
+                   and controls.shape == (scenario.n_steps, 2) and bool(np.isfinite(controls).all()))
+    advance = slam.update if checked and controls_ok and type(slam).step is SlamAdapter.step else slam.step
     for t in range(scenario.n_steps):
         a, b = offsets[t], offsets[t + 1]
         if hide:
             obs = Observations.without_ids(scenario.obs_range[a:b], scenario.obs_bearing[a:b])
         else:
-            obs = Observations(scenario.obs_range[a:b], scenario.obs_bearing[a:b], scenario.obs_ids[a:b])
-        slam.step(controls[t], obs)
+            obs = make(scenario.obs_range[a:b], scenario.obs_bearing[a:b], scenario.obs_ids[a:b])
+        advance(controls[t], obs)
 
 
 def run_slam(slam: SlamAdapter, scenario, *, rng: np.random.Generator) -> Estimate:

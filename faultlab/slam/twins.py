@@ -15,10 +15,11 @@ in any of them falls back to the unit-by-unit path.
 
 Exactness.  A twin performs the same IEEE operations in the same order as its unit, with no
 fused multiply-add and no reassociation (no ``fastmath``), and leaves the transcendental
-functions (``arctan2``, ``log``) to numpy, whose SIMD implementations can differ from the C
-library's in the last bit.  So twin and unit agree bit for bit on every input on every CPU, and
-with them every guarantee of the campaigns: an equivalent fault or mutant still gives maps
-bit-identical to the baseline, the random streams are untouched (no twin draws), a batched
+functions (``arctan2``, ``log``, ``cos``, ``sin``) to numpy, whose SIMD implementations can
+differ from the C library's in the last bit.  So twin and unit agree bit for bit on every input
+on every CPU, and with them every guarantee of the campaigns: an equivalent fault or mutant still
+gives maps bit-identical to the baseline, the random streams are untouched (a twin draws exactly
+what its unit draws, from the unit's stream), a batched
 repetition equals the single run and results do not depend on ``--jobs``.  A twin applies only
 to float64 arrays of the documented shapes (without broadcasting); anything else is handed to
 the numpy unit.
@@ -42,7 +43,8 @@ from faultlab.slam.units import _mat22, _vec2
 
 __all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "gather_rows",
            "scatter_rows", "take_rows", "warm_up",
-           "predict_measurement", "innovation", "innovation_covariance", "log_likelihood", "ekf_update",
+           "sample_controls", "motion_model", "predict_measurement", "innovation", "innovation_covariance",
+           "log_likelihood", "ekf_update",
            "predict_measurement_wrapped", "log_likelihood_wrapped", "resample"]
 
 #: The environment variable that turns the compiled twins off (value ``0``).
@@ -92,6 +94,32 @@ def _kt(a: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 # unit twins (signatures and results of the reference units)
 # ---------------------------------------------------------------------------------------------
+
+
+def sample_controls(u: np.ndarray, n: int, rng: np.random.Generator, config) -> np.ndarray:
+    """Twin of :func:`faultlab.slam.units.sample_controls` (the same single draw from ``rng``)."""
+    if not (type(u) is np.ndarray and u.shape == (2,) and u.dtype == _F64):
+        return _units.sample_controls(u, n, rng, config)
+    std = np.array([config.std_v, config.std_omega])
+    if std.dtype != _F64:
+        return _units.sample_controls(u, n, rng, config)
+    eps = rng.standard_normal((n, 2))
+    out = np.empty((n, 2))
+    _k().noisy_controls(u, eps, std[0], std[1], out)
+    return out
+
+
+def motion_model(poses: np.ndarray, u: np.ndarray, *, wrap) -> np.ndarray:
+    """Twin of :func:`faultlab.slam.units.motion_model` (``cos`` and ``sin`` by numpy; with the
+    reference heading wrap only, any other ``wrap`` runs the numpy unit with it)."""
+    if not (wrap is _units.wrap_heading and type(poses) is np.ndarray and poses.dtype == _F64
+            and poses.ndim == 2 and poses.shape[1] == 3 and type(u) is np.ndarray and u.dtype == _F64
+            and u.shape == (poses.shape[0], 2)):
+        return _units.motion_model(poses, u, wrap=wrap)
+    th = poses[:, 2]
+    out = np.empty_like(poses)
+    _k().motion(poses, u, np.cos(th), np.sin(th), out)
+    return out
 
 
 def predict_measurement(poses: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -203,6 +231,8 @@ def resample(w: np.ndarray, n_eff: float, empty: bool, rng: np.random.Generator,
 
 #: Reference unit (or alternative unit of the paper's filter) -> its compiled twin.
 TWINS: dict[Callable, Callable] = {
+    _units.sample_controls: sample_controls,
+    _units.motion_model: motion_model,
     _units.predict_measurement: predict_measurement,
     _units.innovation: innovation,
     _units.innovation_covariance: innovation_covariance,
@@ -325,6 +355,10 @@ def warm_up() -> float:
     Q = np.diag([0.1, 0.01])
     z = np.abs(rng.normal(size=(k, 2)))
     P0 = np.broadcast_to(np.eye(2), (n, k, 2, 2)).copy()
+    u = np.array([0.5, 0.1])
+    config = type("Noise", (), {"std_v": 0.1, "std_omega": 0.01})
+    motion_model(poses, sample_controls(u, n, rng, config), wrap=_units.wrap_heading)
+    motion_model(poses, np.broadcast_to(u, (n, 2)), wrap=_units.wrap_heading)
     zhat, H = predict_measurement(poses, mu)
     nu = innovation(z, zhat, wrap=_units.wrap_bearing)
     S = innovation_covariance(H, P0, Q)

@@ -1,8 +1,14 @@
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 
 from faultlab.errors import SlamInputError, SlamOutputError
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_control, as_start_pose, check_generator
+from faultlab.slam.protocol import (Estimate, Observations, SlamAdapter, _all_valid, as_control, as_start_pose,
+                                    check_generator)
 
 
 def test_observations_accept_empty_and_coerce_types():
@@ -80,3 +86,40 @@ def test_step_validates_before_update():
         slam.step([0.0, 0.0], ([-1.0], [0.0], [2]))
     assert len(slam.calls) == 2
     assert len(slam.calls[1][1]) == 0
+
+
+@st.composite
+def observation_streams(draw):
+    """A scenario's observation arrays (a few steps), sometimes with a planted defect."""
+    counts = draw(st.lists(st.integers(0, 4), min_size=1, max_size=5))
+    m = sum(counts)
+    ranges = draw(hnp.arrays(np.float64, m, elements=st.one_of(
+        st.floats(0.0, 100.0), st.sampled_from([-0.0, -1.0, np.nan, np.inf]))))
+    bearings = draw(hnp.arrays(np.float64, m, elements=st.one_of(st.floats(-4.0, 4.0), st.just(np.nan))))
+    ids = draw(hnp.arrays(np.int64, m, elements=st.integers(0, 5)))
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    return SimpleNamespace(obs_range=ranges, obs_bearing=bearings, obs_ids=ids, obs_offsets=offsets)
+
+
+@settings(max_examples=300, deadline=None)
+@given(observation_streams())
+def test_the_scenario_wide_observation_check_agrees_with_the_per_step_checks(sc):
+    """Oracle: building every step's Observations with its own checks."""
+    def per_step_ok():
+        for t in range(sc.obs_offsets.size - 1):
+            a, b = sc.obs_offsets[t], sc.obs_offsets[t + 1]
+            try:
+                Observations(sc.obs_range[a:b], sc.obs_bearing[a:b], sc.obs_ids[a:b])
+            except SlamInputError:
+                return False
+        return True
+
+    assert _all_valid(sc) == per_step_ok()
+    if _all_valid(sc):
+        a, b = sc.obs_offsets[-2], sc.obs_offsets[-1]
+        fast = Observations._checked(sc.obs_range[a:b], sc.obs_bearing[a:b], sc.obs_ids[a:b])
+        slow = Observations(sc.obs_range[a:b], sc.obs_bearing[a:b], sc.obs_ids[a:b])
+        for name in ("ranges", "bearings", "ids"):
+            got, want = getattr(fast, name), getattr(slow, name)
+            assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=True)
+        assert fast.hidden is slow.hidden is False and len(fast) == len(slow)

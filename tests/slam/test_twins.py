@@ -156,10 +156,37 @@ def test_twinned_swaps_reference_units_only():
     run = twins.twinned(steps)
     assert run.ekf_update is fault
     assert run.predict_measurement is twins.predict_measurement
-    assert run.motion_model is U.motion_model  # no twin
+    assert run.combine_weights is U.combine_weights  # no twin
+    assert run.motion_model is twins.motion_model
     assert twins.fused(REFERENCE_STEPS) and twins.fused(twins.twinned(REFERENCE_STEPS))
     assert not twins.fused(steps)
     assert not twins.fused(dataclasses.replace(REFERENCE_STEPS, wrap_bearing=lambda a: a))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Noise:
+    std_v: float
+    std_omega: float
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 6), arrays(np.float64, 2, elements=VALUES), st.floats(0.0, 10.0), st.floats(0.0, 1.0),
+       st.integers(0, 2 ** 32 - 1))
+def test_the_prediction_twins_are_bit_identical_to_their_units(n, u, std_v, std_omega, seed):
+    config = _Noise(std_v, std_omega)
+    rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
+    with quiet():
+        want = U.sample_controls(u, n, rng_a, config)
+        got = twins.sample_controls(u, n, rng_b, config)
+        assert same_bits(got, want)
+        assert rng_a.random() == rng_b.random()  # the same draws were consumed
+        poses = np.random.default_rng(seed).normal(size=(n, 3)) * np.array([10.0, 10.0, 4.0])
+        poses[0] = u[0], u[1], u[0] * u[1]  # special values (signed zeros, inf, nan) in the poses too
+        for controls in (want, np.broadcast_to(u, (n, 2))):
+            assert same_bits(twins.motion_model(poses, controls, wrap=U.wrap_heading),
+                             U.motion_model(poses, controls, wrap=U.wrap_heading))
+        no_wrap = lambda a: a  # noqa: E731  another wrap: the unit's own result
+        assert same_bits(twins.motion_model(poses, want, wrap=no_wrap), U.motion_model(poses, want, wrap=no_wrap))
 
 
 @dataclasses.dataclass(frozen=True)
