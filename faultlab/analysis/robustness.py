@@ -9,7 +9,7 @@ computes, per (SLAM, sensor fault):
   are the independent units: the effect is the geometric-mean ratio ``exp(mean_c r_c)`` with the
   Student-t confidence interval over cases (:func:`scipy.stats.ttest_1samp`, two-sided, level
   ``1 - alpha``), beside the per-case verdicts of the statistical rule
-  (:func:`faultlab.stats.verdict.case_verdicts`: the exact one-sided paired sign-flip test over the
+  (:func:`faultlab.stats.verdict.case_verdicts`: the exact two-sided paired sign-flip test over the
   K repetitions of each case at ``alpha``, family "case") and the failed faulty jobs;
 * ``parameters``: a per-parameter view of which Table I parameters make the fault worse: for each
   numeric parameter alone, the least-squares slope of the per-repetition log ratio

@@ -92,8 +92,8 @@ def robustness_markdown(r: Robustness) -> str:
               f"Per case the log ratio of the mean map errors faulty/baseline over the repetitions where both "
               f"gave an error (errors below {FLOOR_MM:g} mm count as {FLOOR_MM:g} mm: a noise-free case lets "
               f"EKF-SLAM and GTSAM reach round-off level); over the cases (the independent units) the geometric-mean ratio with a {conf} "
-              f"Student t interval (a ratio of 1 is no degradation).  Verdicts per case: the exact one-sided "
-              f"paired sign-flip test of the K differences faulty - baseline at alpha = {r.alpha:g}, family "
+              f"Student t interval (a ratio of 1 is no degradation).  Verdicts per case: the exact two-sided "
+              f"paired sign-flip test (a change either way) of the K differences faulty - baseline at alpha = {r.alpha:g}, family "
               f"\"case\" (`faultlab.stats.verdict`; a case with fewer than the pairs the test needs cannot be "
               f"judged).", "", "![degradation](degradation.png)", "",
               "| SLAM | fault | metric | cases | ratio | interval | detected | not detected | crash | cannot judge "
