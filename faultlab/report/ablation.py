@@ -71,8 +71,10 @@ def _display(table: pd.DataFrame) -> pd.DataFrame:
         "pairs": [f"{n}" + (f" ({z} equal)" if z else "") for n, z in zip(table["n"], table["n_zero"])],
         "median mm paper / alt.": [f"{format_mm(a)} / {format_mm(b)}"
                                    for a, b in zip(table["paper_median_mm"], table["alternative_median_mm"])],
-        "diff mm [CI]": [f"{_mm1(d)} [{_mm1(lo)}, {_mm1(hi)}]"
-                         for d, lo, hi in zip(table["diff_median_mm"], table["diff_low_mm"], table["diff_high_mm"])],
+        # every pair bit-identical: no interval is estimated from differences that are all exactly 0
+        "diff mm [CI]": ["0 (identical in every pair)" if z == n else f"{_mm1(d)} [{_mm1(lo)}, {_mm1(hi)}]"
+                         for d, lo, hi, z, n in zip(table["diff_median_mm"], table["diff_low_mm"],
+                                                    table["diff_high_mm"], table["n_zero"], table["n"])],
         "ratio": [f"{r:.3g}" for r in table["ratio_median"]],
         "larger": [f"{k} of {n}" for k, n in zip(table["n_larger"], table["n"])],
         "p (Holm)": [f"{p:.2g} ({q:.2g})" for p, q in zip(table["p"], table["p_holm"])],

@@ -9,9 +9,9 @@ from faultlab.report.ablation import ablation_markdown, ablation_pages, effect_s
 from faultlab.slam.profiles import ABLATIONS
 
 
-def _result():
+def _result(weights_shift: float = -5.0):
     rows = []
-    for arm, shift in (("paper", 50.0), ("paper_no_aliasing", 0.0), ("paper_no_aliasing_log_weights", -5.0)):
+    for arm, shift in (("paper", 50.0), ("paper_no_aliasing", 0.0), ("paper_no_aliasing_log_weights", weights_shift)):
         for c in range(1, 6):
             for variant, base in (("baseline", 100.0), ("missing_angle_wrap", 1000.0)):
                 rows.append({"arm": arm, "run": 1, "suite": "fixed", "case": c, "variant": variant, "rep": 0,
@@ -39,6 +39,12 @@ def test_markdown_has_one_table_per_difference_and_every_row(tmp_path):
     files = write_ablation(res, tmp_path)
     pd.testing.assert_frame_equal(ABLATION.read_csv(files.csv), res.table)
     assert files.markdown.read_text() == md
+
+
+def test_arms_identical_in_every_pair_show_no_interval():
+    md = ablation_markdown(_result(weights_shift=0.0))  # the weights arms agree bit for bit on every case
+    assert "| Nonfaulty Baseline | 5 (5 equal) | 103 / 103 | 0 (identical in every pair) |" in md
+    assert "[0.0, 0.0]" not in md
 
 
 def test_pages_carry_their_titles():
