@@ -149,10 +149,17 @@ def _ci(x, lo, hi) -> str:
     return f"{_f(x)} [{_f(lo)}, {_f(hi)}]"
 
 
+def _morris_cell(mu_star, lo, hi, sigma) -> str:
+    # every elementary effect exactly 0 (mu* = sigma = 0): a bootstrap over them has no width to show
+    if mu_star == 0 and sigma == 0:
+        return "0 (every elementary effect 0)"
+    return _ci(mu_star, lo, hi)
+
+
 def _morris_md(t: pd.DataFrame) -> str:
     show = pd.DataFrame({"rank": t["rank"], "parameter": t["parameter"],
-                         "mu* [95 % CI]": [_ci(a, b, c) for a, b, c in zip(t["mu_star"], t["mu_star_low"],
-                                                                           t["mu_star_high"])],
+                         "mu* [95 % CI]": [_morris_cell(a, b, c, d) for a, b, c, d in
+                                           zip(t["mu_star"], t["mu_star_low"], t["mu_star_high"], t["sigma"])],
                          "sigma": [_f(x) for x in t["sigma"]], "mu": [_f(x) for x in t["mu"]]})
     return markdown_table(show)
 
