@@ -42,7 +42,12 @@ def _interval(rate: float, lo: float, hi: float) -> str:
     digits = 0
     while digits < 3 and hi > lo and f"{100 * lo:.{digits}f}" == f"{100 * hi:.{digits}f}":
         digits += 1
-    return f"{_pct(rate)} ({100 * lo:.{digits}f}-{100 * hi:.{digits}f})"
+    low, high = f"{100 * lo:.{digits}f}", f"{100 * hi:.{digits}f}"
+    if hi > lo and low == high:  # narrower than the last decimal: round outwards, so the width stays visible
+        step = 10.0 ** -digits
+        low = f"{math.floor(100 * lo / step) * step:.{digits}f}"
+        high = f"{math.ceil(100 * hi / step) * step:.{digits}f}"
+    return f"{_pct(rate)} ({low}-{high})"
 
 
 def _p(p: float) -> str:

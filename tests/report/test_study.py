@@ -71,3 +71,11 @@ def test_markdown_lists_whole_suites_with_their_exact_interval():
     # one suite of 5 cases: 0 % or 100 % with the Clopper-Pearson interval of 1 suite (2.5 % or 97.5 %)
     text = f"{100 * row['rate']:.0f} % ({100 * row['ci_low']:.0f}-{100 * row['ci_high']:.0f})"
     assert text in md and row["ci_high"] - row["ci_low"] > 0.9
+
+
+def test_an_interval_narrower_than_the_last_decimal_is_rounded_outwards_never_to_zero_width():
+    from faultlab.report.study import _interval
+
+    assert _interval(1.0, 1 - 3e-12, 1.0) == "100 % (99.999-100.000)"
+    assert _interval(0.5, 0.3, 0.7) == "50 % (30-70)"
+    assert _interval(0.9, 0.8561, 0.8569) == "90 % (85.6-85.7)"  # visible at one decimal: not widened
