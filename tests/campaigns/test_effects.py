@@ -120,7 +120,8 @@ def test_sigkill_then_resume_gives_the_same_report_as_an_uninterrupted_run(tmp_p
     assert proc.poll() is None, "the run finished before it could be killed"
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
-    assert 0 < _rows(killed / "morris") < 2 * 2 * 2 * 4
+    # killed mid-study: inside the Morris stage, or (a fast machine) between it and the Sobol stage
+    assert 0 < _rows(killed / "morris") <= 2 * 2 * 2 * 4
     # a report of the unfinished study is refused with one clear error
     with pytest.raises(ResultsError, match="unfinished"):
         write_effects_report(killed, tmp_path / "rep-partial")
