@@ -8,6 +8,7 @@ by the functions here, so that a malformed value always gives one :class:`~fault
 
 from __future__ import annotations
 
+import copy
 import importlib
 import math
 import numbers
@@ -19,7 +20,7 @@ from typing import Any, ClassVar
 
 from faultlab.errors import ConfigError
 
-__all__ = ["read_toml", "Table", "check_number", "check_int", "check_choice", "import_object", "Option", "Settings"]
+__all__ = ["read_toml", "merge_tables", "Table", "check_number", "check_int", "check_choice", "import_object", "Option", "Settings"]
 
 
 def read_toml(path: str | Path, *, what: str) -> tuple[dict, str]:
@@ -50,6 +51,20 @@ def read_toml(path: str | Path, *, what: str) -> tuple[dict, str]:
         return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{p}: {what} is not valid TOML ({exc})") from exc
+
+
+def merge_tables(data: Mapping, overrides: Mapping) -> dict:
+    """A deep copy of ``data`` with ``overrides`` replacing its keys; a table replaces key by key.
+
+    How an experiment's ``quick`` table is laid over the file's own values.
+    """
+    out = copy.deepcopy(dict(data))
+    for key, value in overrides.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = {**out[key], **copy.deepcopy(dict(value))}
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
 
 
 def check_number(value: Any, *, name: str, minimum: float | None = None, positive: bool = False,

@@ -19,3 +19,13 @@ def test_errors_name_the_file_and_what_it_is(tmp_path):
     bad.write_text("[unclosed\n", encoding="utf-8")
     with pytest.raises(ConfigError, match=r"bad\.toml: test file is not valid TOML \(.*line 1"):
         read_toml(bad, what="test file")
+
+
+def test_merge_tables_replaces_a_table_key_by_key_and_copies():
+    from faultlab.config import merge_tables
+
+    data = {"n_steps": 1000, "slam": {"name": "fastslam", "particles": 200}, "variants": ["baseline"]}
+    merged = merge_tables(data, {"n_steps": 60, "slam": {"particles": 20}, "variants": ["a", "b"]})
+    assert merged == {"n_steps": 60, "slam": {"name": "fastslam", "particles": 20}, "variants": ["a", "b"]}
+    merged["slam"]["name"] = "ekf"
+    assert data["slam"] == {"name": "fastslam", "particles": 200}  # the input is never aliased

@@ -23,7 +23,6 @@ average at both); a resume with other settings is refused before anything is wri
 
 from __future__ import annotations
 
-import copy
 import json
 import os
 import time
@@ -33,7 +32,7 @@ from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
 
-from faultlab.config import Table, read_toml
+from faultlab.config import Table, merge_tables, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import RunSummary, run_experiment
@@ -130,15 +129,6 @@ class EffectsExperiment:
                                "variants": list(exp.variants), "metric": exp.metric}}
 
 
-def _merge(data: dict, overrides: Mapping) -> dict:
-    out = copy.deepcopy(data)
-    for key, value in overrides.items():
-        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
-            out[key] = {**out[key], **copy.deepcopy(dict(value))}
-        else:
-            out[key] = copy.deepcopy(value)
-    return out
-
 
 def load_effects_experiment(path: str | Path, *, quick: bool = False) -> EffectsExperiment:
     """Read an effects file (or the shipped ``effects``); ``quick`` applies its ``[effects.quick]``.
@@ -170,7 +160,7 @@ def parse_effects(text: str, *, source: str, quick: bool = False) -> EffectsExpe
     if not isinstance(quick_table, Mapping):
         raise ConfigError(f"{path}: effects.quick must be a table")
     if quick:
-        data = _merge(data | {"effects": effects}, quick_table)
+        data = merge_tables(data | {"effects": effects}, quick_table)
         effects = dict(data.pop("effects", {}))
     if "suites" in data:
         raise ConfigError(f"{source}: suites: an effects study has no suites (its designs make the cases); "

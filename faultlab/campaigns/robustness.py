@@ -11,12 +11,11 @@ particle budget on EKF-SLAM and GTSAM) is skipped and recorded as not applicable
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
-from faultlab.campaigns.slams import SUTS, slam_experiments
+from faultlab.campaigns.slams import SUTS, SlamsRun, slam_experiments
 from faultlab.errors import ConfigError
-from faultlab.runner import RunSummary, results_path, run_experiment
+from faultlab.runner import results_path, run_experiment
 
 __all__ = ["DEFAULT_EXPERIMENT", "LABELS", "RobustnessRun", "scale_overrides", "robustness_stores",
            "run_robustness"]
@@ -46,18 +45,9 @@ def robustness_stores(out: str | Path) -> dict[str, Path]:
     return {label: out / label for label in LABELS if results_path(out / label).is_file()}
 
 
-@dataclass(frozen=True)
-class RobustnessRun:
-    """What :func:`run_robustness` ran: per SLAM its summary, and the SLAMs left out (not installed)."""
-
-    out: Path
-    summaries: dict[str, RunSummary]
-    not_installed: tuple[str, ...]
-
-    def __str__(self) -> str:
-        lines = [f"== {label}: {summary}" for label, summary in self.summaries.items()]
-        lines += [f"== {label}: skipped ({SUTS[label]['name']} is not installed)" for label in self.not_installed]
-        return "\n".join([*lines, f"stores in {self.out}"])
+#: What :func:`run_robustness` ran: the cross-SLAM campaign's record (per SLAM its summary, the SLAMs
+#: left out because not installed).
+RobustnessRun = SlamsRun
 
 
 def run_robustness(out: str | Path, *, experiment=DEFAULT_EXPERIMENT, overrides: dict | None = None,

@@ -24,7 +24,6 @@ The kill matrix and the suites drawn from the pools are computed from the store 
 from __future__ import annotations
 
 import contextlib
-import copy
 import json
 import os
 import threading
@@ -34,7 +33,7 @@ from pathlib import Path
 from typing import Iterator, Mapping
 
 from faultlab.campaigns.mutation import selection_from_table
-from faultlab.config import read_toml
+from faultlab.config import merge_tables, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.mutation.variants import MutantSelection, is_mutant_variant, mutant_variant
@@ -64,16 +63,6 @@ class StudyExperiment:
                 "pool": {s.kind: s.n_cases for s in self.experiment.suites}, "runs": self.experiment.runs}
 
 
-def _merge(data: dict, overrides: Mapping) -> dict:
-    """``data`` with ``overrides`` replacing its keys; a table replaces key by key."""
-    out = copy.deepcopy(data)
-    for key, value in overrides.items():
-        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
-            out[key] = {**out[key], **copy.deepcopy(dict(value))}
-        else:
-            out[key] = copy.deepcopy(value)
-    return out
-
 
 def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExperiment:
     """Read a study file (or the shipped ``study``); ``quick`` applies its ``[study.quick]`` table.
@@ -97,7 +86,7 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
     if not isinstance(quick_table, Mapping):
         raise ConfigError(f"{path}: study.quick must be a table")
     if quick:
-        data = _merge(data | {"study": study}, quick_table)
+        data = merge_tables(data | {"study": study}, quick_table)
         study = dict(data.pop("study", {}))
     spec = study_spec(study, source=source)
     mutation = data.pop("mutation", None)

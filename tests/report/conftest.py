@@ -1,4 +1,4 @@
-"""Synthetic results that follow the results schema exactly (BRIEF.md), for the report tests.
+"""Synthetic results that follow the results schema exactly, for the report tests.
 
 The report layer only reads saved results, so its tests need no SLAM: these builders
 make a results DataFrame (one row per job) and a metadata dict like the runner writes.

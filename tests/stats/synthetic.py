@@ -1,4 +1,4 @@
-"""Small synthetic results frames in the runner's schema (BRIEF.md), for the stats tests."""
+"""Small synthetic results frames in the runner's schema, for the stats tests."""
 
 from __future__ import annotations
 
