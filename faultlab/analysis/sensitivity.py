@@ -83,7 +83,7 @@ def morris_indices(unit: np.ndarray, y, *, factors: Sequence[str], levels: int, 
     -------
     DataFrame
         :data:`MORRIS_COLUMNS`, sorted by ``mu*`` (rank 1 = largest); the interval is
-        ``mu* -/+`` SALib's half-width, clipped at 0.
+        ``mu* -/+`` SALib's half-width, clipped at 0; NaN where every elementary effect is 0.
     """
     from SALib.analyze import morris
 
@@ -93,8 +93,11 @@ def morris_indices(unit: np.ndarray, y, *, factors: Sequence[str], levels: int, 
                          num_levels=int(levels), seed=_salib_seed(seed))
     mu_star = np.asarray(res["mu_star"], dtype=float)
     half = np.asarray(res["mu_star_conf"], dtype=float)
-    out = pd.DataFrame({"parameter": list(factors), "mu_star": mu_star, "mu_star_low": np.maximum(mu_star - half, 0.0),
-                        "mu_star_high": mu_star + half, "sigma": np.asarray(res["sigma"], dtype=float),
+    # every elementary effect exactly 0: the bootstrap has nothing to resample, so no interval (NaN)
+    none = (mu_star == 0) & (half == 0)
+    out = pd.DataFrame({"parameter": list(factors), "mu_star": mu_star,
+                        "mu_star_low": np.where(none, np.nan, np.maximum(mu_star - half, 0.0)),
+                        "mu_star_high": np.where(none, np.nan, mu_star + half), "sigma": np.asarray(res["sigma"], dtype=float),
                         "mu": np.asarray(res["mu"], dtype=float)})
     return _ranked(out, "mu_star")
 

@@ -224,7 +224,7 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         "interval of the strategy's share of strong cases (cases that alone make a suite of this size detect) "
         "from the pool's count, mapped to n independently generated cases -- it never has zero width (0 of 16 "
         "strong cases still allows up to 21 % per case); the 95 % percentile bootstrap over the pool's cases "
-        f"({st['bootstrap']} replicates) is kept beside it in `detection.csv` (`boot_low`, `boot_high`). "
+        f"({st['bootstrap']} replicates) is kept beside it in `detection.csv` (`boot_low`, `boot_high`; empty where every resample agrees and it has no width). "
         "Mutation scores are bootstrap intervals resampling pool cases and mutants (the same resample for every strategy, "
         "so comparisons are paired over mutants). The bootstrap treats pool cases as independent; the cases of one "
         "covering array or each-choice suite are balanced rather than independent, for which it is conservative. "

@@ -533,7 +533,8 @@ def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
     Columns: ``variant, strategy, size, pool, draws, rate`` (share of the drawn suites that
     detect), ``rate_exact`` (hypergeometric, on the pool), ``ci_low, ci_high`` (exact interval,
     :func:`exact_detection_interval`), ``boot_low, boot_high`` (95 % percentile bootstrap over
-    pool cases, zero-width when every resample agrees), ``se_boot``, ``rate_paper`` (paper rule)
+    pool cases; NaN where every resample agrees, since a percentile interval then has no width and
+    the exact interval is the one to read), ``se_boot``, ``rate_paper`` (paper rule)
     and ``strong_cases`` (pool cases that alone make a suite of this size detect); beside ``rate``
     (the per-case minimum at ``alpha``), ``rate_combined``: share of the drawn suites detected by the
     combined decision (per-case minimum or pooled test over the suite's case mean log ratios, each
@@ -544,6 +545,7 @@ def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
     rows = []
     for (strategy, n), det in ev.detects.items():
         lo, hi = _ci(ev.boot[(strategy, n)])
+        lo, hi = np.where(lo < hi, lo, np.nan), np.where(lo < hi, hi, np.nan)  # degenerate: no interval
         se = ev.boot[(strategy, n)].std(axis=0, ddof=1) if ev.boot[(strategy, n)].shape[0] > 1 else \
             np.full(len(ev.variants), np.nan)
         n_pool = ev.pool_sizes[strategy]

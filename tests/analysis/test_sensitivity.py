@@ -44,6 +44,16 @@ def test_morris_mu_star_matches_the_textbook_elementary_effects():
     np.testing.assert_allclose(t.loc[list(d.factors), "sigma"], 0.0, atol=1e-9)
 
 
+def test_a_factor_whose_elementary_effects_are_all_zero_gets_no_interval():
+    d = morris_design(table1_space(), rng=np.random.default_rng(4), trajectories=6)
+    slopes = np.arange(len(d.factors), dtype=float) - 5.0  # factor 5 has no effect at all
+    t = morris_indices(d.unit, d.unit @ slopes, factors=d.factors, levels=d.levels, seed=1).set_index("parameter")
+    inert = d.factors[5]
+    assert t.loc[inert, "mu_star"] == 0 and np.isnan(t.loc[inert, "mu_star_low"]) and np.isnan(t.loc[inert, "mu_star_high"])
+    others = t.drop(index=inert)
+    assert np.isfinite(others["mu_star_low"]).all() and np.isfinite(others["mu_star_high"]).all()
+
+
 def test_sobol_ranks_the_planted_parameters_and_clears_the_others():
     d = sobol_design(table1_space(), rng=np.random.default_rng(5), base=512)
     y = _planted(d.unit, d.factors, np.random.default_rng(6))
