@@ -1,6 +1,5 @@
 """Mutation analysis: scores with exact intervals, McNemar."""
 
-import math
 
 import numpy as np
 import pandas as pd
@@ -9,6 +8,7 @@ from scipy.stats import beta, binomtest
 
 from faultlab.analysis.mutation import (OBSERVED_EQUIVALENT, clopper_pearson, compare_suites, mutant_outcomes,
                                         mutation_scores)
+from tests.stats.synthetic import paired_frame
 
 
 def test_clopper_pearson_matches_the_beta_quantiles():
@@ -54,25 +54,13 @@ def test_mcnemar_exact_equals_the_binomial_test_on_the_discordant_pairs():
     assert row["p"] == pytest.approx(binomtest(a_only, a_only + b_only, 0.5).pvalue, rel=1e-12)
 
 
-def _frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) -> pd.DataFrame:
-    rng = np.random.default_rng(0)
-    base = 100 + rng.random(k) * 10
-    rows = [dict(run=1, suite="fixed", case=case, variant="baseline", rep=r, status="ok", rms_mm=base[r],
-                 emd_mm=base[r]) for r in range(k)]
-    for v, d in diffs.items():
-        for r in range(k):
-            st = (status or {}).get(v, "ok")
-            rows.append(dict(run=1, suite="fixed", case=case, variant=v, rep=r, status=st,
-                             rms_mm=base[r] + d[r] if st == "ok" else math.nan, emd_mm=math.nan))
-    return pd.DataFrame(rows)
-
 
 def test_survivors_split_into_equivalent_and_inconclusive_and_identical_maps_leave_the_denominator():
     k = 8
     rng = np.random.default_rng(1)
     parts = []
     for case in (1, 2):
-        parts.append(_frame({"mutant:same": np.zeros(k), "mutant:tiny": rng.normal(0.0, 0.3, k),
+        parts.append(paired_frame({"mutant:same": np.zeros(k), "mutant:tiny": rng.normal(0.0, 0.3, k),
                              "mutant:noisy": rng.normal(0.0, 30.0, k), "mutant:kill": np.full(k, 40.0)},
                             k, case=case))
     df = pd.concat(parts, ignore_index=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pandas as pd
 
 from faultlab.space.case import FIXED_VALUES, PARAMETER_NAMES, VALUE_KEYS
@@ -38,3 +39,18 @@ def paired(cells, *, suite="systematic", run=1, fault="naive_resampling", **valu
         rows.append(job(run, suite, i + 1, "baseline", 0, b, **values))
         rows.append(job(run, suite, i + 1, fault, 0, f, **values))
     return frame(rows)
+
+
+def paired_frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) -> pd.DataFrame:
+    """One case, K repetitions: a baseline and each variant ``v`` at the baseline plus ``diffs[v]`` (mm),
+    paired by repetition; ``status[v]`` other than "ok" makes every repetition of ``v`` fail."""
+    rng = np.random.default_rng(0)
+    base = 100 + rng.random(k) * 10
+    rows = [dict(run=1, suite="fixed", case=case, variant="baseline", rep=r, status="ok", rms_mm=base[r],
+                 emd_mm=base[r]) for r in range(k)]
+    for v, d in diffs.items():
+        for r in range(k):
+            st = (status or {}).get(v, "ok")
+            rows.append(dict(run=1, suite="fixed", case=case, variant=v, rep=r, status=st,
+                             rms_mm=base[r] + d[r] if st == "ok" else math.nan, emd_mm=math.nan))
+    return pd.DataFrame(rows)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import math
 
 import numpy as np
 import pandas as pd
@@ -22,6 +21,7 @@ from faultlab.stats.killmatrix import (KillMatrix, StudySpec, bootstrap_probabil
                                        study_spec,
                                        suite_detects, suite_kills, suite_rejections)
 from faultlab.stats.verdict import min_pairs
+from tests.stats.synthetic import paired_frame
 
 ALPHA = 0.05
 
@@ -325,22 +325,10 @@ def test_judge_suite_pools_a_diffuse_effect_the_per_case_minimum_misses():
 # -- the per-case kill of a mutation campaign, the [study] table --------------------------------
 
 
-def _kill_frame(diffs: dict, k: int, *, status: dict | None = None, case: int = 1) -> pd.DataFrame:
-    rng = np.random.default_rng(0)
-    base = 100 + rng.random(k) * 10
-    rows = [dict(run=1, suite="fixed", case=case, variant="baseline", rep=r, status="ok", rms_mm=base[r],
-                 emd_mm=base[r]) for r in range(k)]
-    for v, d in diffs.items():
-        for r in range(k):
-            st = (status or {}).get(v, "ok")
-            rows.append(dict(run=1, suite="fixed", case=case, variant=v, rep=r, status=st,
-                             rms_mm=base[r] + d[r] if st == "ok" else math.nan, emd_mm=math.nan))
-    return pd.DataFrame(rows)
-
 
 def test_case_kill_classes_follow_the_exact_paired_test_at_the_case_level():
     k = 7  # 2^-7 = 0.0078 <= 0.01
-    df = _kill_frame({"mutant:a": np.full(k, 50.0), "mutant:b": np.array([50.0] * 6 + [-5.0]),
+    df = paired_frame({"mutant:a": np.full(k, 50.0), "mutant:b": np.array([50.0] * 6 + [-5.0]),
                  "mutant:c": np.zeros(k), "mutant:d": np.zeros(k), "mutant:e": np.zeros(k)},
                 k, status={"mutant:d": "crash", "mutant:e": "timeout"})
     kills = suite_kills(df, case_alpha=0.01, direction="worse").set_index("fault")["kill"]
@@ -356,7 +344,7 @@ def test_case_kill_classes_follow_the_exact_paired_test_at_the_case_level():
 def test_a_mutant_that_only_improves_is_killed_by_the_two_sided_case_rule():
     k = min_pairs(0.01, alternative="two-sided")
     assert k == 8
-    df = _kill_frame({"mutant:better": np.full(k, -50.0), "mutant:worse": np.full(k, 50.0)}, k)
+    df = paired_frame({"mutant:better": np.full(k, -50.0), "mutant:worse": np.full(k, 50.0)}, k)
     two = suite_kills(df, case_alpha=0.01).set_index("fault")
     assert two.loc["mutant:better", "kill"] == "killed" and two.loc["mutant:better", "direction"] == "better"
     assert two.loc["mutant:worse", "kill"] == "killed" and two.loc["mutant:worse", "direction"] == "worse"
