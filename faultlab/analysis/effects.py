@@ -33,7 +33,7 @@ from faultlab.analysis.responses import CASE_KEY, DIFFICULTY, case_responses, re
 from faultlab.analysis.sensitivity import (MORRIS_COLUMNS, REGRESSION_COLUMNS, SOBOL_COLUMNS, morris_indices,
                                            noise_floor, partial_dependence, regression_view, screen, sobol_indices)
 from faultlab.errors import FaultlabError, ResultsError
-from faultlab.runner.store import load_metadata, load_results, results_path
+from faultlab.runner.store import load_metadata, load_results, load_sessions, results_path
 from faultlab.seeds import stable_code
 from faultlab.space.case import VALUE_KEYS
 from faultlab.space.design import Design, study_design
@@ -100,7 +100,16 @@ def saved_design(saved: dict, stage: str) -> Design:
 
 
 def _check_design(store: Path, design: Design) -> None:
-    """The store holds every case of the design."""
+    """The store holds every case of the design, and its last run ended: every job of every case is in it.
+
+    Counting cases is not enough: a run killed after each case had one of its jobs stored holds
+    every case, but not every variant and repetition of them.
+    """
+    sessions = load_sessions(store)
+    if not sessions or sessions[-1]["state"] != "complete":
+        state = sessions[-1]["state"] if sessions else "never run"
+        raise ResultsError(f"{store}: its last run is {state} (the run is unfinished: rerun "
+                           "`faultlab effects run` to resume)")
     results = load_results(store)
     got = results.drop_duplicates(list(CASE_KEY)).sort_values("case", kind="mergesort")
     if len(got) != design.n_points:

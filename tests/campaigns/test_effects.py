@@ -137,6 +137,25 @@ def test_sigkill_then_resume_gives_the_same_report_as_an_uninterrupted_run(tmp_p
         (tmp_path / "rep-whole" / "effects.md").read_text().split("## ")[1:]
 
 
+def test_a_study_killed_after_every_case_had_one_job_is_still_unfinished(tmp_path, tiny):
+    """Every design point has a stored job, but not every variant and repetition: the analysis refuses it."""
+    from faultlab.report.effects import write_effects_report
+
+    tiny.write_text(TINY.replace("sobol_base = 4", "sobol_base = 0"))
+    out = tmp_path / "out"
+    run_effects(load_effects_experiment(tiny), out, jobs=1, progress=False, screen=lambda *_: ())
+    write_effects_report(out, tmp_path / "rep-done")  # the finished study renders
+    with sqlite3.connect(out / "morris" / "results.sqlite") as conn:  # what a SIGKILL mid-resume leaves
+        n_cases = conn.execute("SELECT COUNT(DISTINCT \"case\") FROM results").fetchone()[0]
+        conn.execute("DELETE FROM results WHERE variant = 'motion_sign_error'")
+        conn.execute("INSERT INTO sessions (started, state, n_todo, n_new, started_unix) "
+                     "VALUES ('now', 'running', 16, 0, 0.0)")
+    assert n_cases == 8
+    with pytest.raises(ResultsError, match="unfinished"):
+        write_effects_report(out, tmp_path / "rep-partial")
+    assert not (tmp_path / "rep-partial").exists()
+
+
 def test_resume_with_other_settings_is_refused_before_writing(tmp_path, tiny):
     eexp = load_effects_experiment(tiny)
     out = tmp_path / "out"
