@@ -42,7 +42,8 @@ from faultlab.runner.jobs import JobKey
 from faultlab.runner.staging import STOPS_KEY, StagedDesign, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY, load_metadata, load_results
 from faultlab.stats.sequential import interim_look
-from faultlab.stats.verdict import Verdict, alternative_of
+from faultlab.stats.detection import DetectionRule
+from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, alternative_of, min_pairs
 from faultlab.vocabulary import BASELINE, JobStatus
 
 __all__ = ["AdaptiveReplay", "REPLAY_TABLES", "REPLAY_SUMMARY", "REPLAY_PAIRS", "REPLAY_VERDICTS", "COMPLETED",
@@ -61,14 +62,16 @@ REPLAY_SUMMARY = TableSchema.define(
     n_pairs="int")
 REPLAY_PAIRS = TableSchema.define(
     "pairs", "One row per (run, suite, case, variant): repetitions used, stages run and why it stopped.",
-    ("run", "suite", "case", "variant", "reps_fixed", "reps_adaptive", "stages_run", "reason"),
-    reps_fixed="int", reps_adaptive="int", stages_run="int")
+    ("run", "suite", "case", "variant", "reps_fixed", "reps_adaptive", "stages_run", "stop"),
+    reps_fixed="int", reps_adaptive="int", stages_run="int", stop="str")
 REPLAY_VERDICTS = TableSchema.define(
     "verdicts", "One row per (suite, run, case, fault): the per-case verdict of the fixed and the adaptive "
                 "design, and why it changed.",
-    ("suite", "run", "case", "fault", "family", "reason", "reps_fixed", "reps_adaptive", "verdict_fixed",
-     "verdict_adaptive", "p_fixed", "p_adaptive", "p_holm_fixed", "p_holm_adaptive", "changed", "why"),
-    reps_fixed="int", reps_adaptive="int", verdict_fixed="str", verdict_adaptive="str", p_fixed="float",
+    ("suite", "run", "case", "fault", "family", "stop", "reps_fixed", "reps_adaptive", "verdict_fixed",
+     "verdict_adaptive", "reason_fixed", "reason_adaptive", "p_fixed", "p_adaptive", "p_holm_fixed",
+     "p_holm_adaptive", "changed", "why"),
+    stop="str", reps_fixed="int", reps_adaptive="int", verdict_fixed="str", verdict_adaptive="str",
+    reason_fixed="str", reason_adaptive="str", p_fixed="float",
     p_adaptive="float", p_holm_fixed="float", p_holm_adaptive="float", changed="bool", why="str")
 #: Tables of an :class:`AdaptiveReplay`, saved as ``<name>.csv``.
 REPLAY_TABLES = (REPLAY_SUMMARY.name, REPLAY_PAIRS.name, REPLAY_VERDICTS.name)
@@ -102,6 +105,7 @@ class AdaptiveReplay(TableBundle):
     meta: dict = field(default_factory=dict)
 
     TABLES = REPLAY_TABLES
+    SCHEMAS = (REPLAY_SUMMARY, REPLAY_PAIRS, REPLAY_VERDICTS)
     META_FILE = "replay_meta.json"
     WHAT = "adaptive replay"
 
@@ -222,7 +226,7 @@ def _pairs(results: pd.DataFrame, rows: pd.DataFrame, stops: list[dict], design:
               for r, s, c, v in out[key].itertuples(index=False, name=None)]
     stages = np.asarray(design.stages)
     out["stages_run"] = np.searchsorted(stages, out["reps_adaptive"].to_numpy(), side="left") + 1
-    out["reason"] = reason
+    out["stop"] = reason
     return REPLAY_PAIRS.conform(out)
 
 
@@ -233,19 +237,26 @@ def _first_failure(results: pd.DataFrame, *, run, suite, case, variant, after: i
     return None if sel.empty else int(sel["rep"].min())
 
 
-def _why(row, results: pd.DataFrame, *, k: int, alpha: float) -> str:
+def _why(row, results: pd.DataFrame, *, k: int, alpha: float, needed: int | None, alternative: str) -> str:
     """Why the verdict of one (case, fault) differs between the designs (module docstring)."""
     if not row.changed:
         return ""
     ident = dict(run=row.run, suite=row.suite, case=row.case)
-    fmt = (lambda x: "NaN" if np.isnan(x) else f"{x:.3g}")
+
+    def fmt(x: float) -> str:
+        return "-" if np.isnan(x) else f"{x:.3g}"
+
     moved = (f"p {fmt(row.p_fixed)} with {k} repetitions, {fmt(row.p_adaptive)} with {row.reps_adaptive}; "
              f"Holm-adjusted {fmt(row.p_holm_fixed)} -> {fmt(row.p_holm_adaptive)} (alpha {alpha:g})")
     if row.reps_adaptive == k:
         return (f"ran all {k} repetitions; its Holm-adjusted p moved {fmt(row.p_holm_fixed)} -> "
                 f"{fmt(row.p_holm_adaptive)} (alpha {alpha:g}) because other cases of the family "
                 f"'{row.family}' stopped early with other p values")
-    stopped = f"stopped after {row.reps_adaptive} of {k} repetitions ({row.reason})"
+    stopped = f"stopped after {row.reps_adaptive} of {k} repetitions ({row.stop})"
+    if row.reason_adaptive == TOO_FEW_PAIRS and needed is not None:
+        return (f"{stopped}; the {alternative} exact test needs {needed} usable pairs to reach alpha = {alpha:g}, "
+                f"so the truncated rows cannot judge the case ({TOO_FEW_PAIRS}); with all {k}: {row.verdict_fixed}, "
+                f"p {fmt(row.p_fixed)}, Holm-adjusted {fmt(row.p_holm_fixed)}")
     if row.verdict_fixed == Verdict.CANNOT_JUDGE.value:
         rep = _first_failure(results, variant=BASELINE, after=row.reps_adaptive, **ident)
         return f"{stopped}; the baseline failed in repetition {rep}, which the adaptive design did not run"
@@ -259,17 +270,20 @@ def _why(row, results: pd.DataFrame, *, k: int, alpha: float) -> str:
 
 
 def _verdicts(full: Analysis, adaptive: Analysis, pairs: pd.DataFrame, results: pd.DataFrame, *,
-              k: int, alpha: float) -> pd.DataFrame:
+              k: int, rule: DetectionRule) -> pd.DataFrame:
     key = ["suite", "run", "case", "fault"]
-    cols = key + ["verdict", "p", "p_holm", "n_reps"]
+    cols = key + ["verdict", "reason", "p", "p_holm", "n_reps"]
     merged = full.case_verdicts[cols + ["family"]].merge(adaptive.case_verdicts[cols], on=key, how="outer",
                                                         suffixes=("_fixed", "_adaptive"), validate="1:1")
-    stop = pairs.rename(columns={"variant": "fault"})[["run", "suite", "case", "fault", "reason"]]
+    stop = pairs.rename(columns={"variant": "fault"})[["run", "suite", "case", "fault", "stop"]]
     merged = merged.merge(stop, on=["run", "suite", "case", "fault"], how="left", validate="1:1")
     merged = merged.rename(columns={"n_reps_fixed": "reps_fixed", "n_reps_adaptive": "reps_adaptive"})
     merged["changed"] = merged["verdict_fixed"].astype(str) != merged["verdict_adaptive"].astype(str)
     merged = REPLAY_VERDICTS.conform(merged.assign(why=""))
-    merged["why"] = [_why(r, results, k=k, alpha=alpha) for r in merged.itertuples(index=False)]
+    alternative = alternative_of(rule.direction)
+    needed = min_pairs(rule.alpha, alternative=alternative) if rule.statistical else None
+    merged["why"] = [_why(r, results, k=k, alpha=rule.alpha, needed=needed, alternative=alternative)
+                     for r in merged.itertuples(index=False)]
     return REPLAY_VERDICTS.conform(merged)
 
 
@@ -331,7 +345,7 @@ def replay_adaptive(store: str | Path, design: StagedDesign | Mapping | None = N
     full = Analysis.from_frame(results, metadata, paper=False, metric=metric)
     adaptive = Analysis.from_frame(rows, replayed_meta, paper=False, metric=metric)
     pairs = _pairs(results, rows, stops, design)
-    verdicts = _verdicts(full, adaptive, pairs, results, k=k, alpha=rule.alpha)
+    verdicts = _verdicts(full, adaptive, pairs, results, k=k, rule=rule)
     notes = []
     if rule.statistical and alternative_of(rule.direction) != design.alternative:
         notes.append(f"the design's interim test is {design.alternative} while the store's rule tests "
@@ -339,6 +353,12 @@ def replay_adaptive(store: str | Path, design: StagedDesign | Mapping | None = N
     if rule.statistical and design.level < rule.alpha:
         notes.append(f"the design's per-case level {design.level:g} is below the rule's alpha {rule.alpha:g}: "
                      f"curtailment may stop a case a later Holm step would have rejected")
+    if rule.statistical and design.stages[0] < min_pairs(rule.alpha, alternative=alternative_of(rule.direction)):
+        notes.append(f"a pair stopped after {design.stages[0]} repetitions cannot be judged by the store's rule: the "
+                     f"{alternative_of(rule.direction)} exact test needs "
+                     f"{min_pairs(rule.alpha, alternative=alternative_of(rule.direction))} usable pairs to reach "
+                     f"alpha = {rule.alpha:g}, so its verdict is cannot_judge ({TOO_FEW_PAIRS}) where the fixed "
+                     f"design says not_detected; a first stage of that many repetitions keeps such verdicts")
     fixed, used = len(results), len(rows)
     meta = {"store": str(store), "design": design.to_dict(), "K": k, "metric": metric, "rule": rule.describe(),
             "alpha": rule.alpha, "executions_fixed": fixed, "executions_adaptive": used,
