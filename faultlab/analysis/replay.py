@@ -21,7 +21,11 @@ ways, and each changed row says which:
 * the pair stopped and a later repetition holds a failure: of the baseline (the fixed-K verdict
   is ``cannot_judge``) or of the faulty variant alone (``crash_detected``);
 * the pair ran all ``K`` repetitions but its Holm-adjusted p value moved, because other cases of
-  its Holm family stopped early with other p values.
+  its Holm family stopped early with other p values, or left the family: a pair stopped with
+  fewer usable pairs than the exact test needs to reach alpha (:func:`faultlab.stats.verdict.min_pairs`)
+  is ``cannot_judge`` (``too_few_pairs``), and a smaller family makes Holm's steps less strict
+  for the cases left.  A design whose first stage is at least ``min_pairs`` avoids both the
+  ``cannot_judge`` verdicts and this shrinking family (a note says so).
 """
 
 from __future__ import annotations
@@ -251,7 +255,8 @@ def _why(row, results: pd.DataFrame, *, k: int, alpha: float, needed: int | None
     if row.reps_adaptive == k:
         return (f"ran all {k} repetitions; its Holm-adjusted p moved {fmt(row.p_holm_fixed)} -> "
                 f"{fmt(row.p_holm_adaptive)} (alpha {alpha:g}) because other cases of the family "
-                f"'{row.family}' stopped early with other p values")
+                f"'{row.family}' stopped early: their p values changed, or they left the family "
+                f"({TOO_FEW_PAIRS})")
     stopped = f"stopped after {row.reps_adaptive} of {k} repetitions ({row.stop})"
     if row.reason_adaptive == TOO_FEW_PAIRS and needed is not None:
         return (f"{stopped}; the {alternative} exact test needs {needed} usable pairs to reach alpha = {alpha:g}, "
