@@ -27,6 +27,8 @@ def replay_markdown(replay: AdaptiveReplay) -> str:
     d = m["design"]
     pairs = replay.pairs[replay.pairs["variant"] != BASELINE]
     stopped = pairs[pairs["reps_adaptive"] < pairs["reps_fixed"]]
+    base = replay.pairs[replay.pairs["variant"] == BASELINE]
+    base_cut = base["reps_adaptive"] < base["reps_fixed"]
     v = replay.verdicts
     lines = [f"# Adaptive repetitions replayed on `{m['store']}`", "",
              f"The store's K = {m['K']} repetitions of every (case, variant), cut to those an adaptive campaign "
@@ -37,7 +39,9 @@ def replay_markdown(replay: AdaptiveReplay) -> str:
              "stored rows by the runner's own look; no SLAM was run.", "",
              f"**Executions: {replay.executions_adaptive} of {replay.executions_fixed} "
              f"({m['saved_pct']:.1f} % saved).** {len(stopped)} of {len(pairs)} (case, variant) pairs stopped "
-             "early; a case's baseline runs as far as its variants do.", "",
+             f"early; a case's baseline runs as far as its variants do: {len(base) - int(base_cut.sum())} of "
+             f"{len(base)} cases ran their baseline for all {m['K']} repetitions because a variant of theirs "
+             "continued.", "",
              *_table(replay.summary.assign(saved=replay.summary["saved_pct"].map(lambda x: f"{x:.1f} %")),
                      [("variant", "variant"), ("n_pairs", "pairs"), ("n_stopped", "stopped early"),
                       ("executions_fixed", "executions, K fixed"), ("executions_adaptive", "executions, adaptive"),

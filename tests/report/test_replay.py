@@ -36,6 +36,7 @@ def _replay(changed: bool) -> AdaptiveReplay:
 def test_the_page_lists_every_changed_verdict_with_its_reason():
     page = replay_markdown(_replay(True))
     assert "**Executions: 30 of 40 (25.0 % saved).** 1 of 2 (case, variant) pairs stopped early" in page
+    assert "1 of 2 cases ran their baseline for all 10 repetitions" in page
     assert "| futile | 5 | 1 |" in page
     assert "**1 of 2 per-case verdicts change:**" in page
     assert f"| fixed | 1 | 2 | f | detected | not_detected | {WHY} |" in page
