@@ -139,8 +139,8 @@ def test_the_committed_analysis_tables_of_paper_k10_are_what_its_store_gives(tmp
 
 
 #: The command that wrote ``reports/paper-k10/adaptive`` (run from the repository's root).
-ADAPTIVE_REPLAY = ["stats", "adaptive", "reports/paper-k10/store", "--stages", "5,10", "--level", "0.05",
-                   "--alternative", "greater", "--futility", "0.5", "--reports", "reports/paper-k10/adaptive"]
+ADAPTIVE_REPLAY = ["stats", "adaptive", "reports/paper-k10/store", "--stages", "6,11", "--level", "0.05",
+                   "--alternative", "two-sided", "--futility", "0.5", "--reports", "reports/paper-k10/adaptive"]
 
 
 @pytest.mark.slow
