@@ -138,3 +138,36 @@ def test_refusals(fixed_store, adaptive_store):
     out, _ = adaptive_store
     with pytest.raises(ResultsError, match="an adaptive campaign .* stopped early"):
         replay_adaptive(out)  # its own [adaptive] design is the default; its rows are truncated
+
+
+def test_the_toy_replay_explains_its_changes(replay):
+    """Stages of 4 cannot be judged two-sided at alpha 0.1 (5 pairs needed): each such change says so."""
+    changed = replay.changed
+    assert len(changed) > 0 and (changed["reason_adaptive"] == "too_few_pairs").all()
+    assert changed["why"].str.contains("needs 5 usable pairs to reach alpha = 0.1").all()
+    assert any("cannot be judged by the store's rule" in n for n in replay.meta["notes"])
+
+
+def _row(**kw):
+    from collections import namedtuple
+
+    base = dict(run=1, suite="fixed", case=1, fault="f", family="f", stop="futile", reps_fixed=8, reps_adaptive=4,
+                verdict_fixed="detected", verdict_adaptive="not_detected", reason_fixed="", reason_adaptive="",
+                p_fixed=0.004, p_adaptive=0.6, p_holm_fixed=0.01, p_holm_adaptive=0.6, changed=True, why="")
+    base.update(kw)
+    return namedtuple("Row", base)(**base)
+
+
+def test_each_kind_of_change_gets_its_reason():
+    from faultlab.analysis.replay import _why
+
+    jobs = pd.DataFrame({"run": [1] * 4, "suite": ["fixed"] * 4, "case": [1] * 4,
+                         "variant": [BASELINE, BASELINE, "f", "f"], "rep": [3, 6, 3, 5],
+                         "status": ["ok", "crash", "ok", "timeout"]})
+    kw = dict(k=8, alpha=0.05, needed=6, alternative="two-sided")
+    assert "power loss of the futility bound" in _why(_row(), jobs, **kw)
+    assert "the baseline failed in repetition 6" in _why(_row(verdict_fixed="cannot_judge"), jobs, **kw)
+    assert "the faulty variant failed in repetition 5" in _why(_row(verdict_fixed="crash_detected"), jobs, **kw)
+    holm = _why(_row(reps_adaptive=8, stop="completed", p_holm_adaptive=0.07), jobs, **kw)
+    assert holm.startswith("ran all 8 repetitions") and "0.01 -> 0.07" in holm
+    assert _why(_row(changed=False), jobs, **kw) == ""
