@@ -81,6 +81,7 @@ COMMITTED = [
     ("", "store", _render_paper, False),
     ("paper-k10", "store", _render_paper, False),
     ("mutation", "store", _render_mutation, False),
+    ("mutation-paper", "store", _render_mutation, False),
     ("slams", "store", _render_slams, True),
     ("robustness", "store", _render_robustness, True),
     ("calibrate-quick", "store", _render_calibration, False),
