@@ -142,6 +142,26 @@ def test_the_committed_analysis_tables_of_paper_k10_are_what_its_store_gives(tmp
                                       check_exact=False, rtol=1e-9, obj=f"reports/paper-k10/analysis/{name}")
 
 
+#: The command that wrote ``reports/paper-k10/adaptive`` (run from the repository's root).
+ADAPTIVE_REPLAY = ["stats", "adaptive", "reports/paper-k10/store", "--stages", "6,11", "--level", "0.05",
+                   "--alternative", "two-sided", "--futility", "0.5", "--reports", "reports/paper-k10/adaptive"]
+
+
+@pytest.mark.slow
+def test_the_committed_adaptive_replay_of_paper_k10_is_what_its_store_gives(tmp_path, monkeypatch):
+    from faultlab.cli import main
+
+    _copy_store(REPORTS / "paper-k10" / "store", tmp_path / "reports" / "paper-k10" / "store")
+    monkeypatch.chdir(tmp_path)  # the same relative paths, below a scratch directory
+    assert main(ADAPTIVE_REPLAY) == 0
+    committed = REPORTS / "paper-k10" / "adaptive"
+    rendered = tmp_path / "reports" / "paper-k10" / "adaptive"
+    names = sorted(p.name for p in committed.iterdir())
+    assert len(names) == 5 and sorted(p.name for p in rendered.iterdir()) == names
+    stale = [n for n in names if (rendered / n).read_bytes() != (committed / n).read_bytes()]
+    assert stale == [], f"reports/paper-k10/adaptive: stale {stale}; rerun `python -m faultlab {' '.join(ADAPTIVE_REPLAY)}`"
+
+
 MACHINE_PATHS = ("/tmp/", "/work/", "/home/", "/root/", "/check/")
 
 
