@@ -191,10 +191,12 @@ def _weights_text(meta: dict) -> str:
     classes = weights.get("classes")
     if not classes:
         return ""
-    listing = "; ".join(f"{par}: " + ", ".join(f"{c} {w:.2f}" for c, w in ws.items()) for par, ws in classes.items())
+    listing = "; ".join(f"{par}: " + ", ".join(f"{c} {w:.2f}" for c, w in sorted(ws.items(), key=lambda x: -x[1]))
+                        for par, ws in classes.items())
     source = f"`{weights['file']}`" if weights.get("file") else "the study file's [space.weights]"
     return (f" Effect-guided suites cover every class once, then draw classes by the class weights of {source} "
-            f"(an earlier effects study): {listing}; every other parameter's classes have equal weights.")
+            f"(an earlier effects study; heaviest first): {listing}; every other parameter's classes have equal "
+            f"weights.")
 
 
 def _whole_not_evaluated_text(meta: dict) -> str:

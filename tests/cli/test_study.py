@@ -204,9 +204,10 @@ def test_effect_guided_pools_and_whole_suites_appear_in_the_report(tmp_path, cap
     assert set(whole.loc[whole["strategy"] == "effect-guided", "size"]) == {3}
     md = (rep / "study.md").read_text()
     assert "## Whole generated suites" in md and "`effect-guided`" in md
-    assert f"class weights of `{weights}`" in md and "map_size: small 0.60, medium 0.30, large 0.10" in md
+    assert f"class weights of `{weights}`" in md and "heaviest first): map_size: small 0.60, medium 0.30, large 0.10" in md
     meta = pd.read_json(rep / "study_meta.json", typ="series")
-    assert meta["weights"]["classes"] == read_class_weights(weights)
+    planted = read_class_weights(weights)["map_size"]
+    assert meta["weights"]["classes"]["map_size"] == pytest.approx(planted)       # normalised: they sum to 1
 
 
 def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
