@@ -70,7 +70,8 @@ class StudyExperiment:
                 "mutant_operator": {} if sel is None else {m: sel.operator[m] for m in sel.run},
                 "pool": {s.kind: s.n_cases for s in self.experiment.suites}, "runs": self.experiment.runs}
 
-def study_class_weights(value, space: Mapping, *, source: str) -> dict[str, dict[str, float]]:
+def study_class_weights(value, space: Mapping, *, source: str,
+                        base_dir: str | Path | None = None) -> dict[str, dict[str, float]]:
     """The class weights of ``[study] weights``: a CSV file of an earlier effects study, checked against the space.
 
     Parameters
@@ -78,11 +79,14 @@ def study_class_weights(value, space: Mapping, *, source: str) -> dict[str, dict
     value
         The key's value: the path of a CSV file with the columns ``parameter, class, weight``
         (``weights_<fault>.csv`` of ``faultlab effects report``); a relative path is read from
-        the working directory.
+        ``base_dir``.
     space : mapping
         The study's ``[space]`` table (Table I overrides), which the weights must fit.
     source : str
         The study file, for messages.
+    base_dir : path, optional
+        The study file's directory (symbolic links followed); None reads a relative path from the
+        working directory.
 
     Returns
     -------
@@ -104,9 +108,11 @@ def study_class_weights(value, space: Mapping, *, source: str) -> dict[str, dict
     if "weights" in space:
         raise ConfigError(f"{where}: [space.weights] gives class weights as well; give them once")
     file = Path(value)
+    if not file.is_absolute() and base_dir is not None:
+        file = Path(base_dir) / file
     if not file.is_file():
         raise ConfigError(f"{where}: {value}: no such file (a weights_<fault>.csv of `faultlab effects report`; "
-                          f"a relative path is read from the working directory)")
+                          f"a relative path is read from the study file's directory)")
     base = space_from_mapping(space, source=f"{source} [space]")
     try:
         weights = read_class_weights(file)
@@ -155,7 +161,8 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
             raise ConfigError(f"{source}: study.weights: no {WEIGHTED_STRATEGY} suite in [suites] draws by them")
         space = dict(space) if isinstance(space, Mapping) else space
         if isinstance(space, Mapping):  # parse_experiment refuses a [space] that is not a table
-            data["space"] = space | {"weights": study_class_weights(weights_file, space, source=source)}
+            data["space"] = space | {"weights": study_class_weights(weights_file, space, source=source,
+                                                                     base_dir=file.resolve().parent)}
     elif weighted and not (isinstance(space, Mapping) and "weights" in space):
         raise ConfigError(f"{source}: suites.{WEIGHTED_STRATEGY}: needs class weights: give study.weights = "
                           f"the path of an effects study's weights_<fault>.csv (`faultlab effects report`)")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import pytest
 
@@ -58,8 +59,8 @@ def test_the_shipped_study_runs_the_paper_faults_and_sampled_mutants_at_both_sca
                                                          "effect-guided"}
         assert s.study.whole == ("pairwise", "base-choice")                       # whole suites at both scales
         # the effect-guided suites draw by the committed effects study's weights, recorded in the experiment
-        assert s.weights_file == "reports/effects/weights_jacobian_sign_error.csv"
-        assert s.experiment.space["weights"] == read_class_weights(s.weights_file)
+        assert s.weights_file == "../weights/jacobian_sign_error.csv"              # beside the study file
+        assert s.experiment.space["weights"] == read_class_weights(SHIPPED_WEIGHTS)
     assert len(full.selection.run) == 150 and len(quick.selection.run) == 10
     assert full.study.sizes == (1, 2, 5, 10, 20) and quick.study.sizes == (1, 2, 5, 10)
     assert quick.experiment.runs == 1
@@ -99,6 +100,21 @@ def test_malformed_study_files_are_refused_naming_the_key(tmp_path, change, matc
         load_study_experiment(_file(tmp_path, BASE.replace(*change)))
 
 
+SHIPPED_WEIGHTS = Path(__file__).resolve().parents[2] / "faultlab" / "data" / "weights" / "jacobian_sign_error.csv"
+
+
+def test_the_shipped_weights_are_the_committed_effects_studys_and_load_from_any_directory(tmp_path, monkeypatch):
+    repo = SHIPPED_WEIGHTS.parents[3]
+    assert SHIPPED_WEIGHTS.read_bytes() == (repo / "reports/effects/weights_jacobian_sign_error.csv").read_bytes()
+    monkeypatch.chdir(tmp_path)                      # a relative weights path is read beside the study file
+    assert load_study_experiment("study").experiment.space["weights"] == read_class_weights(SHIPPED_WEIGHTS)
+    (tmp_path / "a").mkdir()
+    _weights_file(tmp_path / "a")
+    (tmp_path / "a" / "s.toml").write_text(WEIGHTED)
+    assert load_study_experiment(tmp_path / "a" / "s.toml").experiment.space["weights"] == PLANTED
+    assert not (tmp_path / "w.csv").exists()
+
+
 def test_sampled_load_samples_at_start_interval_and_end():
     with sampled_load(interval_s=0.05) as samples:
         time.sleep(0.18)
@@ -123,7 +139,7 @@ def test_effect_guided_cases_follow_the_weights_of_the_study_file(tmp_path, monk
 
     from faultlab.scenario import draw_suite
 
-    monkeypatch.chdir(tmp_path)                               # a relative weights path is read from here
+    monkeypatch.chdir(tmp_path)
     _weights_file(tmp_path)
     sexp = load_study_experiment(_file(tmp_path, WEIGHTED.replace("effect-guided = 4", "effect-guided = 400")
                                        .replace("sizes = [1, 2, 6]", "sizes = [1, 2]")))
