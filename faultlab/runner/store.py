@@ -139,11 +139,13 @@ def _encode(value) -> bytes:
 
 
 #: Order of the per-column digests of a checksum.  Never reorder or shorten it: rows already stored
-#: depend on it.  A column added to the table later is placed after these, in table order, and rows
-#: written before it existed (where it is NULL) keep their checksum.
+#: depend on it.  A column added to the table later is appended here (``ate_mm`` was; one not yet
+#: listed is placed after these, in table order), and rows written before it existed (where it is
+#: NULL) keep their checksum.
 _DIGEST_ORDER: tuple[str, ...] = (
     "run", "suite", "case", "variant", "rep", *VALUE_KEYS, *(f"class_{p}" for p in PARAMETER_NAMES),
-    "n_landmarks", "rms_mm", "emd_mm", "n_mapped", "n_unmapped", "runtime_s", "status", "error")
+    "n_landmarks", "rms_mm", "emd_mm", "n_mapped", "n_unmapped", "runtime_s", "status", "error",
+    "ate_mm")
 
 
 def _digest_layout() -> tuple[str, ...]:
@@ -202,10 +204,11 @@ def _damaged_columns(values, checksum) -> list[str]:
 
 
 def _stored_values(row: Mapping) -> list:
-    """The values of ``row`` as they are stored: the column's type, None for NaN or missing."""
+    """The values of ``row`` as they are stored: the column's type, None for NaN or missing (a column of
+    :data:`_ADDED_COLUMNS` may be absent from ``row``; every other one must be there)."""
     values = []
     for c, t in _COLUMN_TYPES.items():
-        v = row[c]
+        v = row.get(c) if c in _ADDED_COLUMNS else row[c]
         if isinstance(v, np.generic):
             v = v.item()
         if v is None or (isinstance(v, float) and math.isnan(v)):
