@@ -316,7 +316,7 @@ def parse_experiment(data: Mapping, *, source: str = "<experiment>", text: str =
     unknown = slam.association == UNKNOWN_ASSOCIATION
     metric = top.str("metric", "emd" if unknown else "rms", choices=METRICS)
     if unknown and metric == "rms":
-        raise top.error("metric", f"must be 'emd' (or 'ate') with slam.association = 'unknown' (a map without "
+        raise top.error("metric", f"must be 'emd' with slam.association = 'unknown' (or 'ate'; a map without "
                                   f"landmark ids has no RMS error), got {metric!r}")
     metrics = _parse_metrics(top, metric=metric, unknown=unknown)
     variants = _parse_variants(top, source)
