@@ -5,7 +5,7 @@ the units), :class:`UnitSlam` the base of the adapters (settings, units, ``with_
 pose), :class:`LandmarkIndex` maps landmark ids to storage columns in order of first observation.
 The particle filters share the weight normalisation (:func:`normalise_log_weights`), the
 resampling tail of a step (:func:`resample_tail`), the best-particle estimate
-(:func:`best_estimate`), the per-step pose of the trajectory they report (:func:`mean_pose`,
+(:func:`best_estimate`), the per-step pose of the trajectory they report (:func:`best_pose`,
 :class:`TrajectoryLog`), the linearisation of the measurement model (:func:`linearise`) and, for
 the ones that run one filter at a time, their bookkeeping (:class:`ParticleFilterSlam`).
 """
@@ -26,7 +26,7 @@ from faultlab.slam.units import wrap_heading
 from faultlab.vocabulary import KNOWN_ASSOCIATION
 
 __all__ = ["UnitTable", "UnitSlam", "ParticleFilterSlam", "LandmarkIndex", "step_kind", "grown_capacity",
-           "normalise_log_weights", "resample_tail", "best_estimate", "linearise", "sample_pose", "mean_pose",
+           "normalise_log_weights", "resample_tail", "best_estimate", "linearise", "sample_pose", "best_pose",
            "TrajectoryLog"]
 
 
@@ -146,7 +146,7 @@ class ParticleFilterSlam(UnitSlam):
 
     def estimate(self) -> Estimate:
         """The map and pose of the highest-weight particle (:func:`best_estimate`); the trajectory is
-        the weighted mean pose after every step (:func:`mean_pose`)."""
+        that particle's pose after every step (:func:`best_pose`)."""
         return best_estimate(getattr(self._steps, self.map_unit), self._require_state(),
                              trajectory=self._trajectory.poses())
 
@@ -179,7 +179,7 @@ class ParticleFilterSlam(UnitSlam):
                                       apply=getattr(self._steps, self.apply_unit))
         self._n_resamples += resampled
         self._state = st
-        self._trajectory.append(mean_pose(st.poses, st.logw))
+        self._trajectory.append(st.poses[int(np.argmax(st.logw))])
         self._t += 1
 
 
@@ -304,35 +304,28 @@ def best_estimate(extract_map: Callable, state, *, trajectory: np.ndarray | None
                     trajectory=trajectory)
 
 
-def mean_pose(poses: np.ndarray, logw: np.ndarray) -> np.ndarray:
-    """The posterior mean pose of particle filters: the weighted mean position and circular mean heading.
+def best_pose(poses: np.ndarray, logw: np.ndarray) -> np.ndarray:
+    """The pose of each filter's highest-weight particle (ties: the lowest index), as :func:`best_estimate` takes it.
 
-    The pose a particle filter reports per step for its trajectory (the minimum mean-square
-    estimate of the position; the heading is the direction of the weighted mean of the unit
-    heading vectors, ``atan2(sum w sin theta, sum w cos theta)``).  Unlike the highest-weight
-    particle it does not jump to an arbitrary particle when a resampling makes the weights
-    uniform.  A filter with a non-finite particle pose or weight has a non-finite mean.
+    The pose a particle filter reports per step for its trajectory, so that the trajectory ends in
+    the estimate's pose.  Right after a resampling the weights are uniform and this is the first
+    resampled particle: a draw from the posterior rather than its mean (the mean costs a circular
+    mean of every particle's heading per step, an eighth of a step of the reference FastSLAM).
 
     Parameters
     ----------
     poses : ndarray, shape (..., N, 3)
         Particle poses (x, y, theta), m and rad; leading axes index independent filters.
     logw : ndarray, shape (..., N)
-        Log weights of each filter (need not be normalised).
+        Log weights of each filter.
 
     Returns
     -------
     ndarray, shape (..., 3)
+        A new array.
     """
-    logw = np.asarray(logw, dtype=float)
-    with np.errstate(invalid="ignore", over="ignore"):
-        w = np.exp(logw - logw.max(axis=-1, keepdims=True))
-        w /= w.sum(axis=-1, keepdims=True)
-        xy = np.einsum("...n,...nk->...k", w, poses[..., :2])
-        heading = poses[..., 2]
-        theta = np.arctan2(np.einsum("...n,...n->...", w, np.sin(heading)),
-                           np.einsum("...n,...n->...", w, np.cos(heading)))
-    return np.concatenate([xy, theta[..., None]], axis=-1)
+    i = np.argmax(logw, axis=-1)
+    return np.take_along_axis(poses, i[..., None, None], axis=-2)[..., 0, :]
 
 
 class TrajectoryLog:

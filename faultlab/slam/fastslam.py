@@ -165,7 +165,7 @@ from faultlab.config import Option
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import associationunits as _associationunits
 from faultlab.slam import units as _units
-from faultlab.slam.bookkeeping import (TrajectoryLog, UnitSlam, UnitTable, best_estimate, grown_capacity, mean_pose,
+from faultlab.slam.bookkeeping import (TrajectoryLog, UnitSlam, UnitTable, best_estimate, best_pose, grown_capacity,
                                       normalise_log_weights,
                                        resample_tail, step_kind)
 from faultlab.slam.contract import STREAM_UNITS
@@ -652,18 +652,21 @@ class FastSlam(UnitSlam):
         self._views = None
 
     def _estimate(self, j: int) -> Estimate:
-        """The map and pose of slot ``j``'s highest-weight particle; its trajectory is the filter's weighted
-        mean pose after every step (:func:`~faultlab.slam.bookkeeping.mean_pose`)."""
+        """The map and pose of slot ``j``'s highest-weight particle; its trajectory is the pose of the
+        filter's highest-weight particle after every step (:func:`~faultlab.slam.bookkeeping.best_pose`)."""
         return best_estimate(self._steps.extract_map, self._filter_state(j),
                              trajectory=self._trajectory.poses()[:, self._reps[j]])
 
     def _record_poses(self) -> None:
-        """Log every active filter's weighted mean pose at the end of a step (NaN for a failed repetition)."""
-        row = np.full((self._n_reps, 3), np.nan)
+        """Log every active filter's best pose at the end of a step (NaN for a failed repetition)."""
         slots = len(self._reps)
+        if slots == self._n_reps == 1:
+            self._trajectory.append(self._poses[int(np.argmax(self._logw))])
+            return
+        row = np.full((self._n_reps, 3), np.nan)
         if slots:
             poses = np.asarray(self._poses).reshape(slots, self._n, 3)
-            row[self._reps] = mean_pose(poses, np.asarray(self._logw).reshape(slots, self._n))
+            row[self._reps] = best_pose(poses, np.asarray(self._logw).reshape(slots, self._n))
         self._trajectory.append(row)
 
     def _resample(self, j: int, empty: bool) -> None:

@@ -145,8 +145,8 @@ class Estimate:
         (:func:`faultlab.metrics.trajectory_error_mm`) is then NaN, as it is for a trajectory
         with a non-finite pose (:meth:`validate` checks its shape only: a diverged trajectory
         does not make the map unscorable).  Which pose a SLAM reports
-        per step (a particle filter's weighted mean, a smoother's smoothed pose) is its own
-        choice, documented by the SLAM.
+        per step (a particle filter's highest-weight particle, a smoother's smoothed pose) is
+        its own choice, documented by the SLAM.
     """
 
     pose: np.ndarray
