@@ -417,7 +417,7 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
         metric's column (``rms_mm`` or ``emd_mm``).  One row per job.
     alpha : float
         Level of each test, in (0, 1).
-    metric : {"rms", "emd"}
+    metric : {"rms", "emd", "ate"}
         The map error compared.
     power : float
         Power of the reported smallest detectable shift, in (0, 1).
