@@ -318,7 +318,7 @@ def test_metrics_rms_records_nan_emd_and_the_same_rms_bit_for_bit(tmp_path):
     from faultlab.errors import ResultsError
 
     spec = dict(repetitions=2, variants=["baseline", "missing_angle_wrap"])
-    both = load_experiment(fastslam_batches(tmp_path, **spec))
+    both = load_experiment(fastslam_batches(tmp_path, metrics=["rms", "emd"], **spec))  # the two map errors
     only = both.replace(metrics=["rms"])
     run_experiment(both, tmp_path / "both", jobs=1, progress=False)
     run_experiment(only, tmp_path / "rms", jobs=1, progress=False)
