@@ -129,8 +129,9 @@ def _comparisons_md(analysis: StudyAnalysis) -> pd.DataFrame:
 def _whole_md(whole: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({"strategy": whole["strategy"], "variant": whole["variant"],
                          "cases": whole["size"].map(lambda x: f"{x:g}"), "suites": whole["suites"],
-                         "detected": [_interval(r, lo, hi) for r, lo, hi in
-                                      zip(whole["rate"], whole["ci_low"], whole["ci_high"])],
+                         # a mutation score's range over suites is no interval: one suite gives its score alone
+                         "detected": [_pct(r) if n == 1 and lo == hi else _interval(r, lo, hi) for r, lo, hi, n in
+                                      zip(whole["rate"], whole["ci_low"], whole["ci_high"], whole["suites"])],
                          "paper rule": whole["rate_paper"].map(_pct)})
 
 
@@ -270,7 +271,8 @@ def study_markdown(analysis: StudyAnalysis) -> str:
                "Each evaluation run's suite of " + ", ".join(f"`{x}`" for x in dict.fromkeys(w["strategy"]))
                + " judged whole (for pairwise: one whole covering array, randomised independently per run), by the "
                "same suite rule at its own size. The unit is the generated suite: the interval is Clopper-Pearson "
-               "over suites; for the mutation score, the lowest and highest score of one suite (a range).", "",
+               "over suites; for the mutation score, the lowest and highest score of one suite (a range; with one suite, "
+               "its score alone).", "",
                markdown_table(_whole_md(w))]
     if _whole_not_evaluated_text(m):
         md += [_whole_not_evaluated_text(m), ""]
