@@ -1,27 +1,33 @@
-"""Analyses saved as one CSV per table plus a JSON file of metadata (mutation, study).
+"""Analyses saved as one CSV per table plus a JSON file of metadata (mutation, study, fidelity, ablation).
 
-A frozen dataclass whose fields are its tables (DataFrames, named in ``TABLES``) and ``meta``
-(a dict) inherits :class:`TableBundle`: ``table(name)``, ``save(directory)`` and
-``load(directory)``, with the metadata in ``META_FILE``.
+A frozen dataclass whose fields are its tables (DataFrames, named in ``TABLES``) and its metadata
+inherits :class:`TableBundle`: ``table(name)``, ``save(directory)`` and ``load(directory)``, with the
+metadata in ``META_FILE``.  The metadata is the field ``meta`` (a dict) unless the subclass
+overrides :attr:`~TableBundle.meta` and :meth:`~TableBundle.from_saved`.  Every table is saved as ``<name>.csv``: conformed to its
+:class:`~faultlab.analysis.schema.TableSchema` where ``SCHEMAS`` has one (and read back as exactly
+the frame written), as it is otherwise.
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import ClassVar
+from typing import ClassVar, Mapping
 
 import pandas as pd
 
+from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ResultsError
 
 __all__ = ["TableBundle"]
 
 
 class TableBundle:
-    """Mixin: tables by name, saved as ``<name>.csv`` and metadata as ``META_FILE``."""
+    """Mixin: tables by name, saved as CSV files and metadata as ``META_FILE``."""
 
     TABLES: ClassVar[tuple[str, ...]] = ()
+    #: Table name -> the schema its CSV file follows (the schema's name is the table's).
+    SCHEMAS: ClassVar[Mapping[str, TableSchema]] = {}
     META_FILE: ClassVar[str] = "meta.json"
     WHAT: ClassVar[str] = "analysis"
 
@@ -31,19 +37,33 @@ class TableBundle:
         return getattr(self, name)
 
     def save(self, directory: str | Path) -> Path:
+        """Write every table and the metadata into ``directory`` (created); returns it."""
         d = Path(directory)
         d.mkdir(parents=True, exist_ok=True)
         for name in self.TABLES:
-            self.table(name).to_csv(d / f"{name}.csv", index=False)
+            schema = self.SCHEMAS.get(name)
+            if schema is not None:
+                schema.to_csv(self.table(name), d / f"{name}.csv")
+            else:
+                self.table(name).to_csv(d / f"{name}.csv", index=False)
         (d / self.META_FILE).write_text(json.dumps(self.meta, indent=1, sort_keys=True, default=str))
         return d
 
     @classmethod
     def load(cls, directory: str | Path):
+        """Read what :meth:`save` wrote."""
         d = Path(directory)
         try:
-            tables = {n: pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""]) for n in cls.TABLES}
+            tables = {n: (cls.SCHEMAS[n].read_csv(d / f"{n}.csv") if n in cls.SCHEMAS
+                          else pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""]))
+                      for n in cls.TABLES}
             meta = json.loads((d / cls.META_FILE).read_text())
         except (OSError, ValueError) as exc:
             raise ResultsError(f"{d}: not a saved {cls.WHAT} ({exc})") from exc
-        return cls(**tables, meta=meta)
+        return cls.from_saved(tables, meta)
+
+    @classmethod
+    def from_saved(cls, tables: Mapping[str, pd.DataFrame], meta: Mapping):
+        """The bundle of saved ``tables`` (name -> frame) and ``meta``; a subclass whose metadata is
+        not one ``meta`` field overrides this and :attr:`meta`."""
+        return cls(**tables, meta=dict(meta))
