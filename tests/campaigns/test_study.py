@@ -61,7 +61,7 @@ def test_the_shipped_study_runs_the_paper_faults_and_sampled_mutants_at_both_sca
         assert s.experiment.repetitions == min_pairs(s.study.alpha / max(s.study.sizes), alternative="two-sided")
     assert quick.experiment.variants[:18] == full.experiment.variants[:18]          # the 17 faults at both scales
     assert quick.experiment.space["inactivity"]["classes"]["inactive"] == [120]
-    assert dict(quick.experiment.slam.options)["particles"] == 20 and full.experiment.slam.config.n_particles == 200
+    assert dict(quick.experiment.slam.options)["particles"] == 20 and full.experiment.slam.config.particles == 200
     assert quick.study.multiplicity == "holm" and not quick.study.timeouts_detect
 
 
