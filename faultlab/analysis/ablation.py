@@ -87,7 +87,7 @@ class AblationResult(TableBundle):
         return None if t.empty else t.iloc[0]
 
     TABLES = (ABLATION.name,)
-    SCHEMAS = {ABLATION.name: ABLATION}
+    SCHEMAS = (ABLATION,)
     META_FILE = ABLATION_JSON
     WHAT = "ablation"
 

@@ -3,9 +3,9 @@
 A frozen dataclass whose fields are its tables (DataFrames, named in ``TABLES``) and its metadata
 inherits :class:`TableBundle`: ``table(name)``, ``save(directory)`` and ``load(directory)``, with the
 metadata in ``META_FILE``.  The metadata is the field ``meta`` (a dict) unless the subclass
-overrides :attr:`~TableBundle.meta` and :meth:`~TableBundle.from_saved`.  Every table is saved as ``<name>.csv``: conformed to its
-:class:`~faultlab.analysis.schema.TableSchema` where ``SCHEMAS`` has one (and read back as exactly
-the frame written), as it is otherwise.
+overrides :attr:`~TableBundle.meta` and :meth:`~TableBundle.from_saved`.  A table with a
+:class:`~faultlab.analysis.schema.TableSchema` in ``SCHEMAS`` is written and read by its schema
+(:meth:`~faultlab.analysis.schema.TableSchema.to_csv`, ``read_csv``), so it loads back exactly.
 """
 
 from __future__ import annotations
@@ -26,10 +26,13 @@ class TableBundle:
     """Mixin: tables by name, saved as CSV files and metadata as ``META_FILE``."""
 
     TABLES: ClassVar[tuple[str, ...]] = ()
-    #: Table name -> the schema its CSV file follows (the schema's name is the table's).
-    SCHEMAS: ClassVar[Mapping[str, TableSchema]] = {}
     META_FILE: ClassVar[str] = "meta.json"
     WHAT: ClassVar[str] = "analysis"
+    SCHEMAS: ClassVar[tuple[TableSchema, ...]] = ()
+
+    @classmethod
+    def _schema(cls, name: str) -> TableSchema | None:
+        return next((s for s in cls.SCHEMAS if s.name == name), None)
 
     def table(self, name: str) -> pd.DataFrame:
         if name not in self.TABLES:
@@ -41,11 +44,11 @@ class TableBundle:
         d = Path(directory)
         d.mkdir(parents=True, exist_ok=True)
         for name in self.TABLES:
-            schema = self.SCHEMAS.get(name)
-            if schema is not None:
-                schema.to_csv(self.table(name), d / f"{name}.csv")
-            else:
+            schema = self._schema(name)
+            if schema is None:
                 self.table(name).to_csv(d / f"{name}.csv", index=False)
+            else:
+                schema.to_csv(self.table(name), d / f"{name}.csv")
         (d / self.META_FILE).write_text(json.dumps(self.meta, indent=1, sort_keys=True, default=str))
         return d
 
@@ -54,9 +57,8 @@ class TableBundle:
         """Read what :meth:`save` wrote."""
         d = Path(directory)
         try:
-            tables = {n: (cls.SCHEMAS[n].read_csv(d / f"{n}.csv") if n in cls.SCHEMAS
-                          else pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""]))
-                      for n in cls.TABLES}
+            tables = {n: pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""])
+                      if cls._schema(n) is None else cls._schema(n).read_csv(d / f"{n}.csv") for n in cls.TABLES}
             meta = json.loads((d / cls.META_FILE).read_text())
         except (OSError, ValueError) as exc:
             raise ResultsError(f"{d}: not a saved {cls.WHAT} ({exc})") from exc

@@ -118,7 +118,7 @@ class Fidelity(TableBundle):
         return self.fidelity[self.fidelity["verdict"] == str(verdict)]
 
     TABLES = (FIDELITY.name,)
-    SCHEMAS = {FIDELITY.name: FIDELITY}
+    SCHEMAS = (FIDELITY,)
     META_FILE = FIDELITY_JSON
     WHAT = "fidelity comparison"
 
