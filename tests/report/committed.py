@@ -81,6 +81,7 @@ PAPER_REPORTS = [
 #: render them at once (``--dist loadscope`` keeps a module on one worker).
 STUDY_REPORTS = [
     ("mutation", "store", _render_mutation, False),
+    ("mutation-paper", "store", _render_mutation, False),
     ("slams", "store", _render_slams, True),
     ("robustness", "store", _render_robustness, True),
     ("study-k", "store", _render_allocation, False),
