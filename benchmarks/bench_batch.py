@@ -86,7 +86,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-tune", action="store_true", help="keep glibc's default allocator thresholds")
     args = ap.parse_args(argv)
     tuned = False if args.no_tune else tune_allocator()
-    n = FastSlamConfig().n_particles
+    n = FastSlamConfig().particles
     names = ["fixed", "small map"] + ([] if args.quick else ["largest"])
     print(f"batched FastSLAM benchmark: N = {n}, K = {args.k}, {os.cpu_count()} CPUs, allocator "
           f"{'tuned' if tuned else 'default'}, load average before: {load()}")

@@ -67,17 +67,17 @@ def time_run(make, scenario, *, seed, repeat):
     return best
 
 
-def time_oracle(scenario, *, seed, n_particles):
-    oracle = OracleFastSlam(n_particles=n_particles)
+def time_oracle(scenario, *, seed, particles):
+    oracle = OracleFastSlam(particles=particles)
     t0, c0 = time.perf_counter(), time.process_time()
     run_oracle(oracle, scenario, rng=np.random.default_rng(seed))
     return time.perf_counter() - t0, time.process_time() - c0
 
 
-def row(name, seconds, scenario, n_particles, note=""):
+def row(name, seconds, scenario, particles, note=""):
     wall, cpu = seconds
     steps = scenario.n_steps
-    updates = n_particles * int(scenario.obs_offsets[-1])
+    updates = particles * int(scenario.obs_offsets[-1])
     return (name, steps, int(scenario.obs_offsets[-1]), wall, cpu, steps / wall, updates / wall, note)
 
 
@@ -87,7 +87,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1, help="best of this many runs per vectorised row")
     ap.add_argument("--oracle-steps", type=int, default=20, help="steps of the fixed case run by the oracle")
     args = ap.parse_args(argv)
-    n = FastSlamConfig().n_particles
+    n = FastSlamConfig().particles
     fixed = generate_scenario(CaseSpec(FIXED_VALUES), rng=np.random.default_rng(args.seed))
     largest = generate_scenario(CaseSpec(LARGEST), rng=np.random.default_rng(args.seed))
     every = dataclasses.replace(REFERENCE_STEPS, resample=multinomial_every_step)
@@ -101,7 +101,7 @@ def main(argv=None) -> int:
     short = truncated(fixed, args.oracle_steps)
     t_short = time_run(FastSlam, short, seed=args.seed, repeat=max(3, args.repeat))
     rows.append(row(f"fixed case, first {short.n_steps} steps, reference", t_short, short, n))
-    t_oracle = time_oracle(short, seed=args.seed, n_particles=n)
+    t_oracle = time_oracle(short, seed=args.seed, particles=n)
     rows.append(row(f"fixed case, first {short.n_steps} steps, per-particle oracle", t_oracle, short, n))
     scale = fixed.n_steps / short.n_steps
     t_oracle_full = (t_oracle[0] * scale, t_oracle[1] * scale)

@@ -51,18 +51,18 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=1, help="scenario and SLAM seed")
     ap.add_argument("--repeat", type=int, default=3, help="round-robin repetitions per case")
-    ap.add_argument("--particles", type=int, default=FastSlamConfig().n_particles)
+    ap.add_argument("--particles", type=int, default=FastSlamConfig().particles)
     ap.add_argument("--steps", type=int, default=None, help="active steps per case (default: the generator's)")
     ap.add_argument("--unknown", action="store_true", help="also the unknown-association FastSLAMs")
     args = ap.parse_args(argv)
-    cfg = FastSlamConfig(n_particles=args.particles)
+    cfg = FastSlamConfig(particles=args.particles)
     suts = {"FastSLAM 1.0": lambda: FastSlam(cfg), "FastSLAM 2.0": lambda: FastSlam2(cfg), "EKF-SLAM": EkfSlam}
     if args.unknown:
-        ucfg = FastSlamConfig(n_particles=args.particles, association="unknown")
+        ucfg = FastSlamConfig(particles=args.particles, association="unknown")
         suts.update({"FS1.0 unknown": lambda: FastSlamUnknown(ucfg), "FS2.0 unknown": lambda: FastSlam2Unknown(ucfg)})
     blas = ", ".join(f"{i['internal_api']} {i['num_threads']} threads" for i in threadpool_info()
                      if i["user_api"] == "blas")
-    print(f"SLAMs under test side by side: N = {cfg.n_particles} particles, seed {args.seed}, best of "
+    print(f"SLAMs under test side by side: N = {cfg.particles} particles, seed {args.seed}, best of "
           f"{args.repeat} round-robin runs, {os.cpu_count()} CPUs, BLAS: {blas}")
     print(f"load average before: {load()}")
     head = f"{'case':<28} {'SLAM':<13} {'best s':>7} {'median s':>8} {'cpu s':>7} {'obs/s':>8} " \
@@ -89,7 +89,7 @@ def main(argv=None) -> int:
         base, cpu_base = min(times["FastSLAM 1.0"]), cpu["FastSLAM 1.0"]
         for name in suts:
             best = min(times[name])
-            per_obs = 1 if name == "EKF-SLAM" else cfg.n_particles
+            per_obs = 1 if name == "EKF-SLAM" else cfg.particles
             rows.append(f"{case_name:<28} {name:<13} {best:>7.3f} {statistics.median(times[name]):>8.3f} "
                         f"{cpu[name]:>7.3f} {n_obs / best:>8.3g} {per_obs * n_obs / best:>10.3g} "
                         f"{rms[name]:>7.1f}{'*' if 'unknown' in name else ' '}{best / base:>6.2f} "

@@ -105,7 +105,7 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="skip the numpy largest case and the memory measurement")
     args = ap.parse_args(argv)
     tune_allocator()
-    n = FastSlamConfig().n_particles
+    n = FastSlamConfig().particles
     print(f"compiled twins vs numpy units: N = {n}, {os.cpu_count()} CPUs, load average before: {load()}")
     first, again, imp = compile_costs()
     print(f"compilation: first call with an empty cache {first:.2f} s, with the cache filled {again:.3f} s "

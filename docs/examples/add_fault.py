@@ -36,7 +36,7 @@ RANGE_SCALE = Fault(
 )
 
 scenario = generate_scenario(CaseSpec(FIXED_VALUES), rng=np.random.default_rng(1), n_steps=100)
-reference = FastSlam(FastSlamConfig(n_particles=20))
+reference = FastSlam(FastSlamConfig(particles=20))
 faulty = RANGE_SCALE.apply(reference)  # a new instance; the reference is untouched
 errors = {name: map_errors(scenario, run_slam(slam, scenario, rng=np.random.default_rng(2)))
           for name, slam in (("baseline", reference), ("fault", faulty))}

@@ -33,7 +33,7 @@ class Shift(MetamorphicRelation):
 
 scenario = metamorphic_scenario(seed=0, n_steps=60)
 rngs = [np.random.default_rng(seed) for seed in (1, 2)]
-slam = lambda: FastSlam(FastSlamConfig(n_particles=20))  # noqa: E731
+slam = lambda: FastSlam(FastSlamConfig(particles=20))  # noqa: E731
 result = check_relation(slam, Shift(), scenario, rngs=rngs)
 print(result.verdict, result.statistic, result.tolerance)
 assert result.verdict == Verdict.HOLDS  # the unmodified FastSLAM is translation-equivariant

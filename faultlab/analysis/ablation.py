@@ -18,7 +18,6 @@ point's effect plus the divergence of two particle filters run on different weig
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -28,6 +27,7 @@ import pandas as pd
 from scipy.stats import wilcoxon
 from statsmodels.stats.multitest import multipletests
 
+from faultlab.analysis.bundle import TableBundle
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
@@ -37,8 +37,7 @@ from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, JobStatus
 __all__ = ["AblationResult", "ABLATION", "ABLATION_CSV", "ABLATION_JSON", "KEYS", "paired_effect",
            "compare_arms", "ablation"]
 
-#: File names under a report or analysis directory.
-ABLATION_CSV = "ablation.csv"
+#: The metadata file under a report or analysis directory (the table is ``<ABLATION.name>.csv``).
 ABLATION_JSON = "ablation.json"
 #: The columns that pair two arms' rows.
 KEYS = ("run", "suite", "case", "rep")
@@ -53,11 +52,14 @@ ABLATION = TableSchema(
      "p", "p_holm"),
     ("str", "str", "str", "str", "int", "int", "float", "float", "float", "float", "float", "float", "int",
      "float", "float"))
+#: The table's file under a report or analysis directory.
+ABLATION_CSV = f"{ABLATION.name}.csv"
 
 
 @dataclass(frozen=True, eq=False)
-class AblationResult:
-    """The effects of the isolated differences.
+class AblationResult(TableBundle):
+    """The effects of the isolated differences (saved as ``ablation.csv`` and ``ablation.json``, see
+    :class:`~faultlab.analysis.bundle.TableBundle`).
 
     Attributes
     ----------
@@ -69,7 +71,7 @@ class AblationResult:
     campaign : dict
         What ran: ``n_steps``, ``particles``, ``runs`` (the runs every arm has), ``arm_cases`` (arm
         name -> cases per suite), ``variants`` (those every arm has).
-    table : DataFrame
+    ablation : DataFrame
         :data:`ABLATION` columns.
     """
 
@@ -77,33 +79,30 @@ class AblationResult:
     n_boot: int
     seed: int
     campaign: dict
-    table: pd.DataFrame
+    ablation: pd.DataFrame
 
     def row(self, point: str, variant: str) -> pd.Series | None:
         """The row of ``point`` and ``variant``, or None."""
-        t = self.table[(self.table["point"] == point) & (self.table["variant"] == variant)]
+        t = self.ablation[(self.ablation["point"] == point) & (self.ablation["variant"] == variant)]
         return None if t.empty else t.iloc[0]
 
-    def save(self, directory: str | Path) -> tuple[Path, Path]:
-        """Write ``ablation.csv`` (the table) and ``ablation.json`` (the scalars)."""
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        csv = ABLATION.to_csv(self.table, d / ABLATION_CSV)
-        js = d / ABLATION_JSON
-        js.write_text(json.dumps({"alpha": self.alpha, "n_boot": self.n_boot, "seed": self.seed,
-                                  "campaign": self.campaign}, indent=2, sort_keys=True) + "\n")
-        return csv, js
+    TABLES = (ABLATION.name,)
+    SCHEMAS = (ABLATION,)
+    META_FILE = ABLATION_JSON
+    WHAT = "ablation"
+
+    @property
+    def meta(self) -> dict:
+        """The scalars: ``alpha``, ``n_boot``, ``seed``, ``campaign``."""
+        return {"alpha": self.alpha, "n_boot": self.n_boot, "seed": self.seed, "campaign": self.campaign}
 
     @classmethod
-    def load(cls, directory: str | Path) -> "AblationResult":
-        """Read what :meth:`save` wrote."""
-        d = Path(directory)
+    def from_saved(cls, tables: Mapping[str, pd.DataFrame], meta: Mapping) -> "AblationResult":
         try:
-            meta = json.loads((d / ABLATION_JSON).read_text())
-        except (OSError, ValueError) as exc:
-            raise ResultsError(f"{d / ABLATION_JSON}: cannot read ({exc})") from exc
-        return cls(alpha=float(meta["alpha"]), n_boot=int(meta["n_boot"]), seed=int(meta["seed"]),
-                   campaign=dict(meta["campaign"]), table=ABLATION.read_csv(d / ABLATION_CSV))
+            return cls(alpha=float(meta["alpha"]), n_boot=int(meta["n_boot"]), seed=int(meta["seed"]),
+                       campaign=dict(meta["campaign"]), ablation=tables["ablation"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ResultsError(f"{cls.META_FILE}: not the metadata of a saved {cls.WHAT} ({exc})") from exc
 
 
 def paired_effect(paper, alternative, *, n_boot: int = 4000, alpha: float = DEFAULT_ALPHA,
@@ -200,7 +199,7 @@ def compare_arms(arms: Mapping[str, pd.DataFrame], *, ablations: Sequence[Ablati
     table = pd.DataFrame(rows)
     table["p_holm"] = multipletests(table["p"].to_numpy(), alpha=alpha, method="holm")[1]
     return AblationResult(alpha=float(alpha), n_boot=int(n_boot), seed=int(seed), campaign=dict(campaign or {}),
-                          table=ABLATION.conform(table))
+                          ablation=ABLATION.conform(table))
 
 
 def ablation(arm_dirs: Mapping[str, str | Path], *, ablations: Sequence[Ablation] = ABLATIONS, alpha: float = DEFAULT_ALPHA,

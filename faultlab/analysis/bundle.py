@@ -1,8 +1,9 @@
-"""Analyses saved as one CSV per table plus a JSON file of metadata (mutation, study).
+"""Analyses saved as one CSV per table plus a JSON file of metadata (mutation, study, fidelity, ablation).
 
-A frozen dataclass whose fields are its tables (DataFrames, named in ``TABLES``) and ``meta``
-(a dict) inherits :class:`TableBundle`: ``table(name)``, ``save(directory)`` and
-``load(directory)``, with the metadata in ``META_FILE``.  A table with a
+A frozen dataclass whose fields are its tables (DataFrames, named in ``TABLES``) and its metadata
+inherits :class:`TableBundle`: ``table(name)``, ``save(directory)`` and ``load(directory)``, with the
+metadata in ``META_FILE``.  The metadata is the field ``meta`` (a dict) unless the subclass
+overrides :attr:`~TableBundle.meta` and :meth:`~TableBundle.from_saved`.  A table with a
 :class:`~faultlab.analysis.schema.TableSchema` in ``SCHEMAS`` is written and read by its schema
 (:meth:`~faultlab.analysis.schema.TableSchema.to_csv`, ``read_csv``), so it loads back exactly.
 """
@@ -11,7 +12,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import ClassVar
+from typing import ClassVar, Mapping
 
 import pandas as pd
 
@@ -22,7 +23,7 @@ __all__ = ["TableBundle"]
 
 
 class TableBundle:
-    """Mixin: tables by name, saved as ``<name>.csv`` and metadata as ``META_FILE``."""
+    """Mixin: tables by name, saved as CSV files and metadata as ``META_FILE``."""
 
     TABLES: ClassVar[tuple[str, ...]] = ()
     META_FILE: ClassVar[str] = "meta.json"
@@ -39,6 +40,7 @@ class TableBundle:
         return getattr(self, name)
 
     def save(self, directory: str | Path) -> Path:
+        """Write every table and the metadata into ``directory`` (created); returns it."""
         d = Path(directory)
         d.mkdir(parents=True, exist_ok=True)
         for name in self.TABLES:
@@ -52,6 +54,7 @@ class TableBundle:
 
     @classmethod
     def load(cls, directory: str | Path):
+        """Read what :meth:`save` wrote."""
         d = Path(directory)
         try:
             tables = {n: pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""])
@@ -59,4 +62,10 @@ class TableBundle:
             meta = json.loads((d / cls.META_FILE).read_text())
         except (OSError, ValueError) as exc:
             raise ResultsError(f"{d}: not a saved {cls.WHAT} ({exc})") from exc
-        return cls(**tables, meta=meta)
+        return cls.from_saved(tables, meta)
+
+    @classmethod
+    def from_saved(cls, tables: Mapping[str, pd.DataFrame], meta: Mapping):
+        """The bundle of saved ``tables`` (name -> frame) and ``meta``; a subclass whose metadata is
+        not one ``meta`` field overrides this and :attr:`meta`."""
+        return cls(**tables, meta=dict(meta))

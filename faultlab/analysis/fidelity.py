@@ -29,7 +29,6 @@ run's median: the figures of Table II this run reproduces within its own uncerta
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -40,6 +39,7 @@ import pandas as pd
 from scipy.stats import mannwhitneyu
 from statsmodels.stats.multitest import multipletests
 
+from faultlab.analysis.bundle import TableBundle
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
@@ -55,8 +55,7 @@ DEFAULT_FACTOR = 2.0
 DEFAULT_MIN_N = 5
 #: Default bootstrap resamples.
 DEFAULT_N_BOOT = 4000
-#: File names under a report or analysis directory.
-FIDELITY_CSV = "fidelity.csv"
+#: The metadata file under a report or analysis directory (the table is ``<FIDELITY.name>.csv``).
 FIDELITY_JSON = "fidelity.json"
 
 
@@ -78,11 +77,14 @@ FIDELITY = TableSchema(
      "ratio_high", "u", "p", "p_holm", "verdict"),
     ("str", "str", "int", "int", "float", "float", "float", "float", "float", "float", "float", "float", "bool",
      "float", "float", "float", "float", "float", "float", "str"))
+#: The table's file under a report or analysis directory.
+FIDELITY_CSV = f"{FIDELITY.name}.csv"
 
 
 @dataclass(frozen=True, eq=False)
-class Fidelity:
-    """This campaign's RMS distributions compared with the paper's raw data.
+class Fidelity(TableBundle):
+    """This campaign's RMS distributions compared with the paper's raw data (saved as
+    ``fidelity.csv`` and ``fidelity.json``, see :class:`~faultlab.analysis.bundle.TableBundle`).
 
     Attributes
     ----------
@@ -99,7 +101,7 @@ class Fidelity:
     campaign : dict
         What ran: ``profile``, ``fov_bug``, ``n_steps``, ``particles``, ``runs``, ``reduced`` (fewer
         steps, particles or runs than the paper's protocol), from the results' metadata.
-    table : DataFrame
+    fidelity : DataFrame
         :data:`FIDELITY` columns.
     """
 
@@ -109,34 +111,31 @@ class Fidelity:
     n_boot: int
     seed: int
     campaign: dict
-    table: pd.DataFrame
+    fidelity: pd.DataFrame
 
     def cells(self, verdict: Verdict | str) -> pd.DataFrame:
         """The rows with ``verdict``."""
-        return self.table[self.table["verdict"] == str(verdict)]
+        return self.fidelity[self.fidelity["verdict"] == str(verdict)]
 
-    def save(self, directory: str | Path) -> tuple[Path, Path]:
-        """Write ``fidelity.csv`` (the table) and ``fidelity.json`` (the scalars)."""
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
-        csv = FIDELITY.to_csv(self.table, d / FIDELITY_CSV)
-        meta = {"alpha": self.alpha, "factor": self.factor, "min_n": self.min_n, "n_boot": self.n_boot, "seed": self.seed,
-                "campaign": self.campaign}
-        js = d / FIDELITY_JSON
-        js.write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
-        return csv, js
+    TABLES = (FIDELITY.name,)
+    SCHEMAS = (FIDELITY,)
+    META_FILE = FIDELITY_JSON
+    WHAT = "fidelity comparison"
+
+    @property
+    def meta(self) -> dict:
+        """The scalars: ``alpha``, ``factor``, ``min_n``, ``n_boot``, ``seed``, ``campaign``."""
+        return {"alpha": self.alpha, "factor": self.factor, "min_n": self.min_n, "n_boot": self.n_boot,
+                "seed": self.seed, "campaign": self.campaign}
 
     @classmethod
-    def load(cls, directory: str | Path) -> "Fidelity":
-        """Read what :meth:`save` wrote."""
-        d = Path(directory)
+    def from_saved(cls, tables: Mapping[str, pd.DataFrame], meta: Mapping) -> "Fidelity":
         try:
-            meta = json.loads((d / FIDELITY_JSON).read_text())
-        except (OSError, ValueError) as exc:
-            raise ResultsError(f"{d / FIDELITY_JSON}: cannot read ({exc})") from exc
-        return cls(alpha=float(meta["alpha"]), factor=float(meta["factor"]), min_n=int(meta["min_n"]),
-                   n_boot=int(meta["n_boot"]),
-                   seed=int(meta["seed"]), campaign=dict(meta["campaign"]), table=FIDELITY.read_csv(d / FIDELITY_CSV))
+            return cls(alpha=float(meta["alpha"]), factor=float(meta["factor"]), min_n=int(meta["min_n"]),
+                       n_boot=int(meta["n_boot"]), seed=int(meta["seed"]), campaign=dict(meta["campaign"]),
+                       fidelity=tables["fidelity"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ResultsError(f"{cls.META_FILE}: not the metadata of a saved {cls.WHAT} ({exc})") from exc
 
 
 def _check(alpha: float, factor: float, n_boot: int, min_n: int) -> None:
@@ -255,7 +254,7 @@ def compare_with_paper(results: pd.DataFrame, paper: pd.DataFrame, *, metadata: 
     table["verdict"] = [str(_verdict(p, lo, hi, k, alpha=alpha, factor=factor, min_n=min_n))
                         for p, lo, hi, k in zip(table["p_holm"], table["ratio_low"], table["ratio_high"], n)]
     return Fidelity(alpha=float(alpha), factor=float(factor), min_n=int(min_n), n_boot=int(n_boot), seed=int(seed),
-                    campaign=_campaign(metadata or {}), table=FIDELITY.conform(table))
+                    campaign=_campaign(metadata or {}), fidelity=FIDELITY.conform(table))
 
 
 def _campaign(metadata: Mapping) -> dict:

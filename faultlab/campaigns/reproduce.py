@@ -73,7 +73,7 @@ def quick_overrides(experiment: Experiment) -> dict:
         "n_steps": QUICK_STEPS,
     }
     if experiment.slam.name == "fastslam":
-        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.config.n_particles)}
+        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.config.particles)}
     return overrides
 
 

@@ -44,7 +44,7 @@ def _handler(args: argparse.Namespace) -> int:
     plugins = not args.no_plugins
     if args.check:
         report = check_faults(args.names or None, seed=args.seed, n_seeds=args.repetitions, n_steps=args.steps,
-                              n_particles=args.particles, plugins=plugins)
+                              particles=args.particles, plugins=plugins)
         print(report)
         return 0 if report.ok else 1
     listing = list_faults(plugins=plugins)

@@ -275,7 +275,7 @@ def check_faults(
     scenario=None,
     n_steps: int | None = None,
     config=None,
-    n_particles: int | None = None,
+    particles: int | None = None,
     plugins: bool = True,
 ) -> FaultCheckReport:
     """Run each fault against the reference and flag equivalent mutants.
@@ -296,8 +296,8 @@ def check_faults(
         Active steps of the default scenario (default :data:`CHECK_N_STEPS`).
     config : FastSlamConfig, optional
         Defaults to ``FastSlamConfig()`` (the paper's 200 particles).
-    n_particles : int, optional
-        Overrides ``config.n_particles``.
+    particles : int, optional
+        Overrides ``config.particles``.
     plugins : bool
         Include plugin faults when ``faults`` is None.
 
@@ -311,8 +311,8 @@ def check_faults(
     faults, plugin_errors = _faults_to_check(faults, plugins=plugins)
     scenario, origin = _scenario_to_check(scenario, seed=seed, n_steps=n_steps)
     config = FastSlamConfig() if config is None else config
-    if n_particles is not None:
-        config = dataclasses.replace(config, n_particles=n_particles)
+    if particles is not None:
+        config = dataclasses.replace(config, particles=particles)
     reference = FastSlam(config)
     seeds = _slam_seeds(seed, n_seeds)
     ref_estimates = [run_slam(reference, scenario, rng=np.random.default_rng(ss)) for ss in seeds]
@@ -323,7 +323,7 @@ def check_faults(
     checks = tuple(_check_one(_faulty(reference, config, fault), fault, scenario, seeds, ref_estimates)
                    for fault in faults)
     desc = (f"{origin}: {scenario.n_steps} steps, {scenario.landmarks.shape[0]} landmarks, "
-            f"scenario seed {scenario.seed}, {config.n_particles} particles")
+            f"scenario seed {scenario.seed}, {config.particles} particles")
     spread = estimate_difference(ref_estimates[0], ref_estimates[1])[0] if n_seeds > 1 else math.nan
     ref_rms = _nanmean([_rms_mm(scenario, e) for e in ref_estimates])
     return FaultCheckReport(checks=checks, scenario=desc, seeds=tuple(range(n_seeds)),

@@ -187,8 +187,8 @@ EXTRA_EXAMPLES: dict[str, tuple[UnitExample, ...]] = {
 
 
 @functools.lru_cache(maxsize=8)
-def _reference_examples(n_particles: int, n_steps: int, seed: int) -> dict[str, tuple[UnitExample, ...]]:
-    slam = FastSlam(FastSlamConfig(n_particles=n_particles))
+def _reference_examples(particles: int, n_steps: int, seed: int) -> dict[str, tuple[UnitExample, ...]]:
+    slam = FastSlam(FastSlamConfig(particles=particles))
     recorded = record_unit_examples(slam, check_scenario(seed=seed, n_steps=n_steps),
                                     rng=np.random.default_rng(np.random.SeedSequence([seed, 2])))
     return _merge(fault_unit_examples(), EXTRA_EXAMPLES, recorded)
@@ -219,8 +219,8 @@ def unit_examples(slam=None, *, n_steps: int = EXAMPLE_STEPS, seed: int = 0) -> 
     """
     if slam is None or (isinstance(slam, FastSlam) and type(slam.steps) is FastSlamSteps
                         and slam.steps.replaced() == ()
-                        and dataclasses.replace(slam.config, n_particles=EXAMPLE_PARTICLES)
-                        == FastSlamConfig(n_particles=EXAMPLE_PARTICLES)):
+                        and dataclasses.replace(slam.config, particles=EXAMPLE_PARTICLES)
+                        == FastSlamConfig(particles=EXAMPLE_PARTICLES)):
         return _reference_examples(EXAMPLE_PARTICLES, n_steps, seed)
     recorded = record_unit_examples(slam, check_scenario(seed=seed, n_steps=n_steps),
                                     rng=np.random.default_rng(np.random.SeedSequence([seed, 2])))

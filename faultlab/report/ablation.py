@@ -1,7 +1,8 @@
 """The ablation page: each isolated difference from the paper's filter and its effect on map errors.
 
 Renders a :class:`faultlab.analysis.ablation.AblationResult` (nothing is computed here):
-``ablation.csv`` (the table as computed), ``ablation.md`` (what ran, the rule, one table per
+``ablation.csv`` and ``ablation.json`` (the table as computed and its settings, written by the
+result's :meth:`~faultlab.analysis.bundle.TableBundle.save`), ``ablation.md`` (what ran, the rule, one table per
 difference, and a sentence per row the paper-fidelity page quotes) and the same as pages of ``report.pdf``.
 """
 
@@ -14,7 +15,7 @@ from pathlib import Path
 import pandas as pd
 from matplotlib.figure import Figure
 
-from faultlab.analysis.ablation import ABLATION, ABLATION_CSV, AblationResult
+from faultlab.analysis.ablation import ABLATION_CSV, ABLATION_JSON, AblationResult
 from faultlab.report.pdf import table_pages, text_pages
 from faultlab.report.tables import format_mm, md_table, variant_label
 from faultlab.slam.profiles import ABLATIONS
@@ -30,10 +31,11 @@ class AblationFiles:
     """The files :func:`write_ablation` wrote."""
 
     csv: Path
+    meta: Path
     markdown: Path
 
     def __str__(self) -> str:
-        return f"ablation: {self.csv}, {self.markdown}"
+        return f"ablation: {self.csv}, {self.meta}, {self.markdown}"
 
 
 def _mm1(value: float) -> str:
@@ -83,7 +85,7 @@ def _display(table: pd.DataFrame) -> pd.DataFrame:
 
 def effect_sentence(result: AblationResult, point: str) -> str:
     """One sentence on ``point``'s effect (the paper-fidelity page's figure column), or "" if it was not run."""
-    t = result.table[result.table["point"] == point]
+    t = result.ablation[result.ablation["point"] == point]
     if t.empty:
         return ""
     parts = []
@@ -97,8 +99,8 @@ def effect_sentence(result: AblationResult, point: str) -> str:
 def _sections(result: AblationResult):
     """(point, change, arms text, rows) per ablation that ran, in the order of ABLATIONS."""
     changes = {a.point: a for a in ABLATIONS}
-    for point in dict.fromkeys(result.table["point"]):
-        rows = result.table[result.table["point"] == point]
+    for point in dict.fromkeys(result.ablation["point"]):
+        rows = result.ablation[result.ablation["point"] == point]
         a = changes.get(point)
         change = a.change if a is not None else ""
         arms = f"`{rows['paper_arm'].iloc[0]}` (paper's choice) against `{rows['alternative_arm'].iloc[0]}`"
@@ -127,10 +129,8 @@ def ablation_pages(result: AblationResult) -> list[Figure]:
 
 
 def write_ablation(result: AblationResult, reports_dir: str | Path) -> AblationFiles:
-    """Write ``ablation.csv`` and ``ablation.md`` to ``reports_dir`` (created)."""
-    d = Path(reports_dir)
-    d.mkdir(parents=True, exist_ok=True)
-    csv = ABLATION.to_csv(result.table, d / ABLATION_CSV)
+    """Write ``ablation.csv``, ``ablation.json`` and ``ablation.md`` to ``reports_dir`` (created)."""
+    d = result.save(reports_dir)
     md = d / ABLATION_MD
     md.write_text(ablation_markdown(result))
-    return AblationFiles(csv=csv, markdown=md)
+    return AblationFiles(csv=d / ABLATION_CSV, meta=d / ABLATION_JSON, markdown=md)

@@ -1,9 +1,10 @@
 """The fidelity page: this run's RMS distributions against the paper's raw data, per suite and variant.
 
 Renders a :class:`faultlab.analysis.fidelity.Fidelity` (nothing is computed here): ``fidelity.csv``
-(the table as computed), ``fidelity.md`` (what ran, the rule, the table in mm, and in words which
-figures are reproduced, which differ and where the faulty-rotation errors lie against the paper's)
-and the same as pages of ``report.pdf`` (:func:`fidelity_pages`).  Given the ablation of the paper
+and ``fidelity.json`` (the table as computed and its settings, written by the result's
+:meth:`~faultlab.analysis.bundle.TableBundle.save`), ``fidelity.md`` (what ran, the rule, the table
+in mm, and in words which figures are reproduced, which differ and where the faulty-rotation errors
+lie against the paper's) and the same as pages of ``report.pdf`` (:func:`fidelity_pages`).  Given the ablation of the paper
 profile's differences (:class:`faultlab.analysis.ablation.AblationResult`), the faulty-rotation
 statement quotes the effect of every difference that acts on that fault.
 """
@@ -17,7 +18,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from faultlab.analysis.ablation import AblationResult
-from faultlab.analysis.fidelity import FIDELITY, FIDELITY_CSV, Fidelity, Verdict
+from faultlab.analysis.fidelity import FIDELITY_CSV, FIDELITY_JSON, Fidelity, Verdict
 from faultlab.report.pdf import table_pages, text_pages
 from faultlab.report.tables import format_mm, md_table, suite_label, variant_label
 from faultlab.vocabulary import PAPER_PROTOCOL
@@ -39,10 +40,11 @@ class FidelityFiles:
     """The files :func:`write_fidelity` wrote."""
 
     csv: Path
+    meta: Path
     markdown: Path
 
     def __str__(self) -> str:
-        return f"fidelity: {self.csv}, {self.markdown}"
+        return f"fidelity: {self.csv}, {self.meta}, {self.markdown}"
 
 
 def _ratio_text(row) -> str:
@@ -90,7 +92,7 @@ def _rule_text(fid: Fidelity) -> str:
 
 
 def _display(fid: Fidelity) -> pd.DataFrame:
-    t = fid.table
+    t = fid.fidelity
     return pd.DataFrame({
         "suite": [suite_label(s) for s in t["suite"]],
         "variant": [variant_label(v) for v in t["variant"]],
@@ -134,7 +136,7 @@ def _rotation_evidence(ablation: AblationResult | None) -> list[str]:
 
 
 def _rotation_text(fid: Fidelity, ablation: AblationResult | None = None) -> list[str]:
-    t = fid.table[fid.table["variant"] == _ROTATION]
+    t = fid.fidelity[fid.fidelity["variant"] == _ROTATION]
     if t.empty:
         return []
     lo, hi = float(t["min_mm"].min()), float(t["max_mm"].max())
@@ -168,10 +170,10 @@ def _per_suite_test_text(fid: Fidelity, t: pd.DataFrame) -> str:
 def _summary_blocks(fid: Fidelity) -> list[str]:
     reproduced = fid.cells(Verdict.REPRODUCED)
     differs = fid.cells(Verdict.DIFFERS)
-    in_ci = fid.table[fid.table["paper_median_in_ci"]]
-    return [f"Reproduced ({len(reproduced)} of {len(fid.table)}): {_cells(reproduced)}.",
+    in_ci = fid.fidelity[fid.fidelity["paper_median_in_ci"]]
+    return [f"Reproduced ({len(reproduced)} of {len(fid.fidelity)}): {_cells(reproduced)}.",
             f"Differs ({len(differs)}): {_cells(differs)}.",
-            f"The paper's median lies within this run's interval ({len(in_ci)} of {len(fid.table)}): "
+            f"The paper's median lies within this run's interval ({len(in_ci)} of {len(fid.fidelity)}): "
             f"{_cells(in_ci)}."]
 
 
@@ -209,10 +211,8 @@ def fidelity_pages(fid: Fidelity, ablation: AblationResult | None = None) -> lis
 
 
 def write_fidelity(fid: Fidelity, reports_dir: str | Path, ablation: AblationResult | None = None) -> FidelityFiles:
-    """Write ``fidelity.csv`` and ``fidelity.md`` to ``reports_dir`` (created)."""
-    d = Path(reports_dir)
-    d.mkdir(parents=True, exist_ok=True)
-    csv = FIDELITY.to_csv(fid.table, d / FIDELITY_CSV)
+    """Write ``fidelity.csv``, ``fidelity.json`` and ``fidelity.md`` to ``reports_dir`` (created)."""
+    d = fid.save(reports_dir)
     md = d / FIDELITY_MD
     md.write_text(fidelity_markdown(fid, ablation))
-    return FidelityFiles(csv=csv, markdown=md)
+    return FidelityFiles(csv=d / FIDELITY_CSV, meta=d / FIDELITY_JSON, markdown=md)

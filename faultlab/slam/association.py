@@ -152,7 +152,7 @@ class _UnknownAssociationSlam(ParticleFilterSlam):
         self._log_p0 = self._config.log_p0
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
-        self._begin(AssociationState.initial(self._start_pose(pose, rng), self._config.n_particles), rng)
+        self._begin(AssociationState.initial(self._start_pose(pose, rng), self._config.particles), rng)
 
     def _associate(self, poses: np.ndarray, z: np.ndarray) -> Association:
         """Every particle's maximum-likelihood association of the observations ``z`` (k, 2) from ``poses``.

@@ -190,7 +190,7 @@ class FastSlamConfig(NoiseConfig):
 
     Attributes
     ----------
-    n_particles : int
+    particles : int
         Number of particles N (>= 1).
     resample_ratio : float
         Resample when ``N_eff < N / resample_ratio`` (>= 1).
@@ -205,14 +205,14 @@ class FastSlamConfig(NoiseConfig):
         Left out of the options while at its default.
     """
 
-    n_particles: int = PAPER_PROTOCOL["particles"]
+    particles: int = PAPER_PROTOCOL["particles"]
     resample_ratio: float = 1.5
     association: str = KNOWN_ASSOCIATION
     new_landmark_sigmas: float = 3.0
 
     #: field -> its setting in an experiment's ``[slam]`` table (angles in degrees there).
     OPTIONS: ClassVar[dict[str, Option]] = {
-        "n_particles": Option("particles", integer=True, bounds={"minimum": 1}),
+        "particles": Option("particles", integer=True, bounds={"minimum": 1}),
         **NoiseConfig.OPTIONS,
         "resample_ratio": Option("resample_ratio", bounds={"minimum": 1.0}),
         "association": Option("association", choices=ASSOCIATIONS, omit_default=True),
@@ -512,7 +512,7 @@ class FastSlam(UnitSlam):
 
     def _start(self, p: np.ndarray, rngs: list[np.random.Generator], *, isolate: bool) -> None:
         """Set up ``len(rngs)`` filters at the validated start pose ``p``."""
-        n, b = self._config.n_particles, len(rngs)
+        n, b = self._config.particles, len(rngs)
         cap = 16
         self._n = n
         self._n_reps = b

@@ -137,7 +137,7 @@ class FastSlam2(ParticleFilterSlam):
 
     def reset(self, pose: np.ndarray, *, rng: np.random.Generator) -> None:
         p = self._start_pose(pose, rng)
-        self._begin(ParticleState.initial(p, self._config.n_particles), rng)
+        self._begin(ParticleState.initial(p, self._config.particles), rng)
         self._ident = self._state.owner  # arange(N); lineage starts as this very object
         self._index = LandmarkIndex()
 

@@ -93,7 +93,7 @@ PAPER_LENGTH_UNIT = 0.1
 
 #: The paper's filter settings in SI: 200 particles; Q = diag(3.0, 10 deg)^2 and R = diag(1.0, 20 deg)^2 in
 #: filter units are diag(0.3 m, 10 deg)^2 and diag(0.1 m, 20 deg)^2; resampling when N_eff < N / 1.5.
-PAPER_CONFIG = FastSlamConfig(n_particles=PAPER_PROTOCOL["particles"], std_v=1.0 * PAPER_LENGTH_UNIT, std_omega=math.radians(20.0),
+PAPER_CONFIG = FastSlamConfig(particles=PAPER_PROTOCOL["particles"], std_v=1.0 * PAPER_LENGTH_UNIT, std_omega=math.radians(20.0),
                               std_range=3.0 * PAPER_LENGTH_UNIT, std_bearing=math.radians(10.0),
                               resample_ratio=1.5)
 
@@ -120,7 +120,7 @@ def _rows(*rows: tuple[str, str, str, str]) -> tuple[Difference, ...]:
 _FILTER_NOISE_WHY = ("sets how far the particles spread per step and how sharply observations weigh them; "
                      "read in metres the paper's numbers would be 10 times too large")
 _PARTICLES = ("particles, resampling threshold", "N_PARTICLE = 200; resample when n_eff < N / 1.5",
-              "n_particles = 200, resample_ratio = 1.5", "same")
+              "particles = 200, resample_ratio = 1.5", "same")
 _LENGTH_UNIT = ("length unit", "0.1 m: maps, ranges and drives are integer mm, the adapter divides them by 100",
                 "SI (m); the unit-dependent constants are converted (noise, new-landmark tolerance, weight "
                 "underflow, output rounding)", "a constant read in the wrong unit is off by a factor of 10")

@@ -62,18 +62,18 @@ def test_compare_arms_pairs_by_case_and_drops_failed_jobs():
                    ("fixed", 3, "baseline"): 300.0, ("fixed", 4, "baseline"): 400.0,
                    ("fixed", 1, "missing_angle_wrap"): 1000.0})
     res = compare_arms({"a": left, "b": right}, ablations=[paper], n_boot=200, seed=3)
-    assert list(res.table["variant"]) == ["baseline", "missing_angle_wrap"]
+    assert list(res.ablation["variant"]) == ["baseline", "missing_angle_wrap"]
     base = res.row("weights", "baseline")
     assert base.n == 2 and base.diff_median_mm == 15.0 and base.paper_median_mm == 165.0  # cases 1, 2 only
     rot = res.row("weights", "missing_angle_wrap")
     assert rot.n == 1 and rot.diff_median_mm == -100.0 and rot.ratio_median == pytest.approx(0.9)
     # Holm over two tests: the smaller p times 2, the larger max(itself, that), capped at 1
-    p = np.sort(res.table["p"].to_numpy())
-    assert np.sort(res.table["p_holm"].to_numpy()) == pytest.approx([min(1, 2 * p[0]), min(1, max(2 * p[0], p[1]))])
+    p = np.sort(res.ablation["p"].to_numpy())
+    assert np.sort(res.ablation["p_holm"].to_numpy()) == pytest.approx([min(1, 2 * p[0]), min(1, max(2 * p[0], p[1]))])
     assert res.row("weights", "naive_resampling") is None
     # an ablation with an arm missing is left out; none at all is an error
     assert compare_arms({"a": left, "b": right, "c": right},
-                        ablations=[paper, Ablation("x", Arm("a"), Arm("zz"), "")], n_boot=200).table.shape[0] == 2
+                        ablations=[paper, Ablation("x", Arm("a"), Arm("zz"), "")], n_boot=200).ablation.shape[0] == 2
     with pytest.raises(ResultsError, match="no ablation"):
         compare_arms({"a": left}, ablations=[paper])
     with pytest.raises(ConfigError, match="n_boot"):
@@ -88,6 +88,6 @@ def test_save_and_load_round_trip(tmp_path):
     assert res.row("map output", "baseline").diff_median_mm == pytest.approx(0.4)
     res.save(tmp_path)
     back = AblationResult.load(tmp_path)
-    pd.testing.assert_frame_equal(back.table, res.table)
+    pd.testing.assert_frame_equal(back.ablation, res.ablation)
     assert back.campaign == {"runs": 1} and back.n_boot == 200
     assert list(ABLATION.read_csv(tmp_path / "ablation.csv").columns) == list(ABLATION.columns)

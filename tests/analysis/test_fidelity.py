@@ -63,7 +63,7 @@ def constructed():
 def test_p_values_are_scipys_and_holm_is_holms(constructed):
     results, paper, this, ref = constructed
     fid = compare_with_paper(results, paper, n_boot=500)
-    t = fid.table
+    t = fid.fidelity
     for row in t.itertuples():
         x, y = this[(row.suite, row.variant)], ref[(row.suite, row.variant)]
         res = mannwhitneyu(x, y, alternative="two-sided")
@@ -77,20 +77,20 @@ def test_p_values_are_scipys_and_holm_is_holms(constructed):
 def test_verdicts_on_constructed_data(constructed):
     results, paper, *_ = constructed
     fid = compare_with_paper(results, paper, n_boot=2000, seed=3)
-    verdict = dict(zip(fid.table["variant"], fid.table["verdict"]))
+    verdict = dict(zip(fid.fidelity["variant"], fid.fidelity["verdict"]))
     assert verdict == {BASELINE: "reproduced", PAPER_FAULTS[0]: "differs", PAPER_FAULTS[1]: "inconclusive"}
-    tenfold = fid.table[fid.table["variant"] == PAPER_FAULTS[0]].iloc[0]
+    tenfold = fid.fidelity[fid.fidelity["variant"] == PAPER_FAULTS[0]].iloc[0]
     assert tenfold.ratio_low > 5 and not tenfold.paper_median_in_ci
-    same = fid.table[fid.table["variant"] == BASELINE].iloc[0]
+    same = fid.fidelity[fid.fidelity["variant"] == BASELINE].iloc[0]
     assert 0.9 < same.ratio_low <= same.ratio <= same.ratio_high < 1.1
 
 
 def test_a_stricter_factor_or_too_few_values_turn_reproduced_into_inconclusive(constructed):
     results, paper, *_ = constructed
     strict = compare_with_paper(results, paper, n_boot=2000, factor=1.0001)
-    assert strict.table.loc[strict.table["variant"] == BASELINE, "verdict"].item() == "inconclusive"
+    assert strict.fidelity.loc[strict.fidelity["variant"] == BASELINE, "verdict"].item() == "inconclusive"
     few = compare_with_paper(results, paper, n_boot=2000, min_n=16)
-    assert set(few.table["verdict"]) == {"differs", "inconclusive"}
+    assert set(few.fidelity["verdict"]) == {"differs", "inconclusive"}
 
 
 def test_same_seed_same_intervals_and_bad_rows_are_ignored(constructed):
@@ -98,9 +98,9 @@ def test_same_seed_same_intervals_and_bad_rows_are_ignored(constructed):
     crashed = results.iloc[:3].assign(status="crash", rms_mm=np.nan)
     a = compare_with_paper(results, paper, n_boot=300, seed=9)
     b = compare_with_paper(pd.concat([results, crashed]), paper, n_boot=300, seed=9)
-    pd.testing.assert_frame_equal(a.table, b.table)
+    pd.testing.assert_frame_equal(a.fidelity, b.fidelity)
     c = compare_with_paper(results, paper, n_boot=300, seed=10)
-    assert not np.allclose(a.table["ratio_low"], c.table["ratio_low"])
+    assert not np.allclose(a.fidelity["ratio_low"], c.fidelity["ratio_low"])
 
 
 @settings(max_examples=25, deadline=None)
@@ -122,11 +122,17 @@ def test_save_and_load_round_trip(constructed, tmp_path):
     assert fid.campaign["reduced"] and fid.campaign["profile"] == "paper" and fid.campaign["fov_bug"]
     fid.save(tmp_path)
     back = Fidelity.load(tmp_path)
-    pd.testing.assert_frame_equal(back.table, fid.table)
+    pd.testing.assert_frame_equal(back.fidelity, fid.fidelity)
     assert (back.alpha, back.factor, back.min_n, back.n_boot, back.campaign) == \
         (fid.alpha, fid.factor, fid.min_n, fid.n_boot, fid.campaign)
-    assert tuple(back.table.columns) == FIDELITY.columns
+    assert tuple(back.fidelity.columns) == FIDELITY.columns
     assert set(Verdict) == {"reproduced", "differs", "inconclusive"}
+    assert back.table("fidelity") is back.fidelity
+    with pytest.raises(ResultsError, match="unknown fidelity comparison table 'table'"):
+        back.table("table")
+    (tmp_path / "fidelity.json").write_text('{"alpha": 0.05}')
+    with pytest.raises(ResultsError, match="fidelity.json"):
+        Fidelity.load(tmp_path)
 
 
 @pytest.mark.parametrize("kwargs", [{"alpha": 0.0}, {"factor": 1.0}, {"n_boot": 10}, {"min_n": 0}])

@@ -38,7 +38,7 @@ def test_quick_overrides_shrink_the_paper_protocol():
     assert quick.runs == 1
     assert {s.kind: s.n_cases for s in quick.suites} == {"systematic": None, "random": 2, "fixed": 2}
     assert quick.variants == ("baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error")
-    assert quick.slam.config.n_particles == 60 and quick.n_steps == 200 and quick.repetitions == 1
+    assert quick.slam.config.particles == 60 and quick.n_steps == 200 and quick.repetitions == 1
     assert quick.seed == paper.seed and quick.detection == paper.detection
     assert quick.hash != paper.hash
 
@@ -75,7 +75,7 @@ def test_quick_and_runs_together(captured, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     reproduce(PAPER_TOML, quick=True, runs=2, progress=False)
     experiment, out, _ = captured["run"]
-    assert experiment.runs == 2 and experiment.slam.config.n_particles == 60
+    assert experiment.runs == 2 and experiment.slam.config.particles == 60
     assert out == Path("results/paper-quick-runs2")
 
 
@@ -118,7 +118,7 @@ def test_profile_paper_runs_the_papers_filter_with_fov_bug_beside_the_default(ca
     assert out == Path("results/paper-profile-paper")
     reproduce(profile="paper", quick=True, progress=False)
     experiment, out, _ = captured["run"]
-    assert experiment.slam.profile == "paper" and experiment.fov_bug and experiment.slam.config.n_particles == 60
+    assert experiment.slam.profile == "paper" and experiment.fov_bug and experiment.slam.config.particles == 60
     assert out == Path("results/paper-profile-paper-quick")
     assert default_reports(Path("x")) == Path("x/report") and default_out("paper", profile="x") == Path("results/paper-profile-x")
 

@@ -70,7 +70,7 @@ def test_the_shipped_study_runs_the_paper_faults_and_sampled_mutants_at_both_sca
                                                                        alternative="two-sided")
     assert quick.experiment.variants[:18] == full.experiment.variants[:18]          # the 17 faults at both scales
     assert quick.experiment.space["inactivity"]["classes"]["inactive"] == [120]
-    assert dict(quick.experiment.slam.options)["particles"] == 20 and full.experiment.slam.config.n_particles == 200
+    assert dict(quick.experiment.slam.options)["particles"] == 20 and full.experiment.slam.config.particles == 200
     assert quick.study.multiplicity == "holm" and not quick.study.timeouts_detect
 
 

@@ -79,7 +79,7 @@ def test_check_scenario_exercises_angles_inactivity_and_landmarks_near_x0():
 
 def test_faults_never_leak_into_the_reference():
     scenario = check_scenario(seed=1, n_steps=40)
-    cfg = FastSlamConfig(n_particles=20)
+    cfg = FastSlamConfig(particles=20)
     reference = FastSlam(cfg)
     first = _run(reference, scenario, seed=7)
     for fault in all_faults():  # reference, fault A, reference, fault B, ...
@@ -104,7 +104,7 @@ def test_faults_never_leak_into_the_reference():
 def test_check_flags_equivalent_and_crashing_faults():
     scenario = check_scenario(seed=2, n_steps=40)
     report = check_faults([IDENTITY, "missing_angle_wrap", "tests.faults.test_check:CRASHER"],
-                          scenario=scenario, n_seeds=2, n_particles=20)
+                          scenario=scenario, n_seeds=2, particles=20)
     by_name = {c.name: c for c in report}
     assert len(report) == 3 and report[0].name == "test/identity"
     ident = by_name["test/identity"]
@@ -126,7 +126,7 @@ def test_check_flags_equivalent_and_crashing_faults():
 
 def test_check_passes_when_no_fault_is_equivalent():
     scenario = check_scenario(seed=2, n_steps=40)
-    report = check_faults(["motion_sign_error"], scenario=scenario, n_seeds=1, n_particles=20)
+    report = check_faults(["motion_sign_error"], scenario=scenario, n_seeds=1, particles=20)
     assert report.ok and report.equivalent == [] and "all 1 faults change the output" in str(report)
     with pytest.raises(FaultError, match="n_seeds"):
         check_faults(["motion_sign_error"], scenario=scenario, n_seeds=0)
@@ -161,18 +161,18 @@ def test_sensor_faults_are_checked_on_their_stream_and_option_with_the_same_seed
 
     scenario = check_scenario(seed=2, n_steps=40)
     budget = get_fault("particle_budget")
-    report = check_faults([_dropout(1.0), _dropout(0.0), budget], scenario=scenario, n_seeds=2, n_particles=20)
+    report = check_faults([_dropout(1.0), _dropout(0.0), budget], scenario=scenario, n_seeds=2, particles=20)
     by_name = {c.name: c for c in report}
     # planted references: the reference FastSLAM run by hand on the case without observations, and
     # with a quarter of the particles, each with the check's SeedSequence([seed, 1, k])
     seeds = [np.random.SeedSequence([0, 1, k]) for k in range(2)]
-    config = FastSlamConfig(n_particles=20)
+    config = FastSlamConfig(particles=20)
     blind = dataclasses.replace(scenario, obs_offsets=np.zeros_like(scenario.obs_offsets),
                                 obs_range=scenario.obs_range[:0], obs_bearing=scenario.obs_bearing[:0],
                                 obs_ids=scenario.obs_ids[:0])
     ref = [run_slam(FastSlam(config), scenario, rng=np.random.default_rng(ss)) for ss in seeds]
     none = [run_slam(FastSlam(config), blind, rng=np.random.default_rng(ss)) for ss in seeds]
-    few = [run_slam(FastSlam(FastSlamConfig(n_particles=5)), scenario, rng=np.random.default_rng(ss)) for ss in seeds]
+    few = [run_slam(FastSlam(FastSlamConfig(particles=5)), scenario, rng=np.random.default_rng(ss)) for ss in seeds]
     total = by_name["test/dropout_1"]
     assert total.status is CheckStatus.DIFFERS and total.n_identical == 0
     assert total.pose_diff_m == pytest.approx(np.mean([estimate_difference(a, b)[1] for a, b in zip(none, ref)]))

@@ -135,7 +135,7 @@ def test_example_plugin_is_installed_and_discovered_through_entry_points():
     from faultlab.slam import FastSlam, FastSlamConfig, run_slam
 
     scenario = check_scenario(seed=3, n_steps=30)
-    slam = FastSlam(FastSlamConfig(n_particles=20))
+    slam = FastSlam(FastSlamConfig(particles=20))
     ref = run_slam(slam, scenario, rng=np.random.default_rng(0))
     est = run_slam(get_fault("example/double_range_offset").apply(slam), scenario, rng=np.random.default_rng(0))
     assert not estimates_identical(est, ref)

@@ -34,7 +34,7 @@ def _rngs(k=3, seed=0):
 
 
 def _fastslam():
-    return FastSlam(FastSlamConfig(n_particles=30))
+    return FastSlam(FastSlamConfig(particles=30))
 
 
 @pytest.fixture(scope="module")

@@ -94,8 +94,8 @@ def test_recording_needs_units():
 
 
 def test_another_configuration_records_its_own_examples(examples):
-    assert unit_examples(FastSlam(FastSlamConfig(n_particles=7))) is examples  # particles do not matter
-    exs = unit_examples(FastSlam(FastSlamConfig(n_particles=7, std_v=0.2)), n_steps=20)
+    assert unit_examples(FastSlam(FastSlamConfig(particles=7))) is examples  # particles do not matter
+    exs = unit_examples(FastSlam(FastSlamConfig(particles=7, std_v=0.2)), n_steps=20)
     (poses, u), _ = _recorded(exs["motion_model"])[0].make_args()
     assert poses.shape == (7, 3)
     (u, n, rng, config), _ = _recorded(exs["sample_controls"])[0].make_args()

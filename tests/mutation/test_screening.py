@@ -174,6 +174,6 @@ def test_unit_level_classes_agree_with_whole_slam_runs():
     mutants = generate_mutants(REFERENCE_STEPS, units=["combine_weights", "innovation_covariance",
                                                        "effective_sample_size"], plugins=False)
     ids = ["combine_weights:axis:2", "innovation_covariance:comparison:1", "effective_sample_size:arithmetic:1"]
-    report = check_faults([mutant_fault(mutants.get(i), FastSlamSteps) for i in ids], n_steps=40, n_particles=20,
+    report = check_faults([mutant_fault(mutants.get(i), FastSlamSteps) for i in ids], n_steps=40, particles=20,
                           n_seeds=1, plugins=False)
     assert [c.status for c in report] == [CheckStatus.EQUIVALENT, CheckStatus.EQUIVALENT, CheckStatus.DIFFERS]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from faultlab.analysis.ablation import ABLATION, compare_arms
+from faultlab.analysis.ablation import ABLATION, AblationResult, compare_arms
 from faultlab.report.ablation import ablation_markdown, ablation_pages, effect_sentence, write_ablation
 from faultlab.slam.profiles import ABLATIONS
 
@@ -30,14 +30,19 @@ def test_markdown_has_one_table_per_difference_and_every_row(tmp_path):
     assert "REDUCED" in md and "Wilcoxon" in md and "1000 steps per case, 200 particles" in md
     assert "(every arm: fixed 5 cases)" in md
     rows = [line for line in md.splitlines() if line.startswith("| ") and "---" not in line and "variant" not in line]
-    assert len(rows) == len(res.table) == 4
+    assert len(rows) == len(res.ablation) == 4
     assert "| Nonfaulty Baseline | 5 | 153 / 103 | 50.0 [50.0, 50.0] |" in md  # paper - paper_no_aliasing
     assert "| Nonfaulty Baseline | 5 | 103 / 98 | 5.0 [5.0, 5.0] |" in md
     assert effect_sentence(res, "weights").startswith("paired median difference paper - alternative: "
                                                       "Nonfaulty Baseline 5.0 mm [5.0, 5.0]")
     assert effect_sentence(res, "map output") == ""
     files = write_ablation(res, tmp_path)
-    pd.testing.assert_frame_equal(ABLATION.read_csv(files.csv), res.table)
+    pd.testing.assert_frame_equal(ABLATION.read_csv(files.csv), res.ablation)
+    # the result's own save wrote the table: the bytes the schema writes, read back with its settings
+    assert files.csv.read_bytes() == ABLATION.to_csv(res.ablation, tmp_path / "schema.csv").read_bytes()
+    back = AblationResult.load(files.meta.parent)
+    assert (back.alpha, back.n_boot, back.seed, back.campaign) == (res.alpha, res.n_boot, res.seed, res.campaign)
+    pd.testing.assert_frame_equal(back.table("ablation"), res.ablation)
     assert files.markdown.read_text() == md
 
 

@@ -282,7 +282,7 @@ def test_the_fidelity_and_ablation_pages_are_in_the_pdf(built, tiny_store, tmp_p
     assert titles[i - 1].startswith("Comparison with the paper, row by row")
     text = _pdf_text(with_pages.pdf)
     assert "Faulty rotation" in text[i + 1] and "Mann-Whitney" in text[i + 1]
-    fixed_rot = fid.table[(fid.table.suite == "fixed") & (fid.table.variant == "missing_angle_wrap")].iloc[0]
+    fixed_rot = fid.fidelity[(fid.fidelity.suite == "fixed") & (fid.fidelity.variant == "missing_angle_wrap")].iloc[0]
     assert f"{round_mm(fixed_rot.median_mm)} [" in text[i]
     assert "resampling copies" in text[i + 3] and "Wilcoxon" in text[i + 2]
     keywords = pypdf.PdfReader(str(with_pages.pdf)).metadata["/Keywords"]

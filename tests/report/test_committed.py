@@ -1,119 +1,29 @@
-"""Every committed report is what the code renders from its committed store.
+"""Every committed report of the paper's protocol is what the code renders from its committed store.
 
 Each committed store is copied to a temporary directory (so that opening it leaves nothing in the
 repository) and rendered with the function its command uses; every table the committed report holds
-(CSV, Markdown, LaTeX, JSON) must equal the rendered one byte for byte.  A report left stale by a
-change of the code fails here.  The PDFs and figures are rendered too but not compared (they embed
-fonts and dates); instead every committed PDF is read back and none may hold an effect page that
-estimates nothing (see :func:`empty_effect_pages`).
+(CSV, Markdown, LaTeX, JSON) must equal the rendered one byte for byte (:mod:`tests.report.committed`).
+A report left stale by a change of the code fails here.  The PDFs and figures are rendered too but not
+compared (they embed fonts and dates).  The studies' reports: ``test_committed_studies``.
 """
 
 from __future__ import annotations
 
 import re
-import shutil
 from pathlib import Path
 
 import pypdf  # test dependency (pyproject [test] extra): reads the committed PDFs back
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-REPORTS = REPO / "reports"
-TABLE_SUFFIXES = (".csv", ".md", ".tex", ".json")
-
-
-def _copy_store(store: Path, to: Path) -> Path:
-    """The store's files (results and campaign records, not the regenerable cases) copied to ``to``."""
-    to.mkdir(parents=True)
-    for f in store.iterdir():
-        if f.is_file() and f.suffix in (".sqlite", ".json"):
-            shutil.copy2(f, to / f.name)
-    return to
-
-
-def _render_paper(store: Path, out: Path) -> None:
-    from faultlab.report.reproduce import rebuild_report
-
-    rebuild_report(store, out)
-
-
-def _render_mutation(store: Path, out: Path) -> None:
-    from faultlab.report.mutation import write_mutation_report
-
-    write_mutation_report(store, out)
-
-
-def _render_slams(stores: Path, out: Path) -> None:
-    from faultlab.analysis.slams import compare_slams
-    from faultlab.campaigns.slams import slam_stores
-    from faultlab.report.slams import write_slam_report
-
-    found, missing = slam_stores(stores)
-    write_slam_report(compare_slams(found, not_installed=missing), out,
-                      intro=(REPORTS / "slams" / "intro.md").read_text())
-
-
-def _render_robustness(stores: Path, out: Path) -> None:
-    from faultlab.analysis.robustness import robustness
-    from faultlab.campaigns.robustness import robustness_stores
-    from faultlab.report.robustness import write_robustness_report
-
-    write_robustness_report(robustness(robustness_stores(stores)), out,
-                            intro=(REPORTS / "robustness" / "intro.md").read_text())
-
-
-def _render_calibration(store: Path, out: Path) -> None:
-    from faultlab.analysis.calibration import assess_calibration
-
-    result = assess_calibration(store)
-    result.analysis.save(out)
-    result.rates.to_csv(out / "calibration.csv", index=False)
-
-
-def _render_allocation(store: Path, out: Path) -> None:
-    from faultlab.report.allocation import write_allocation_report
-
-    write_allocation_report(store, out, budget=72, ks=[6, 9, 12])
-
-
-#: (committed report directory, its store relative to it, renderer, store holds one store per SLAM)
-COMMITTED = [
-    ("", "store", _render_paper, False),
-    ("paper-k10", "store", _render_paper, False),
-    ("mutation", "store", _render_mutation, False),
-    ("mutation-paper", "store", _render_mutation, False),
-    ("slams", "store", _render_slams, True),
-    ("robustness", "store", _render_robustness, True),
-    ("calibrate-quick", "store", _render_calibration, False),
-    ("study-k", "store", _render_allocation, False),
-]
+from tests.report.committed import (COMMITTED, PAPER_REPORTS, REPO, REPORTS, TABLE_SUFFIXES, check_committed,
+                                    copy_store, report_id)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("report, store, render, per_slam", COMMITTED, ids=[c[0] or "reports" for c in COMMITTED])
+@pytest.mark.parametrize("report, store, render, per_slam", PAPER_REPORTS, ids=[report_id(c) for c in PAPER_REPORTS])
 def test_a_committed_report_is_what_its_committed_store_renders(report, store, render, per_slam, tmp_path,
                                                                  monkeypatch):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    committed = REPORTS / report
-    source = committed / store
-    if per_slam:
-        copy = tmp_path / "stores"
-        for sub in sorted(p for p in source.iterdir() if p.is_dir()):
-            _copy_store(sub, copy / sub.name)
-    else:
-        copy = _copy_store(source, tmp_path / "store")
-    before = sorted(p.name for p in REPORTS.rglob("*"))
-    monkeypatch.chdir(tmp_path)
-    out = tmp_path / "rendered"
-    render(copy, out)
-    rendered = {p.name for p in out.iterdir() if p.suffix in TABLE_SUFFIXES}
-    tables = sorted(p.name for p in committed.iterdir() if p.name in rendered)
-    assert len(tables) >= 4, (report, tables)
-    stale = [name for name in tables if (out / name).read_bytes() != (committed / name).read_bytes()]
-    assert stale == [], f"reports/{report}: stale {stale}; re-render it from its store"
-    assert sorted(p.name for p in REPORTS.rglob("*")) == before  # nothing written into the repository
+    check_committed(report, store, render, per_slam, tmp_path, monkeypatch)
 
 
 def test_every_committed_store_has_its_report_checked():
@@ -134,7 +44,7 @@ def test_the_committed_analysis_tables_of_paper_k10_are_what_its_store_gives(tmp
     from faultlab.analysis import analyse
 
     committed = REPORTS / "paper-k10" / "analysis"
-    analyse(_copy_store(REPORTS / "paper-k10" / "store", tmp_path / "store")).save(tmp_path / "analysis")
+    analyse(copy_store(REPORTS / "paper-k10" / "store", tmp_path / "store")).save(tmp_path / "analysis")
     tables = sorted(p.name for p in committed.glob("*.csv"))
     assert len(tables) >= 20 and sorted(p.name for p in (tmp_path / "analysis").glob("*.csv")) == tables
     for name in tables:
@@ -151,7 +61,7 @@ ADAPTIVE_REPLAY = ["stats", "adaptive", "reports/paper-k10/store", "--stages", "
 def test_the_committed_adaptive_replay_of_paper_k10_is_what_its_store_gives(tmp_path, monkeypatch):
     from faultlab.cli import main
 
-    _copy_store(REPORTS / "paper-k10" / "store", tmp_path / "reports" / "paper-k10" / "store")
+    copy_store(REPORTS / "paper-k10" / "store", tmp_path / "reports" / "paper-k10" / "store")
     monkeypatch.chdir(tmp_path)  # the same relative paths, below a scratch directory
     assert main(ADAPTIVE_REPLAY) == 0
     committed = REPORTS / "paper-k10" / "adaptive"

@@ -32,14 +32,14 @@ def test_markdown_names_what_ran_the_rule_and_every_verdict():
     assert "REDUCED" not in md
     assert "Mann-Whitney U" in md and "Holm" in md and "[1/2, 2]" in md
     table_rows = [line for line in md.splitlines() if line.startswith("| ") and "---" not in line][1:]
-    assert len(table_rows) == len(fid.table) == 4
-    for row, verdict in zip(table_rows, fid.table["verdict"]):
+    assert len(table_rows) == len(fid.fidelity) == 4
+    for row, verdict in zip(table_rows, fid.fidelity["verdict"]):
         assert row.rstrip(" |").endswith(verdict)
-    assert fid.table.loc[(fid.table.suite == "fixed") & (fid.table.variant == "baseline"), "verdict"].item() \
+    assert fid.fidelity.loc[(fid.fidelity.suite == "fixed") & (fid.fidelity.variant == "baseline"), "verdict"].item() \
         == "differs"
     assert "Differs (1): Fixed / Nonfaulty Baseline." in md
     assert "## Faulty rotation (`missing_angle_wrap`)" in md
-    rot = fid.table[fid.table.variant == "missing_angle_wrap"]
+    rot = fid.fidelity[fid.fidelity.variant == "missing_angle_wrap"]
     lo, hi, plo, phi = rot.min_mm.min(), rot.max_mm.max(), rot.paper_min_mm.min(), rot.paper_max_mm.max()
     inside = plo <= lo and hi <= phi  # both samples ~2000 mm with 5 % spread: never far apart
     assert ("within the paper's range." in md) == inside
@@ -50,7 +50,12 @@ def test_a_reduced_campaign_is_labelled_and_files_hold_the_table(tmp_path):
     fid = _fidelity(n_steps=200)
     files = write_fidelity(fid, tmp_path / "r")
     assert "**REDUCED configuration**" in files.markdown.read_text()
-    pd.testing.assert_frame_equal(FIDELITY.read_csv(files.csv), fid.table)
+    pd.testing.assert_frame_equal(FIDELITY.read_csv(files.csv), fid.fidelity)
+    # the result's own save wrote the table: the bytes the schema writes, read back with its settings
+    assert files.csv.read_bytes() == FIDELITY.to_csv(fid.fidelity, tmp_path / "schema.csv").read_bytes()
+    back = Fidelity.load(files.meta.parent)
+    assert (back.alpha, back.seed, back.campaign) == (fid.alpha, fid.seed, fid.campaign) and back.campaign["reduced"]
+    pd.testing.assert_frame_equal(back.table("fidelity"), fid.fidelity)
 
 
 def test_pdf_pages_and_the_ablations_evidence_on_the_faulty_rotation():

@@ -25,19 +25,19 @@ def test_paper_experiment_is_the_papers_protocol():
     assert exp.suites == (SuiteSpec("systematic", 5), SuiteSpec("random", 5), SuiteSpec("fixed", 5))
     assert exp.variants == ("baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error")
     assert exp.repetitions == 1 and exp.n_steps == 1000 and exp.metric == "rms"
-    assert exp.slam.name == "fastslam" and exp.slam.config.n_particles == 200
+    assert exp.slam.name == "fastslam" and exp.slam.config.particles == 200
     # 3 runs x 3 suites x 5 cases x 4 variants = the paper's 180 SLAM executions
     n_cases = sum(s.n_cases for s in exp.suites) * exp.runs
     assert n_cases * len(exp.variants) * exp.repetitions == 180
     cfg = exp.slam.config
-    assert cfg.n_particles == 200
+    assert cfg.particles == 200
     assert cfg.std_omega == pytest.approx(math.radians(20.0)) and cfg.std_bearing == pytest.approx(math.radians(10.0))
     assert exp.detection == DetectionRule(abs_mm=250.0, rel=0.25)
 
 
 def test_smoke_experiment_loads():
     exp = load_experiment(ROOT / "experiments" / "smoke.toml")
-    assert exp.runs >= 1 and exp.n_steps <= 200 and exp.slam.config.n_particles <= 50
+    assert exp.runs >= 1 and exp.n_steps <= 200 and exp.slam.config.particles <= 50
 
 
 def test_defaults_and_roundtrip(tmp_path):
@@ -77,7 +77,7 @@ def test_replace_overrides_and_merges_tables(tmp_path):
     exp = load_experiment(ROOT / "experiments" / "paper.toml")
     quick = exp.replace(runs=1, n_steps=100, slam={"particles": 10}, suites={"random": 2})
     assert quick.runs == 1 and quick.n_steps == 100
-    assert quick.slam.config.n_particles == 10 and quick.slam.config.std_v == exp.slam.config.std_v  # merged
+    assert quick.slam.config.particles == 10 and quick.slam.config.std_v == exp.slam.config.std_v  # merged
     assert dict((s.kind, s.n_cases) for s in quick.suites) == {"systematic": 5, "random": 2, "fixed": 5}
     assert quick.hash != exp.hash
     assert exp.runs == 3  # frozen original unchanged
@@ -178,7 +178,7 @@ def test_slam_profile_is_validated_and_hashed(tmp_path):
     assert paper.slam.profile == "paper" and exp.slam.profile == "reference"
     assert paper.hash != exp.hash
     assert exp.replace(slam={"profile": "reference"}).hash == exp.hash  # naming the default changes nothing
-    assert paper.replace(slam={"particles": 30}).slam.config.n_particles == 30  # the table overrides the profile
+    assert paper.replace(slam={"particles": 30}).slam.config.particles == 30  # the table overrides the profile
     assert paper.replace(slam={"particles": 30}).hash != paper.hash
     assert parse_experiment(paper.to_dict(), source="again").hash == paper.hash  # round trip keeps the profile
     assert paper.slam.build().steps.replaced()  # the paper's units, not the reference's

@@ -70,9 +70,9 @@ def move(pose, v, omega):
 class OracleFastSlam2:
     """Per-particle loop FastSLAM 2.0 with the settings of :class:`faultlab.slam.FastSlamConfig`."""
 
-    def __init__(self, n_particles=200, std_v=0.1, std_omega=math.radians(20.0), std_range=0.3,
+    def __init__(self, particles=200, std_v=0.1, std_omega=math.radians(20.0), std_range=0.3,
                  std_bearing=math.radians(10.0), resample_ratio=1.5):
-        self.n = n_particles
+        self.n = particles
         self.M = np.diag([std_v ** 2, std_omega ** 2])
         self.Q = np.diag([std_range ** 2, std_bearing ** 2])
         self.ratio = resample_ratio

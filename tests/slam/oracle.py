@@ -77,9 +77,9 @@ def landmark_ekf(pose, mu, P, r, b, Q):
 class OracleFastSlam:
     """Per-particle loop FastSLAM 1.0 with the same settings as :class:`faultlab.slam.FastSlamConfig`."""
 
-    def __init__(self, n_particles=200, std_v=0.1, std_omega=math.radians(20.0), std_range=0.3,
+    def __init__(self, particles=200, std_v=0.1, std_omega=math.radians(20.0), std_range=0.3,
                  std_bearing=math.radians(10.0), resample_ratio=1.5):
-        self.n = n_particles
+        self.n = particles
         self.std_v, self.std_omega = std_v, std_omega
         self.Q = np.array([[std_range ** 2, 0.0], [0.0, std_bearing ** 2]])
         self.ratio = resample_ratio

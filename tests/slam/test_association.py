@@ -31,7 +31,7 @@ def _scenario(seed=1, n_steps=40, **values):
 
 
 def _filter(n=1, **kw):
-    cfg = FastSlamConfig(association="unknown", n_particles=n, std_v=0.0, std_omega=0.0, std_range=0.05,
+    cfg = FastSlamConfig(association="unknown", particles=n, std_v=0.0, std_omega=0.0, std_range=0.05,
                          std_bearing=math.radians(2.0), **kw)
     slam = FastSlamUnknown(cfg)
     slam.reset(np.zeros(3), rng=np.random.default_rng(0))
@@ -73,8 +73,8 @@ def test_a_lower_threshold_merges_what_a_higher_one_separates():
 def test_fastslam_unknown_matches_the_per_particle_oracle(seed):
     sc = _scenario(seed=seed, n_steps=25, map_size=9.0, landmark_density=1.5, outlier_probability=5.0)
     n = 6
-    slam = FastSlamUnknown(FastSlamConfig(association="unknown", n_particles=n))
-    oracle = OracleFastSlamUnknown(n_particles=n)
+    slam = FastSlamUnknown(FastSlamConfig(association="unknown", particles=n))
+    oracle = OracleFastSlamUnknown(particles=n)
     slam.reset(sc.start_pose, rng=np.random.default_rng(seed))
     oracle.reset(sc.start_pose, rng=np.random.default_rng(seed))
     sizes = []
@@ -97,7 +97,7 @@ def test_fastslam_unknown_matches_the_per_particle_oracle(seed):
 def test_fastslam2_unknown_associates_like_the_oracle():
     """At every step, FastSLAM 2.0's association (at the noise-free prediction) is the oracle's on its own maps."""
     sc = _scenario(seed=5, n_steps=25, map_size=9.0, landmark_density=1.5)
-    slam = FastSlam2Unknown(FastSlamConfig(association="unknown", n_particles=8))
+    slam = FastSlam2Unknown(FastSlamConfig(association="unknown", particles=8))
     slam.reset(sc.start_pose, rng=np.random.default_rng(5))
     Q, lp0 = slam.config.Q, slam.config.log_p0
     checked = 0
@@ -153,9 +153,9 @@ def test_the_driver_hides_the_ids_and_a_known_association_slam_refuses_hidden_on
             seen.append(observations.ids.copy())
             super().update(control, observations)
 
-    run_slam(Spy(FastSlamConfig(association="unknown", n_particles=5)), sc, rng=np.random.default_rng(0))
+    run_slam(Spy(FastSlamConfig(association="unknown", particles=5)), sc, rng=np.random.default_rng(0))
     assert sum(len(s) for s in seen) > 0 and all((s == HIDDEN_ID).all() for s in seen)
-    slam = FastSlam(FastSlamConfig(n_particles=5))
+    slam = FastSlam(FastSlamConfig(particles=5))
     slam.reset(sc.start_pose, rng=np.random.default_rng(0))
     with pytest.raises(SlamInputError, match="hide"):
         slam.step((0.1, 0.0), Observations.without_ids([1.0], [0.0]))
@@ -183,10 +183,10 @@ def test_faults_apply_to_the_units_the_mode_has():
     assert set(FastSlamUnknownSteps.unit_names()) >= {"associate", "resample_maps", "extract_unlabelled_map"}
     assert "classify_new" not in FastSlam2UnknownSteps.unit_names()
     sc = _scenario(n_steps=30)
-    ref = run_slam(FastSlamUnknown(FastSlamConfig(association="unknown", n_particles=10)), sc,
+    ref = run_slam(FastSlamUnknown(FastSlamConfig(association="unknown", particles=10)), sc,
                    rng=np.random.default_rng(1))
     faulty = get_fault("motion_sign_error").apply(FastSlamUnknown(FastSlamConfig(association="unknown",
-                                                                                 n_particles=10)))
+                                                                                 particles=10)))
     bad = run_slam(faulty, sc, rng=np.random.default_rng(1))
     assert map_errors(sc, bad, association="unknown").emd_mm > map_errors(sc, ref, association="unknown").emd_mm
 
@@ -194,7 +194,7 @@ def test_faults_apply_to_the_units_the_mode_has():
 @pytest.mark.parametrize("cls", [FastSlamUnknown, FastSlam2Unknown])
 def test_same_seed_same_map_and_the_map_is_scored_by_emd(cls):
     sc = _scenario(n_steps=40)
-    cfg = FastSlamConfig(association="unknown", n_particles=10, std_range=0.05, std_bearing=math.radians(3.0))
+    cfg = FastSlamConfig(association="unknown", particles=10, std_range=0.05, std_bearing=math.radians(3.0))
     a = run_slam(cls(cfg), sc, rng=np.random.default_rng(2))
     b = run_slam(cls(cfg), sc, rng=np.random.default_rng(2))
     np.testing.assert_array_equal(a.landmarks, b.landmarks)

@@ -32,7 +32,7 @@ from faultlab.slam.contract import FILTER_UNITS, PARTICLE_UNITS, STREAM_UNITS, f
 from faultlab.slam.profiles import get_profile
 
 N = 24
-CFG = FastSlamConfig(n_particles=N)
+CFG = FastSlamConfig(particles=N)
 SEEDS = (11, 5, 902, 3, 47)
 
 
@@ -135,7 +135,7 @@ def test_every_builtin_fault_batched_is_bit_identical_to_single_runs(scenario, f
 def test_the_papers_filter_batched_is_bit_identical(scenario, profile):
     """Linear weights reset when all underflow (per filter) and sequential sharers (per filter)."""
     p = get_profile(profile)
-    config = dataclasses.replace(p.config, n_particles=N)
+    config = dataclasses.replace(p.config, particles=N)
     check_batches(lambda: FastSlam(config, steps=p.steps), scenario, ks=(3,))
 
 

@@ -21,7 +21,7 @@ from faultlab.slam import REFERENCE_STEPS, FastSlam, FastSlamConfig, FastSlamSte
 from faultlab.slam.streams import unit_streams
 from faultlab.slam.contract import STREAM_UNITS
 
-CFG = FastSlamConfig(n_particles=40)
+CFG = FastSlamConfig(particles=40)
 SEED = 11
 
 
@@ -109,7 +109,7 @@ def test_each_unit_draws_from_the_stream_of_its_name(scenario):
     steps, logs = instrument(REFERENCE_STEPS, STREAM_UNITS)
     _, slam = run(steps, scenario)
     assert set(slam.streams) == set(STREAM_UNITS)
-    n = CFG.n_particles
+    n = CFG.particles
     controls = unit_streams(np.random.default_rng(SEED), ["sample_controls"])["sample_controls"]
     sc = logs["sample_controls"]
     assert len(sc.draws) == scenario.n_steps - 100  # one call per non-empty update

@@ -45,16 +45,16 @@ def angle_diff(a, b):
 
 def test_config_defaults_are_the_papers_setup():
     cfg = FastSlamConfig()
-    assert cfg.n_particles == 200
+    assert cfg.particles == 200
     assert cfg.std_v == 0.1 and cfg.std_range == 0.3 and cfg.resample_ratio == 1.5
     assert math.isclose(cfg.std_omega, math.radians(20)) and math.isclose(cfg.std_bearing, math.radians(10))
     np.testing.assert_allclose(cfg.Q, np.diag([0.09, math.radians(10) ** 2]))
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    (dict(n_particles=0), "n_particles"),
-    (dict(n_particles=2.5), "n_particles"),
-    (dict(n_particles=True), "n_particles"),
+    (dict(particles=0), "particles"),
+    (dict(particles=2.5), "particles"),
+    (dict(particles=True), "particles"),
     (dict(std_v=-0.1), "std_v"),
     (dict(std_omega=float("nan")), "std_omega"),
     (dict(std_range=0.0), "std_range"),
@@ -79,7 +79,7 @@ def test_steps_name_every_replaceable_unit():
 
 def test_with_steps_returns_a_new_filter_and_leaves_the_original_alone():
     never = dataclasses.replace(REFERENCE_STEPS, resample=lambda w, n_eff, empty, rng, config: None)
-    ref = FastSlam(FastSlamConfig(n_particles=30))
+    ref = FastSlam(FastSlamConfig(particles=30))
     patched = ref.with_steps(never)
     assert patched is not ref and patched.steps is never and ref.steps is REFERENCE_STEPS
     assert patched.config is ref.config and never.replaced() == ("resample",)
@@ -92,11 +92,11 @@ def test_with_steps_returns_a_new_filter_and_leaves_the_original_alone():
 # -- equivalence with the per-particle oracle ----------------------------------------------------
 
 
-def _compare_with_oracle(sc, *, n_particles, seed):
-    cfg = FastSlamConfig(n_particles=n_particles)
+def _compare_with_oracle(sc, *, particles, seed):
+    cfg = FastSlamConfig(particles=particles)
     slam = FastSlam(cfg)
     slam.reset(sc.start_pose, rng=np.random.default_rng(seed))
-    oracle = OracleFastSlam(n_particles=n_particles)
+    oracle = OracleFastSlam(particles=particles)
     worst = {"pose": 0.0, "weight": 0.0, "mean": 0.0, "cov": 0.0}
 
     def check(t):
@@ -122,14 +122,14 @@ def _compare_with_oracle(sc, *, n_particles, seed):
 def test_matches_per_particle_oracle_with_resampling_and_inactivity():
     sc = scenario(3, n_steps=200, landmark_density=1.0, inactivity=20)
     assert np.sum(np.all(sc.controls == 0, axis=1) & (np.diff(sc.obs_offsets) == 0)) == 20  # empty updates
-    slam = _compare_with_oracle(sc, n_particles=20, seed=7)
+    slam = _compare_with_oracle(sc, particles=20, seed=7)
     assert 10 < slam.n_resamples < sc.n_steps - 20  # resampling happened, but not in the empty updates
 
 
 def test_matches_oracle_on_a_loop_with_full_fov_and_rotation_error():
     sc = scenario(11, n_steps=60, directionality="loop", field_of_view=TWO_PI, rotation_error=-TWO_PI)
     assert np.min(sc.obs_bearing) < -math.pi  # bearings really are offset
-    slam = _compare_with_oracle(sc, n_particles=8, seed=2)
+    slam = _compare_with_oracle(sc, particles=8, seed=2)
     assert slam.n_resamples > 0
 
 
@@ -142,7 +142,7 @@ def test_zero_noise_gives_a_nearly_exact_map():
     # model it must vanish.
     zero = dict(variance_distance=0.0, variance_angle=0.0, outlier_probability=0.0)
     sc = scenario(0, n_steps=300, **zero)
-    cfg = FastSlamConfig(n_particles=50, std_v=1e-3, std_omega=1e-3, std_range=1e-3, std_bearing=1e-3)
+    cfg = FastSlamConfig(particles=50, std_v=1e-3, std_omega=1e-3, std_range=1e-3, std_bearing=1e-3)
     est = run_slam(FastSlam(cfg), sc, rng=np.random.default_rng(1))
     assert est.landmark_ids.size == sc.landmark_ids.size  # every landmark is seen in 300 steps
     assert rms(sc, est) < 2e-3
@@ -212,7 +212,7 @@ def test_motion_model_wraps_the_heading_across_pi():
 
 def test_bad_input_raises_and_leaves_the_filter_untouched():
     sc = scenario(2, n_steps=30)
-    slam = FastSlam(FastSlamConfig(n_particles=20))
+    slam = FastSlam(FastSlamConfig(particles=20))
     slam.reset(sc.start_pose, rng=np.random.default_rng(0))
     for t in range(20):
         slam.step(sc.controls[t], sc.observations(t))
@@ -249,7 +249,7 @@ def test_same_seed_same_estimate_different_seed_different_estimate():
 def test_empty_update_draws_nothing_and_changes_nothing():
     sc = scenario(4, n_steps=20)
     rng = np.random.default_rng(5)
-    slam = FastSlam(FastSlamConfig(n_particles=25))
+    slam = FastSlam(FastSlamConfig(particles=25))
     slam.reset(sc.start_pose, rng=rng)
     for t in range(20):
         slam.step(sc.controls[t], sc.observations(t))
@@ -274,7 +274,7 @@ def test_empty_update_draws_nothing_and_changes_nothing():
 def test_estimate_is_the_highest_weight_particle():
     sc = scenario(6, n_steps=40)
     never = dataclasses.replace(REFERENCE_STEPS, resample=lambda w, n_eff, empty, rng, config: None)
-    slam = FastSlam(FastSlamConfig(n_particles=30), steps=never)
+    slam = FastSlam(FastSlamConfig(particles=30), steps=never)
     est = run_slam(slam, sc, rng=np.random.default_rng(1))
     p = slam.particles()
     best = int(np.argmax(p.weights))
@@ -290,7 +290,7 @@ def test_arbitrary_ids_and_storage_growth():
     rng = np.random.default_rng(0)
     truth = {int(i): rng.uniform(-3, 3, 2) for i in rng.choice(np.arange(-10**12, 10**12, 10**9), 90,
                                                                  replace=False)}
-    slam = FastSlam(FastSlamConfig(n_particles=40, std_v=1e-3, std_omega=1e-3, std_range=1e-2,
+    slam = FastSlam(FastSlamConfig(particles=40, std_v=1e-3, std_omega=1e-3, std_range=1e-2,
                                    std_bearing=1e-2))
     slam.reset([0.0, 0.0, 0.0], rng=np.random.default_rng(1))
     ids = list(truth)
@@ -312,14 +312,14 @@ def test_non_finite_weights_raise_a_clear_error():
     bad = dataclasses.replace(REFERENCE_STEPS, log_likelihood=lambda nu, S: np.full(nu.shape[:2], np.nan))
     sc = scenario(1, n_steps=30)
     with pytest.raises(SlamOutputError, match="weights are not finite"):
-        run_slam(FastSlam(FastSlamConfig(n_particles=10), steps=bad), sc, rng=np.random.default_rng(0))
+        run_slam(FastSlam(FastSlamConfig(particles=10), steps=bad), sc, rng=np.random.default_rng(0))
 
 
 # -- storage scheme: equivalent and faulty resampling bookkeeping --------------------------------
 
 
 def _run_particles(steps, sc, seed=3, n=30):
-    slam = FastSlam(FastSlamConfig(n_particles=n), steps=steps)
+    slam = FastSlam(FastSlamConfig(particles=n), steps=steps)
     est = run_slam(slam, sc, rng=np.random.default_rng(seed))
     return est, slam
 

@@ -53,7 +53,7 @@ def angle_diff(a, b):
 
 
 def small(n=30):
-    return FastSlamConfig(n_particles=n)
+    return FastSlamConfig(particles=n)
 
 
 # -- units ----------------------------------------------------------------------------------------
@@ -80,10 +80,10 @@ def test_steps_reuse_fastslam1_units_and_name_the_new_ones():
 # -- equivalence with the per-particle oracle ----------------------------------------------------
 
 
-def _compare_with_oracle(sc, *, n_particles, seed):
-    slam = FastSlam2(small(n_particles))
+def _compare_with_oracle(sc, *, particles, seed):
+    slam = FastSlam2(small(particles))
     slam.reset(sc.start_pose, rng=np.random.default_rng(seed))
-    oracle = OracleFastSlam2(n_particles=n_particles)
+    oracle = OracleFastSlam2(particles=particles)
     worst = {"pose": 0.0, "weight": 0.0, "mean": 0.0, "cov": 0.0}
 
     def check(t):
@@ -109,7 +109,7 @@ def _compare_with_oracle(sc, *, n_particles, seed):
 def test_matches_per_particle_oracle_with_resampling_and_inactivity():
     sc = scenario(3, n_steps=60, landmark_density=1.0, inactivity=15)
     assert np.sum(np.all(sc.controls == 0, axis=1) & (np.diff(sc.obs_offsets) == 0)) == 15  # empty updates
-    slam = _compare_with_oracle(sc, n_particles=12, seed=7)
+    slam = _compare_with_oracle(sc, particles=12, seed=7)
     assert 5 < slam.n_resamples < sc.n_steps - 15
 
 
@@ -117,7 +117,7 @@ def test_matches_oracle_on_a_loop_with_full_fov_and_rotation_error():
     sc = scenario(11, n_steps=40, directionality="loop", field_of_view=TWO_PI, rotation_error=-TWO_PI,
                   landmark_density=2.0)
     assert np.min(sc.obs_bearing) < -math.pi  # bearings really are offset
-    slam = _compare_with_oracle(sc, n_particles=6, seed=2)
+    slam = _compare_with_oracle(sc, particles=6, seed=2)
     assert slam.n_resamples > 0
 
 
@@ -157,7 +157,7 @@ def test_full_fixed_suite_cases_beat_dead_reckoning():
 def test_zero_noise_gives_a_nearly_exact_map():
     zero = dict(variance_distance=0.0, variance_angle=0.0, outlier_probability=0.0)
     sc = scenario(0, n_steps=200, **zero)
-    cfg = FastSlamConfig(n_particles=20, std_v=1e-3, std_omega=1e-3, std_range=1e-3, std_bearing=1e-3)
+    cfg = FastSlamConfig(particles=20, std_v=1e-3, std_omega=1e-3, std_range=1e-3, std_bearing=1e-3)
     est = run_slam(FastSlam2(cfg), sc, rng=np.random.default_rng(1))
     assert rms_mm(sc, est) < 2.0
     assert np.abs(est.pose[:2] - sc.true_poses[-1, :2]).max() < 0.02
@@ -378,7 +378,7 @@ def test_bad_input_and_non_finite_weights_raise_clear_errors():
     with pytest.raises(SlamInputError, match="Generator"):
         FastSlam2().reset([0.0, 0.0, 0.0], rng=1)
     with pytest.raises(ConfigError, match="FastSlamConfig"):
-        FastSlam2(config={"n_particles": 3})
+        FastSlam2(config={"particles": 3})
     bad = dataclasses.replace(REF, proposal_correction=lambda lam, eta, cov, M: np.full(eta.shape[0], np.nan))
     with pytest.raises(SlamOutputError, match="weights are not finite"):
         run_slam(FastSlam2(small(10), steps=bad), scenario(1, n_steps=30), rng=np.random.default_rng(0))

@@ -146,7 +146,7 @@ def test_stratified_indices_match_the_paper_loop_with_one_uniform_per_stratum(w,
 
 
 def test_resample_stratified_decides_like_the_reference():
-    cfg = FastSlamConfig(n_particles=4)
+    cfg = FastSlamConfig(particles=4)
     peaked = np.array([0.85, 0.05, 0.05, 0.05])
     n_eff = U.effective_sample_size(peaked)
     assert paperunits.resample_stratified(np.full(4, 0.25), 4.0, False, np.random.default_rng(0), cfg) is None

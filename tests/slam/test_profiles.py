@@ -57,7 +57,7 @@ def test_which_units_each_profile_replaces():
 def test_paper_config_is_the_packages_filter_noise_in_si():
     # slam_correct.py: Q = diag(3.0, 10 deg)^2, R = diag(1.0, 20 deg)^2 in units of 0.1 m (maps in mm / 100)
     unit = 0.1
-    assert PAPER_CONFIG.n_particles == 200 and PAPER_CONFIG.resample_ratio == 1.5
+    assert PAPER_CONFIG.particles == 200 and PAPER_CONFIG.resample_ratio == 1.5
     np.testing.assert_allclose(PAPER_CONFIG.Q, np.diag([(3.0 * unit) ** 2, math.radians(10.0) ** 2]), rtol=1e-15)
     assert PAPER_CONFIG.std_v == pytest.approx(1.0 * unit)
     assert PAPER_CONFIG.std_omega == pytest.approx(math.radians(20))
@@ -128,7 +128,7 @@ def _two_steps(config, steps):
 
 
 def test_missing_angle_wrap_under_the_paper_profile_changes_the_ekf_update_only():
-    cfg = dataclasses.replace(PAPER_CONFIG, n_particles=4, std_v=0.01, std_omega=0.01)
+    cfg = dataclasses.replace(PAPER_CONFIG, particles=4, std_v=0.01, std_omega=0.01)
     fault = get_fault("missing_angle_wrap")
     base = _two_steps(cfg, PAPER_NO_ALIASING_STEPS)
     faulty = _two_steps(cfg, fault.patch(PAPER_NO_ALIASING_STEPS))

@@ -161,16 +161,16 @@ LOW = dict(std_v=0.01, std_omega=math.radians(0.5), std_range=0.05, std_bearing=
 
 def _paper():
     p = get_profile("paper")
-    return FastSlam(dataclasses.replace(p.config, n_particles=20, **LOW), steps=p.steps)
+    return FastSlam(dataclasses.replace(p.config, particles=20, **LOW), steps=p.steps)
 
 
 #: name -> a SLAM that assumes little noise
 SLAMS = {
-    "fastslam1": lambda: FastSlam(FastSlamConfig(n_particles=20, **LOW)),
+    "fastslam1": lambda: FastSlam(FastSlamConfig(particles=20, **LOW)),
     "fastslam1-paper": _paper,
-    "fastslam2": lambda: FastSlam2(FastSlamConfig(n_particles=20, **LOW)),
-    "fastslam1-unknown": lambda: FastSlamUnknown(FastSlamConfig(n_particles=20, association="unknown", **LOW)),
-    "fastslam2-unknown": lambda: FastSlam2Unknown(FastSlamConfig(n_particles=20, association="unknown", **LOW)),
+    "fastslam2": lambda: FastSlam2(FastSlamConfig(particles=20, **LOW)),
+    "fastslam1-unknown": lambda: FastSlamUnknown(FastSlamConfig(particles=20, association="unknown", **LOW)),
+    "fastslam2-unknown": lambda: FastSlam2Unknown(FastSlamConfig(particles=20, association="unknown", **LOW)),
     "ekf": lambda: EkfSlam(EkfSlamConfig(**LOW)),
     "gtsam": lambda: GtsamSlam(GtsamSlamConfig(**LOW)),
     "dead_reckoning": DeadReckoning,
@@ -255,10 +255,10 @@ def test_a_particle_filters_trajectory_is_its_best_particles_pose_after_each_ste
 
 def test_a_batch_reports_each_repetitions_own_trajectory(exact):
     seeds = (7, 8, 9)
-    batch = FastSlam(FastSlamConfig(n_particles=20, **LOW))
+    batch = FastSlam(FastSlamConfig(particles=20, **LOW))
     batch.reset_batch(exact.start_pose, rngs=[np.random.default_rng(s) for s in seeds])
     for t in range(exact.n_steps):
         batch.step(exact.controls[t], exact.observations(t))
     for s, est in zip(seeds, batch.estimates()):
-        alone = run_slam(FastSlam(FastSlamConfig(n_particles=20, **LOW)), exact, rng=np.random.default_rng(s))
+        alone = run_slam(FastSlam(FastSlamConfig(particles=20, **LOW)), exact, rng=np.random.default_rng(s))
         np.testing.assert_array_equal(est.trajectory, alone.trajectory)

@@ -20,7 +20,7 @@ def test_profile_options_are_the_profiles_settings_overridden_by_the_table():
     slam = build_slam("fastslam", opts)
     assert slam.steps == PAPER_STEPS
     assert slam.config == FastSlamConfig.from_options({**get_profile("paper").config.to_options(), "particles": 30})
-    assert BUILTIN_SLAMS["fastslam"].settings(opts).n_particles == 30
+    assert BUILTIN_SLAMS["fastslam"].settings(opts).particles == 30
 
 
 def test_the_reference_profile_is_the_default_and_leaves_no_trace():

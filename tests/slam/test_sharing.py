@@ -114,7 +114,7 @@ def tiny_case():
 
 
 def _run(steps, scenario, eps):
-    cfg = dataclasses.replace(PAPER_CONFIG, n_particles=N)
+    cfg = dataclasses.replace(PAPER_CONFIG, particles=N)
     slam = FastSlam(cfg, steps=_scripted(steps, eps))
     run_slam(slam, scenario, rng=np.random.default_rng(0))
     return slam

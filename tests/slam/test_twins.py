@@ -219,7 +219,7 @@ def test_the_resampling_twin_draws_and_picks_as_the_unit(w, normalise, empty, se
 
 
 N = 24
-CFG = FastSlamConfig(n_particles=N)
+CFG = FastSlamConfig(particles=N)
 
 
 @pytest.fixture(scope="module")
@@ -282,7 +282,7 @@ def test_every_builtin_fault_under_the_compiled_path_equals_numpy(monkeypatch, s
 def test_the_papers_filter_under_the_compiled_path_equals_numpy(monkeypatch, scenario, profile):
     """Twins of the paper's wrapped units; with aliasing, the sharer-order correction runs them too."""
     make = lambda: dataclasses.replace(get_profile(profile), config=dataclasses.replace(  # noqa: E731
-        get_profile(profile).config, n_particles=N)).slam()
+        get_profile(profile).config, particles=N)).slam()
     compiled = make()
     assert compiled._units(1).predict_measurement is twins.predict_measurement_wrapped
     assert_same_run(final(compiled, scenario, 4), final(numpy_filter(monkeypatch, make), scenario, 4), profile)
@@ -306,15 +306,15 @@ def test_equivalent_mutants_stay_hidden_under_the_compiled_path():
     eq = [next(i for i in equivalent if i.startswith(f"{unit}:")) for unit in units]  # one per unit
     live = next(i for i, r in report.results.items() if r.live and i.startswith("ekf_update"))
     checked = check_faults([mutant_fault(mutants.get(i), FastSlamSteps) for i in eq + [live]], n_steps=40,
-                           n_particles=20, n_seeds=1, plugins=False)
+                           particles=20, n_seeds=1, plugins=False)
     statuses = [c.status for c in checked]
     assert statuses[:-1] == [CheckStatus.EQUIVALENT] * len(eq) and statuses[-1] is not CheckStatus.EQUIVALENT
 
 
 @pytest.mark.parametrize("make", [
-    lambda: FastSlam2(FastSlamConfig(n_particles=N)),
+    lambda: FastSlam2(FastSlamConfig(particles=N)),
     EkfSlam,
-    lambda: FastSlamUnknown(FastSlamConfig(n_particles=N, association="unknown")),
+    lambda: FastSlamUnknown(FastSlamConfig(particles=N, association="unknown")),
 ], ids=["fastslam2", "ekf", "fastslam1-unknown"])
 def test_the_other_unit_slams_run_the_twins_bit_identically(monkeypatch, scenario, make):
     compiled = make()
@@ -332,7 +332,7 @@ import json, sys
 import numpy as np
 from faultlab.faults.check import check_scenario
 from faultlab.slam import FastSlam, FastSlamConfig, run_slam, twins
-est = run_slam(FastSlam(FastSlamConfig(n_particles=24)), check_scenario(seed=3, n_steps=60),
+est = run_slam(FastSlam(FastSlamConfig(particles=24)), check_scenario(seed=3, n_steps=60),
                rng=np.random.default_rng(9))
 print(json.dumps({"jit": twins.JIT_ENABLED, "numba": "numba" in sys.modules,
                   "landmarks": est.landmarks.view(np.int64).tolist(), "pose": est.pose.view(np.int64).tolist()}))

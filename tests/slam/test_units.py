@@ -114,7 +114,7 @@ def test_low_variance_sampler_copies_each_particle_floor_or_ceil_of_n_w_times(w,
 
 
 def test_resample_only_below_threshold_and_never_for_empty_updates():
-    cfg = FastSlamConfig(n_particles=4)
+    cfg = FastSlamConfig(particles=4)
     rng = np.random.default_rng(0)
     uniform = np.full(4, 0.25)
     peaked = np.array([0.85, 0.05, 0.05, 0.05])
