@@ -77,6 +77,9 @@ where ``rng_sc`` and ``rng_rs`` are the streams of ``sample_controls`` and ``res
 
 The units after ``classify_new`` are called once per step with all ``k``
 observations; ``combine_weights`` is not called in steps without observations.
+When every unit is the reference and the compiled twins are on, the filter does this work in a
+few compiled passes per step instead (:meth:`FastSlam._update_reference`,
+:func:`faultlab.slam.twins.correct_observed`), bit for bit the same.
 
 Weights are kept as normalised **log** weights: with 100+ observations per
 step the product of likelihoods underflows in linear form.
