@@ -113,13 +113,16 @@ def main(argv=None) -> int:
     ap.add_argument("--k", type=int, default=10, help="repetitions of the batched run (default 10)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--quick", action="store_true", help="skip the numpy largest case and the memory measurement")
+    ap.add_argument("--skip-compile", action="store_true",
+                    help="skip the compile-time measurement (two fresh processes compiling every kernel)")
     args = ap.parse_args(argv)
     tune_allocator()
     n = FastSlamConfig().n_particles
     print(f"compiled twins vs numpy units: N = {n}, {os.cpu_count()} CPUs, load average before: {load()}")
-    first, again, imp = compile_costs()
-    print(f"compilation: first call with an empty cache {first:.2f} s, with the cache filled {again:.3f} s "
-          f"(import of numba alone {imp:.2f} s)")
+    if not args.skip_compile:
+        first, again, imp = compile_costs()
+        print(f"compilation: first call with an empty cache {first:.2f} s, with the cache filled {again:.3f} s "
+              f"(import of numba alone {imp:.2f} s)")
     twins.warm_up()
     fixed = generate_scenario(CaseSpec(FIXED_VALUES), rng=np.random.default_rng(args.seed))
     pairs = n * int(fixed.obs_offsets[-1])
