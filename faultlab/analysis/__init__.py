@@ -19,6 +19,7 @@ _EXPORTS = {
     "result": ["Analysis", "Note", "analyse", "BEYOND_THE_PAPER", "FORMAT_VERSION", "JSON_FILE"],
     "schema": ["TableSchema", "TABLES", "THIS_RUN", "PAPER", "ALL_VARIANTS"],
     "metadata": ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary"],
+    "replay": ["AdaptiveReplay", "replay_adaptive"],
 }
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

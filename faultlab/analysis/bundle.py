@@ -2,7 +2,9 @@
 
 A frozen dataclass whose fields are its tables (DataFrames, named in ``TABLES``) and ``meta``
 (a dict) inherits :class:`TableBundle`: ``table(name)``, ``save(directory)`` and
-``load(directory)``, with the metadata in ``META_FILE``.
+``load(directory)``, with the metadata in ``META_FILE``.  A table with a
+:class:`~faultlab.analysis.schema.TableSchema` in ``SCHEMAS`` is written and read by its schema
+(:meth:`~faultlab.analysis.schema.TableSchema.to_csv`, ``read_csv``), so it loads back exactly.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from typing import ClassVar
 
 import pandas as pd
 
+from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ResultsError
 
 __all__ = ["TableBundle"]
@@ -24,6 +27,11 @@ class TableBundle:
     TABLES: ClassVar[tuple[str, ...]] = ()
     META_FILE: ClassVar[str] = "meta.json"
     WHAT: ClassVar[str] = "analysis"
+    SCHEMAS: ClassVar[tuple[TableSchema, ...]] = ()
+
+    @classmethod
+    def _schema(cls, name: str) -> TableSchema | None:
+        return next((s for s in cls.SCHEMAS if s.name == name), None)
 
     def table(self, name: str) -> pd.DataFrame:
         if name not in self.TABLES:
@@ -34,7 +42,11 @@ class TableBundle:
         d = Path(directory)
         d.mkdir(parents=True, exist_ok=True)
         for name in self.TABLES:
-            self.table(name).to_csv(d / f"{name}.csv", index=False)
+            schema = self._schema(name)
+            if schema is None:
+                self.table(name).to_csv(d / f"{name}.csv", index=False)
+            else:
+                schema.to_csv(self.table(name), d / f"{name}.csv")
         (d / self.META_FILE).write_text(json.dumps(self.meta, indent=1, sort_keys=True, default=str))
         return d
 
@@ -42,7 +54,8 @@ class TableBundle:
     def load(cls, directory: str | Path):
         d = Path(directory)
         try:
-            tables = {n: pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""]) for n in cls.TABLES}
+            tables = {n: pd.read_csv(d / f"{n}.csv", keep_default_na=False, na_values=[""])
+                      if cls._schema(n) is None else cls._schema(n).read_csv(d / f"{n}.csv") for n in cls.TABLES}
             meta = json.loads((d / cls.META_FILE).read_text())
         except (OSError, ValueError) as exc:
             raise ResultsError(f"{d}: not a saved {cls.WHAT} ({exc})") from exc

@@ -1,12 +1,13 @@
-"""``paper-table`` command (``effects`` lives in :mod:`faultlab.cli.effects`)."""
+"""``paper-table`` and ``stats adaptive`` commands (``effects`` lives in :mod:`faultlab.cli.effects`)."""
 
 from __future__ import annotations
 
 import argparse
 
 from faultlab import analysis, stats  # both load their submodules (statsmodels, ...) on first use
-from faultlab.cli.options import add_examples
+from faultlab.cli.options import add_examples, add_verb_group, epilog, print_paths
 from faultlab.errors import ConfigError, ResultsError
+from faultlab.runner.staging import ALTERNATIVES
 
 __all__ = ["register"]
 
@@ -34,6 +35,35 @@ def register(subparsers) -> None:
     add_examples(p, ["faultlab paper-table", "faultlab paper-table results/paper", "faultlab paper-table --abs-mm 200"])
     p.set_defaults(func=_paper_table)
 
+    sub = add_verb_group(
+        subparsers, "stats", help="statistics of a finished campaign: 'adaptive' replays adaptive repetitions",
+        description="'adaptive' replays an [adaptive] design (stages, level, sidedness, futility bound) on a "
+                    "complete fixed-K store with the runner's own stopping rule, and reports the SLAM executions "
+                    "it would have saved, where each (case, variant) stops and which per-case verdicts change, "
+                    "and why. It runs no SLAM.",
+        examples=["faultlab stats adaptive results/paper-k10 --stages 5,10",
+                  "faultlab stats adaptive results/paper-k10 --stages 6,11 --alternative two-sided "
+                  "--reports reports/adaptive"])
+    a = sub.add_parser(
+        "adaptive", help="replay adaptive repetitions on a fixed-K store: executions saved, stops, verdicts",
+        description="Replay adaptive repetitions on a complete fixed-K store: the rows an adaptive campaign "
+                    "would have run (repetition r has the same seed in both designs), judged by the store's "
+                    "detection rule, against all K. Prints the Markdown page, or with --reports writes "
+                    "summary.csv, pairs.csv, verdicts.csv, replay_meta.json and adaptive_replay.md there.",
+        **epilog(["faultlab stats adaptive results/paper-k10 --stages 5,10",
+                  "faultlab stats adaptive results/paper-k10 --stages 6,11 --alternative two-sided "
+                  "--reports reports/adaptive"]))
+    a.add_argument("results", metavar="STORE", help="results directory of a finished fixed-K campaign")
+    a.add_argument("--stages", default=None, metavar="K1,K2,...",
+                   help="cumulative repetitions after each stage, the last the store's K (default: the stored "
+                        "experiment's [adaptive] stages)")
+    a.add_argument("--level", type=float, default=None, help="per-case level of the looks (default 0.05)")
+    a.add_argument("--alternative", default=None, choices=ALTERNATIVES,
+                   help="sidedness of the looks (default greater)")
+    a.add_argument("--futility", type=float, default=None, help="futility bound in [level, 1] (default 0.5)")
+    a.add_argument("--reports", default=None, metavar="DIR", help="write the tables and the page here")
+    a.set_defaults(func=_adaptive)
+
 
 def _paper_table(args: argparse.Namespace) -> int:
     if args.results is None:
@@ -51,3 +81,25 @@ def _paper_table(args: argparse.Namespace) -> int:
             raise ResultsError(" ".join(n.text for n in result.notes_on("paper")))
     print(table.to_text(), end="")
     return 0
+
+
+def _adaptive(args: argparse.Namespace) -> int:
+    from faultlab.analysis.replay import replay_adaptive
+    from faultlab.report.replay import replay_markdown, write_replay
+
+    given = {k: v for k, v in (("level", args.level), ("alternative", args.alternative),
+                               ("futility", args.futility)) if v is not None}
+    design = None
+    if args.stages is not None:
+        try:
+            design = {"stages": [int(k) for k in args.stages.split(",")], **given}
+        except ValueError:
+            raise ConfigError(f"--stages: expected cumulative repetitions such as 5,10, got {args.stages!r}") \
+                from None
+    elif given:
+        raise ConfigError("stats adaptive: --level, --alternative and --futility need --stages")
+    replay = replay_adaptive(args.results, design)
+    if args.reports is None:
+        print(replay_markdown(replay), end="")
+        return 0
+    return print_paths(write_replay(replay, args.reports))

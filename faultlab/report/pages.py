@@ -45,14 +45,18 @@ from faultlab.stats.class_effects import MIN_EPV
 from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import JobStatus
 
-__all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "summary_pages", "title_pages", "table2_pages", "rates_pages",
-           "comparison_pages",
+__all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "EFFECT_PAGE_TITLE", "CLASS_EFFECT_PAGE_TITLE", "summary_pages",
+           "title_pages", "table2_pages", "rates_pages", "comparison_pages",
            "figure_pages", "case_pages", "coverage_pages", "beyond_pages", "metadata_pages"]
 
 #: Runs whose cases are pictured (Fig. 5 style) and whose coverage is tabulated one by one.
 MAX_PICTURED_RUNS = 3
 #: Title of the report (first page and PDF metadata).
 REPORT_TITLE = "faultlab report: the paper's Table II reproduced"
+#: Title of the page of continuous per-parameter effects (difficulty and each fault's effect size).
+EFFECT_PAGE_TITLE = "Beyond the paper: which scenario parameters drive the map error and the faults"
+#: Title of the page of class-indicator logistic regressions of the case verdicts.
+CLASS_EFFECT_PAGE_TITLE = "Which classes drive detection (logistic regression over cases)"
 #: Evaluation runs per page of Table II in the PDF (5 case columns each: two fit a page at 8 pt).
 PDF_RUNS_PER_BLOCK = 2
 _GREEN = "#c6efce"  # the paper's green "detected" cells
@@ -640,8 +644,7 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
     try:
         eff = campaign_effects(jobs, metric=metric, rule=analysis.rule, alpha=analysis.alpha)
     except FaultlabError as exc:
-        return text_pages("Beyond the paper: which scenario parameters drive the map error and the faults",
-                          [f"Not available: {exc}"])
+        return text_pages(EFFECT_PAGE_TITLE, [f"Not available: {exc}"])
     log_scale = eff["response"] != "difficulty"
     show = pd.DataFrame({
         "response": eff["response"].map(response_label),
@@ -655,7 +658,7 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
     })
     notes = sorted({n for n in eff["note"] if n.startswith("not fitted") or "too few cases" in n})
     notes += _class_effect_notes(analysis)
-    pages = table_pages("Beyond the paper: which scenario parameters drive the map error and the faults", show,
+    pages = table_pages(EFFECT_PAGE_TITLE, show,
                         fontsize=7.5, max_rows=34,
                         note="Continuous responses per case over its K repetitions: the baseline's difficulty "
                              "(mean log map error) and each fault's effect size (mean log of faulty / baseline "
@@ -694,7 +697,7 @@ def _class_effect_pages(analysis: Analysis) -> list[Figure]:
             "" if not math.isfinite(x) else f"{x:.3g} ({d})" for x, d in zip(e["lr_chi2"], e["df"])],
         "p": [_g3(x) for x in e["p"]], "p (Holm)": [_g3(x) for x in e["p_holm"]], "note": e["note"],
     })
-    return table_pages("Which classes drive detection (logistic regression over cases)", show, fontsize=7,
+    return table_pages(CLASS_EFFECT_PAGE_TITLE, show, fontsize=7,
                        max_rows=34,
                        note=f"Per fault, the case verdicts ({analysis.rule.rule} rule; cannot-judge cases left out) "
                             f"on class indicators of every Table I parameter (reference: its first class; rotation "

@@ -28,7 +28,7 @@ from faultlab.runner.experiment import Experiment, load_experiment
 from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import format_duration
 from faultlab.runner.progress import progress as show_progress
-from faultlab.runner.staging import STOPS_KEY, look_at_pairs, stage_jobs
+from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import (ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, load_results,
                                    store_lock)
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
@@ -327,12 +327,10 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
                 todo_specs = specs
             else:
                 if stage > 0:
-                    decisions = look_at_pairs(load_results(out), design=design, upto=design.stages[stage - 1],
-                                              metric=experiment.metric, look=look)
-                    if running is not None:  # a pair stopped at an earlier look stays stopped
-                        decisions = {k: d for k, d in decisions.items() if k in running}
-                    running = {k for k, d in decisions.items() if d == "continue"}
-                    store.set_meta(STOPS_KEY, _stops(decisions, design, stage, store.meta.get(STOPS_KEY, [])))
+                    decisions, running = look_before_stage(load_results(out), design=design, stage=stage,
+                                                           metric=experiment.metric, look=look, running=running)
+                    store.set_meta(STOPS_KEY, record_stops(decisions, design=design, stage=stage,
+                                                           previous=store.meta.get(STOPS_KEY, [])))
                 todo_specs = stage_jobs(specs, design=design, stage=stage, running=running)
             n_needed += len(todo_specs)
             n_new += _run_specs(store, todo_specs, info, sut, jobs=jobs, backend=backend, batch_size=batch_size,
@@ -342,15 +340,6 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         return RunSummary(out=out, results=store.path, n_jobs=n_needed, counts=counts, n_new=n_new,
                           n_skipped=n_stored - n_new, wall_time_s=time.perf_counter() - t0,
                           experiment_hash=experiment.hash)
-
-
-def _stops(decisions: dict, design, stage: int, previous: list) -> list[dict]:
-    """Stopped pairs for the store: earlier stops kept, this look's stops added (sorted, JSON-ready)."""
-    seen = {(e["run"], e["suite"], e["case"], e["variant"]) for e in previous}
-    new = [{"run": int(k[0]), "suite": k[1], "case": int(k[2]), "variant": k[3],
-            "repetitions": design.stages[stage - 1], "reason": d}
-           for k, d in sorted(decisions.items()) if d != "continue" and k not in seen]
-    return sorted(previous + new, key=lambda e: (e["run"], e["suite"], e["case"], e["variant"]))
 
 
 def _run_specs(store, specs: list, info: dict, sut, *, jobs: int, backend: str, batch_size, progress: bool,

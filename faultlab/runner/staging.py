@@ -29,7 +29,8 @@ import pandas as pd
 from faultlab.errors import ConfigError
 from faultlab.vocabulary import BASELINE, JobStatus
 
-__all__ = ["StagedDesign", "STOPS_KEY", "ALTERNATIVES", "LookRule", "stage_jobs", "look_at_pairs"]
+__all__ = ["StagedDesign", "STOPS_KEY", "ALTERNATIVES", "LookRule", "stage_jobs", "look_at_pairs", "look_before_stage",
+           "record_stops"]
 
 #: Store metadata key of the stopped pairs.
 STOPS_KEY = "adaptive_stops"
@@ -149,6 +150,66 @@ def look_at_pairs(results: pd.DataFrame, *, design: StagedDesign, upto: int, met
         diffs = g[col].to_numpy(float)[both] - b[col].to_numpy(float)[both]
         out[key] = str(look(diffs, design=design, baseline_failed=baseline_failed, variant_failed=variant_failed))
     return out
+
+
+def look_before_stage(results: pd.DataFrame, *, design: StagedDesign, stage: int, metric: str, look: LookRule,
+                      running: set[tuple] | None) -> tuple[dict[tuple, str], set[tuple]]:
+    """The interim look before ``stage``: decisions of the pairs still running, and those that go on.
+
+    Parameters
+    ----------
+    results : DataFrame
+        Stored rows; only repetitions ``< design.stages[stage - 1]`` are looked at.
+    design : StagedDesign
+    stage : int
+        0-based stage the look precedes, ``1 <= stage < len(design.stages)``.
+    metric : {"rms", "emd"}
+    look : callable
+        The rule (:func:`faultlab.stats.sequential.interim_look`).
+    running : set of (run, suite, case, variant), optional
+        Pairs still running after the previous look (``None`` before the first look: all); a
+        pair stopped at an earlier look stays stopped.
+
+    Returns
+    -------
+    (decisions, running) : (dict, set)
+        ``(run, suite, case, variant) -> "continue"`` or the reason for stopping, for the pairs
+        that were running; and the pairs that continue into ``stage``.
+    """
+    decisions = look_at_pairs(results, design=design, upto=design.stages[stage - 1], metric=metric, look=look)
+    if running is not None:
+        decisions = {k: d for k, d in decisions.items() if k in running}
+    return decisions, {k for k, d in decisions.items() if d == "continue"}
+
+
+def record_stops(decisions: Mapping[tuple, str], *, design: StagedDesign, stage: int,
+                 previous: Iterable[Mapping] = ()) -> list[dict]:
+    """The stopped pairs as :data:`STOPS_KEY` records them after the look before ``stage`` (1-based look).
+
+    Parameters
+    ----------
+    decisions : mapping
+        ``(run, suite, case, variant) -> "continue"`` or the reason for stopping
+        (:func:`look_at_pairs`).
+    design : StagedDesign
+    stage : int
+        The stage (0-based, ``>= 1``) the look precedes: a pair stopped there used
+        ``design.stages[stage - 1]`` repetitions.
+    previous : iterable of mapping
+        Stops recorded at earlier looks (kept as they are).
+
+    Returns
+    -------
+    list of dict
+        One JSON-ready entry per stopped pair (``run, suite, case, variant, repetitions, reason``),
+        sorted by pair.
+    """
+    previous = [dict(e) for e in previous]
+    seen = {(e["run"], e["suite"], e["case"], e["variant"]) for e in previous}
+    new = [{"run": int(k[0]), "suite": k[1], "case": int(k[2]), "variant": k[3],
+            "repetitions": design.stages[stage - 1], "reason": d}
+           for k, d in sorted(decisions.items()) if d != "continue" and k not in seen]
+    return sorted(previous + new, key=lambda e: (e["run"], e["suite"], e["case"], e["variant"]))
 
 
 def stage_jobs(specs: Iterable, *, design: StagedDesign, stage: int, running: set[tuple] | None) -> list:

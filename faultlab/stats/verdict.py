@@ -128,6 +128,7 @@ from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRE
 
 __all__ = [
     "Verdict",
+    "TOO_FEW_PAIRS",
     "MAX_EXACT_PAIRS",
     "MDE_SEED",
     "min_p_value",
@@ -143,6 +144,9 @@ __all__ = [
     "ClusteredRate",
     "clustered_rate",
 ]
+
+#: ``reason`` of a ``cannot_judge`` verdict whose usable pairs are fewer than :func:`min_pairs`.
+TOO_FEW_PAIRS = "too_few_pairs"
 
 #: Largest number of pairs the exact test enumerates (2^20 sign patterns).
 MAX_EXACT_PAIRS = 20
@@ -540,7 +544,7 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     tested = base_ok & ~crashed & ~too_few
     verdict[crashed] = Verdict.CRASH_DETECTED.value
     verdict[too_few] = Verdict.CANNOT_JUDGE.value
-    reason[too_few] = "too_few_pairs"
+    reason[too_few] = TOO_FEW_PAIRS
     verdict[~base_ok] = Verdict.CANNOT_JUDGE.value
     reason[~base_ok] = "baseline_failed"
 

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 import faultlab.analysis.result
 from faultlab.analysis import analyse
@@ -100,3 +101,49 @@ def test_the_command_line_starts_without_statsmodels():
             "print('statsmodels' in sys.modules, 'faultlab.analysis.result' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
+
+
+def _tiny_fixed_store(out: Path) -> Path:
+    """A fixed-K toy campaign (K = 4; 15 steps, 5 particles, 2 cases) to replay adaptive designs on."""
+    from faultlab.runner import run_experiment
+    from tests.analysis.test_replay import _experiment
+
+    exp = _experiment(False).replace(repetitions=4, suites={"random": 1, "fixed": 1},
+                                     variants=["baseline", "motion_sign_error", "naive_resampling"])
+    run_experiment(exp, out, jobs=1, progress=False)
+    return out
+
+
+def test_stats_adaptive_prints_or_writes_the_replay_of_the_library(tmp_path, capsys):
+    from faultlab.analysis.replay import AdaptiveReplay, replay_adaptive
+
+    store = _tiny_fixed_store(tmp_path / "store")
+    argv = ["stats", "adaptive", str(store), "--stages", "2,4", "--level", "0.1", "--alternative", "two-sided"]
+    expected = replay_adaptive(store, {"stages": [2, 4], "level": 0.1, "alternative": "two-sided"})
+    assert main(argv) == 0
+    page = capsys.readouterr().out
+    assert f"**Executions: {expected.executions_adaptive} of {expected.executions_fixed} " in page
+    assert main(argv + ["--reports", str(tmp_path / "rep")]) == 0
+    written = capsys.readouterr().out.split()
+    assert sorted(Path(p).name for p in written) == ["adaptive_replay.md", "pairs.csv", "replay_meta.json",
+                                                      "summary.csv", "verdicts.csv"]
+    assert (tmp_path / "rep" / "adaptive_replay.md").read_text() == page
+    back = AdaptiveReplay.load(tmp_path / "rep")
+    for name in AdaptiveReplay.TABLES:
+        pd.testing.assert_frame_equal(back.table(name), expected.table(name))
+
+
+def test_stats_adaptive_refusals_write_nothing(tmp_path, capsys):
+    store = _tiny_fixed_store(tmp_path / "store")
+    rep = tmp_path / "rep"
+    for argv, message in ((["--reports", str(rep)], "no [adaptive] table"),
+                          (["--stages", "2,3", "--reports", str(rep)], "must equal the store's K = 4"),
+                          (["--stages", "2,x"], "--stages: expected cumulative repetitions"),
+                          (["--level", "0.1"], "need --stages"),
+                          (["--stages", "2,4", "--futility", "0.01"], "futility must lie in")):
+        assert main(["stats", "adaptive", str(store), *argv]) == 1
+        err = capsys.readouterr().err
+        assert err.startswith("faultlab: error: ") and message in err and err.count("\n") == 1
+        assert not rep.exists()
+    assert main(["stats", "adaptive", str(tmp_path / "nowhere"), "--stages", "2,4"]) == 1
+    assert capsys.readouterr().err.startswith("faultlab: error: ")

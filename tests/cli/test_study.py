@@ -164,7 +164,7 @@ def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("study, folder", [("study", "study"), ("mutation", "mutation")])
+@pytest.mark.parametrize("study, folder", [("study", "study"), ("mutation", "mutation"), ("mutation-paper", "mutation-paper")])
 def test_the_committed_plan_is_what_the_verb_renders(study, folder, tmp_path, capsys):
     from pathlib import Path
 

@@ -1,0 +1,87 @@
+"""An adaptive design replayed on a fixed-K store, as CSV tables and one Markdown page."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from faultlab.analysis.replay import AdaptiveReplay
+from faultlab.analysis.schema import ALL_VARIANTS
+from faultlab.vocabulary import BASELINE
+
+__all__ = ["REPLAY_FILE", "replay_markdown", "write_replay"]
+
+#: File name of the rendered page.
+REPLAY_FILE = "adaptive_replay.md"
+
+
+def _table(frame, columns: list[tuple[str, str]]) -> list[str]:
+    lines = ["| " + " | ".join(title for _, title in columns) + " |", "|" + "---|" * len(columns)]
+    for row in frame.itertuples(index=False):
+        lines.append("| " + " | ".join(str(getattr(row, c)) for c, _ in columns) + " |")
+    return lines
+
+
+def replay_markdown(replay: AdaptiveReplay) -> str:
+    """The page: the design, executions saved, stops by reason, verdicts compared (each change explained)."""
+    m = replay.meta
+    d = m["design"]
+    pairs = replay.pairs[replay.pairs["variant"] != BASELINE]
+    stopped = pairs[pairs["reps_adaptive"] < pairs["reps_fixed"]]
+    base = replay.pairs[replay.pairs["variant"] == BASELINE]
+    base_cut = base["reps_adaptive"] < base["reps_fixed"]
+    v = replay.verdicts
+    lines = [f"# Adaptive repetitions replayed on `{m['store']}`", "",
+             f"The store's K = {m['K']} repetitions of every (case, variant), cut to those an adaptive campaign "
+             f"would have run: stages {d['stages']}, per-case level {d['level']:g}, {d['alternative']}, futility "
+             f"bound {d['futility']:g} (the rule of `faultlab.stats.sequential`: a pair stops only without "
+             "rejecting, so the per-case level stays at most the fixed-K test's). Repetition r runs with the same "
+             "SLAM seed in both designs, so the replay reaches the adaptive campaign's own decisions from the "
+             "stored rows by the runner's own look; no SLAM was run.", "",
+             f"**Executions: {replay.executions_adaptive} of {replay.executions_fixed} "
+             f"({m['saved_pct']:.1f} % saved).** {len(stopped)} of {len(pairs)} (case, variant) pairs stopped "
+             f"early; a case's baseline runs as far as its variants do: {len(base) - int(base_cut.sum())} of "
+             f"{len(base)} cases ran their baseline for all {m['K']} repetitions because a variant of theirs "
+             "continued.", "",
+             *_table(replay.summary.assign(saved=replay.summary["saved_pct"].map(lambda x: f"{x:.1f} %")),
+                     [("variant", "variant"), ("n_pairs", "pairs"), ("n_stopped", "stopped early"),
+                      ("executions_fixed", "executions, K fixed"), ("executions_adaptive", "executions, adaptive"),
+                      ("saved", "saved"), ("n_changed", "verdicts changed")]), ""]
+    if not stopped.empty:
+        counts = stopped.groupby(["stop", "reps_adaptive"]).size().rename("n").reset_index()
+        lines += ["Stops by reason and repetitions used:", "",
+                  *_table(counts, [("stop", "reason"), ("reps_adaptive", "repetitions used"), ("n", "pairs")]), ""]
+    lines += ["## Verdicts", "",
+              f"Per-case verdicts by the store's detection rule on the {m['metric'].upper()} error: {m['rule']}. "
+              "Both columns are the campaign's analysis, of all K repetitions and of the repetitions the adaptive "
+              "design ran.", ""]
+    n_changed = int(v["changed"].sum())
+    if n_changed == 0:
+        lines.append(f"**All {len(v)} per-case verdicts are unchanged.**")
+    else:
+        lines += [f"**{n_changed} of {len(v)} per-case verdicts change:**", "",
+                  *_table(replay.changed, [("suite", "suite"), ("run", "run"), ("case", "case"), ("fault", "fault"),
+                                           ("verdict_fixed", "K fixed"), ("verdict_adaptive", "adaptive"),
+                                           ("why", "why")])]
+    changed_by = {r.variant: r.n_changed for r in replay.summary.itertuples(index=False) if r.variant != ALL_VARIANTS}
+    tally = v.groupby(["fault", "verdict_fixed", "verdict_adaptive"]).size().rename("n").reset_index()
+    lines += ["", "Verdicts of both designs per fault:", "",
+              *_table(tally, [("fault", "fault"), ("verdict_fixed", "K fixed"), ("verdict_adaptive", "adaptive"),
+                              ("n", "cases")]), ""]
+    if any(changed_by.values()):
+        lines.append("Changed per fault: " + ", ".join(f"{f} {n}" for f, n in changed_by.items() if n) + ".")
+        lines.append("")
+    if m.get("notes"):
+        lines += ["## Notes", "", *[f"- {n}." for n in m["notes"]], ""]
+    lines += ["Files: `summary.csv` (executions per variant), `pairs.csv` (repetitions used and stop reason per "
+              "(case, variant)), `verdicts.csv` (both verdicts, p values and Holm-adjusted p values per (case, "
+              "fault)), `replay_meta.json` (the design and the stops as an adaptive campaign records them). "
+              "Generated by `faultlab stats adaptive`.", ""]
+    return "\n".join(lines)
+
+
+def write_replay(replay: AdaptiveReplay, directory: str | Path) -> list[Path]:
+    """Write the tables (CSV, by their schemas), the metadata and :data:`REPLAY_FILE`; the paths written."""
+    d = replay.save(directory)
+    page = d / REPLAY_FILE
+    page.write_text(replay_markdown(replay), encoding="utf-8")
+    return [d / f"{name}.csv" for name in replay.TABLES] + [d / replay.META_FILE, page]
