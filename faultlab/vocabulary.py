@@ -18,6 +18,7 @@ __all__ = [
     "SUITE_ORDER",
     "PAPER_FAULTS",
     "METRICS",
+    "MAP_METRICS",
     "ASSOCIATIONS",
     "KNOWN_ASSOCIATION",
     "UNKNOWN_ASSOCIATION",
@@ -60,8 +61,13 @@ PAPER_PROTOCOL = MappingProxyType({"n_steps": 1000, "particles": 200, "runs": 3}
 #: The paper's three injected faults (Sec. VII-A), in Table II order.
 PAPER_FAULTS: tuple[str, ...] = ("naive_resampling", "missing_angle_wrap", "motion_sign_error")
 
-#: Map-error metrics, the primary one of a campaign first by default (both are always recorded).
-METRICS: tuple[str, ...] = ("rms", "emd")
+#: The metrics a job records (stored as ``<name>_mm``): the map errors RMS and EMD (Sec. VII-B) and the
+#: absolute trajectory error ``"ate"`` (:func:`faultlab.metrics.trajectory_error_mm`); an experiment
+#: records all of them unless its ``metrics`` option says otherwise.
+METRICS: tuple[str, ...] = ("rms", "emd", "ate")
+#: The map-error metrics among :data:`METRICS`: every metric there was before the trajectory error, what a
+#: store without a metrics list recorded.
+MAP_METRICS: tuple[str, ...] = ("rms", "emd")
 
 #: Data association of a SLAM under test: ``"known"``, observations carry the landmark ids; ``"unknown"``,
 #: the driver hides them and the SLAM associates observations itself.  A map without ids has no

@@ -12,7 +12,8 @@
  *   {"type":"reset","protocol":1,"pose":[x,y,theta],"seed":s}  ->  {"type":"ready","protocol":1}
  *   {"type":"step","t":k,"control":[v,omega],"ranges":[..],"bearings":[..],"ids":[..]}
  *                                                              ->  {"type":"ack","t":k}
- *   {"type":"estimate"}  ->  {"type":"estimate","pose":[x,y,theta],"landmarks":[[id,x,y],...]}
+ *   {"type":"estimate"}  ->  {"type":"estimate","pose":[x,y,theta],"landmarks":[[id,x,y],...],
+ *                              "trajectory":[[x,y,theta],...]}   (the pose after every step)
  *   {"type":"bye"}       ->  exit status 0, no reply
  * Anything it cannot process is answered with {"type":"error","message":"..."}.
  *
@@ -22,6 +23,7 @@
  * Deliberate defects, for testing the tools that check a process SLAM:
  *   EXAMPLE_SLAM_KILL_AT_STEP=k   at step k, write a note to stderr and kill itself with SIGKILL
  *   EXAMPLE_SLAM_BREAK=estimate   reply to "estimate" with landmarks as [x,y] (no id): malformed
+ *   EXAMPLE_SLAM_BREAK=trajectory reply to "estimate" with trajectory poses as [x,y] (no heading): malformed
  */
 #define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
@@ -204,6 +206,7 @@ static long long *lm_id = NULL; /* sorted */
 static double *lm_sx = NULL, *lm_sy = NULL;
 static long *lm_n = NULL;
 static size_t n_lm = 0, cap_lm = 0;
+static vec traj; /* x, y, theta after every step since the reset */
 
 static double wrap(double a) { return a - 2.0 * PI * floor((a + PI) / (2.0 * PI)); }
 
@@ -248,7 +251,7 @@ static void reply_error(const char *what) {
     printf("\"}\n");
 }
 
-static void handle(const message *m, int broken_estimate, long kill_at) {
+static void handle(const message *m, int broken_estimate, int broken_trajectory, long kill_at) {
     if (!strcmp(m->type, "reset")) {
         if (!m->has_protocol || m->protocol != PROTOCOL) {
             reply_error("unsupported protocol version (this program speaks version 1)");
@@ -261,6 +264,7 @@ static void handle(const message *m, int broken_estimate, long kill_at) {
         memcpy(pose, m->pose.v, sizeof pose);
         pose[2] = wrap(pose[2]);
         n_lm = 0;
+        traj.n = 0;
         started = 1;
         printf("{\"type\":\"ready\",\"protocol\":%d}\n", PROTOCOL);
     } else if (!strcmp(m->type, "step")) {
@@ -288,6 +292,7 @@ static void handle(const message *m, int broken_estimate, long kill_at) {
             lm_sy[j] += pose[1] + r * sin(a);
             lm_n[j] += 1;
         }
+        for (int i = 0; i < 3; i++) vec_push(&traj, pose[i]);
         if (m->has_t) printf("{\"type\":\"ack\",\"t\":%.17g}\n", m->t);
         else printf("{\"type\":\"ack\"}\n");
     } else if (!strcmp(m->type, "estimate")) {
@@ -297,6 +302,12 @@ static void handle(const message *m, int broken_estimate, long kill_at) {
             double x = lm_sx[j] / (double)lm_n[j], y = lm_sy[j] / (double)lm_n[j];
             if (broken_estimate) printf("%s[%.17g,%.17g]", j ? "," : "", x, y);
             else printf("%s[%lld,%.17g,%.17g]", j ? "," : "", lm_id[j], x, y);
+        }
+        printf("],\"trajectory\":[");
+        for (size_t t = 0; 3 * t < traj.n; t++) {
+            const double *p = traj.v + 3 * t;
+            if (broken_trajectory) printf("%s[%.17g,%.17g]", t ? "," : "", p[0], p[1]);
+            else printf("%s[%.17g,%.17g,%.17g]", t ? "," : "", p[0], p[1], p[2]);
         }
         printf("]}\n");
     } else if (!strcmp(m->type, "bye")) {
@@ -314,6 +325,7 @@ int main(void) {
     const char *brk = getenv("EXAMPLE_SLAM_BREAK");
     const char *kill = getenv("EXAMPLE_SLAM_KILL_AT_STEP");
     int broken_estimate = brk && !strcmp(brk, "estimate");
+    int broken_trajectory = brk && !strcmp(brk, "trajectory");
     long kill_at = kill ? strtol(kill, NULL, 10) : -1;
     fprintf(stderr, "example_slam: dead reckoning with landmark averaging, protocol %d\n", PROTOCOL);
     while (getline(&line, &cap, stdin) != -1) {
@@ -323,7 +335,7 @@ int main(void) {
         if (!read_message(line, &m)) {
             reply_error("malformed JSON message");
         } else {
-            handle(&m, broken_estimate, kill_at);
+            handle(&m, broken_estimate, broken_trajectory, kill_at);
         }
         fflush(stdout);
     }

@@ -14,7 +14,7 @@ from faultlab.runner.staging import STOPS_KEY
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY, recorded_metrics
 from faultlab.space import ParameterSpace, space_from_mapping, table1_space
 from faultlab.stats.detection import DetectionRule
-from faultlab.vocabulary import BASELINE, DEFAULT_DIRECTION, METRICS, PAPER_DIRECTION
+from faultlab.vocabulary import BASELINE, DEFAULT_DIRECTION, MAP_METRICS, METRICS, PAPER_DIRECTION
 
 __all__ = ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary", "judged_metric", "metrics_note"]
 
@@ -58,7 +58,7 @@ def judged_metric(metadata: Mapping, metric: str | None = None) -> str:
     ----------
     metadata : mapping
         :func:`faultlab.runner.load_metadata` (its ``metric`` and ``metrics`` entries).
-    metric : {"rms", "emd"}, optional
+    metric : {"rms", "emd", "ate"}, optional
         Judge by this metric instead of the experiment's.
 
     Raises
@@ -82,11 +82,15 @@ def judged_metric(metadata: Mapping, metric: str | None = None) -> str:
 
 
 def metrics_note(metadata: Mapping) -> str | None:
-    """One sentence naming the recorded metrics when the experiment left some out (None when it recorded all)."""
-    recorded = recorded_metrics(metadata)
-    if recorded == METRICS:
+    """One sentence naming the recorded map errors when the experiment left one out (None when it recorded both).
+
+    Only the map errors (:data:`~faultlab.vocabulary.MAP_METRICS`) are named: the reports' tables
+    are of map errors, and the trajectory error is a column of the results of its own.
+    """
+    recorded = tuple(m for m in recorded_metrics(metadata) if m in MAP_METRICS)
+    if recorded == MAP_METRICS:
         return None
-    left = [m.upper() for m in METRICS if m not in recorded]
+    left = [m.upper() for m in MAP_METRICS if m not in recorded]
     return (f"Metrics recorded: {', '.join(m.upper() for m in recorded)} only; {', '.join(left)} "
             f"{'was' if len(left) == 1 else 'were'} not computed (the experiment's metrics option) and "
             f"{'is' if len(left) == 1 else 'are'} empty in every row.")

@@ -202,7 +202,7 @@ class Analysis:
             The SLAM repetition shown in Table II's RMS cells; default the smallest stored.
         parameters : sequence of str, optional
             Predictors of the parameter effects (:func:`faultlab.stats.fit_effects`); default all.
-        metric : {"rms", "emd"}, optional
+        metric : {"rms", "emd", "ate"}, optional
             The metric of the per-case verdicts; default the experiment's
             (:func:`faultlab.analysis.metadata.judged_metric`).
 

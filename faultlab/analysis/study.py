@@ -116,7 +116,7 @@ def _whole(km: KillMatrix, spec: StudySpec, mutants, *, k: int | None = None,
             if k < min_pairs(spec.alpha / n, alternative=alternative):
                 skipped[strategy] = min_pairs(spec.alpha / n, alternative=alternative)
     judged = whole_suites(km, [w for w in spec.whole if w not in skipped], alpha=spec.alpha,
-                          method=spec.multiplicity, timeouts_detect=spec.timeouts_detect)
+                          method=spec.multiplicity, timeouts_detect=spec.timeouts_detect, seed=spec.seed)
     return whole_suite_table(judged, mutants=mutants, alpha=spec.alpha), skipped
 
 
@@ -209,6 +209,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "cannot_judge_cases": int((~km.judged).any(axis=1).sum()),
         "alternative": alternative, "sizes_not_evaluated": {str(n): need for n, need in too_large.items()},
         "whole_not_evaluated": whole_skipped,
+        "weights": {"file": info.get("weights_file"), "classes": (exp.get("space") or {}).get("weights")},
         "crash_cases": {v: int(n) for v, n in zip(km.variants, km.crash.sum(axis=0)) if n},
         "timeout_cases": {v: int(n) for v, n in zip(km.variants, km.timeout.sum(axis=0)) if n},
     }

@@ -46,7 +46,7 @@ from faultlab.mutation.variants import MutantSelection, mutant_variant, select_m
 from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, load_results, parse_experiment,
                              prepare_cases, result_row, store_session, stream_results)
 from faultlab.runner.progress import progress as show_progress
-from faultlab.runner.store import MUTATION_FILE, check_store, results_path, store_lock
+from faultlab.runner.store import MUTATION_FILE, check_store, job_metrics, results_path, store_lock
 from faultlab.stats.killmatrix import suite_kills
 from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS
@@ -187,7 +187,8 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
         cases = prepare_cases(exp, out)
         info = {(c.run, c.suite, c.case): c for c in cases}
         n_cases = _n_cases(cases)
-        specs = expand_jobs(exp, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases))
+        specs = expand_jobs(exp, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases),
+                            metrics=job_metrics(exp.metrics, store.meta))
         by_case: dict = {}
         for s in specs:
             by_case.setdefault((s.key.run, s.key.suite, s.key.case), []).append(s)

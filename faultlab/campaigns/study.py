@@ -7,7 +7,9 @@ A study file is an ordinary experiment file (``experiments/study.toml``) plus
   variants ``mutant:<id>`` after the file's own variants;
 * ``[study]``: the suite sizes evaluated, the number of suites drawn per strategy and size, the
   bootstrap replicates, the seed of both, the family-wise level of a suite and the multiplicity
-  rule (:class:`~faultlab.stats.killmatrix.StudySpec`);
+  rule (:class:`~faultlab.stats.killmatrix.StudySpec`), and ``weights``: the class-weights CSV of
+  an earlier effects study (``weights_<fault>.csv`` of ``faultlab effects report``) that an
+  ``effect-guided`` suite draws its classes by (:func:`study_class_weights`);
 * ``[study.quick]``: keys that replace the file's for ``--quick`` (tables merged key by key).
 
 The *case pool* of a strategy is every case its generator draws in the campaign: ``runs``
@@ -39,10 +41,15 @@ from faultlab.errors import ConfigError, FaultlabError
 from faultlab.mutation.variants import MutantSelection, is_mutant_variant, mutant_variant
 from faultlab.runner import Experiment, RunSummary, parse_experiment, run_experiment
 from faultlab.runner.store import STUDY_FILE, check_store, load_sessions, settle_sessions
+from faultlab.space import read_class_weights, space_from_mapping
 from faultlab.stats.killmatrix import StudySpec, study_spec
 from faultlab.stats.verdict import alternative_of, min_pairs
 
-__all__ = ["STUDY_FILE", "StudyExperiment", "load_study_experiment", "run_study", "sampled_load"]
+__all__ = ["STUDY_FILE", "StudyExperiment", "load_study_experiment", "run_study", "sampled_load",
+           "study_class_weights"]
+
+#: The suite strategy that draws its classes by the weights of ``[study] weights``.
+WEIGHTED_STRATEGY = "effect-guided"
 
 
 @dataclass(frozen=True)
@@ -53,15 +60,69 @@ class StudyExperiment:
     study: StudySpec
     selection: MutantSelection | None
     quick: bool = False
+    weights_file: str | None = None
 
     def to_json(self) -> dict:
         sel = self.selection
-        return {"study": self.study.to_dict(), "quick": self.quick,
+        return {"study": self.study.to_dict(), "quick": self.quick, "weights_file": self.weights_file,
                 "mutants": [] if sel is None else list(sel.run),
                 "mutant_unit": {} if sel is None else {m: sel.unit[m] for m in sel.run},
                 "mutant_operator": {} if sel is None else {m: sel.operator[m] for m in sel.run},
                 "pool": {s.kind: s.n_cases for s in self.experiment.suites}, "runs": self.experiment.runs}
 
+def study_class_weights(value, space: Mapping, *, source: str,
+                        base_dir: str | Path | None = None) -> dict[str, dict[str, float]]:
+    """The class weights of ``[study] weights``: a CSV file of an earlier effects study, checked against the space.
+
+    Parameters
+    ----------
+    value
+        The key's value: the path of a CSV file with the columns ``parameter, class, weight``
+        (``weights_<fault>.csv`` of ``faultlab effects report``); a relative path is read from
+        ``base_dir``.
+    space : mapping
+        The study's ``[space]`` table (Table I overrides), which the weights must fit.
+    source : str
+        The study file, for messages.
+    base_dir : path, optional
+        The study file's directory (symbolic links followed); None reads a relative path from the
+        working directory.
+
+    Returns
+    -------
+    dict
+        ``{parameter: {class: weight}}``, to become the space's ``[weights]``.
+
+    Raises
+    ------
+    ConfigError
+        One message naming the study file, the key and the CSV file: not a path, no such file, an
+        unreadable or malformed file, a file without any weight (an effects study derives none for
+        a response without a clear effect), weights that do not fit the space's parameters and
+        classes, or ``[space.weights]`` given as well.
+    """
+    where = f"{source}: study.weights"
+    if not isinstance(value, str) or not value:
+        raise ConfigError(f"{where}: expected the path of a class-weights CSV file (parameter, class, weight; "
+                          f"weights_<fault>.csv of `faultlab effects report`), got {value!r}")
+    if "weights" in space:
+        raise ConfigError(f"{where}: [space.weights] gives class weights as well; give them once")
+    file = Path(value)
+    if not file.is_absolute() and base_dir is not None:
+        file = Path(base_dir) / file
+    if not file.is_file():
+        raise ConfigError(f"{where}: {value}: no such file (a weights_<fault>.csv of `faultlab effects report`; "
+                          f"a relative path is read from the study file's directory)")
+    base = space_from_mapping(space, source=f"{source} [space]")
+    try:
+        weights = read_class_weights(file)
+        if not weights:
+            raise ConfigError(f"{value}: holds no class weights (an effects study derives none for a response "
+                              f"without a clear effect; choose another response's file)")
+        base.with_weights(weights, source=value)
+    except ConfigError as exc:  # one line: a parser's message may span several
+        raise ConfigError(f"{where}: {' '.join(str(exc).split())}") from None
+    return weights
 
 
 def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExperiment:
@@ -70,7 +131,9 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
     Raises
     ------
     ConfigError
-        Anything malformed (naming the file and key), a size larger than a strategy's pool, or K
+        Anything malformed (naming the file and key; the weights file by :func:`study_class_weights`),
+        an ``effect-guided`` suite without ``[study] weights`` (or weights no suite uses), a size
+        larger than a strategy's pool, or K
         too small for the largest size: a case of a suite of ``n`` cases is judged at
         ``alpha / n``, which the exact sign-flip test of the rule's sidedness reaches only from
         ``K = min_pairs(alpha / n)`` (two-sided: one more than one-sided).
@@ -88,7 +151,21 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
     if quick:
         data = merge_tables(data | {"study": study}, quick_table)
         study = dict(data.pop("study", {}))
+    weights_file = study.pop("weights", None)
     spec = study_spec(study, source=source)
+    suites = data.get("suites", {})
+    weighted = isinstance(suites, Mapping) and WEIGHTED_STRATEGY in suites
+    space = data.get("space", {})
+    if weights_file is not None:
+        if not weighted:
+            raise ConfigError(f"{source}: study.weights: no {WEIGHTED_STRATEGY} suite in [suites] draws by them")
+        space = dict(space) if isinstance(space, Mapping) else space
+        if isinstance(space, Mapping):  # parse_experiment refuses a [space] that is not a table
+            data["space"] = space | {"weights": study_class_weights(weights_file, space, source=source,
+                                                                     base_dir=file.resolve().parent)}
+    elif weighted and not (isinstance(space, Mapping) and "weights" in space):
+        raise ConfigError(f"{source}: suites.{WEIGHTED_STRATEGY}: needs class weights: give study.weights = "
+                          f"the path of an effects study's weights_<fault>.csv (`faultlab effects report`)")
     mutation = data.pop("mutation", None)
     selection = None
     variants = list(data.get("variants", []))
@@ -118,7 +195,7 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
         raise ConfigError(f"{source}: repetitions = {exp.repetitions} is too few: a case of a suite of "
                           f"{largest} cases is judged at {spec.alpha}/{largest}, which the exact "
                           f"{alternative} sign-flip test reaches only from K = {need}")
-    return StudyExperiment(experiment=exp, study=spec, selection=selection, quick=quick)
+    return StudyExperiment(experiment=exp, study=spec, selection=selection, quick=quick, weights_file=weights_file)
 
 
 @contextlib.contextmanager

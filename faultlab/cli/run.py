@@ -26,8 +26,8 @@ def register(subparsers) -> None:
                         "experiment's repetitions), stopping decided (case, variant) pairs: sets the "
                         "experiment's [adaptive] stages (its other keys keep their values or defaults)")
     p.add_argument("--metrics", default=None, metavar="M,...",
-                   help="record only these map errors, e.g. rms (default: the experiment's metrics option, "
-                        "both rms and emd unless it says otherwise); the others are stored as NaN and cost nothing")
+                   help="record only these metrics (rms, emd, ate), e.g. rms (default: the experiment's metrics "
+                        "option, all three unless it says otherwise); the others are stored as NaN and cost nothing")
     add_execution_options(p)
     add_examples(p, ["faultlab run smoke --out results/smoke --metrics rms",
                      "nice -n 10 faultlab run paper --out results/paper --jobs 2",

@@ -64,6 +64,7 @@ def register(subparsers) -> None:
                                       "budget, the largest scale that does. Runs nothing.")
     plan.add_argument("study", nargs="?", default="study",
                       help="a study file or a shipped name: 'study' (strategies) or 'mutation' (default: study)")
+    plan.add_argument("--quick", action="store_true", help="the file's [study.quick] scale (strategies study)")
     plan.add_argument("--target-detection-pp", type=float, default=20.0,
                       help="difference in single-case detection probability to detect, pp (default: 20)")
     plan.add_argument("--target-score-pp", type=float, default=10.0,
@@ -80,7 +81,7 @@ def register(subparsers) -> None:
     plan.add_argument("--reports", default=None, help="also write plan.md into this directory")
     add_examples(plan, ["faultlab study plan study --reports reports/study",
                         "faultlab study plan mutation --reports reports/mutation",
-                        "faultlab study plan study --target-detection-pp 30 --budget-hours 24 --cores 64"])
+                        "faultlab study plan study --quick --seconds-per-execution 0.12"])
     plan.set_defaults(func=_plan)
 
 
@@ -123,7 +124,7 @@ def _plan(args: argparse.Namespace) -> int:
     from faultlab.errors import ConfigError
     from faultlab.report.planning import PLAN_FILE, plan_markdown
     from faultlab.mutation.variants import is_mutant_variant
-    from faultlab.stats.planning import plan_study
+    from faultlab.stats.planning import file_scale, plan_study
     from faultlab.vocabulary import BASELINE
 
     data, _ = read_toml(resolve_experiment(args.study, what="study file"), what="study file")
@@ -134,16 +135,23 @@ def _plan(args: argparse.Namespace) -> int:
     common = dict(target_detection=args.target_detection_pp / 100, target_score=args.target_score_pp / 100,
                   power=args.power, reverse=args.reverse_discordance, seconds_per_execution=seconds,
                   budget_hours=args.budget_hours, cores=args.cores)
+    scale, pools = None, ""
+    if args.quick and "study" not in data:
+        raise ConfigError(f"{args.study}: --quick plans the quick scale of a strategies study, and this is not one")
     if "study" in data:
         from faultlab.campaigns.study import load_study_experiment
 
-        sexp = load_study_experiment(args.study)
+        sexp = load_study_experiment(args.study, quick=args.quick)
         exp = sexp.experiment
         faults = sum(1 for v in exp.variants if v != BASELINE and not is_mutant_variant(v))
         # the largest family of cases judged: the largest drawn size or a whole generated suite
         largest = max([*sexp.study.sizes, *(s.n_cases or 0 for s in exp.suites if s.kind in sexp.study.whole)])
         plan = plan_study("strategies", strategies=len(exp.suites), faults=faults, max_suite=largest,
                           alpha=sexp.study.alpha, sides=_sides(exp), **common)
+        sizes = [exp.runs * (s.n_cases or 0) for s in exp.suites]
+        scale = file_scale(plan, pools=sizes, mutants=sum(map(is_mutant_variant, exp.variants)),
+                           repetitions=exp.repetitions, largest_suite=largest)
+        pools = ", ".join(f"{s.kind} {n}" for s, n in zip(exp.suites, sizes))
     else:
         from faultlab.campaigns.mutation import load_mutation_experiment
 
@@ -153,9 +161,9 @@ def _plan(args: argparse.Namespace) -> int:
                           runs=exp.runs, alpha=mexp.alpha, sides=_sides(exp), **common)
     particles = dict(exp.slam.options).get("particles")
     settings = f"{exp.slam.name}, {particles} particles, {exp.n_steps} active steps"
-    text = plan_markdown(plan, study=Path(args.study).stem, cost=cost, cost_source=str(args.cost_store),
+    text = plan_markdown(plan, study=Path(args.study).stem + (" --quick" if args.quick else ""), cost=cost, cost_source=str(args.cost_store),
                          settings=settings, same_settings=cost is None or (particles, exp.n_steps, exp.slam.name) ==
-                         (cost.particles, cost.n_steps, cost.slam))
+                         (cost.particles, cost.n_steps, cost.slam), file_scale=scale, pools=pools)
     print(text)
     if args.reports is not None:
         out = Path(args.reports)

@@ -58,8 +58,9 @@ def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", metrics: Co
         without landmark ids would be scored.  In both cases the EMD uses
         *all* ground-truth landmarks (unmapped ones cost transport) and, when
         nothing was mapped, is NaN.
-    metrics : collection of {"rms", "emd"}
-        The metrics to compute (default both); one left out is NaN and costs nothing.  The EMD is
+    metrics : collection of {"rms", "emd", "ate"}
+        The map metrics to compute (default both; ``"ate"``, the trajectory error, is accepted and
+        ignored here: :func:`faultlab.metrics.trajectory_error_mm`); one left out is NaN and costs nothing.  The EMD is
         exact optimal transport and costs seconds for maps of several thousand landmarks (see
         :func:`earth_movers_distance`).  The landmark counts and the rigid alignment the EMD uses
         are computed whatever this says, so every value computed is the one computed with both.

@@ -10,9 +10,10 @@ With centred points ``P`` and ``Q`` (N, d) and the SVD ``P^T Q / N = U S V^T``, 
 ``R = U diag(1, ..., 1, det(U V^T)) V^T`` and ``t = mean(p) - R mean(q)`` (Umeyama 1991, without the
 scale factor).  ``d = 2`` aligns planar trajectories in SE(2), ``d = 3`` in SE(3).
 
-The SLAMs faultlab ships report their final pose and map only, not the trajectory, so the results
-table has no trajectory column; this metric scores trajectories from elsewhere (e.g. TUM files of a
-SLAM's own log, :mod:`faultlab.scenario.tum`).
+A SLAM's estimate may carry its trajectory (:attr:`faultlab.slam.Estimate.trajectory`, one pose
+per step); :func:`trajectory_error_mm` scores it against the scenario's true poses after each step
+(``true_poses[1:]``), as the results table's ``ate_mm`` column.  :func:`absolute_trajectory_error`
+also scores trajectories from elsewhere (e.g. TUM files of a SLAM's own log, :mod:`faultlab.scenario.tum`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,9 @@ import numpy as np
 
 from faultlab.errors import SlamOutputError
 
-__all__ = ["TrajectoryError", "absolute_trajectory_error", "align_rigid"]
+__all__ = ["TrajectoryError", "absolute_trajectory_error", "align_rigid", "trajectory_error_mm"]
+
+_MM_PER_M = 1000.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,3 +101,42 @@ def absolute_trajectory_error(reference, estimate) -> TrajectoryError:
     return TrajectoryError(rmse=float(np.sqrt(np.mean(errors ** 2))), mean=float(errors.mean()),
                            median=float(np.median(errors)), max=float(errors.max()), errors=errors,
                            rotation=rotation, translation=translation)
+
+
+def trajectory_error_mm(scenario, estimate) -> float:
+    """The ATE (root mean square, mm) of an estimate's trajectory against the scenario's true poses.
+
+    Row ``t`` of ``estimate.trajectory`` (the pose after step ``t``) is matched with
+    ``scenario.true_poses[t + 1]``; the positions (x, y) are aligned in SE(2) as in
+    :func:`absolute_trajectory_error` and the RMSE of the per-pose errors is returned in mm (the
+    results table's ``ate_mm``).
+
+    Parameters
+    ----------
+    scenario : faultlab.scenario.Scenario
+        Provides ``true_poses`` (T + 1, 3), m and rad.
+    estimate : faultlab.slam.Estimate
+        Its ``trajectory`` (T, 3) or None.
+
+    Returns
+    -------
+    float
+        NaN when the estimate has no trajectory, when it has a non-finite pose (a diverged
+        filter: no alignment exists) or when the scenario has no step.
+
+    Raises
+    ------
+    SlamOutputError
+        The trajectory does not have one pose (x, y, theta) per step of the scenario.
+    """
+    traj = getattr(estimate, "trajectory", None)
+    if traj is None:
+        return float("nan")
+    traj = np.asarray(traj, dtype=float)
+    truth = np.asarray(scenario.true_poses, dtype=float)[1:]
+    if traj.ndim != 2 or traj.shape != (truth.shape[0], 3):
+        raise SlamOutputError(f"trajectory: expected one pose (x, y, theta) per step, shape ({truth.shape[0]}, 3), "
+                              f"got {traj.shape}")
+    if not truth.shape[0] or not np.all(np.isfinite(traj)):
+        return float("nan")
+    return absolute_trajectory_error(truth[:, :2], traj[:, :2]).rmse * _MM_PER_M

@@ -35,10 +35,12 @@ def _scale_rows(plan: StudyPlan, scale: StudyScale) -> list[str]:
 
 
 def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, cost_source: str,
-                  settings: str, same_settings: bool = True) -> str:
+                  settings: str, same_settings: bool = True, file_scale: StudyScale | None = None,
+                  pools: str = "") -> str:
     """The plan of ``study`` (its name), with the cost's provenance and the study's SLAM ``settings``
     (``same_settings``: whether they are those the cost was measured at); ``cost`` None: the plan's
-    seconds per execution are an assumption."""
+    seconds per execution are an assumption.  ``file_scale``: the scale the study file itself sets
+    (:func:`faultlab.stats.planning.file_scale`; ``pools`` lists its pools), shown first."""
     a = plan.comparison_alpha
     side = "two-sided" if plan.sides == 2 else "one-sided"
     lines = [f"# Power plan: {study} ({plan.kind} study)", "",
@@ -68,6 +70,12 @@ def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, co
                  "case earlier when its verdict is settled, so the executions are an upper bound.")
     if plan.kind == "mutation":
         lines.append("- Mutation executions are an upper bound: the campaign stops a mutant's suite at its first kill.")
+    if file_scale is not None:
+        lines += ["", "## The file's scale", "",
+                  f"Pools: {pools}; the detectable difference of two pools of the smallest size is shown (a pair "
+                  f"holding a larger pool detects a smaller one). Every pool case runs the baseline, {plan.faults} faults and the "
+                  f"mutants, K times each.", "",
+                  "| | |", "|---|---|", *_scale_rows(plan, file_scale)]
     lines += ["", "## Scale needed for the targets", "", "| | |", "|---|---|", *_scale_rows(plan, plan.needed), ""]
     budget = plan.budget_hours * plan.cores
     if plan.fits:

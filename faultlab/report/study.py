@@ -186,6 +186,27 @@ def _not_evaluated_text(meta: dict) -> str:
             "so it would detect by crashes only.")
 
 
+def _weights_text(meta: dict) -> str:
+    weights = meta.get("weights") or {}
+    classes = weights.get("classes")
+    if not classes:
+        return ""
+    listing = "; ".join(f"{par}: " + ", ".join(f"{c} {w:.2f}" for c, w in sorted(ws.items(), key=lambda x: -x[1]))
+                        for par, ws in classes.items())
+    source = f"`{weights['file']}`" if weights.get("file") else "the study file's [space.weights]"
+    return (f" Effect-guided suites cover every class once, then draw classes by the class weights of {source} "
+            f"(an earlier effects study; heaviest first): {listing}; every other parameter's classes have equal "
+            f"weights.")
+
+
+def _whole_not_evaluated_text(meta: dict) -> str:
+    missing = meta.get("whole_not_evaluated") or {}
+    if not missing:
+        return ""
+    return ("Not judged whole: " + ", ".join(f"{s} (K >= {k} needed)" for s, k in missing.items())
+            + f" -- with K = {meta['repetitions']} no case of such a suite could reject at alpha / n.")
+
+
 def study_markdown(analysis: StudyAnalysis) -> str:
     """The study's Markdown report."""
     m = analysis.meta
@@ -202,7 +223,7 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         f"{m['n_steps']} active steps per case (plus the case's inactivity steps), K = {m['repetitions']} "
         f"repetitions per (case, variant) with common random numbers, time limit {m['timeout_s']:g} s per execution. "
         f"Variants: {len(m['faults'])} built-in faults ({', '.join(m['faults'])}) and {len(m['mutants'])} live "
-        f"mutants sampled from the screened catalogue of the reference FastSLAM 1.0.", "",
+        f"mutants sampled from the screened catalogue of the reference FastSLAM 1.0." + _weights_text(m), "",
         _run_text(m), "",
         _failures_text(m), "",
         "## Method", "",
@@ -251,6 +272,8 @@ def study_markdown(analysis: StudyAnalysis) -> str:
                "same suite rule at its own size. The unit is the generated suite: the interval is Clopper-Pearson "
                "over suites; for the mutation score, the lowest and highest score of one suite (a range).", "",
                markdown_table(_whole_md(w))]
+    if _whole_not_evaluated_text(m):
+        md += [_whole_not_evaluated_text(m), ""]
     md += ["## Power", "",
            f"Suites drawn per strategy and size: {st['draws']}; bootstrap replicates: {st['bootstrap']}; pool sizes: "
            + ", ".join(f"{s} {n}" for s, n in pool_sizes.items()) + ". "

@@ -48,7 +48,7 @@ import numpy as np
 
 from faultlab.faults.sensor import SensorFault
 from faultlab.runner.variants import resolve_variant
-from faultlab.metrics import map_errors
+from faultlab.metrics import map_errors, trajectory_error_mm
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec
 from faultlab.scenario.feed import fed_scenario, perturbs_stream
 from faultlab.scenario.model import Scenario, load_scenario
@@ -63,14 +63,15 @@ __all__ = ["JobResult", "execute_job", "execute_batch", "tune_allocator", "worke
 class JobResult:
     """What a worker sends back for one job (the parent adds the case's parameters).
 
-    ``rms_mm``/``emd_mm`` are NaN and the counts 0 unless ``status`` is ok;
-    ``error`` is "" when ok.
+    ``rms_mm``/``emd_mm``/``ate_mm`` are NaN and the counts 0 unless ``status`` is ok (``ate_mm`` also
+    when the SLAM reports no trajectory or the job does not record it); ``error`` is "" when ok.
     """
 
     key: JobKey
     status: JobStatus
     rms_mm: float = math.nan
     emd_mm: float = math.nan
+    ate_mm: float = math.nan
     n_mapped: int = 0
     n_unmapped: int = 0
     runtime_s: float = 0.0
@@ -244,15 +245,17 @@ def _score(spec: JobSpec, scenario: Scenario, estimate: Estimate, runtime: float
 
     ``association`` is the SLAM's (:func:`~faultlab.slam.protocol.association_of`): a map without
     landmark ids is scored by the EMD alone (:func:`~faultlab.metrics.map_errors`).  Only the
-    job's ``metrics`` are computed; the others are NaN.
+    job's ``metrics`` are computed; the others are NaN.  The trajectory is scored against the
+    unperturbed ground truth too (:func:`~faultlab.metrics.trajectory_error_mm`; NaN without one).
     """
     key = spec.key
     try:
         with np.errstate(all="ignore"):
             err = map_errors(scenario, estimate, association=association, metrics=spec.metrics)
+            ate = trajectory_error_mm(scenario, estimate) if "ate" in spec.metrics else math.nan
     except Exception as exc:  # e.g. an estimate the metrics cannot score
         return JobResult(key, JobStatus.CRASH, runtime_s=runtime, error=f"metrics: {_describe(exc)}")
-    return JobResult(key, JobStatus.OK, rms_mm=float(err.rms_mm), emd_mm=float(err.emd_mm),
+    return JobResult(key, JobStatus.OK, rms_mm=float(err.rms_mm), emd_mm=float(err.emd_mm), ate_mm=float(ate),
                      n_mapped=int(err.n_mapped), n_unmapped=int(err.n_unmapped), runtime_s=runtime)
 
 

@@ -16,8 +16,8 @@ Example (``experiments/paper.toml`` is the paper's protocol)::
     sensor_range = 2.0
     variants = ["baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error"]
     repetitions = 1
-    metric = "rms"
-    # metrics = ["rms"]     # record only these (default both); the others are stored as NaN
+    metric = "rms"          # or "emd", or "ate" (the trajectory error)
+    # metrics = ["rms"]     # record only these (default all: rms, emd, ate); the others are stored as NaN
     timeout_s = 600
 
     [suites]
@@ -28,7 +28,7 @@ Example (``experiments/paper.toml`` is the paper's protocol)::
     [slam]
     name = "fastslam"       # or "package.module:factory" with a [slam.options] table
     particles = 200
-    # association = "unknown"   # hide the landmark ids (fastslam, fastslam2): metric "emd" then
+    # association = "unknown"   # hide the landmark ids (fastslam, fastslam2): metric "emd" (or "ate") then
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ from faultlab.slam.profiles import DEFAULT_PROFILE
 from faultlab.slam.protocol import SlamAdapter
 from faultlab.slam.registry import build_slam, get_slam_kind, normalise_options
 from faultlab.space import build_suite, space_from_mapping, suite_kinds, table1_space
-from faultlab.vocabulary import BASELINE, DIRECTIONS, KNOWN_ASSOCIATION, METRICS, UNKNOWN_ASSOCIATION
+from faultlab.vocabulary import BASELINE, DIRECTIONS, KNOWN_ASSOCIATION, MAP_METRICS, METRICS, UNKNOWN_ASSOCIATION
 
 __all__ = [
     "Experiment",
@@ -155,16 +155,20 @@ class Experiment:
     repetitions : int
         SLAM repetitions per case (K >= 1), each with its own SLAM seed shared by all variants.
     metric : str
-        Primary metric, ``"rms"`` or ``"emd"`` (both are recorded).  Default ``"rms"``, or ``"emd"``
-        when the SLAM associates landmarks itself (``association = "unknown"`` in ``[slam]``), which
-        then requires it.
+        Primary metric, ``"rms"``, ``"emd"`` or ``"ate"`` (the absolute trajectory error, which
+        judges by the SLAM's trajectory instead of its map).  Default ``"rms"``, or ``"emd"`` when
+        the SLAM associates landmarks itself (``association = "unknown"`` in ``[slam]``), which then
+        rules out ``"rms"``.
     metrics : tuple of str
-        The map errors recorded for every job, in :data:`~faultlab.vocabulary.METRICS` order
-        (default both).  A metric left out is stored as NaN and its work is skipped (the EMD is
-        exact optimal transport, seconds on large maps); the store's metadata lists the recorded
-        ones and the analysis refuses to judge by another.  It must hold ``metric``, and ``"rms"``
-        for a SLAM with landmark ids (Table II judges by the RMS, as the paper does).  Left out of
-        the hash when both are recorded, so older campaigns keep theirs.
+        The metrics recorded for every job, in :data:`~faultlab.vocabulary.METRICS` order (default
+        all: RMS, EMD and the trajectory error ATE, :func:`faultlab.metrics.trajectory_error_mm`).
+        A metric left out is stored as NaN and its work is skipped (the EMD is exact optimal
+        transport, seconds on large maps; the ATE costs little); the store's metadata lists the
+        recorded ones and the analysis refuses to judge by another.  It must hold ``metric``, and
+        ``"rms"`` for a SLAM with landmark ids (Table II judges by the RMS, as the paper does).  The
+        hash holds the map errors only, and only when one of them is left out, so older campaigns
+        keep theirs; whether a store records the ATE is decided when it is created
+        (:func:`faultlab.runner.store.job_metrics`).
     timeout_s : float
         Wall-clock limit of one SLAM execution, s.
     detection : DetectionRule
@@ -226,8 +230,11 @@ class Experiment:
         d.pop("description")
         if not d["fov_bug"]:
             d.pop("fov_bug")  # the default: hashes of campaigns from before the key existed stay valid
-        if tuple(d["metrics"]) == METRICS:
-            d.pop("metrics")  # the default (every metric), as before the key existed
+        # the map errors only: the trajectory error adds a column and changes no other value, and a
+        # store keeps its own choice of it when resumed (runner.store.job_metrics)
+        d["metrics"] = [m for m in d["metrics"] if m in MAP_METRICS]
+        if tuple(d["metrics"]) == MAP_METRICS:
+            d.pop("metrics")  # both map errors, as before the key existed
         d["suites"] = [[s.kind, s.n_cases] for s in self.suites]
         return json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
@@ -308,9 +315,9 @@ def parse_experiment(data: Mapping, *, source: str = "<experiment>", text: str =
     # a SLAM that sees no landmark ids has no correspondences: its maps are scored by the EMD
     unknown = slam.association == UNKNOWN_ASSOCIATION
     metric = top.str("metric", "emd" if unknown else "rms", choices=METRICS)
-    if unknown and metric != "emd":
-        raise top.error("metric", f"must be 'emd' with slam.association = 'unknown' (a map without landmark "
-                                  f"ids has no RMS error), got {metric!r}")
+    if unknown and metric == "rms":
+        raise top.error("metric", f"must be 'emd' with slam.association = 'unknown' (or 'ate'; a map without "
+                                  f"landmark ids has no RMS error), got {metric!r}")
     metrics = _parse_metrics(top, metric=metric, unknown=unknown)
     variants = _parse_variants(top, source)
     detection = _parse_detection(top, source)
@@ -381,7 +388,7 @@ def _parse_slam(top: Table, source: str) -> SlamSpec:
 
 
 def _parse_metrics(top: Table, *, metric: str, unknown: bool) -> tuple[str, ...]:
-    """``metrics``: the recorded map errors, in :data:`METRICS` order (default all of them)."""
+    """``metrics``: the recorded metrics, in :data:`METRICS` order (default all of them)."""
     names = top.get("metrics", list(METRICS))
     if (not isinstance(names, list) or not names or any(not isinstance(n, str) for n in names)
             or len(set(names)) != len(names)):

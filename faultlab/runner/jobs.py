@@ -68,7 +68,8 @@ class JobSpec:
     metrics: tuple[str, ...] = METRICS
 
 
-def expand_jobs(experiment: Experiment, cases: Iterable[tuple[int, str, int, str, float]]) -> list[JobSpec]:
+def expand_jobs(experiment: Experiment, cases: Iterable[tuple[int, str, int, str, float]], *,
+                metrics: tuple[str, ...] | None = None) -> list[JobSpec]:
     """All jobs of ``experiment`` in canonical order.
 
     Parameters
@@ -76,6 +77,9 @@ def expand_jobs(experiment: Experiment, cases: Iterable[tuple[int, str, int, str
     experiment : Experiment
     cases : iterable of (run, suite, case, path, cost)
         The prepared test cases; every variant and repetition of each case becomes a job.
+    metrics : tuple of str, optional
+        The metrics the jobs record (default: the experiment's); a resumed store's
+        (:func:`faultlab.runner.store.job_metrics`).
     """
     jobs = []
     for run, suite, case, path, cost in cases:
@@ -86,7 +90,7 @@ def expand_jobs(experiment: Experiment, cases: Iterable[tuple[int, str, int, str
                                     seed=slam_seed(experiment.seed, run, suite, case, rep,
                                                    replica=variant == REPLICA),
                                     timeout_s=experiment.timeout_s, cost=float(cost),
-                                    metrics=experiment.metrics))
+                                    metrics=experiment.metrics if metrics is None else tuple(metrics)))
     return jobs
 
 

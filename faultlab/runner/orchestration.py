@@ -29,8 +29,8 @@ from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import format_duration
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
-from faultlab.runner.store import (ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, load_results,
-                                   store_lock)
+from faultlab.runner.store import (ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, job_metrics,
+                                   load_results, store_lock)
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
 from faultlab.slam.protocol import SlamAdapter, association_of
@@ -212,6 +212,7 @@ def result_row(case: CaseInfo, res: JobResult) -> dict:
     row["n_landmarks"] = case.n_landmarks
     ok = res.status == JobStatus.OK
     row.update(rms_mm=res.rms_mm if ok else math.nan, emd_mm=res.emd_mm if ok else math.nan,
+               ate_mm=res.ate_mm if ok else math.nan,
                n_mapped=res.n_mapped if ok else 0, n_unmapped=res.n_unmapped if ok else 0,
                runtime_s=float(res.runtime_s), status=str(res.status.value), error="" if ok else res.error)
     return row
@@ -315,7 +316,8 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
         prepared = prepare_cases(experiment, out, drawn=cases)
         info = {(c.run, c.suite, c.case): c for c in prepared}
-        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in prepared))
+        specs = expand_jobs(experiment, ((c.run, c.suite, c.case, c.path, c.cost) for c in prepared),
+                            metrics=job_metrics(experiment.metrics, store.meta))
         if skipped:  # variants whose fault does not apply to the SLAM have no jobs
             names = {r.fault for r in skipped}
             specs = [s for s in specs if s.key.variant not in names]

@@ -121,7 +121,7 @@ def look_at_pairs(results: pd.DataFrame, *, design: StagedDesign, upto: int, met
     design : StagedDesign
     upto : int
         Repetitions looked at: ``0 .. upto - 1``.
-    metric : {"rms", "emd"}
+    metric : {"rms", "emd", "ate"}
     look : callable
         The rule (:func:`faultlab.stats.sequential.interim_look`).
 

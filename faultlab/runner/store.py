@@ -49,7 +49,7 @@ import pandas as pd
 
 from faultlab import __version__
 from faultlab.errors import ResultsError
-from faultlab.vocabulary import METRICS
+from faultlab.vocabulary import MAP_METRICS, METRICS
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 
 __all__ = [
@@ -72,6 +72,7 @@ __all__ = [
     "SKIPPED_VARIANTS_KEY",
     "METRICS_KEY",
     "recorded_metrics",
+    "job_metrics",
     "MUTATION_FILE",
     "STUDY_FILE",
 ]
@@ -84,7 +85,8 @@ FORMAT_VERSION = 1
 #: ``slam``, ``n_units`` and ``reason`` (one sentence).
 SKIPPED_VARIANTS_KEY = "skipped_variants"
 #: Key of the store's metadata listing the metrics recorded for every job (the experiment's
-#: ``metrics``); the others are NULL in every row.  Stores from before the key recorded all.
+#: ``metrics``); the others are NULL in every row.  Stores from before the key recorded both map
+#: errors (:data:`~faultlab.vocabulary.MAP_METRICS`) and no trajectory error.
 METRICS_KEY = "metrics"
 #: File in a mutation campaign's output directory recording its mutant selection and level
 #: (written by :func:`faultlab.campaigns.mutation.run_mutation`).
@@ -101,9 +103,13 @@ _COLUMN_TYPES: dict[str, str] = {
     **{k: ("TEXT" if k == "directionality" else "REAL") for k in VALUE_KEYS},
     **{f"class_{p}": "INTEGER" for p in PARAMETER_NAMES},
     "n_landmarks": "INTEGER",
-    "rms_mm": "REAL", "emd_mm": "REAL", "n_mapped": "INTEGER", "n_unmapped": "INTEGER",
+    "rms_mm": "REAL", "emd_mm": "REAL", "ate_mm": "REAL", "n_mapped": "INTEGER", "n_unmapped": "INTEGER",
     "runtime_s": "REAL", "status": "TEXT", "error": "TEXT",
 }
+#: Columns added to the results table after its first release: a store from before one lacks it (read as
+#: NULL, added when the store is reopened to resume), and its rows' checksums stay valid (see
+#: :data:`_DIGEST_ORDER`).
+_ADDED_COLUMNS: tuple[str, ...] = ("ate_mm",)
 #: Columns of :func:`load_results`, in order.
 RESULT_COLUMNS: tuple[str, ...] = tuple(_COLUMN_TYPES)
 _DTYPES = {"INTEGER": "int64", "REAL": "float64", "TEXT": "object"}
@@ -133,11 +139,13 @@ def _encode(value) -> bytes:
 
 
 #: Order of the per-column digests of a checksum.  Never reorder or shorten it: rows already stored
-#: depend on it.  A column added to the table later is placed after these, in table order, and rows
-#: written before it existed (where it is NULL) keep their checksum.
+#: depend on it.  A column added to the table later is appended here (``ate_mm`` was; one not yet
+#: listed is placed after these, in table order), and rows written before it existed (where it is
+#: NULL) keep their checksum.
 _DIGEST_ORDER: tuple[str, ...] = (
     "run", "suite", "case", "variant", "rep", *VALUE_KEYS, *(f"class_{p}" for p in PARAMETER_NAMES),
-    "n_landmarks", "rms_mm", "emd_mm", "n_mapped", "n_unmapped", "runtime_s", "status", "error")
+    "n_landmarks", "rms_mm", "emd_mm", "n_mapped", "n_unmapped", "runtime_s", "status", "error",
+    "ate_mm")
 
 
 def _digest_layout() -> tuple[str, ...]:
@@ -196,10 +204,11 @@ def _damaged_columns(values, checksum) -> list[str]:
 
 
 def _stored_values(row: Mapping) -> list:
-    """The values of ``row`` as they are stored: the column's type, None for NaN or missing."""
+    """The values of ``row`` as they are stored: the column's type, None for NaN or missing (a column of
+    :data:`_ADDED_COLUMNS` may be absent from ``row``; every other one must be there)."""
     values = []
     for c, t in _COLUMN_TYPES.items():
-        v = row[c]
+        v = row.get(c) if c in _ADDED_COLUMNS else row[c]
         if isinstance(v, np.generic):
             v = v.item()
         if v is None or (isinstance(v, float) and math.isnan(v)):
@@ -380,6 +389,12 @@ def _has_checksum_column(conn: sqlite3.Connection) -> bool:
     return any(r[1] == "checksum" for r in conn.execute("PRAGMA table_info(results)"))
 
 
+def _missing_columns(conn: sqlite3.Connection) -> list[str]:
+    """The :data:`_ADDED_COLUMNS` a store's results table lacks (it was written before they existed)."""
+    have = {r[1] for r in conn.execute("PRAGMA table_info(results)")}
+    return [c for c in _ADDED_COLUMNS if c not in have]
+
+
 def _diff_keys(old: Mapping, new: Mapping, prefix: str = "") -> list[str]:
     keys = []
     for k in sorted(set(old) | set(new), key=str):
@@ -497,6 +512,8 @@ class ResultStore:
                 store._close_stale_sessions()
                 if not _has_checksum_column(conn):
                     conn.execute("ALTER TABLE results ADD COLUMN checksum BLOB")
+                for c in _missing_columns(conn):  # NULL in the rows already stored: their checksums hold
+                    conn.execute(f"ALTER TABLE results ADD COLUMN {_q(c)} {_COLUMN_TYPES[c]}")
             except sqlite3.Error as exc:
                 conn.close()
                 raise _database_error(path, exc, "reopening it") from exc
@@ -674,9 +691,26 @@ def load_metadata(out: str | Path) -> dict:
 
 
 def recorded_metrics(metadata: Mapping) -> tuple[str, ...]:
-    """The metrics a store recorded (its :data:`METRICS_KEY` entry; every metric when it has none)."""
+    """The metrics a store recorded (its :data:`METRICS_KEY` entry; both map errors when it has none).
+
+    A store keeps what it was created with: resuming it records the trajectory error only if it
+    did from the start (:func:`job_metrics`).
+    """
     names = metadata.get(METRICS_KEY)
-    return METRICS if names is None else tuple(m for m in METRICS if m in names)
+    return MAP_METRICS if names is None else tuple(m for m in METRICS if m in names)
+
+
+def job_metrics(experiment_metrics, metadata: Mapping) -> tuple[str, ...]:
+    """The metrics the jobs of an experiment record in a store: the experiment's, with the trajectory
+    error (``"ate"``) only if the store recorded it from the start.
+
+    The experiment's hash leaves ``"ate"`` out (:meth:`faultlab.runner.Experiment.canonical_json`), so
+    a store created before the trajectory error existed, or without it, resumes under an experiment
+    that asks for it; its rows then keep one layout (``ate_mm`` NULL in every row) and its metadata
+    stays true.
+    """
+    stored = recorded_metrics(metadata)
+    return tuple(m for m in METRICS if m in experiment_metrics and (m != "ate" or m in stored))
 
 
 def _sessions(conn: sqlite3.Connection) -> list[dict]:
@@ -799,7 +833,8 @@ def load_results(out: str | Path) -> pd.DataFrame:
     path, conn = _open_existing(out)
     try:
         meta = _read_meta(conn, path)
-        cols = ", ".join(_q(c) for c in RESULT_COLUMNS)
+        missing = set(_missing_columns(conn))
+        cols = ", ".join("NULL" if c in missing else _q(c) for c in RESULT_COLUMNS)
         checksum = "checksum" if _has_checksum_column(conn) else "NULL"
         rows = conn.execute(f"SELECT {cols}, rowid, {checksum} FROM results").fetchall()
     except sqlite3.Error as exc:

@@ -5,7 +5,8 @@ the units), :class:`UnitSlam` the base of the adapters (settings, units, ``with_
 pose), :class:`LandmarkIndex` maps landmark ids to storage columns in order of first observation.
 The particle filters share the weight normalisation (:func:`normalise_log_weights`), the
 resampling tail of a step (:func:`resample_tail`), the best-particle estimate
-(:func:`best_estimate`), the linearisation of the measurement model (:func:`linearise`) and, for
+(:func:`best_estimate`), the per-step pose of the trajectory they report (:func:`best_pose`,
+:class:`TrajectoryLog`), the linearisation of the measurement model (:func:`linearise`) and, for
 the ones that run one filter at a time, their bookkeeping (:class:`ParticleFilterSlam`).
 """
 
@@ -25,7 +26,8 @@ from faultlab.slam.units import wrap_heading
 from faultlab.vocabulary import KNOWN_ASSOCIATION
 
 __all__ = ["UnitTable", "UnitSlam", "ParticleFilterSlam", "LandmarkIndex", "step_kind", "grown_capacity",
-           "normalise_log_weights", "resample_tail", "best_estimate", "linearise", "sample_pose"]
+           "normalise_log_weights", "resample_tail", "best_estimate", "linearise", "sample_pose", "best_pose",
+           "TrajectoryLog"]
 
 
 @dataclass(frozen=True)
@@ -140,9 +142,13 @@ class ParticleFilterSlam(UnitSlam):
         self._state = state
         self._t = 0
         self._n_resamples = 0
+        self._trajectory = TrajectoryLog()
 
     def estimate(self) -> Estimate:
-        return best_estimate(getattr(self._steps, self.map_unit), self._require_state())
+        """The map and pose of the highest-weight particle (:func:`best_estimate`); the trajectory is
+        that particle's pose after every step (:func:`best_pose`)."""
+        return best_estimate(getattr(self._steps, self.map_unit), self._require_state(),
+                             trajectory=self._trajectory.poses())
 
     @property
     def n_resamples(self) -> int:
@@ -173,6 +179,7 @@ class ParticleFilterSlam(UnitSlam):
                                       apply=getattr(self._steps, self.apply_unit))
         self._n_resamples += resampled
         self._state = st
+        self._trajectory.append(st.poses[int(np.argmax(st.logw))])
         self._t += 1
 
 
@@ -285,14 +292,65 @@ def resample_tail(steps, state, empty: bool, rng: np.random.Generator, config, *
     return apply(state, np.asarray(idx)), 1
 
 
-def best_estimate(extract_map: Callable, state) -> Estimate:
+def best_estimate(extract_map: Callable, state, *, trajectory: np.ndarray | None = None) -> Estimate:
     """The estimate of a particle filter: the map ``extract_map(state)`` and the highest-weight particle's pose.
 
-    Ties (uniform weights right after a resampling) go to the lowest particle index.
+    Ties (uniform weights right after a resampling) go to the lowest particle index.  ``trajectory``
+    (T, 3), the filter's pose after every step, is passed on as the estimate's trajectory.
     """
     ids, xy = extract_map(state)
     i = int(np.argmax(state.logw))
-    return Estimate(state.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float))
+    return Estimate(state.poses[i].copy(), np.asarray(ids, dtype=np.int64), np.asarray(xy, dtype=float),
+                    trajectory=trajectory)
+
+
+def best_pose(poses: np.ndarray, logw: np.ndarray) -> np.ndarray:
+    """The pose of each filter's highest-weight particle (ties: the lowest index), as :func:`best_estimate` takes it.
+
+    The pose a particle filter reports per step for its trajectory, so that the trajectory ends in
+    the estimate's pose.  Right after a resampling the weights are uniform and this is the first
+    resampled particle: a draw from the posterior rather than its mean (the mean costs a circular
+    mean of every particle's heading per step, an eighth of a step of the reference FastSLAM).
+
+    Parameters
+    ----------
+    poses : ndarray, shape (..., N, 3)
+        Particle poses (x, y, theta), m and rad; leading axes index independent filters.
+    logw : ndarray, shape (..., N)
+        Log weights of each filter.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        A new array.
+    """
+    i = np.argmax(logw, axis=-1)
+    return np.take_along_axis(poses, i[..., None, None], axis=-2)[..., 0, :]
+
+
+class TrajectoryLog:
+    """The poses a SLAM reports after each step, appended one step at a time (amortised O(1) per step).
+
+    Rows are kept in a buffer that doubles when full; :meth:`poses` returns a copy of the rows so far.
+    """
+
+    def __init__(self, width: tuple[int, ...] = (3,)) -> None:
+        self._buf = np.empty((64, *width))
+        self._n = 0
+
+    def __len__(self) -> int:
+        return self._n
+
+    def append(self, pose: np.ndarray) -> None:
+        """Add the pose(s) of the step just processed, shape ``width``."""
+        if self._n == self._buf.shape[0]:
+            self._buf = np.concatenate([self._buf, np.empty_like(self._buf)])
+        self._buf[self._n] = pose
+        self._n += 1
+
+    def poses(self) -> np.ndarray:
+        """The poses so far, shape (T, *width) (a copy)."""
+        return self._buf[:self._n].copy()
 
 
 def linearise(steps, poses: np.ndarray, mu: np.ndarray, P: np.ndarray, z: np.ndarray,

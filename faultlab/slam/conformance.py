@@ -22,6 +22,9 @@ Checks (:data:`CHECKS`, in order):
     are angles, compared modulo 2 pi; landmarks land at the truth.
 ``large-map``
     3000 landmarks with non-consecutive ids beyond 32 bits observed in one step: all mapped, ids kept.
+``trajectory``
+    the empty-steps scene again: an estimate without ``trajectory`` passes (it is optional); one
+    with it must hold the pose after every step, each within the tolerances of the truth.
 ``same-seed``
     two executions with the same seed give the same estimate (one process each).
 ``protocol-version``
@@ -229,6 +232,27 @@ def _check_empty_run(config: ProcessSlamConfig) -> None:
         slam.close()
 
 
+def _check_trajectory(config: ProcessSlamConfig) -> None:
+    s = _scene_empty_steps()
+    slam = ProcessSlam(config)
+    try:
+        est = _drive(slam, s, seed=1)  # a malformed trajectory fails here, naming its rule
+    finally:
+        slam.close()
+    if est.trajectory is None:
+        return
+    truth = s.poses()[1:]
+    traj = np.asarray(est.trajectory, dtype=float)
+    dist = np.hypot(*(traj[:, :2] - truth[:, :2]).T)
+    dth = np.abs((traj[:, 2] - truth[:, 2] + math.pi) % (2 * math.pi) - math.pi)
+    bad = np.flatnonzero((dist > TOLERANCE_M) | (dth > TOLERANCE_RAD))
+    if bad.size:
+        t = int(bad[0])
+        raise _Mismatch(f"trajectory[{t}] = {traj[t].round(4).tolist()} is not the true pose after step {t}, "
+                        f"{truth[t].round(4).tolist()} (allowed {TOLERANCE_M} m, {TOLERANCE_RAD} rad); row t of "
+                        f"\"trajectory\" is the pose after step t (the start pose is not repeated)")
+
+
 def _check_same_seed(config: ProcessSlamConfig) -> None:
     s = _scene_empty_steps()
     out = []
@@ -304,6 +328,7 @@ CHECKS: dict[str, Callable[[ProcessSlamConfig], None]] = {
     "rotation-offsets": _scene_check(_scene_rotation, "start heading 4.75 pi, bearings offset by -6 pi, four "
                                                       "full turns"),
     "large-map": _scene_check(_scene_large_map, f"{LARGE_MAP} landmarks with ids from 2**33 + 7 in one step"),
+    "trajectory": _check_trajectory,
     "same-seed": _check_same_seed,
     "protocol-version": _check_version,
     "exit-on-bye": _check_bye,

@@ -27,12 +27,14 @@ class DeadReckoning(SlamAdapter):
         self._ids = np.empty(0, dtype=np.int64)  # sorted
         self._sum = np.empty((0, 2))
         self._count = np.empty(0, dtype=np.int64)
+        self._trajectory: list[np.ndarray] = []
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
         if not hasattr(self, "_pose"):
             raise SlamInputError(f"{self.name}: update() called before reset()")
         u = np.asarray(control, dtype=float).reshape(1, 2)
         self._pose = _units.motion_model(self._pose, u, wrap=_units.wrap_heading)
+        self._trajectory.append(self._pose[0].copy())
         if len(observations) == 0:
             return
         x, y, th = self._pose[0]
@@ -56,4 +58,5 @@ class DeadReckoning(SlamAdapter):
     def estimate(self) -> Estimate:
         if not hasattr(self, "_pose"):
             raise SlamInputError(f"{self.name}: reset() must be called first")
-        return Estimate(self._pose[0].copy(), self._ids.copy(), self._sum / self._count[:, None])
+        trajectory = np.array(self._trajectory).reshape(-1, 3)  # the odometry pose after every step
+        return Estimate(self._pose[0].copy(), self._ids.copy(), self._sum / self._count[:, None], trajectory=trajectory)

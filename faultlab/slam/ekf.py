@@ -51,7 +51,7 @@ from threadpoolctl import ThreadpoolController
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import units as _units
 from faultlab.slam import ekfunits as _ekfunits
-from faultlab.slam.bookkeeping import LandmarkIndex, UnitSlam, UnitTable, step_kind
+from faultlab.slam.bookkeeping import LandmarkIndex, TrajectoryLog, UnitSlam, UnitTable, step_kind
 from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.protocol import Estimate, Observations
 
@@ -133,6 +133,7 @@ class EkfSlam(UnitSlam):
         self._mu = p
         self._Sigma = np.zeros((3, 3))  # the start pose is known
         self._index = LandmarkIndex()
+        self._trajectory = TrajectoryLog()
         self._t = 0
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
@@ -171,11 +172,14 @@ class EkfSlam(UnitSlam):
         if not np.all(np.isfinite(mu[:3])):
             raise SlamOutputError(f"{self.name}: the pose estimate is not finite at step {self._t}")
         self._mu, self._Sigma = mu, np.asarray(Sigma, dtype=float)
+        self._trajectory.append(mu[:3])
         self._t += 1
 
     def estimate(self) -> Estimate:
+        """The state mean: pose, landmarks and, as the trajectory, the pose mean after every step."""
         mu = self._require_state()
-        return Estimate(mu[:3].copy(), self._index.ids.copy(), mu[3:].reshape(-1, 2).copy())
+        return Estimate(mu[:3].copy(), self._index.ids.copy(), mu[3:].reshape(-1, 2).copy(),
+                        trajectory=self._trajectory.poses())
 
     # -- diagnostics -----------------------------------------------------------------------------
 

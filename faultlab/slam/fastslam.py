@@ -168,7 +168,8 @@ from faultlab.config import Option
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam import associationunits as _associationunits
 from faultlab.slam import units as _units
-from faultlab.slam.bookkeeping import (UnitSlam, UnitTable, best_estimate, grown_capacity, normalise_log_weights,
+from faultlab.slam.bookkeeping import (TrajectoryLog, UnitSlam, UnitTable, best_estimate, best_pose, grown_capacity,
+                                      normalise_log_weights,
                                        resample_tail, step_kind)
 from faultlab.slam.contract import STREAM_UNITS
 from faultlab.slam.noise import NoiseConfig
@@ -413,6 +414,7 @@ class FastSlam(UnitSlam):
             raise SlamInputError(f"{self.name}: update() called before reset()")
         slots = len(self._reps)
         if slots == 0:  # every repetition of the batch has failed
+            self._record_poses()
             self._t += 1
             return
         if self._ref_step:
@@ -449,6 +451,7 @@ class FastSlam(UnitSlam):
             self._call(j, self._resample, j, empty)
         if self._dead:
             self._drop_failed()
+        self._record_poses()
         self._t += 1
 
     def estimate(self) -> Estimate:
@@ -544,6 +547,7 @@ class FastSlam(UnitSlam):
         self._sorted_cols = np.empty(0, dtype=np.intp)  # ... and their columns
         self._offsets = None  # storage offset of each particle's filter, (B N,), when B > 1
         self._views = None  # per-slot views of the storage buffers (see _filter_state)
+        self._trajectory = TrajectoryLog((b, 3))  # every repetition's mean pose after each step
         self._t = 0
         self._started = True
 
@@ -656,7 +660,22 @@ class FastSlam(UnitSlam):
         self._views = None
 
     def _estimate(self, j: int) -> Estimate:
-        return best_estimate(self._steps.extract_map, self._filter_state(j))
+        """The map and pose of slot ``j``'s highest-weight particle; its trajectory is the pose of the
+        filter's highest-weight particle after every step (:func:`~faultlab.slam.bookkeeping.best_pose`)."""
+        return best_estimate(self._steps.extract_map, self._filter_state(j),
+                             trajectory=self._trajectory.poses()[:, self._reps[j]])
+
+    def _record_poses(self) -> None:
+        """Log every active filter's best pose at the end of a step (NaN for a failed repetition)."""
+        slots = len(self._reps)
+        if slots == self._n_reps == 1:
+            self._trajectory.append(self._poses[int(np.argmax(self._logw))])
+            return
+        row = np.full((self._n_reps, 3), np.nan)
+        if slots:
+            poses = np.asarray(self._poses).reshape(slots, self._n, 3)
+            row[self._reps] = best_pose(poses, np.asarray(self._logw).reshape(slots, self._n))
+        self._trajectory.append(row)
 
     def _resample(self, j: int, empty: bool) -> None:
         """Effective sample size, resampling decision and resampling of the filter in slot ``j``."""

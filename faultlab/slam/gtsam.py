@@ -32,7 +32,8 @@ a mm).  Larger values batch several steps into one update: faster, but the nodes
 from dead-reckoned guesses and one iSAM2 step does not always reach the optimum (on 150-step
 fixed-suite cases ``update_every = 7`` ran about 3x faster and its map error was up to 40 % larger).
 :meth:`GtsamSlam.estimate` first flushes the factors not yet added.  The estimate is iSAM2's current solution: the last pose and every mapped
-landmark.  Everything is deterministic: ``reset`` accepts an ``rng`` for the protocol and draws
+landmark; its trajectory is the *smoothed* one, the solution's pose node of every step (an empty
+update adds no node: its row repeats the previous step's).  Everything is deterministic: ``reset`` accepts an ``rng`` for the protocol and draws
 nothing from it.
 
 iSAM2 relinearises only the variables whose update exceeds GTSAM's default threshold (0.1), and
@@ -182,6 +183,7 @@ class GtsamSlam(SlamAdapter):
         self._values.insert(g.symbol("x", 0), start)
         self._pose = start  # guess of the newest pose: the last iSAM2 estimate composed with the odometry
         self._known = np.empty(0, dtype=np.int64)  # sorted ids of the landmarks with a node
+        self._nodes: list[int] = []  # the pose node of each step (an empty update adds none)
 
     def update(self, control: np.ndarray, observations: Observations) -> None:
         if self._isam is None:
@@ -191,11 +193,13 @@ class GtsamSlam(SlamAdapter):
         v, omega = (float(x) for x in control)
         self._step += 1
         if k == 0 and v == 0.0 and omega == 0.0:
+            self._nodes.append(self._t)
             return  # an empty update adds nothing
         ids = observations.ids
         if k and (ids.min() < 0 or ids.max() > _MAX_ID):
             raise SlamInputError(f"{self.name}: landmark ids must be in [0, 2^56), got {ids.min()}..{ids.max()}")
         prev, self._t = g.symbol("x", self._t), self._t + 1
+        self._nodes.append(self._t)
         key = g.symbol("x", self._t)
         odometry = g.Pose2(v, 0.0, omega)
         noise = g.noiseModel.Gaussian.Covariance(self._config.odometry_covariance(omega))
@@ -233,7 +237,10 @@ class GtsamSlam(SlamAdapter):
         pose = result.atPose2(g.symbol("x", self._t))
         # every Point2 of the solution, in key order = landmark id order (keys 'l' + id)
         xy = np.asarray(g.utilities.extractPoint2(result), dtype=float).reshape(-1, 2)
-        return Estimate(np.array([pose.x(), pose.y(), pose.theta()]), self._known.copy(), xy)
+        # every Pose2, in key order = node order x0, x1, ...: the smoothed trajectory, one pose per step
+        nodes = np.asarray(g.utilities.extractPose2(result), dtype=float).reshape(-1, 3)
+        trajectory = nodes[np.asarray(self._nodes, dtype=np.intp)]
+        return Estimate(np.array([pose.x(), pose.y(), pose.theta()]), self._known.copy(), xy, trajectory=trajectory)
 
     # -- internals -------------------------------------------------------------------------------
 

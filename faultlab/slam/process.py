@@ -10,9 +10,14 @@ request                                                        reply
 ``{"type":"step","t":k,"control":[v,w],"ranges":[...],``        ``{"type":"ack","t":k}``
 ``"bearings":[...],"ids":[...]}``
 ``{"type":"estimate"}``                                        ``{"type":"estimate","pose":[x,y,th],``
-                                                               ``"landmarks":[[id,x,y],...]}``
+                                                               ``"landmarks":[[id,x,y],...]}``, optionally
+                                                               with ``"trajectory":[[x,y,th],...]``
 ``{"type":"bye"}``                                             none; the program exits with status 0
 =============================================================  ==================================================
+
+The optional ``trajectory`` of an estimate holds one pose per step sent since the reset, in step
+order: row ``t`` is the pose after step ``t`` (it becomes :attr:`Estimate.trajectory
+<faultlab.slam.protocol.Estimate>`; without it the job's absolute trajectory error is NaN).
 
 Any request may instead be answered by ``{"type":"error","message":"..."}``.  Units are SI (m, rad);
 ``seed`` is an integer in [0, 2**53) drawn from the execution's generator, so it is exact in any
@@ -81,6 +86,8 @@ RULES: dict[str, ReplyRule] = {r.name: r for r in (
     ReplyRule("estimate-pose", "an estimate's \"pose\" is [x, y, theta], three finite numbers"),
     ReplyRule("estimate-landmarks", "an estimate's \"landmarks\" is a list of [id, x, y] with an integer id "
                                     "(unique) and finite x, y"),
+    ReplyRule("estimate-trajectory", "an estimate's \"trajectory\", if present, is a list of [x, y, theta] (three "
+                                     "finite numbers), one per step since the reset: the pose after each step"),
     ReplyRule("reply-timeout", "every request is answered within reply_timeout_s"),
     ReplyRule("execution-timeout", "an execution (reset to estimate) ends within execution_timeout_s"),
     ReplyRule("stays-alive", "the program keeps running until it is sent bye (or its stdin closes)"),
@@ -196,8 +203,12 @@ def _broken(rule: str, detail: str, *, where: str) -> SlamProcessError:
     return SlamProcessError(f"{where}: {detail} (rule {rule}: {RULES[rule].text})", rule=rule, detail=detail)
 
 
-def estimate_from_reply(line: str, *, where: str = "process SLAM") -> Estimate:
-    """The :class:`Estimate` of an ``estimate`` reply line; :class:`SlamProcessError` naming the broken rule."""
+def estimate_from_reply(line: str, *, where: str = "process SLAM", n_steps: int | None = None) -> Estimate:
+    """The :class:`Estimate` of an ``estimate`` reply line; :class:`SlamProcessError` naming the broken rule.
+
+    ``n_steps``: the steps sent since the reset, the length an optional ``trajectory`` must have
+    (None: any length).
+    """
     reply = parse_reply(line, where=where)
     _expect_type(reply, "estimate", where=where)
     pose = reply.get("pose")
@@ -215,7 +226,24 @@ def estimate_from_reply(line: str, *, where: str = "process SLAM") -> Estimate:
     if np.unique(ids).size != ids.size:
         raise _broken("estimate-landmarks", "estimate has duplicate landmark ids", where=where)
     xy = np.array([r[1:] for r in rows], dtype=float).reshape(len(rows), 2)
-    return Estimate(np.array(pose, dtype=float), ids, xy)
+    return Estimate(np.array(pose, dtype=float), ids, xy, trajectory=_trajectory(reply, n_steps, where=where))
+
+
+def _trajectory(reply: dict, n_steps: int | None, *, where: str) -> np.ndarray | None:
+    """The (T, 3) ``trajectory`` of an estimate reply (None if it has none), checked against its rule."""
+    if "trajectory" not in reply:
+        return None
+    rows = reply["trajectory"]
+    if not isinstance(rows, list):
+        raise _broken("estimate-trajectory", f"estimate trajectory is {_short(rows)}", where=where)
+    for i, row in enumerate(rows):
+        if (not isinstance(row, list) or len(row) != 3
+                or not all(_is_number(x) and math.isfinite(x) for x in row)):
+            raise _broken("estimate-trajectory", f"estimate trajectory[{i}] is {_short(row)}", where=where)
+    if n_steps is not None and len(rows) != n_steps:
+        raise _broken("estimate-trajectory", f"estimate trajectory has {len(rows)} poses after {n_steps} steps",
+                      where=where)
+    return np.array(rows, dtype=float).reshape(len(rows), 3)
 
 
 def _is_number(x) -> bool:
@@ -476,7 +504,7 @@ class ProcessSlam(SlamAdapter):
                                    f"(or after the program failed)")
         reply = self._request(encode({"type": "estimate"}), what="estimate")
         try:
-            return estimate_from_reply(reply, where=self.name)
+            return estimate_from_reply(reply, where=self.name, n_steps=self._t)
         except SlamProcessError as exc:
             raise self._fail(exc) from None
 

@@ -136,11 +136,23 @@ class Estimate:
         Ids of the mapped landmarks (unmapped ones are absent).
     landmarks : ndarray, shape (M, 2)
         Estimated positions, m, row i for ``landmark_ids[i]``.
+    trajectory : ndarray, shape (T, 3), optional
+        The estimated vehicle pose (x, y, theta), m and rad, after each of the ``T`` steps the SLAM
+        was driven through: row ``t`` is the estimate, once step ``t`` (control ``controls[t]``
+        and the observations made after it) is processed, of the true pose
+        ``scenario.true_poses[t + 1]`` (the known start pose ``true_poses[0]`` is not repeated).
+        None when the SLAM does not report its trajectory; the absolute trajectory error
+        (:func:`faultlab.metrics.trajectory_error_mm`) is then NaN, as it is for a trajectory
+        with a non-finite pose (:meth:`validate` checks its shape only: a diverged trajectory
+        does not make the map unscorable).  Which pose a SLAM reports
+        per step (a particle filter's highest-weight particle, a smoother's smoothed pose) is
+        its own choice, documented by the SLAM.
     """
 
     pose: np.ndarray
     landmark_ids: np.ndarray
     landmarks: np.ndarray
+    trajectory: np.ndarray | None = None
 
     def validate(self, *, where: str = "estimate") -> "Estimate":
         """Raise :class:`SlamOutputError` unless shapes are right and values finite."""
@@ -162,6 +174,11 @@ class Estimate:
         if np.any(bad):
             raise SlamOutputError(f"{where}: landmark {ids[bad][0]} has a non-finite position "
                                   f"({int(bad.sum())} of {ids.size} landmarks)")
+        if self.trajectory is not None:
+            traj = np.asarray(self.trajectory)
+            if traj.ndim != 2 or traj.shape[1] != 3 or not np.issubdtype(traj.dtype, np.number):
+                raise SlamOutputError(f"{where}: trajectory must be numbers of shape (T, 3) = one pose "
+                                      f"(x, y, theta) per step, got shape {traj.shape} of dtype {traj.dtype}")
         return self
 
     def as_dict(self) -> dict[int, tuple[float, float]]:

@@ -776,14 +776,17 @@ WHOLE_COLUMNS = ("strategy", "variant", "size", "suites", "detected", "rate", "c
 
 
 def whole_suites(km: KillMatrix, strategies, *, alpha: float = 0.05, method: str = "holm",
-                 timeouts_detect: bool = False) -> pd.DataFrame:
+                 timeouts_detect: bool = False, seed: int = 0) -> pd.DataFrame:
     """Each evaluation run's suite of ``strategies`` judged whole by the suite rule.
 
     A strategy's pool holds one generated suite per evaluation run (for ``pairwise``, one whole
     covering array, randomised independently per run: relabelled classes, values drawn inside
     classes); the suites drawn from the pool are subsets of these.  Here every run's suite is one
     suite of all its cases (:func:`judge_suite`).  Returns one row per (strategy, run, variant):
-    ``strategy, run, size, variant, detected, paper``.
+    ``strategy, run, size, variant, detected, paper``.  ``seed`` keys the stream
+    ``study_seed_sequence(seed, "whole", strategy, run)`` of the Monte Carlo pooled test that
+    :func:`judge_suite` computes beside the rule for a suite of more than ``MAX_EXACT_PAIRS``
+    tested cases (a whole base-choice suite of Table I has 22).
     """
     frames = []
     for strategy in strategies:
@@ -794,7 +797,8 @@ def whole_suites(km: KillMatrix, strategies, *, alpha: float = 0.05, method: str
         runs = km.cases["run"].to_numpy()[rows]
         for run in np.unique(runs):
             suite = rows[runs == run]
-            judged = judge_suite(km, suite, alpha=alpha, method=method, timeouts_detect=timeouts_detect)
+            rng = np.random.default_rng(study_seed_sequence(seed, "whole", strategy, int(run)))
+            judged = judge_suite(km, suite, alpha=alpha, method=method, timeouts_detect=timeouts_detect, rng=rng)
             frames.append(judged[["variant", "detected", "paper"]].assign(strategy=strategy, run=int(run),
                                                                           size=int(suite.size)))
     if not frames:

@@ -57,7 +57,7 @@ from scipy.stats import binom
 from faultlab.errors import ConfigError
 from faultlab.stats.verdict import min_p_value
 
-__all__ = ["STUDY_KINDS", "StudyScale", "StudyPlan", "min_repetitions", "detection_power", "detectable_detection",
+__all__ = ["file_scale", "STUDY_KINDS", "StudyScale", "StudyPlan", "min_repetitions", "detection_power", "detectable_detection",
            "pool_for_detection", "mcnemar_power", "detectable_score", "mutants_for_score", "study_executions",
            "plan_study"]
 
@@ -366,6 +366,37 @@ def plan_study(kind: str, *, strategies: int, faults: int = 0, suite_cases: int 
                      target_detection_pp=100 * target_detection, target_score_pp=100 * target_score, centre=centre,
                      reverse=reverse, seconds_per_execution=seconds_per_execution, budget_hours=budget_hours,
                      cores=cores, needed=needed, fitting=fitting)
+
+
+def file_scale(plan: StudyPlan, *, pools, mutants: int, repetitions: int, largest_suite: int) -> StudyScale:
+    """The scale a strategies study file actually sets, costed and powered like ``plan``'s scales.
+
+    Parameters
+    ----------
+    plan : StudyPlan
+        Gives the comparison level, power, centre, reverse discordance and cost per execution.
+    pools : sequence of int
+        Pool cases of every strategy (they may differ); every pool case runs the baseline, the
+        plan's faults and ``mutants``, ``repetitions`` times each.
+    mutants, repetitions, largest_suite : int
+
+    Returns
+    -------
+    StudyScale
+        ``cases`` is the smallest pool, whose detectable difference is stated (the largest of any
+        pair); the executions count every pool.
+    """
+    pools = [int(n) for n in pools]
+    if plan.kind != "strategies" or len(pools) < 2 or min(pools) < 1:
+        raise ConfigError("study plan: a file's scale is that of a strategies study with two or more pools")
+    n = min(pools)
+    det = 100 * detectable_detection(n, centre=plan.centre, alpha=plan.comparison_alpha, power=plan.power)
+    score = (100 * detectable_score(mutants, reverse=plan.reverse, alpha=plan.comparison_alpha, power=plan.power)
+             if mutants > 0 else math.inf)
+    executions = sum(pools) * (1 + plan.faults + int(mutants)) * int(repetitions)
+    return StudyScale(cases=n, largest_suite=int(largest_suite), mutants=int(mutants), repetitions=int(repetitions),
+                      detection_pp=det, score_pp=score, executions=executions,
+                      cpu_hours=executions * plan.seconds_per_execution / 3600)
 
 
 def _largest_fitting(kind, n_need, m_need, budget, det, sc, target_detection, target_score, max_suite, suite_cases,

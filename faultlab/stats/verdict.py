@@ -418,10 +418,10 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     ----------
     results : DataFrame
         The runner's results; needs ``run, suite, case, rep, variant, status`` and the
-        metric's column (``rms_mm`` or ``emd_mm``).  One row per job.
+        metric's column (``rms_mm``, ``emd_mm`` or ``ate_mm``).  One row per job.
     alpha : float
         Level of each test, in (0, 1).
-    metric : {"rms", "emd"}
+    metric : {"rms", "emd", "ate"}
         The map error compared.
     power : float
         Power of the reported smallest detectable shift, in (0, 1).

@@ -81,3 +81,17 @@ def test_judged_metric_is_the_stored_one_and_must_have_been_recorded():
         judged_metric({"metric": "emd", "metrics": ["rms"]})
     with pytest.raises(ConfigError, match="metric must be one of"):
         judged_metric(old, "mae")
+
+
+def test_the_ate_is_judged_only_where_recorded_and_its_absence_is_no_note():
+    from faultlab.analysis.metadata import judged_metric, metrics_note
+    from faultlab.errors import ResultsError
+
+    new = {"metric": "rms", "metrics": ["rms", "emd", "ate"]}
+    assert judged_metric(new, "ate") == "ate" and metrics_note(new) is None
+    for before in ({"metric": "rms"}, {"metric": "rms", "metrics": ["rms", "emd"]}):  # stores from before the ATE
+        assert metrics_note(before) is None  # their reports read as they did
+        with pytest.raises(ResultsError, match="cannot be judged by 'ate': the experiment recorded only 'rms', 'emd'"):
+            judged_metric(before, "ate")
+    assert metrics_note({"metric": "rms", "metrics": ["rms", "ate"]}) == metrics_note({"metric": "rms",
+                                                                                       "metrics": ["rms"]})

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import pytest
 
 from faultlab.campaigns.study import load_study_experiment, sampled_load
 from faultlab.errors import ConfigError
+from faultlab.space import read_class_weights
 from faultlab.mutation.variants import is_mutant_variant
 from faultlab.stats.verdict import min_pairs
 from faultlab.vocabulary import PAPER_FAULTS
@@ -53,12 +55,19 @@ def test_the_shipped_study_runs_the_paper_faults_and_sampled_mutants_at_both_sca
         assert faults[0] == "baseline" and set(PAPER_FAULTS) <= set(faults)
         assert mutants == [f"mutant:{m}" for m in s.selection.run]                 # mutants after the faults
         assert s.experiment.variants.index(mutants[0]) == len(faults)
-        assert {x.kind for x in s.experiment.suites} == {"systematic", "random", "pairwise", "base-choice"}
+        assert {x.kind for x in s.experiment.suites} == {"systematic", "random", "pairwise", "base-choice",
+                                                         "effect-guided"}
+        assert s.study.whole == ("pairwise", "base-choice")                       # whole suites at both scales
+        # the effect-guided suites draw by the committed effects study's weights, recorded in the experiment
+        assert s.weights_file == "../weights/jacobian_sign_error.csv"              # beside the study file
+        assert s.experiment.space["weights"] == read_class_weights(SHIPPED_WEIGHTS)
     assert len(full.selection.run) == 150 and len(quick.selection.run) == 10
     assert full.study.sizes == (1, 2, 5, 10, 20) and quick.study.sizes == (1, 2, 5, 10)
     assert quick.experiment.runs == 1
-    for s in (quick, full):  # K: the fewest with which a case of the largest suite can reject two-sided
-        assert s.experiment.repetitions == min_pairs(s.study.alpha / max(s.study.sizes), alternative="two-sided")
+    for s in (quick, full):  # K: the fewest with which a case of the largest family (a whole base-choice
+        largest = max(x.n_cases for x in s.experiment.suites)  # suite of 22) can reject two-sided
+        assert largest == 22 and s.experiment.repetitions == min_pairs(s.study.alpha / largest,
+                                                                       alternative="two-sided")
     assert quick.experiment.variants[:18] == full.experiment.variants[:18]          # the 17 faults at both scales
     assert quick.experiment.space["inactivity"]["classes"]["inactive"] == [120]
     assert dict(quick.experiment.slam.options)["particles"] == 20 and full.experiment.slam.config.n_particles == 200
@@ -91,8 +100,91 @@ def test_malformed_study_files_are_refused_naming_the_key(tmp_path, change, matc
         load_study_experiment(_file(tmp_path, BASE.replace(*change)))
 
 
+SHIPPED_WEIGHTS = Path(__file__).resolve().parents[2] / "faultlab" / "data" / "weights" / "jacobian_sign_error.csv"
+
+
+def test_the_shipped_weights_are_the_committed_effects_studys_and_load_from_any_directory(tmp_path, monkeypatch):
+    repo = SHIPPED_WEIGHTS.parents[3]
+    assert SHIPPED_WEIGHTS.read_bytes() == (repo / "reports/effects/weights_jacobian_sign_error.csv").read_bytes()
+    monkeypatch.chdir(tmp_path)                      # a relative weights path is read beside the study file
+    assert load_study_experiment("study").experiment.space["weights"] == read_class_weights(SHIPPED_WEIGHTS)
+    (tmp_path / "a").mkdir()
+    _weights_file(tmp_path / "a")
+    (tmp_path / "a" / "s.toml").write_text(WEIGHTED)
+    assert load_study_experiment(tmp_path / "a" / "s.toml").experiment.space["weights"] == PLANTED
+    assert not (tmp_path / "w.csv").exists()
+
+
 def test_sampled_load_samples_at_start_interval_and_end():
     with sampled_load(interval_s=0.05) as samples:
         time.sleep(0.18)
     assert len(samples) >= 4 and all(len(s) == 4 for s in samples)
     assert samples[0][0] <= samples[-1][0]
+
+
+# ---------------------------------------------------------------------------- effect-guided suites
+
+WEIGHTED = BASE.replace("random = 4", "random = 4\neffect-guided = 4").replace("draws = 10", "draws = 10\nweights = 'w.csv'")
+PLANTED = {"map_size": {"small": 0.7, "medium": 0.2, "large": 0.1}, "step_size": {"small": 0.1, "medium": 0.1,
+                                                                                  "large": 0.8}}
+
+
+def _weights_file(tmp_path, text: str | None = None) -> None:
+    rows = [f"{p},{c},{w}" for p, ws in PLANTED.items() for c, w in ws.items()]
+    (tmp_path / "w.csv").write_text(text if text is not None else "parameter,class,weight\n" + "\n".join(rows) + "\n")
+
+
+def test_effect_guided_cases_follow_the_weights_of_the_study_file(tmp_path, monkeypatch):
+    from scipy.stats import chisquare
+
+    from faultlab.scenario import draw_suite
+
+    monkeypatch.chdir(tmp_path)
+    _weights_file(tmp_path)
+    sexp = load_study_experiment(_file(tmp_path, WEIGHTED.replace("effect-guided = 4", "effect-guided = 400")
+                                       .replace("sizes = [1, 2, 6]", "sizes = [1, 2]")))
+    exp = sexp.experiment
+    assert sexp.weights_file == "w.csv" and exp.space["weights"] == PLANTED
+    space = exp.parameter_space()
+    cases = draw_suite("effect-guided", space, root_seed=exp.seed, run=1, n_cases=400)
+    for name, planted in PLANTED.items():
+        classes = space[name].class_names
+        # each class once first, then every further case draws by the weights: the later cases' class
+        # counts fit the planted weights and not equal weights (chi-square goodness of fit)
+        later = [space[name].class_names[c.spec.classes[name]] for c in cases[len(classes):]]
+        counts = [later.count(k) for k in classes]
+        expected = [len(later) * planted[k] / sum(planted.values()) for k in classes]
+        assert chisquare(counts, expected).pvalue > 1e-3, (name, counts)
+        assert chisquare(counts).pvalue < 1e-6, (name, counts)
+        first = {space[name].class_names[c.spec.classes[name]] for c in cases[:len(classes)]}
+        assert first == set(classes)
+
+
+@pytest.mark.parametrize("text,match", [
+    (None, r"study\.weights: w\.csv: no such file"),
+    ("parameter,class,weight\n", r"study\.weights: w\.csv: holds no class weights"),
+    ("parameter,class,wait\nmap_size,small,1\n", r"study\.weights: .*lacks the column 'weight'"),
+    ("parameter,class,weight\nmap_size,tiny,1\n", r"study\.weights: w\.csv: map_size\.tiny: unknown class"),
+    ("parameter,class,weight\nmap_size,small,1\n", r"study\.weights: w\.csv: map_size: no weight for class 'medium'"),
+    ("parameter,class,weight\nmap_size,small,-1\nmap_size,medium,1\nmap_size,large,1\n",
+     r"study\.weights: w\.csv: map_size\.small: a weight must be a finite number >= 0"),
+])
+def test_a_bad_weights_file_is_one_error_naming_the_study_key_and_the_file(tmp_path, monkeypatch, text, match):
+    monkeypatch.chdir(tmp_path)
+    if text is not None:
+        _weights_file(tmp_path, text)
+    with pytest.raises(ConfigError, match=match) as info:
+        load_study_experiment(_file(tmp_path, WEIGHTED))
+    assert str(info.value).startswith(str(tmp_path / "s.toml")) and "\n" not in str(info.value)
+
+
+def test_weights_and_effect_guided_suites_come_together(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    _weights_file(tmp_path)
+    with pytest.raises(ConfigError, match=r"suites\.effect-guided: needs class weights: give study\.weights"):
+        load_study_experiment(_file(tmp_path, WEIGHTED.replace("weights = 'w.csv'", "")))
+    with pytest.raises(ConfigError, match=r"study\.weights: no effect-guided suite"):
+        load_study_experiment(_file(tmp_path, WEIGHTED.replace("effect-guided = 4", "")))
+    with pytest.raises(ConfigError, match=r"study\.weights: \[space\.weights\] gives class weights as well"):
+        load_study_experiment(_file(tmp_path, WEIGHTED + "[space.weights]\nmap_size = { small = 1, medium = 1, "
+                                                         "large = 1 }\n"))

@@ -152,8 +152,62 @@ def test_study_plan_with_an_assumed_cost_says_so(tmp_path, capsys):
     plan = plan_study("strategies", strategies=2, faults=2, max_suite=2, seconds_per_execution=2.5)
     assert "2.50 s per execution: a stated assumption" in out
     assert f"| CPU hours | {plan.needed.cpu_hours:,.1f} |" in out
+    # the file's own scale: pools of 5 and 3 cases x (baseline, 2 faults, 1 mutant) x K = 7, at 2.5 s each
+    assert "## The file's scale" in out and "Pools: systematic 5, random 3" in out
+    assert "| SLAM executions | 224 |" in out and f"| CPU hours | {224 * 2.5 / 3600:,.1f} |" in out
     assert main(["study", "plan", str(tmp_path / "tiny.toml"), "--seconds-per-execution", "0"]) == 1
     assert "--seconds-per-execution" in capsys.readouterr().err
+
+
+def test_study_plan_of_the_quick_scale_costs_the_quick_table(tmp_path, capsys):
+    (tmp_path / "tiny.toml").write_text(TINY + "[study.quick]\nrepetitions = 8\nsuites = { random = 5 }\n")
+    assert main(["study", "plan", str(tmp_path / "tiny.toml"), "--quick", "--seconds-per-execution", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "# Power plan: tiny --quick" in out and "Pools: systematic 5, random 5" in out
+    assert f"| SLAM executions | {10 * 4 * 8} |" in out
+    assert main(["study", "plan", "mutation", "--quick", "--seconds-per-execution", "1"]) == 1
+    assert "--quick" in capsys.readouterr().err
+
+
+def test_study_run_refuses_a_bad_weights_file_and_writes_nothing(tmp_path, capsys):
+    exp = tmp_path / "tiny.toml"
+    exp.write_text(TINY.replace("random = 3", "random = 3\neffect-guided = 3")
+                   .replace("seed = 1\n", f"seed = 1\nweights = '{tmp_path / 'w.csv'}'\n"))
+    (tmp_path / "w.csv").write_text("parameter,class,weight\nmap_size,small,1\nmap_size,huge,2\n")
+    assert main(["study", "run", str(exp), "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("faultlab: error: ") and err.count("\n") == 1
+    assert "study.weights" in err and "w.csv" in err and "huge: unknown class" in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_effect_guided_pools_and_whole_suites_appear_in_the_report(tmp_path, capsys):
+    from faultlab.space import read_class_weights
+
+    weights = tmp_path / "w.csv"
+    weights.write_text("parameter,class,weight\nmap_size,small,0.6\nmap_size,medium,0.3\nmap_size,large,0.1\n")
+    exp = tmp_path / "tiny.toml"
+    exp.write_text(TINY.replace("random = 3", "random = 3\neffect-guided = 3")
+                   .replace('whole = ["random"]', f'whole = ["random", "effect-guided"]\nweights = "{weights}"'))
+    out, rep = tmp_path / "out", tmp_path / "rep"
+    assert main(["study", "run", str(exp), "--out", str(out), "--jobs", "1", "--backend", "threading",
+                 "--no-progress"]) == 0
+    assert "308 jobs" in capsys.readouterr().out             # 11 cases x (baseline, 2 faults, 1 mutant) x K = 7
+    assert main(["study", "report", str(out), "--reports", str(rep)]) == 0
+    km = pd.read_csv(rep / "kill_matrix.csv")
+    assert (km["strategy"] == "effect-guided").sum() == 3 * 3                      # 3 pool cases x 3 variants
+    for name in ("detection.csv", "power.csv"):
+        assert "effect-guided" in set(pd.read_csv(rep / name)["strategy"]), name
+    whole = pd.read_csv(rep / "whole.csv")
+    assert set(whole["strategy"]) == {"random", "effect-guided"}
+    assert set(whole.loc[whole["strategy"] == "effect-guided", "size"]) == {3}
+    md = (rep / "study.md").read_text()
+    assert "## Whole generated suites" in md and "`effect-guided`" in md
+    assert f"class weights of `{weights}`" in md and "heaviest first): map_size: small 0.60, medium 0.30, large 0.10" in md
+    meta = pd.read_json(rep / "study_meta.json", typ="series")
+    planted = read_class_weights(weights)["map_size"]
+    assert meta["weights"]["classes"]["map_size"] == pytest.approx(planted)       # normalised: they sum to 1
 
 
 def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):

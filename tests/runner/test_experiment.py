@@ -1,4 +1,5 @@
 import math
+import json
 import pickle
 from pathlib import Path
 
@@ -205,7 +206,7 @@ def test_metrics_option_is_validated_and_hashed_only_when_not_all(tmp_path):
     a = load_experiment(write_experiment(tmp_path / "a.toml"))
     both = load_experiment(write_experiment(tmp_path / "both.toml", metrics=["emd", "rms"]))
     rms = load_experiment(write_experiment(tmp_path / "rms.toml", metrics=["rms"]))
-    assert a.metrics == both.metrics == ("rms", "emd") and rms.metrics == ("rms",)
+    assert a.metrics == ("rms", "emd", "ate") and both.metrics == ("rms", "emd") and rms.metrics == ("rms",)
     assert both.hash == a.hash and "metrics" not in a.canonical_json()  # older campaigns keep their hash
     assert rms.hash != a.hash and a.replace(metrics=["rms"]).hash == rms.hash
     assert parse_experiment(rms.to_dict()).hash == rms.hash and pickle.loads(pickle.dumps(rms)) == rms
@@ -219,3 +220,22 @@ def test_metrics_option_is_validated_and_hashed_only_when_not_all(tmp_path):
         a.replace(metric="emd", metrics=["emd"])
     unknown = parse_experiment({"seed": 1, "slam": {"name": "fastslam", "association": "unknown"}, "metrics": ["emd"]})
     assert unknown.metric == "emd" and unknown.metrics == ("emd",)
+
+
+def test_the_ate_is_recorded_by_default_can_be_the_metric_and_leaves_every_older_hash_as_it_was(tmp_path):
+    a = load_experiment(write_experiment(tmp_path / "a.toml"))
+    # a hash of the layout before the ATE (no metrics key when both map errors were recorded), by hand
+    before = json.loads(a.canonical_json())
+    assert "metrics" not in before
+    for metrics in (["rms", "emd"], ["rms", "emd", "ate"], ["ate", "emd", "rms"]):
+        assert a.replace(metrics=metrics).hash == a.hash, metrics
+    rms = a.replace(metrics=["rms"])
+    assert a.replace(metrics=["rms", "ate"]).hash == rms.hash and json.loads(rms.canonical_json())["metrics"] == ["rms"]
+    by_ate = a.replace(metric="ate")
+    assert by_ate.metric == "ate" and by_ate.hash != a.hash
+    with pytest.raises(ConfigError, match="must record the experiment's metric 'ate'"):
+        a.replace(metric="ate", metrics=["rms", "emd"])
+    unknown = parse_experiment({"seed": 1, "slam": {"name": "fastslam", "association": "unknown"}, "metric": "ate"})
+    assert unknown.metric == "ate" and unknown.metrics == ("rms", "emd", "ate")
+    with pytest.raises(ConfigError, match="must be 'emd' with slam.association = 'unknown' \\(or 'ate'"):
+        parse_experiment({"seed": 1, "slam": {"name": "fastslam", "association": "unknown"}, "metric": "rms"})

@@ -318,7 +318,7 @@ def test_metrics_rms_records_nan_emd_and_the_same_rms_bit_for_bit(tmp_path):
     from faultlab.errors import ResultsError
 
     spec = dict(repetitions=2, variants=["baseline", "missing_angle_wrap"])
-    both = load_experiment(fastslam_batches(tmp_path, **spec))
+    both = load_experiment(fastslam_batches(tmp_path, metrics=["rms", "emd"], **spec))  # the two map errors
     only = both.replace(metrics=["rms"])
     run_experiment(both, tmp_path / "both", jobs=1, progress=False)
     run_experiment(only, tmp_path / "rms", jobs=1, progress=False)
@@ -360,3 +360,88 @@ def test_given_cases_replace_the_suites_draws_and_are_checked_on_resume(tmp_path
     changed = [dataclasses.replace(cases[0], spec=CaseSpec(dict(values[0], map_size=10.0)))]
     with pytest.raises(ResultsError, match="does not match"):
         run_experiment(exp, out, jobs=1, backend="threading", progress=False, cases=changed)
+
+
+def test_the_stored_ate_is_the_trajectory_error_of_the_slam_rerun_on_the_stored_case(tmp_path):
+    from faultlab.metrics.trajectory import absolute_trajectory_error
+    from faultlab.slam import run_slam
+    from faultlab.slam.registry import build_slam
+
+    exp = write_experiment(tmp_path / "e.toml", runs=1, n_steps=30, repetitions=2, suites={"random": 2},
+                           variants=["baseline", "missing_angle_wrap"], slam={"name": "fastslam", "particles": 8})
+    run_experiment(exp, tmp_path / "out", jobs=1, progress=False)
+    df = load_results(tmp_path / "out")
+    assert (df.status == "ok").all() and np.isfinite(df.ate_mm).all()
+    experiment = load_experiment(exp)
+    for row in df.itertuples():
+        scenario = load_scenario(case_path(tmp_path / "out", row.run, row.suite, row.case))
+        slam = build_slam("fastslam", dict(experiment.slam.options))
+        if row.variant != "baseline":
+            from faultlab.faults import get_fault
+            slam = get_fault(row.variant).apply(slam)
+        est = run_slam(slam, scenario, rng=np.random.default_rng(
+            slam_seed(experiment.seed, row.run, row.suite, row.case, row.rep)))
+        ate = absolute_trajectory_error(scenario.true_poses[1:, :2], est.trajectory[:, :2]).rmse
+        assert row.ate_mm == 1000 * ate
+
+
+def test_a_slam_without_a_trajectory_and_a_job_not_recording_it_store_nan(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", **one_case())  # TinySlam reports no trajectory
+    run_experiment(exp, tmp_path / "out", jobs=1, progress=False)
+    df = load_results(tmp_path / "out")
+    assert (df.status == "ok").all() and df.ate_mm.isna().all() and np.isfinite(df.rms_mm).all()
+    exp2 = write_experiment(tmp_path / "e2.toml", **one_case(slam={"name": "ekf"}, variants=["baseline"],
+                                                                metrics=["rms", "emd"]))
+    run_experiment(exp2, tmp_path / "out2", jobs=1, progress=False)
+    df2 = load_results(tmp_path / "out2")
+    assert (df2.status == "ok").all() and df2.ate_mm.isna().all()
+    assert load_metadata(tmp_path / "out2")["metrics"] == ["rms", "emd"]
+
+
+def test_a_store_from_before_the_ate_resumes_under_the_same_experiment_without_it(tmp_path):
+    """A store written before the ATE existed (no ate_mm column, metadata metrics rms and emd) resumes
+    under an experiment that records the ATE by default: same hash, old rows still verified, the new
+    rows keep the store's layout (ATE NULL)."""
+    exp = write_experiment(tmp_path / "e.toml", **one_case(slam={"name": "ekf"}, suites={"random": 2},
+                                                               variants=["baseline"]))
+    out = tmp_path / "out"
+    run_experiment(exp, out, jobs=1, progress=False)
+    full = load_results(out)
+    assert np.isfinite(full.ate_mm).all()
+    # make it a store of the previous layout: the column gone, one row gone, the metadata of then
+    conn = sqlite3.connect(out / "results.sqlite")
+    conn.execute("UPDATE results SET ate_mm = NULL")  # what such a store holds (checksums then re-made below)
+    conn.execute("ALTER TABLE results DROP COLUMN ate_mm")
+    conn.execute("DELETE FROM results WHERE \"case\" = 2")
+    conn.execute("UPDATE meta SET value = ? WHERE key = 'metrics'", (json.dumps(["rms", "emd"]),))
+    conn.commit()
+    conn.close()
+    _rechecksum_without_ate(out / "results.sqlite")
+    old = load_results(out)
+    assert len(old) == len(full) // 2 and old.ate_mm.isna().all()
+    pd.testing.assert_frame_equal(old.drop(columns=["ate_mm", "runtime_s"]),
+                                  full[full.case != 2].drop(columns=["ate_mm", "runtime_s"]).reset_index(drop=True))
+    summary = run_experiment(exp, out, jobs=1, progress=False)  # not refused: same hash
+    assert summary.n_new == len(full) // 2
+    resumed = load_results(out)
+    assert len(resumed) == len(full) and resumed.ate_mm.isna().all()
+    pd.testing.assert_frame_equal(without_runtime(resumed).drop(columns=["ate_mm"]),
+                                  without_runtime(full).drop(columns=["ate_mm"]))
+
+
+def _rechecksum_without_ate(path):
+    """Recompute every row's checksum as a writer of the previous layout did (no ate_mm column)."""
+    from faultlab.runner import store as store_module
+
+    before = tuple(c for c in store_module.RESULT_COLUMNS if c != "ate_mm")
+    conn = sqlite3.connect(path)
+    cols = ", ".join(f'"{c}"' for c in before)
+    rows = conn.execute(f"SELECT rowid, {cols} FROM results").fetchall()
+    old_layout = tuple(c for c in store_module._DIGEST_ORDER if c != "ate_mm")
+    for rowid, *values in rows:
+        by_name = dict(zip(before, values))
+        checksum = store_module._row_digest(by_name) + b"".join(
+            store_module._column_digest(c, by_name[c]) for c in old_layout)
+        conn.execute("UPDATE results SET checksum = ? WHERE rowid = ?", (checksum, rowid))
+    conn.commit()
+    conn.close()

@@ -387,7 +387,7 @@ def test_any_row_reads_back_verified_and_equal(tmp_path_factory, exp, rms, emd, 
         store.write(row)
     (got,) = load_results(out).to_dict("records")  # verified: no false alarm
     for c in RESULT_COLUMNS:
-        want = "" if c == "error" and not error else row[c]
+        want = "" if c == "error" and not error else row.get(c, math.nan)  # a column the row lacks: NULL
         if isinstance(want, float) and math.isnan(want):
             assert math.isnan(got[c]), c
         else:
@@ -456,3 +456,30 @@ def test_settle_sessions_counts_a_killed_sessions_rows_and_time_from_the_store()
     assert study[1]["state"] == "running"  # the input is not changed
     assert settle_sessions([{"started": 10.0, "state": "running"}], []) == [
         {"started": 10.0, "state": "killed", "n_new": 0, "wall_time_s": 0.0}]
+
+
+def test_a_committed_store_from_before_the_ate_reads_it_as_nan_verified(tmp_path):
+    import shutil
+    import sqlite3
+    from pathlib import Path
+
+    from faultlab.runner.store import recorded_metrics
+
+    src = Path(__file__).resolve().parents[2] / "reports" / "calibrate-quick" / "store" / "results.sqlite"
+    shutil.copy2(src, tmp_path / "results.sqlite")
+    with sqlite3.connect(tmp_path / "results.sqlite") as conn:
+        assert "ate_mm" not in {r[1] for r in conn.execute("PRAGMA table_info(results)")}
+    df = load_results(tmp_path)  # verified against the checksums written without the column
+    assert list(df.columns) == list(RESULT_COLUMNS) and len(df) > 0 and df.ate_mm.isna().all()
+    assert "ate" not in recorded_metrics(load_metadata(tmp_path))
+
+
+def test_job_metrics_keep_the_stores_choice_of_the_ate():
+    from faultlab.runner.store import job_metrics
+
+    every = ("rms", "emd", "ate")
+    assert job_metrics(every, {"metrics": list(every)}) == every
+    assert job_metrics(every, {"metrics": ["rms", "emd"]}) == ("rms", "emd")
+    assert job_metrics(every, {}) == ("rms", "emd")  # a store from before the metrics key: no ATE
+    assert job_metrics(("rms",), {"metrics": list(every)}) == ("rms",)
+    assert job_metrics(("emd", "rms"), {"metrics": ["rms", "ate"]}) == ("rms", "emd")

@@ -95,6 +95,7 @@ def assert_same(a: Outcome, b: Outcome, what: str) -> None:
         return
     assert a.n_resamples == b.n_resamples, what
     assert estimates_identical(a.estimate, b.estimate), what
+    np.testing.assert_array_equal(a.estimate.trajectory, b.estimate.trajectory, err_msg=f"{what}: trajectory")
     for field in ("poses", "weights", "landmark_ids", "means", "covariances"):
         np.testing.assert_array_equal(getattr(a.particles, field), getattr(b.particles, field),
                                       err_msg=f"{what}: {field}")

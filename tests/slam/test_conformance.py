@@ -19,11 +19,13 @@ for line in sys.stdin:
         if m["protocol"] != 1 and defect != "any-version":
             print(json.dumps({"type": "error", "message": "protocol 1 only"}), flush=True)
             continue
-        pose, lms = list(m["pose"]), {}
+        pose, lms, traj = list(m["pose"]), {}, []
         if defect == "clamped-heading":  # assumes a start heading in [-pi, pi]
             pose[2] = max(-math.pi, min(math.pi, pose[2]))
         print(json.dumps({"type": "ready", "protocol": 1}), flush=True)
     elif m["type"] == "step":
+        if defect == "trajectory-before":  # logs the pose before the step's motion
+            traj.append(list(pose))
         v, w = m["control"]
         pose = [pose[0] + v * math.cos(pose[2]), pose[1] + v * math.sin(pose[2]), pose[2] + w]
         for r, b, i in zip(m["ranges"], m["bearings"], m["ids"]):
@@ -31,13 +33,17 @@ for line in sys.stdin:
                 i = (i + 2 ** 31) % 2 ** 32 - 2 ** 31
             a = pose[2] + b
             lms[i] = [pose[0] + r * math.cos(a), pose[1] + r * math.sin(a)]
+        if defect == "with-trajectory":
+            traj.append(list(pose))
         print(json.dumps({"type": "ack", "t": m["t"]}), flush=True)
     elif m["type"] == "estimate":
         p = list(pose)
         if defect == "unseeded":
             p[0] += random.SystemRandom().gauss(0, 1e-9)
-        print(json.dumps({"type": "estimate", "pose": p, "landmarks": [[i, *xy] for i, xy in lms.items()]}),
-              flush=True)
+        reply = {"type": "estimate", "pose": p, "landmarks": [[i, *xy] for i, xy in lms.items()]}
+        if defect.endswith("trajectory") or defect.startswith("trajectory"):
+            reply["trajectory"] = traj
+        print(json.dumps(reply), flush=True)
     elif m["type"] == "bye":
         sys.exit(3 if defect == "bye-status" else 0)
 sys.exit(4 if defect == "eof-status" else 0)
@@ -59,10 +65,26 @@ def test_a_broken_estimate_fails_every_check_with_landmarks_naming_the_rule(exam
     report = check_program([str(example_slam)], env=[("EXAMPLE_SLAM_BREAK", "estimate")])
     assert not report.passed
     # the checks whose estimate has landmarks fail; those with an empty map do not see the defect
-    assert _failed(report) == {"empty-steps", "inactivity", "rotation-offsets", "large-map", "same-seed"}
+    assert _failed(report) == {"empty-steps", "inactivity", "rotation-offsets", "large-map", "trajectory",
+                               "same-seed"}
     for r in report.results:
         if not r.passed:
             assert "rule estimate-landmarks" in r.message and "[id, x, y]" in r.message
+
+
+def test_a_malformed_trajectory_fails_every_check_with_steps_naming_the_rule(example_slam):
+    report = check_program([str(example_slam)], env=[("EXAMPLE_SLAM_BREAK", "trajectory")])
+    # every check whose execution has a step ends in an estimate with a malformed trajectory; the empty
+    # run's trajectory is an empty list, which is well formed
+    assert _failed(report) == {"empty-steps", "zero-observations", "inactivity", "rotation-offsets", "large-map",
+                               "trajectory", "same-seed", "exit-on-bye"}, report.format()
+    for r in report.results:
+        if not r.passed:
+            assert "rule estimate-trajectory" in r.message and "[x, y, theta]" in r.message
+
+
+def test_a_trajectory_is_optional_and_a_right_one_passes():
+    assert check_program([sys.executable, "-c", REFERENCE, "with-trajectory"]).passed
 
 
 def test_the_python_reference_passes_every_check():
@@ -77,6 +99,7 @@ def test_the_python_reference_passes_every_check():
     ("unseeded", {"same-seed"}, "different estimates"),
     ("int32-ids", {"large-map"}, "missing ids"),
     ("clamped-heading", {"rotation-offsets"}, "modulo 2 pi"),
+    ("trajectory-before", {"trajectory"}, "row t of \"trajectory\" is the pose after step t"),
 ])
 def test_each_planted_defect_fails_its_check_with_a_message_to_fix_it(defect, failing, words):
     report = check_program([sys.executable, "-c", REFERENCE, defect])

@@ -182,6 +182,11 @@ def test_a_program_that_cannot_start_is_a_slam_failure(tmp_path):
     ('{"type": "estimate", "pose": [0, 0, 0], "landmarks": [[1.5, 0, 0]]}', "estimate-landmarks"),
     ('{"type": "estimate", "pose": [0, 0, 0], "landmarks": [[1, 0, 0], [1, 2, 2]]}', "estimate-landmarks"),
     ('{"type": "estimate", "pose": [0, 0, 0], "landmarks": [[true, 0, 0]]}', "estimate-landmarks"),
+    ('{"type": "estimate", "pose": [0, 0, 0], "landmarks": [], "trajectory": 3}', "estimate-trajectory"),
+    ('{"type": "estimate", "pose": [0, 0, 0], "landmarks": [], "trajectory": [[0, 0]]}', "estimate-trajectory"),
+    ('{"type": "estimate", "pose": [0, 0, 0], "landmarks": [], "trajectory": [[0, 0, NaN]]}', "estimate-trajectory"),
+    ('{"type": "estimate", "pose": [0, 0, 0], "landmarks": [], "trajectory": [[0, 0, "a"]]}', "estimate-trajectory"),
+    ('{"type": "estimate", "pose": [0, 0, 0], "landmarks": [], "trajectory": null}', "estimate-trajectory"),
 ])
 def test_malformed_estimate_replies_name_their_rule(reply, rule):
     with pytest.raises(SlamProcessError) as info:
@@ -200,6 +205,28 @@ def test_an_estimate_reply_round_trips_exactly(pose, lm):
     est = estimate_from_reply(line)
     assert est.pose.tolist() == pose
     assert est.as_dict() == {k: tuple(v) for k, v in lm.items()}
+
+
+def test_a_trajectory_is_optional_and_must_have_one_pose_per_step():
+    base = {"type": "estimate", "pose": [0, 0, 0], "landmarks": []}
+    assert estimate_from_reply(json.dumps(base), n_steps=4).trajectory is None
+    rows = [[0.5, -1.0, 3.0], [1.5, 2.0, -0.25]]
+    est = estimate_from_reply(json.dumps(base | {"trajectory": rows}), n_steps=2)
+    assert est.trajectory.tolist() == rows and est.trajectory.shape == (2, 3)
+    assert estimate_from_reply(json.dumps(base | {"trajectory": []}), n_steps=0).trajectory.shape == (0, 3)
+    with pytest.raises(SlamProcessError, match="trajectory has 2 poses after 3 steps") as info:
+        estimate_from_reply(json.dumps(base | {"trajectory": rows}), n_steps=3)
+    assert info.value.rule == "estimate-trajectory"
+
+
+def test_a_malformed_trajectory_of_the_program_names_the_broken_rule(example_slam):
+    slam = ProcessSlam(_config(example_slam, env=(("EXAMPLE_SLAM_BREAK", "trajectory"),)))
+    slam.reset(np.zeros(3), rng=np.random.default_rng(1))
+    for u, obs in _scene():
+        slam.step(u, obs)
+    with pytest.raises(SlamProcessError, match="rule estimate-trajectory") as info:
+        slam.estimate()
+    assert info.value.rule == "estimate-trajectory"
 
 
 def test_options_are_validated_and_round_trip():
@@ -253,6 +280,8 @@ def test_the_example_equals_python_dead_reckoning_on_any_input(example_slam, dat
             slam.step(u, obs)
         results.append(slam.estimate())
     ours, ref = results
+    assert ours.trajectory.shape == ref.trajectory.shape == (n_steps, 3)
+    np.testing.assert_allclose(ours.trajectory, ref.trajectory, rtol=0, atol=1e-9)
     np.testing.assert_allclose(ours.pose, ref.pose, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(ours.landmark_ids, ref.landmark_ids)
     np.testing.assert_allclose(ours.landmarks, ref.landmarks, rtol=0, atol=1e-9)

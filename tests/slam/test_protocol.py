@@ -1,3 +1,5 @@
+import dataclasses
+import math
 from types import SimpleNamespace
 
 import numpy as np
@@ -9,6 +11,14 @@ from hypothesis.extra import numpy as hnp
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.slam.protocol import (Estimate, Observations, SlamAdapter, _all_valid, as_control, as_start_pose,
                                     check_generator)
+from faultlab.metrics import trajectory_error_mm
+from faultlab.scenario import generate_scenario
+from faultlab.slam import (DeadReckoning, EkfSlam, EkfSlamConfig, FastSlam, FastSlam2, FastSlamConfig,
+                           run_slam)
+from faultlab.slam.association import FastSlam2Unknown, FastSlamUnknown
+from faultlab.slam.gtsam import GtsamSlam, GtsamSlamConfig, gtsam_available
+from faultlab.slam.profiles import get_profile
+from faultlab.space.case import FIXED_VALUES, CaseSpec
 
 
 def test_observations_accept_empty_and_coerce_types():
@@ -123,3 +133,132 @@ def test_the_scenario_wide_observation_check_agrees_with_the_per_step_checks(sc)
             got, want = getattr(fast, name), getattr(slow, name)
             assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=True)
         assert fast.hidden is slow.hidden is False and len(fast) == len(slow)
+
+
+# --------------------------------------------------------------------------- the trajectory of an estimate
+
+def test_an_estimate_without_a_trajectory_is_valid_and_a_malformed_one_is_not():
+    base = dict(pose=np.zeros(3), landmark_ids=np.array([1]), landmarks=np.zeros((1, 2)))
+    assert Estimate(**base).validate().trajectory is None
+    assert Estimate(**base, trajectory=np.zeros((0, 3))).validate().trajectory.shape == (0, 3)
+    # a diverged trajectory keeps the map scorable: its ATE is NaN (faultlab.metrics.trajectory_error_mm)
+    Estimate(**base, trajectory=np.full((2, 3), np.nan)).validate()
+    for bad in (np.zeros((4, 2)), np.zeros(3), np.zeros((2, 3, 1)), np.array([["a", "b", "c"]])):
+        with pytest.raises(SlamOutputError, match="trajectory must be numbers of shape \\(T, 3\\)"):
+            Estimate(**base, trajectory=bad).validate()
+
+# Every built-in SLAM reports its trajectory: one pose per step, aligned with ``true_poses[1:]``.
+# 
+# Checked on two scenes: a noise-free scenario (controls and observations exact; the SLAMs assume
+# little noise), where the absolute trajectory error must be small against the truth's own extent;
+# and the same scenario with every step followed by an idle step, where the trajectory must repeat
+# each pose and, scored against a truth planted at a known distance ``d`` from it in opposite
+# directions within each pair, the ATE is exactly ``d`` (the pairs cancel in the alignment's
+# cross-covariance, so the optimal rigid motion is the identity: an exact, independent answer).
+
+LOW = dict(std_v=0.01, std_omega=math.radians(0.5), std_range=0.05, std_bearing=math.radians(1.0))
+
+
+def _paper():
+    p = get_profile("paper")
+    return FastSlam(dataclasses.replace(p.config, n_particles=20, **LOW), steps=p.steps)
+
+
+#: name -> a SLAM that assumes little noise
+SLAMS = {
+    "fastslam1": lambda: FastSlam(FastSlamConfig(n_particles=20, **LOW)),
+    "fastslam1-paper": _paper,
+    "fastslam2": lambda: FastSlam2(FastSlamConfig(n_particles=20, **LOW)),
+    "fastslam1-unknown": lambda: FastSlamUnknown(FastSlamConfig(n_particles=20, association="unknown", **LOW)),
+    "fastslam2-unknown": lambda: FastSlam2Unknown(FastSlamConfig(n_particles=20, association="unknown", **LOW)),
+    "ekf": lambda: EkfSlam(EkfSlamConfig(**LOW)),
+    "gtsam": lambda: GtsamSlam(GtsamSlamConfig(**LOW)),
+    "dead_reckoning": DeadReckoning,
+}
+
+
+def _make(name):
+    if name == "gtsam" and not gtsam_available():
+        pytest.skip("gtsam is not installed")
+    return SLAMS[name]()
+
+
+@pytest.fixture(scope="module")
+def exact():
+    """A noise-free scenario: 30 steps through a 16 m^2 map, no outliers."""
+    values = {**FIXED_VALUES, "map_size": 16.0, "variance_distance": 0.0, "variance_angle": 0.0,
+              "outlier_probability": 0.0}
+    return generate_scenario(CaseSpec(values), rng=np.random.default_rng(4), n_steps=30)
+
+
+def _with_idle_steps(sc):
+    """``sc`` with an idle step (control (0, 0), no observation) after every step: every true pose twice."""
+    T = sc.n_steps
+    controls = np.zeros((2 * T, 2))
+    controls[0::2] = sc.controls
+    offsets = np.repeat(sc.obs_offsets[1:], 2)
+    poses = np.concatenate([sc.true_poses[:1], np.repeat(sc.true_poses[1:], 2, axis=0)])
+    return dataclasses.replace(sc, controls=controls, obs_offsets=np.concatenate([[0], offsets]), true_poses=poses)
+
+
+@pytest.mark.parametrize("name", list(SLAMS))
+def test_the_trajectory_has_one_pose_per_step_and_a_small_error_on_an_exact_scenario(exact, name):
+    est = run_slam(_make(name), exact, rng=np.random.default_rng(1))
+    assert est.trajectory.shape == (exact.n_steps, 3) and np.isfinite(est.trajectory).all()
+    truth = exact.true_poses[1:, :2]
+    spread_mm = 1000 * math.sqrt(np.mean(np.sum((truth - truth.mean(axis=0)) ** 2, axis=1)))
+    ate = trajectory_error_mm(exact, est)
+    # the ATE of a trajectory that never moved is the spread; a SLAM on exact data is far below it
+    assert ate < 0.1 * spread_mm, (ate, spread_mm)
+    if name in ("ekf", "dead_reckoning", "gtsam"):  # exact input: these reproduce the truth
+        assert ate < 1e-3
+        np.testing.assert_allclose(est.trajectory[-1], est.pose, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", list(SLAMS))
+def test_against_a_planted_offset_the_error_is_the_offset(exact, name):
+    sc = _with_idle_steps(exact)
+    est = run_slam(_make(name), sc, rng=np.random.default_rng(2))
+    q = est.trajectory
+    assert q.shape == (sc.n_steps, 3)
+    np.testing.assert_array_equal(q[0::2], q[1::2])  # an idle step moves nothing
+    d = 0.25
+    angle = np.random.default_rng(3).uniform(-np.pi, np.pi, exact.n_steps)
+    v = d * np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    planted = np.empty((sc.n_steps, 2))
+    planted[0::2], planted[1::2] = q[0::2, :2] + v, q[1::2, :2] - v
+    truth = sc.true_poses.copy()
+    truth[1:, :2] = planted
+    assert trajectory_error_mm(dataclasses.replace(sc, true_poses=truth), est) == pytest.approx(1000 * d, abs=1e-6)
+
+
+def _best_particle_oracle(poses, logw):
+    """The highest-weight particle's pose the slow way (ties: the lowest index)."""
+    return poses[max(range(len(logw)), key=lambda j: (logw[j], -j))].copy()
+
+
+@pytest.mark.parametrize("name", ["fastslam1", "fastslam1-paper", "fastslam2", "fastslam1-unknown"])
+def test_a_particle_filters_trajectory_is_its_best_particles_pose_after_each_step(exact, name):
+    slam = _make(name)
+    slam.reset(exact.start_pose, rng=np.random.default_rng(5))
+    expected = []
+    for t in range(exact.n_steps):
+        r, b, ids = exact.observations(t)
+        slam.step(exact.controls[t], Observations.without_ids(r, b) if name.endswith("unknown")
+                  else Observations(r, b, ids))
+        st = slam.state
+        expected.append(_best_particle_oracle(np.asarray(st.poses), np.asarray(st.logw)))
+    est = slam.estimate()
+    np.testing.assert_array_equal(est.trajectory, np.array(expected))
+    np.testing.assert_array_equal(est.trajectory[-1], est.pose)
+
+
+def test_a_batch_reports_each_repetitions_own_trajectory(exact):
+    seeds = (7, 8, 9)
+    batch = FastSlam(FastSlamConfig(n_particles=20, **LOW))
+    batch.reset_batch(exact.start_pose, rngs=[np.random.default_rng(s) for s in seeds])
+    for t in range(exact.n_steps):
+        batch.step(exact.controls[t], exact.observations(t))
+    for s, est in zip(seeds, batch.estimates()):
+        alone = run_slam(FastSlam(FastSlamConfig(n_particles=20, **LOW)), exact, rng=np.random.default_rng(s))
+        np.testing.assert_array_equal(est.trajectory, alone.trajectory)

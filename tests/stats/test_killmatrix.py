@@ -446,6 +446,31 @@ def test_whole_suites_judge_each_runs_suite_by_textbook_holm_and_count_suites_as
         whole_suites(km, ["pairwise"])
 
 
+def test_a_whole_suite_of_more_cases_than_the_exact_pooled_test_enumerates_is_judged_reproducibly():
+    from statsmodels.stats.multitest import multipletests
+
+    from faultlab.stats.killmatrix import whole_suites
+    from faultlab.stats.verdict import MAX_EXACT_PAIRS
+
+    n = MAX_EXACT_PAIRS + 2                     # a whole base-choice suite of Table I: 22 cases
+    rng = np.random.default_rng(5)
+    p = rng.uniform(0.01, 1.0, (n, 2))          # no case strong at alpha / n = 0.0023 ...
+    p[3, 0] = 0.05 / n / 2                      # ... but one of fault_a's
+    means = rng.normal(0.0, 0.3, (n, 2))
+    km = KillMatrix(cases=pd.DataFrame({"strategy": "base-choice", "run": 1, "case": range(1, n + 1)}),
+                    variants=("fault_a", "fault_b"), p=p, crash=np.zeros(p.shape, bool),
+                    timeout=np.zeros(p.shape, bool), judged=np.ones(p.shape, bool), paper=p < 0.01,
+                    mean_diff_mm=np.full(p.shape, 10.0), direction=np.full(p.shape, "worse", dtype=object),
+                    mean_log_ratio=means)
+    whole = whole_suites(km, ["base-choice"], alpha=ALPHA, seed=3)
+    assert set(whole["size"]) == {n}
+    for j, v in enumerate(km.variants):          # the suite rule: Holm over the n cases (statsmodels)
+        holm = multipletests(p[:, j], alpha=ALPHA, method="holm")[0].any()
+        assert bool(whole.loc[whole["variant"] == v, "detected"].iloc[0]) == holm
+    assert whole["detected"].tolist() == [True, False]
+    pd.testing.assert_frame_equal(whole, whole_suites(km, ["base-choice"], alpha=ALPHA, seed=3))
+
+
 def test_study_spec_reads_whole_suites():
     assert study_spec({"whole": ["pairwise"]}, source="f.toml").whole == ("pairwise",)
     assert study_spec({}, source="f.toml").whole == ()

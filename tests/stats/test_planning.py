@@ -167,3 +167,24 @@ def test_plan_refuses_what_it_cannot_plan():
         plan_study("other", strategies=3, seconds_per_execution=1.0)
     with pytest.raises(ConfigError):
         plan_study("mutation", strategies=3, seconds_per_execution=0.0)
+
+
+def test_a_files_scale_counts_every_pool_and_states_the_smallest_pools_power():
+    from statsmodels.stats.power import NormalIndPower
+
+    from faultlab.stats.planning import file_scale, plan_study
+
+    plan = plan_study("strategies", strategies=5, faults=17, max_suite=22, seconds_per_execution=0.5)
+    scale = file_scale(plan, pools=[16, 16, 20, 22, 16], mutants=10, repetitions=10, largest_suite=22)
+    assert scale.executions == (16 + 16 + 20 + 22 + 16) * (1 + 17 + 10) * 10
+    assert scale.cpu_hours == pytest.approx(scale.executions * 0.5 / 3600)
+    # the stated difference: two pools of 16 at Holm's first step over 10 pairs detect it with 80 % power
+    # (statsmodels' arcsine two-proportion power, two-sided, around 0.5)
+    d = scale.detection_pp / 100
+    h = 2 * math.asin(math.sqrt(0.5 + d / 2)) - 2 * math.asin(math.sqrt(0.5 - d / 2))
+    power = NormalIndPower().power(effect_size=h, nobs1=16, alpha=0.05 / 10, ratio=1.0, alternative="two-sided")
+    assert power == pytest.approx(0.8, abs=0.01)
+    bigger = file_scale(plan, pools=[30, 40], mutants=10, repetitions=10, largest_suite=22)
+    assert bigger.detection_pp < scale.detection_pp and bigger.cases == 30
+    with pytest.raises(ConfigError, match="two or more pools"):
+        file_scale(plan, pools=[16], mutants=10, repetitions=10, largest_suite=22)

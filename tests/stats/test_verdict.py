@@ -334,8 +334,10 @@ def test_metric_choice_and_bad_input():
     res = campaign()
     emd = case_verdicts(res, metric="emd")
     assert (emd["mean_diff_mm"].to_numpy() == pytest.approx(case_verdicts(res)["mean_diff_mm"].to_numpy() / 2))
+    by_ate = case_verdicts(res.assign(ate_mm=3 * res["rms_mm"]), metric="ate")  # the trajectory error's column
+    assert (by_ate["mean_diff_mm"].to_numpy() == pytest.approx(3 * case_verdicts(res)["mean_diff_mm"].to_numpy()))
     with pytest.raises(ConfigError, match="metric"):
-        case_verdicts(res, metric="ate")
+        case_verdicts(res, metric="mae")
     with pytest.raises(ConfigError, match="alpha"):
         case_verdicts(res, alpha=0.0)
     with pytest.raises(ConfigError, match="power"):
