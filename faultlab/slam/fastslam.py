@@ -737,6 +737,7 @@ class FastSlam(UnitSlam):
             self._call(j, self._resample_reference, j, empty)
         if self._dead:
             self._drop_failed()
+        self._record_poses()
         self._t += 1
 
     def _resample_reference(self, j: int, empty: bool) -> None:

@@ -330,6 +330,7 @@ def assert_same_run(a, b, what):
         assert a[0] == b[0], what
         return
     assert estimates_identical(a[0], b[0]), what
+    assert same_bits(a[0].trajectory, b[0].trajectory), f"{what}: trajectory"
     for field in ("poses", "weights", "landmark_ids", "means", "covariances"):
         assert same_bits(getattr(a[1], field), getattr(b[1], field)), f"{what}: {field}"
 
