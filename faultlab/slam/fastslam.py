@@ -77,6 +77,9 @@ where ``rng_sc`` and ``rng_rs`` are the streams of ``sample_controls`` and ``res
 
 The units after ``classify_new`` are called once per step with all ``k``
 observations; ``combine_weights`` is not called in steps without observations.
+When every unit is the reference and the compiled twins are on, the filter does this work in a
+few compiled passes per step instead (:meth:`FastSlam._update_reference`,
+:func:`faultlab.slam.twins.correct_observed`), bit for bit the same.
 
 Weights are kept as normalised **log** weights: with 100+ observations per
 step the product of likelihoods underflows in linear form.
@@ -376,6 +379,8 @@ class FastSlam(UnitSlam):
         self._ref_classify = self._jit and self._steps.classify_new is ref.classify_new
         self._ref_resample = self._jit and all(getattr(self._steps, name) is getattr(ref, name) for name in
                                                ("effective_sample_size", "resample", "apply_resample"))
+        # every unit the reference: a whole step in a few compiled passes (:meth:`_update_reference`)
+        self._ref_step = self._jit and type(self._steps) is FastSlamSteps and not self._steps.replaced()
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
@@ -411,6 +416,9 @@ class FastSlam(UnitSlam):
         if slots == 0:  # every repetition of the batch has failed
             self._record_poses()
             self._t += 1
+            return
+        if self._ref_step:
+            self._update_reference(control, observations)
             return
         steps, cfg, n = self._units(slots), self._config, self._n
         u, k, empty = step_kind(control, observations)
@@ -681,6 +689,56 @@ class FastSlam(UnitSlam):
         if resampled:
             self._store(j, given, st)
             self._n_resampled[self._reps[j]] += 1
+
+    def _update_reference(self, control: np.ndarray, observations: Observations) -> None:
+        """:meth:`update` when every unit is the reference: the same operations on the same values,
+        done by the kernels of :mod:`faultlab.slam.twins` (:func:`~faultlab.slam.twins.predict_poses`,
+        :func:`~faultlab.slam.twins.correct_observed`) instead of one call per unit.
+
+        The numpy functions the units call (``cos``, ``sin``, ``arctan2``, ``log``, ``exp``, the
+        weights' sum and dot product) are called once per step on all particles, and the random
+        draws are the units' own, from their streams.
+        """
+        slots, n, cfg = len(self._reps), self._n, self._config
+        u, k, empty = step_kind(control, observations)
+        if empty:
+            eps = None
+        elif slots == 1:
+            eps = self._streams[0]["sample_controls"].standard_normal((n, 2))
+        else:
+            eps = np.empty((slots * n, 2))
+            for j in range(slots):
+                eps[j * n:(j + 1) * n] = self._streams[j]["sample_controls"].standard_normal((n, 2))
+        poses = _twins.predict_poses(self._poses, u, eps, cfg)
+        if k:
+            cols, seen = self._columns(observations.ids)
+            self._materialise()
+            z = np.empty((k, 2))
+            z[:, 0] = observations.ranges
+            z[:, 1] = observations.bearings
+            new = None if seen.all() else np.flatnonzero(~seen)
+            init = None
+            if new is not None:
+                steps = self._steps
+                init = steps.init_landmarks(poses, z[new], self._Q, wrap=steps.wrap_bearing)
+            logw, tops = _twins.correct_observed(poses, z, cols, seen, new, init, self._Q, self._logw, n,
+                                                 self._mu, self._P, self._anc)
+            for j in range(slots):
+                sl = self._slice(j)
+                lw = logw[sl]
+                if math.isfinite(tops[j]):
+                    lw -= math.log(np.exp(lw).sum())
+                elif self._call(j, self._normalise, lw.copy()) is _FAILED:  # raises for one filter
+                    lw[...] = self._logw[sl]
+        else:
+            logw = self._logw
+        self._poses, self._logw = poses, logw
+        for j in range(slots):
+            self._call(j, self._resample_reference, j, empty)
+        if self._dead:
+            self._drop_failed()
+        self._record_poses()
+        self._t += 1
 
     def _resample_reference(self, j: int, empty: bool) -> None:
         """:meth:`_resample` when ``effective_sample_size``, ``resample`` and ``apply_resample`` are

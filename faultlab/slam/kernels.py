@@ -346,3 +346,253 @@ def systematic_indices(w, r, out):
         while i < n and cs[i] < u:
             i += 1
         out[m] = i if i < n else n - 1
+
+
+# ---------------------------------------------------------------------------------------------
+# the reference step: the kernels of a filter whose every unit is the reference
+# ---------------------------------------------------------------------------------------------
+
+
+@_jit
+def predict_poses(poses, u, eps, noisy, std_v, std_omega, cos_th, sin_th, out):
+    """``sample_controls`` (after its draw ``eps`` (N, 2), when ``noisy``; else the control ``u``
+    itself, an empty update) and ``motion_model`` with the reference heading wrap, in one pass."""
+    for i in range(poses.shape[0]):
+        if noisy:
+            v = u[0] + eps[i, 0] * std_v
+            w = u[1] + eps[i, 1] * std_omega
+        else:
+            v = u[0]
+            w = u[1]
+        out[i, 0] = poses[i, 0] + v * cos_th[i]
+        out[i, 1] = poses[i, 1] + v * sin_th[i]
+        out[i, 2] = _wrap(poses[i, 2] + w)
+
+
+@_jit
+def gather_observed(mu_store, P_store, anc, cols, new_slot, mu_init, P_init, x, n, mb, pb, dx, dy):
+    """The gather of :func:`gather_pairs` for all ``M`` particles, with the observations that start
+    a landmark (``new_slot[j] >= 0``) taking ``mu_init[:, new_slot[j]]`` (2, k_new, M) and
+    ``P_init`` (2, 2, k_new, M) instead (``init_landmarks``), and the offsets of
+    ``predict_measurement``: ``dx = mb[0] - x[:, 0]``, ``dy = mb[1] - x[:, 1]`` (k, M)."""
+    k = cols.shape[0]
+    m = x.shape[0]
+    rows = np.empty((k, m), dtype=np.intp)
+    for i in range(m):  # particle-major: one row of anc at a time
+        off = (i // n) * n
+        for j in range(k):
+            rows[j, i] = anc[i, cols[j]] + off
+    for j in range(k):
+        c = cols[j]
+        s = new_slot[j]
+        for i in range(m):
+            if s >= 0:
+                m0 = mu_init[0, s, i]
+                m1 = mu_init[1, s, i]
+                p00 = P_init[0, 0, s, i]
+                p01 = P_init[0, 1, s, i]
+                p10 = P_init[1, 0, s, i]
+                p11 = P_init[1, 1, s, i]
+            else:
+                r = rows[j, i]
+                m0 = mu_store[0, c, r]
+                m1 = mu_store[1, c, r]
+                p00 = P_store[0, 0, c, r]
+                p01 = P_store[0, 1, c, r]
+                p10 = P_store[1, 0, c, r]
+                p11 = P_store[1, 1, c, r]
+            mb[0, j, i] = m0
+            mb[1, j, i] = m1
+            pb[0, 0, j, i] = p00
+            pb[0, 1, j, i] = p01
+            pb[1, 0, j, i] = p10
+            pb[1, 1, j, i] = p11
+            dx[j, i] = m0 - x[i, 0]
+            dy[j, i] = m1 - x[i, 1]
+
+
+@_jit
+def correct_observed(x, z, seen, mb, pb, dx, dy, bearing, q00, q01, q11, add_q01, cols, n,
+                     mu_store, P_store, anc, t, det):
+    """:func:`fused_correction` followed by the write-back of :func:`scatter_pairs` (owner: every
+    particle its own row), without the intermediate arrays.
+
+    Particle ``i`` (of all ``M``, filters of ``n``) writes row ``i`` of the storage: its EKF update
+    of the observations of known landmarks (``seen[j]``) and the initial values ``mb``, ``pb`` of
+    the others, and points ``anc[i, cols[j]]`` at its row within its filter.  ``t`` and ``det``
+    are written for every pair as by :func:`fused_correction`.
+    """
+    k, m = dx.shape
+    for j in range(k):
+        r = z[j, 0]
+        b = z[j, 1]
+        c = cols[j]
+        known = seen[j]
+        for i in range(m):
+            ddx = dx[j, i]
+            ddy = dy[j, i]
+            d = math.sqrt(ddx * ddx + ddy * ddy)
+            zb = bearing[j, i] - x[i, 2]
+            inv_d = 1.0 / d
+            h00 = ddx * inv_d
+            h01 = ddy * inv_d
+            inv_q = inv_d * inv_d
+            h10 = -(ddy * inv_q)
+            h11 = ddx * inv_q
+            n0 = r - d
+            n1 = _wrap(b - zb)
+            p00 = pb[0, 0, j, i]
+            p01 = pb[0, 1, j, i]
+            p11 = pb[1, 1, j, i]
+            t00 = h00 * p00 + h01 * p01
+            t01 = h00 * p01 + h01 * p11
+            t10 = h10 * p00 + h11 * p01
+            t11 = h10 * p01 + h11 * p11
+            s00 = (t00 * h00 + t01 * h01) + q00
+            s01 = t00 * h10 + t01 * h11
+            if add_q01:
+                s01 = s01 + q01
+            s11 = (t10 * h10 + t11 * h11) + q11
+            dd = s00 * s11 - s01 * s01
+            q = n0 * s11
+            q = q - 2.0 * (n1 * s01)
+            q = q * n0
+            q = q + n1 * n1 * s00
+            t[j, i] = q / dd
+            det[j, i] = dd
+            if known:
+                a, bb, cc, e, f = _ekf_pair(mb[0, j, i], mb[1, j, i], p00, p01, p11, h00, h01, h10, h11,
+                                            s00, s01, s11, n0, n1)
+                mu_store[0, c, i] = a
+                mu_store[1, c, i] = bb
+                P_store[0, 0, c, i] = cc
+                P_store[0, 1, c, i] = e
+                P_store[1, 0, c, i] = e
+                P_store[1, 1, c, i] = f
+            else:
+                mu_store[0, c, i] = mb[0, j, i]
+                mu_store[1, c, i] = mb[1, j, i]
+                P_store[0, 0, c, i] = p00
+                P_store[0, 1, c, i] = p01
+                P_store[1, 0, c, i] = pb[1, 0, j, i]
+                P_store[1, 1, c, i] = p11
+    for i in range(m):
+        o = i - (i // n) * n
+        for j in range(k):
+            anc[i, cols[j]] = o
+
+
+@_jit
+def _pairwise_block(a, lo, n):
+    """numpy's pairwise summation of ``a[lo:lo + n]`` for ``n <= 128`` (one block: eight
+    accumulators, then the rest in order; below 8 values, a plain sum from -0.0)."""
+    if n < 8:
+        res = -0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0 = a[lo]
+    r1 = a[lo + 1]
+    r2 = a[lo + 2]
+    r3 = a[lo + 3]
+    r4 = a[lo + 4]
+    r5 = a[lo + 5]
+    r6 = a[lo + 6]
+    r7 = a[lo + 7]
+    i = 8
+    while i < n - (n % 8):
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@_jit
+def _pairwise_sum(a, lo, n):
+    """numpy's pairwise summation of ``a[lo:lo + n]`` (the order of ``np.add.reduce`` along a
+    contiguous axis): blocks of at most 128 (:func:`_pairwise_block`), above that the sum of the
+    two halves (the first a multiple of 8 long).  The halving is walked with an explicit stack
+    (a recursive kernel would not survive numba's on-disk cache)."""
+    if n <= 128:
+        return _pairwise_block(a, lo, n)
+    f_lo = np.empty(64, dtype=np.intp)
+    f_n = np.empty(64, dtype=np.intp)
+    f_left = np.empty(64)
+    f_state = np.zeros(64, dtype=np.intp)  # 0: not split, 1: left half pending, 2: right half pending
+    sp = 0
+    f_lo[0] = lo
+    f_n[0] = n
+    while True:
+        cn = f_n[sp]
+        if cn > 128:
+            f_state[sp] = 1
+            half = cn // 2
+            half -= half % 8
+            sp += 1
+            f_lo[sp] = f_lo[sp - 1]
+            f_n[sp] = half
+            f_state[sp] = 0
+            continue
+        v = _pairwise_block(a, f_lo[sp], cn)
+        sp -= 1
+        while True:  # hand the value to the frames waiting for it
+            if sp < 0:
+                return v
+            if f_state[sp] == 1:  # the left half: now the right half
+                f_left[sp] = v
+                f_state[sp] = 2
+                half = f_n[sp] // 2
+                half -= half % 8
+                sp += 1
+                f_lo[sp] = f_lo[sp - 1] + half
+                f_n[sp] = f_n[sp - 1] - half
+                f_state[sp] = 0
+                break
+            v = f_left[sp] + v
+            sp -= 1
+
+
+@_jit
+def combine_observed(t, log_det, seen, logw, n, out, tops):
+    """``log_likelihood``'s last operations, ``combine_weights`` and the first half of the weight
+    normalisation, for all ``M`` particles (filters of ``n``).
+
+    ``out[i] = logw[i] + sum_j known * loglik[i, j]`` with ``loglik = (t + log_det) * -0.5 -
+    log(2 pi)`` (k, M) and ``known[i, j] = seen[j]``, summed as numpy sums the rows of
+    ``where(known, loglik, 0)`` (0 + the pairwise sum); ``tops[f]`` is the maximum of filter
+    ``f``'s ``out`` (NaN if any is NaN, as ``ndarray.max``), and where it is finite the filter's
+    ``out`` is shifted by it (``out - top``).
+    """
+    k, m = t.shape
+    row = np.empty(k)
+    for i in range(m):
+        for j in range(k):
+            if seen[j]:
+                row[j] = (t[j, i] + log_det[j, i]) * -0.5 - _LOG_TWO_PI
+            else:
+                row[j] = 0.0
+        s = 0.0
+        s += _pairwise_sum(row, 0, k)
+        out[i] = logw[i] + s
+    for f in range(m // n):
+        top = out[f * n]
+        for i in range(f * n + 1, (f + 1) * n):
+            v = out[i]
+            if v > top or math.isnan(v):
+                top = v
+                if math.isnan(v):
+                    break
+        tops[f] = top
+        if math.isfinite(top):
+            for i in range(f * n, (f + 1) * n):
+                out[i] = out[i] - top

@@ -41,7 +41,8 @@ from faultlab.slam import paperunits as _paperunits
 from faultlab.slam import units as _units
 from faultlab.slam.units import _mat22, _vec2
 
-__all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "gather_rows",
+__all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "predict_poses",
+           "correct_observed", "gather_rows",
            "scatter_rows", "take_rows", "warm_up",
            "sample_controls", "motion_model", "predict_measurement", "innovation", "innovation_covariance",
            "log_likelihood", "ekf_update",
@@ -312,6 +313,108 @@ def correct_pairs(x: np.ndarray, z: np.ndarray, mb: np.ndarray, pb: np.ndarray,
     return t.T, mu_new, P_new
 
 
+def predict_poses(poses: np.ndarray, u: np.ndarray, eps: np.ndarray | None, config) -> np.ndarray:
+    """``motion_model(poses, sample_controls(u, ...))`` of the reference units, after the draw.
+
+    Equals, bit for bit, :func:`faultlab.slam.units.motion_model` (with ``wrap_heading``) applied
+    to the noisy controls ``u + eps * (std_v, std_omega)`` of
+    :func:`faultlab.slam.units.sample_controls` whose draw ``rng.standard_normal((N, 2))`` is
+    ``eps``, or to ``u`` itself for every particle when ``eps`` is None (an empty update).
+
+    Parameters
+    ----------
+    poses : ndarray, shape (N, 3)
+    u : ndarray, shape (2,)
+    eps : ndarray, shape (N, 2), or None
+    config : FastSlamConfig
+        Supplies ``std_v`` and ``std_omega``.
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+    """
+    th = poses[:, 2]
+    out = np.empty((poses.shape[0], 3))
+    noisy = eps is not None
+    _k().predict_poses(poses, u, eps if noisy else _NO_DRAWS, noisy, float(config.std_v), float(config.std_omega),
+                       np.cos(th), np.sin(th), out)
+    return out
+
+
+_NO_DRAWS = np.empty((0, 2))
+_NO_INIT_MU = np.empty((2, 0, 0))
+_NO_INIT_P = np.empty((2, 2, 0, 0))
+
+
+def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: np.ndarray, new: np.ndarray | None,
+                     init: tuple[np.ndarray, np.ndarray] | None, Q: np.ndarray, logw: np.ndarray, n: int,
+                     mu_store: np.ndarray, P_store: np.ndarray, anc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The correction of every particle by the reference units, writing the storage in place.
+
+    Equals, bit for bit, what the filter does with the reference units in a step with
+    observations: gather the stored landmarks of ``cols``, put ``init_landmarks``'s values where
+    new, ``predict_measurement``, ``innovation``, ``innovation_covariance``, ``log_likelihood``,
+    ``ekf_update``, the write-back of every particle's new landmarks into its own storage row,
+    ``combine_weights`` (``known[i, j] = seen[j]``) and the first half of the normalisation,
+    ``logw - max(logw)``, of each filter of ``n`` particles.  numpy's ``arctan2`` and ``log`` are
+    called once each on all pairs.
+
+    Parameters
+    ----------
+    poses : ndarray, shape (M, 3)
+        Predicted poses of all particles (filters of ``n`` side by side).
+    z : ndarray, shape (k, 2)
+    cols, seen : ndarray, shape (k,)
+        Storage columns of the observations and whether their landmark was seen before.
+    new : ndarray of intp, shape (k_new,), or None
+        ``flatnonzero(~seen)`` (None if every landmark was seen).
+    init : (mu (M, k_new, 2), P (M, k_new, 2, 2)) or None
+        ``init_landmarks(poses, z[new], Q, wrap=wrap_bearing)``.
+    Q : ndarray, shape (2, 2)
+    logw : ndarray, shape (M,)
+        Normalised log weights before the step.
+    n : int
+        Particles per filter.
+    mu_store, P_store, anc : ndarray
+        The filter's storage (2, cap, M), (2, 2, cap, M) and materialised ancestry (M, cap), int32;
+        updated in place.
+
+    Returns
+    -------
+    shifted : ndarray, shape (M,)
+        ``combine_weights(logw, loglik, known)`` minus its maximum, per filter (unshifted where the
+        maximum is not finite).
+    tops : ndarray, shape (M // n,)
+        The maximum of each filter.
+    """
+    kn = _k()
+    k, m = z.shape[0], poses.shape[0]
+    cols = np.asarray(cols, dtype=np.intp)
+    slot = np.full(k, -1, dtype=np.intp)
+    if new is None:
+        mi, pi = _NO_INIT_MU, _NO_INIT_P
+    else:
+        slot[new] = np.arange(new.size)
+        mi = np.ascontiguousarray(np.asarray(init[0], dtype=float).transpose(2, 1, 0))
+        pi = np.ascontiguousarray(np.asarray(init[1], dtype=float).transpose(2, 3, 1, 0))
+    mb = np.empty((2, k, m))
+    pb = np.empty((2, 2, k, m))
+    dx = np.empty((k, m))
+    dy = np.empty((k, m))
+    kn.gather_observed(mu_store, P_store, anc, cols, slot, mi, pi, poses, n, mb, pb, dx, dy)
+    bearing = np.arctan2(dy, dx)
+    q00, q01, q11, add = _q_entries(Q)
+    # the kernel reads each pair's dy and bearing before it writes its det and t: they share memory
+    t, det = bearing, dy
+    kn.correct_observed(poses, z, np.asarray(seen, dtype=np.bool_), mb, pb, dx, dy, bearing, q00, q01, q11, add,
+                        cols, n, mu_store, P_store, anc, t, det)
+    np.log(det, out=det)
+    shifted = np.empty(m)
+    tops = np.empty(m // n)
+    kn.combine_observed(t, det, np.asarray(seen, dtype=np.bool_), logw, n, shifted, tops)
+    return shifted, tops
+
+
 def gather_rows(mu_store: np.ndarray, P_store: np.ndarray, anc: np.ndarray, cols: np.ndarray, p0: int, n: int,
                 mb: np.ndarray, pb: np.ndarray) -> None:
     """Copy the stored landmarks of ``cols`` (k,) for particles ``p0 ..`` into ``mb`` (2, k, M) and
@@ -373,6 +476,14 @@ def warm_up() -> float:
     scatter_rows(mu_new, P_new, cols, 0, np.arange(n, dtype=np.intp), store_mu, store_P, anc)
     gather_rows(store_mu, store_P, anc, cols, 0, n, mb, pb)
     take_rows(anc, np.arange(n)[::-1], np.empty_like(anc), k)
+    x = predict_poses(poses, u, rng.standard_normal((n, 2)), config)
+    predict_poses(x, u, None, config)
+    seen = np.array([True, False])
+    new = np.flatnonzero(~seen)
+    logw = np.full(n, -math.log(n))
+    correct_observed(x, z, cols, seen, new, _units.init_landmarks(x, z[new], Q, wrap=_units.wrap_bearing), Q,
+                     logw, n, store_mu, store_P, anc)
+    correct_observed(x, z, cols, np.ones(k, dtype=bool), None, None, Q, logw, n, store_mu, store_P, anc)
     _k().systematic_indices(np.full(n, 1.0 / n), 0.1, np.empty(n, dtype=np.intp))
     _warmed = True
     return time.perf_counter() - t0

@@ -70,3 +70,16 @@ def test_systematic_indices_are_cumsum_then_leftmost_search(w, frac):
     got = np.empty(n, dtype=np.intp)
     kernels.systematic_indices(w, r, got)
     np.testing.assert_array_equal(got, want)
+
+
+SUMMANDS = st.one_of(st.floats(-1e6, 1e6), st.floats(-1e300, 1e300), st.sampled_from([0.0, -0.0, 1e-320, 3.0]))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.one_of(st.integers(0, 20), st.integers(100, 140), st.integers(250, 1100)), st.integers(0, 3), st.data())
+def test_pairwise_sum_adds_in_numpys_order(n, lo, data):
+    """numpy's own reduction is the reference (its order differs from a plain loop beyond 8 values)."""
+    a = data.draw(arrays(np.float64, lo + n, elements=SUMMANDS))
+    got = 0.0 + kernels._pairwise_sum(a, lo, n)  # numpy's reduction starts from the identity 0.0
+    want = np.add.reduce(a[lo:])
+    assert np.float64(got).view(np.int64) == np.float64(want).view(np.int64)

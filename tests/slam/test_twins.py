@@ -215,6 +215,86 @@ def test_the_resampling_twin_draws_and_picks_as_the_unit(w, normalise, empty, se
     assert rng_a.random() == rng_b.random()  # the same draws were consumed
 
 
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 6), arrays(np.float64, 2, elements=VALUES), st.floats(0.0, 10.0), st.floats(0.0, 1.0),
+       st.booleans(), st.integers(0, 2 ** 32 - 1))
+def test_the_fused_prediction_is_sample_controls_then_motion_model(n, u, std_v, std_omega, empty, seed):
+    config = _Noise(std_v, std_omega)
+    poses = np.random.default_rng(seed).normal(size=(n, 3)) * np.array([10.0, 10.0, 4.0])
+    rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
+    with quiet():
+        poses[0] = u[0], u[1], u[0] * u[1]
+        controls = np.broadcast_to(u, (n, 2)) if empty else U.sample_controls(u, n, rng_a, config)
+        want = U.motion_model(poses, controls, wrap=U.wrap_heading)
+        got = twins.predict_poses(poses, u, None if empty else rng_b.standard_normal((n, 2)), config)
+    assert same_bits(got, want)
+    assert rng_a.random() == rng_b.random()  # the draw is the unit's
+
+
+@st.composite
+def stored_steps(draw):
+    """A filter's storage and one step: B filters of n particles, their ancestry, k observed columns
+    (some never seen before), predicted poses, observations, log weights."""
+    b, n, k = draw(st.integers(1, 3)), draw(st.integers(1, 5)), draw(st.integers(1, 6))
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    cap, m = k + draw(st.integers(0, 3)), b * n
+    mu_store = rng.normal(size=(2, cap, m)) * 5.0
+    L = rng.normal(size=(2, 2, cap, m)) * 0.3
+    P_store = np.einsum("ikcp,jkcp->ijcp", L, L) + 0.01 * np.eye(2)[:, :, None, None]
+    anc = rng.integers(0, n, size=(m, cap)).astype(np.int32)
+    cols = rng.permutation(cap)[:k].astype(np.intp)
+    seen = rng.random(k) < draw(st.sampled_from([0.0, 0.7, 1.0]))
+    poses = rng.normal(size=(m, 3)) * np.array([3.0, 3.0, 2.0])
+    if draw(st.booleans()):  # a landmark on a particle (zero range: inf and NaN in that pair)
+        mu_store[:, cols[0], anc[0, cols[0]]] = poses[0, :2]
+    z = np.column_stack([rng.uniform(0.0, 6.0, k), rng.uniform(-np.pi, np.pi, k)])
+    q01 = draw(st.sampled_from([0.0, 1e-3]))
+    Q = np.array([[0.09, q01], [q01, 0.003]])
+    logw = rng.normal(size=m) * draw(st.sampled_from([0.0, 1.0, 30.0]))
+    return n, mu_store, P_store, anc, cols, seen, poses, z, Q, logw
+
+
+@settings(max_examples=120, deadline=None)
+@given(stored_steps())
+def test_the_observed_step_is_the_units_in_sequence(step):
+    """correct_observed against the filter's unit-by-unit correction written out with the numpy
+    units: gather through the ancestry, init_landmarks where new, the five correction units, the
+    write-back, combine_weights and log-sum-exp's shift, filter by filter."""
+    n, mu_store, P_store, anc, cols, seen, poses, z, Q, logw = step
+    m, k = poses.shape[0], cols.size
+    rows = anc[:, cols] + (np.arange(m) // n * n)[:, None]  # (M, k) storage row of each pair
+    mu = mu_store[:, cols[None, :], rows].transpose(1, 2, 0)  # (M, k, 2)
+    P = P_store[:, :, cols[None, :], rows].transpose(2, 3, 0, 1)  # (M, k, 2, 2)
+    new = None if seen.all() else np.flatnonzero(~seen)
+    init = None
+    with quiet():
+        if new is not None:
+            init = U.init_landmarks(poses, z[new], Q, wrap=U.wrap_bearing)
+            mu[:, new], P[:, new] = init
+        zhat, H = U.predict_measurement(poses, mu)
+        nu = U.innovation(z, zhat, wrap=U.wrap_bearing)
+        S = U.innovation_covariance(H, P, Q)
+        ll = U.log_likelihood(nu, S)
+        mu1, P1 = U.ekf_update(mu, P, H, S, nu)
+        known = np.empty((m, k), dtype=bool)
+        known[...] = seen
+        combined = np.concatenate([U.combine_weights(logw[f:f + n], ll[f:f + n], known[f:f + n])
+                                   for f in range(0, m, n)])
+        mu1, P1 = np.where(known[..., None], mu1, mu), np.where(known[..., None, None], P1, P)
+        want_mu, want_P, want_anc = mu_store.copy(), P_store.copy(), anc.copy()
+        want_mu[:, cols[None, :], np.arange(m)[:, None]] = mu1.transpose(2, 0, 1)
+        want_P[:, :, cols[None, :], np.arange(m)[:, None]] = P1.transpose(2, 3, 0, 1)
+        want_anc[:, cols] = (np.arange(m) % n)[:, None]
+        shifted, tops = twins.correct_observed(poses, z, cols, seen, new, init, Q, logw, n, mu_store, P_store, anc)
+    assert same_bits(mu_store, want_mu) and same_bits(P_store, want_P)
+    np.testing.assert_array_equal(anc, want_anc)
+    for f in range(m // n):
+        part = combined[f * n:(f + 1) * n]
+        top = part.max()
+        assert same_bits(tops[f], top)
+        assert same_bits(shifted[f * n:(f + 1) * n], part - top if np.isfinite(top) else part)
+
+
 # --------------------------------------------------------------------------- the filter
 
 
@@ -250,6 +330,7 @@ def assert_same_run(a, b, what):
         assert a[0] == b[0], what
         return
     assert estimates_identical(a[0], b[0]), what
+    assert same_bits(a[0].trajectory, b[0].trajectory), f"{what}: trajectory"
     for field in ("poses", "weights", "landmark_ids", "means", "covariances"):
         assert same_bits(getattr(a[1], field), getattr(b[1], field)), f"{what}: {field}"
 
@@ -257,7 +338,7 @@ def assert_same_run(a, b, what):
 @pytest.mark.parametrize("seed", [1, 7])
 def test_compiled_filter_equals_the_numpy_filter(monkeypatch, scenario, seed):
     compiled = FastSlam(CFG)
-    assert compiled._jit and compiled._fused
+    assert compiled._jit and compiled._fused and compiled._ref_step
     assert_same_run(final(compiled, scenario, seed), final(numpy_filter(monkeypatch, lambda: FastSlam(CFG)),
                                                           scenario, seed), f"seed {seed}")
 
@@ -347,3 +428,34 @@ def test_faultlab_jit_0_runs_pure_numpy_with_the_same_result(scenario):
     est = run_slam(FastSlam(CFG), scenario, rng=np.random.default_rng(9))
     assert child["landmarks"] == est.landmarks.view(np.int64).tolist()
     assert child["pose"] == est.pose.view(np.int64).tolist()
+
+
+def test_non_finite_weights_end_the_compiled_step_as_the_numpy_one(monkeypatch):
+    """A particle on a known landmark (zero range) makes the weights NaN: the reference step raises
+    the numpy path's error, and in a batch it ends each repetition with that error."""
+    from faultlab.errors import SlamOutputError
+    from faultlab.slam.protocol import Observations
+    cfg = FastSlamConfig(n_particles=4, std_v=0.0, std_omega=0.0)
+    steps = [([0.0, 0.0], Observations(np.array([1.0]), np.array([0.0]), np.array([7]))),
+             ([1.0, 0.0], Observations(np.array([0.5]), np.array([0.1]), np.array([7])))]
+
+    def run(slam, batch):
+        if batch:
+            slam.reset_batch(np.zeros(3), rngs=[np.random.default_rng(s) for s in (1, 2)])
+        else:
+            slam.reset(np.zeros(3), rng=np.random.default_rng(1))
+        with quiet():
+            for u, obs in steps:
+                slam.update(np.array(u), obs)
+        return [repr(e) for e in slam.estimates()] if batch else None
+
+    compiled, plain = FastSlam(cfg), numpy_filter(monkeypatch, lambda: FastSlam(cfg))
+    assert compiled._ref_step and not plain._jit
+    messages = []
+    for slam in (compiled, plain):
+        with pytest.raises(SlamOutputError, match="weights are not finite at step 1") as info:
+            run(slam, batch=False)
+        messages.append(str(info.value))
+    assert messages[0] == messages[1]
+    got, want = run(FastSlam(cfg), True), run(numpy_filter(monkeypatch, lambda: FastSlam(cfg)), True)
+    assert got == want and all("not finite" in m for m in got)
