@@ -435,7 +435,7 @@ def test_non_finite_weights_end_the_compiled_step_as_the_numpy_one(monkeypatch):
     the numpy path's error, and in a batch it ends each repetition with that error."""
     from faultlab.errors import SlamOutputError
     from faultlab.slam.protocol import Observations
-    cfg = FastSlamConfig(n_particles=4, std_v=0.0, std_omega=0.0)
+    cfg = FastSlamConfig(particles=4, std_v=0.0, std_omega=0.0)
     steps = [([0.0, 0.0], Observations(np.array([1.0]), np.array([0.0]), np.array([7]))),
              ([1.0, 0.0], Observations(np.array([0.5]), np.array([0.1]), np.array([7])))]
 
