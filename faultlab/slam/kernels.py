@@ -201,6 +201,45 @@ def ekf_correction(mu0, mu1, p00, p01, p11, h00, h01, h10, h11, s00, s01, s11, n
 
 
 @_jit
+def _pair_terms(ddx, ddy, bearing, theta, r, b, p00, p01, p11, q00, q01, q11, add_q01):
+    """One particle-observation pair through ``predict_measurement`` (after ``arctan2``),
+    ``innovation``, ``innovation_covariance`` and the quadratic form of ``log_likelihood``, by the
+    unit-by-unit kernels' operations in their order.
+
+    Returns ``(h00, h01, h10, h11, n0, n1, s00, s01, s11, q / det, det)``.
+    """
+    # predict_measurement
+    d = math.sqrt(ddx * ddx + ddy * ddy)
+    zb = bearing - theta
+    inv_d = 1.0 / d
+    h00 = ddx * inv_d
+    h01 = ddy * inv_d
+    inv_q = inv_d * inv_d
+    h10 = -(ddy * inv_q)
+    h11 = ddx * inv_q
+    # innovation
+    n0 = r - d
+    n1 = _wrap(b - zb)
+    # innovation_covariance
+    t00 = h00 * p00 + h01 * p01
+    t01 = h00 * p01 + h01 * p11
+    t10 = h10 * p00 + h11 * p01
+    t11 = h10 * p01 + h11 * p11
+    s00 = (t00 * h00 + t01 * h01) + q00
+    s01 = t00 * h10 + t01 * h11
+    if add_q01:
+        s01 = s01 + q01
+    s11 = (t10 * h10 + t11 * h11) + q11
+    # log_likelihood, up to numpy's log(det)
+    dd = s00 * s11 - s01 * s01
+    q = n0 * s11
+    q = q - 2.0 * (n1 * s01)
+    q = q * n0
+    q = q + n1 * n1 * s00
+    return h00, h01, h10, h11, n0, n1, s00, s01, s11, q / dd, dd
+
+
+@_jit
 def fused_correction(x, z, mb, pb, dx, dy, bearing, q00, q01, q11, add_q01, mu_new, P_new, t, det):
     """``predict_measurement`` (after ``arctan2``), ``innovation``, ``innovation_covariance``, the
     quadratic form of ``log_likelihood`` and ``ekf_update`` in one pass, without intermediates.
@@ -216,40 +255,12 @@ def fused_correction(x, z, mb, pb, dx, dy, bearing, q00, q01, q11, add_q01, mu_n
         r = z[j, 0]
         b = z[j, 1]
         for i in range(m):
-            # predict_measurement
-            ddx = dx[j, i]
-            ddy = dy[j, i]
-            d = math.sqrt(ddx * ddx + ddy * ddy)
-            zb = bearing[j, i] - x[i, 2]
-            inv_d = 1.0 / d
-            h00 = ddx * inv_d
-            h01 = ddy * inv_d
-            inv_q = inv_d * inv_d
-            h10 = -(ddy * inv_q)
-            h11 = ddx * inv_q
-            # innovation
-            n0 = r - d
-            n1 = _wrap(b - zb)
-            # innovation_covariance
             p00 = pb[0, 0, j, i]
             p01 = pb[0, 1, j, i]
             p11 = pb[1, 1, j, i]
-            t00 = h00 * p00 + h01 * p01
-            t01 = h00 * p01 + h01 * p11
-            t10 = h10 * p00 + h11 * p01
-            t11 = h10 * p01 + h11 * p11
-            s00 = (t00 * h00 + t01 * h01) + q00
-            s01 = t00 * h10 + t01 * h11
-            if add_q01:
-                s01 = s01 + q01
-            s11 = (t10 * h10 + t11 * h11) + q11
-            # log_likelihood, up to numpy's log(det)
-            dd = s00 * s11 - s01 * s01
-            q = n0 * s11
-            q = q - 2.0 * (n1 * s01)
-            q = q * n0
-            q = q + n1 * n1 * s00
-            t[j, i] = q / dd
+            h00, h01, h10, h11, n0, n1, s00, s01, s11, tq, dd = _pair_terms(
+                dx[j, i], dy[j, i], bearing[j, i], x[i, 2], r, b, p00, p01, p11, q00, q01, q11, add_q01)
+            t[j, i] = tq
             det[j, i] = dd
             # ekf_update
             a, bb, c, e, f = _ekf_pair(mb[0, j, i], mb[1, j, i], p00, p01, p11, h00, h01, h10, h11,
@@ -429,36 +440,12 @@ def correct_observed(x, z, seen, mb, pb, dx, dy, bearing, q00, q01, q11, add_q01
         c = cols[j]
         known = seen[j]
         for i in range(m):
-            ddx = dx[j, i]
-            ddy = dy[j, i]
-            d = math.sqrt(ddx * ddx + ddy * ddy)
-            zb = bearing[j, i] - x[i, 2]
-            inv_d = 1.0 / d
-            h00 = ddx * inv_d
-            h01 = ddy * inv_d
-            inv_q = inv_d * inv_d
-            h10 = -(ddy * inv_q)
-            h11 = ddx * inv_q
-            n0 = r - d
-            n1 = _wrap(b - zb)
             p00 = pb[0, 0, j, i]
             p01 = pb[0, 1, j, i]
             p11 = pb[1, 1, j, i]
-            t00 = h00 * p00 + h01 * p01
-            t01 = h00 * p01 + h01 * p11
-            t10 = h10 * p00 + h11 * p01
-            t11 = h10 * p01 + h11 * p11
-            s00 = (t00 * h00 + t01 * h01) + q00
-            s01 = t00 * h10 + t01 * h11
-            if add_q01:
-                s01 = s01 + q01
-            s11 = (t10 * h10 + t11 * h11) + q11
-            dd = s00 * s11 - s01 * s01
-            q = n0 * s11
-            q = q - 2.0 * (n1 * s01)
-            q = q * n0
-            q = q + n1 * n1 * s00
-            t[j, i] = q / dd
+            h00, h01, h10, h11, n0, n1, s00, s01, s11, tq, dd = _pair_terms(
+                dx[j, i], dy[j, i], bearing[j, i], x[i, 2], r, b, p00, p01, p11, q00, q01, q11, add_q01)
+            t[j, i] = tq
             det[j, i] = dd
             if known:
                 a, bb, cc, e, f = _ekf_pair(mb[0, j, i], mb[1, j, i], p00, p01, p11, h00, h01, h10, h11,
