@@ -120,6 +120,19 @@ def _whole(km: KillMatrix, spec: StudySpec, mutants, *, k: int | None = None,
     return whole_suite_table(judged, mutants=mutants, alpha=spec.alpha), skipped
 
 
+def _evaluate(km: KillMatrix, spec: StudySpec, *, k: int | None, alternative: str):
+    """Drawn suites of every size from every pool, the detection table and the whole suites of a kill matrix:
+    ``(evaluation, mutants, detection, whole, whole_not_evaluated)``."""
+    mutants = tuple(v for v in km.variants if is_mutant_variant(v))
+    ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
+                         alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
+                         timeouts_detect=spec.timeouts_detect)
+    detection = detection_table(ev, km.variants)
+    detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
+    whole, skipped = _whole(km, spec, mutants, k=k, alternative=alternative)
+    return ev, mutants, detection, whole, skipped
+
+
 def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
     """A saved study analysis evaluated again from its kill matrix (``kill_matrix.csv`` and
     ``study_meta.json``), without the store: the suite draws, intervals and comparisons are
@@ -140,13 +153,7 @@ def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
         frame["mean_log_ratio"] = np.nan
     km = KillMatrix.from_frame(frame)
     spec = study_spec(meta["study"], source=str(d / _META_FILE))
-    mutants = tuple(v for v in km.variants if is_mutant_variant(v))
-    ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
-                         alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
-                         timeouts_detect=spec.timeouts_detect)
-    detection = detection_table(ev, km.variants)
-    detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
-    whole, skipped = _whole(km, spec, mutants, k=meta.get("repetitions"), alternative=alternative)
+    ev, _, detection, whole, skipped = _evaluate(km, spec, k=meta.get("repetitions"), alternative=alternative)
     meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {}),
                    "whole_not_evaluated": skipped}
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
@@ -185,13 +192,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
                            f"{alternative} test (sizes {list(spec.sizes)})")
     spec = dataclasses.replace(spec, sizes=tuple(n for n in spec.sizes if n not in too_large))
     km = kill_matrix(results, rule=rule, metric=judged_metric(meta))
-    mutants = tuple(v for v in km.variants if is_mutant_variant(v))
-    ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
-                         alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
-                         timeouts_detect=spec.timeouts_detect)
-    detection = detection_table(ev, km.variants)
-    detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
-    whole, whole_skipped = _whole(km, spec, mutants, k=k, alternative=alternative)
+    ev, mutants, detection, whole, whole_skipped = _evaluate(km, spec, k=k, alternative=alternative)
     status = results["status"].astype(str).value_counts().to_dict()
     sessions = settle_sessions(info.get("sessions", []), load_sessions(out))
     meta_out = {
