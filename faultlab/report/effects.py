@@ -52,12 +52,16 @@ def _grid(n: int) -> tuple[int, int]:
     return math.ceil(n / ncols), ncols
 
 
-def _panels(responses, figsize):
-    nrows, ncols = _grid(len(responses))
+def _panels(items, figsize, *, empty: str):
+    """A figure with one panel per item; with no items, one panel saying ``empty``."""
+    nrows, ncols = _grid(len(items) or 1)
     fig = Figure(figsize=figsize, layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
-    for ax in axes[len(responses):]:
+    for ax in axes[max(len(items), 1):]:
         ax.set_visible(False)
+    if not items:
+        axes[0].text(0.5, 0.5, empty, ha="center", va="center")
+        axes[0].set_axis_off()
     return fig, axes
 
 
@@ -65,10 +69,8 @@ def morris_figure(analysis: EffectsAnalysis, *, figsize=PAGE_SIZE) -> Figure:
     """Morris' mu*-sigma plane, one panel per response."""
     m = analysis.morris
     responses = [r for r in analysis.responses if not m.empty and r in set(m["response"])]
-    fig, axes = _panels(responses or ["(none)"], figsize)
+    fig, axes = _panels(responses, figsize, empty="no Morris indices (see notes)")
     if not responses:
-        axes[0].text(0.5, 0.5, "no Morris indices (see notes)", ha="center", va="center")
-        axes[0].set_axis_off()
         return fig
     for ax, r in zip(axes, responses):
         t = m[m["response"] == r]
@@ -95,10 +97,8 @@ def sobol_figure(analysis: EffectsAnalysis, *, figsize=PAGE_SIZE) -> Figure:
     """First-order and total Sobol indices with their intervals, one panel per response."""
     s = analysis.sobol
     responses = [r for r in analysis.responses if not s.empty and r in set(s["response"])]
-    fig, axes = _panels(responses or ["(none)"], figsize)
+    fig, axes = _panels(responses, figsize, empty="no Sobol indices (see notes)")
     if not responses:
-        axes[0].text(0.5, 0.5, "no Sobol indices (see notes)", ha="center", va="center")
-        axes[0].set_axis_off()
         return fig
     for ax, r in zip(axes, responses):
         t = s[s["response"] == r]
@@ -125,10 +125,8 @@ def partial_figure(analysis: EffectsAnalysis, *, figsize=PAGE_SIZE) -> Figure:
     """Mean response in bins of each response's two top parameters (both stages' cases)."""
     p = analysis.partial
     pairs = [] if p.empty else list(dict.fromkeys(zip(p["response"], p["parameter"])))
-    fig, axes = _panels(pairs or [("(none)", "")], figsize)
+    fig, axes = _panels(pairs, figsize, empty="no partial dependence (see notes)")
     if not pairs:
-        axes[0].text(0.5, 0.5, "no partial dependence (see notes)", ha="center", va="center")
-        axes[0].set_axis_off()
         return fig
     for ax, (r, par) in zip(axes, pairs):
         t = p[(p["response"] == r) & (p["parameter"] == par)]
