@@ -138,12 +138,15 @@ def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_re
     cols = ["suite", "case", "variant", "rep", "status", "rms_mm"]
     both = df_s[cols].merge(df_f[cols], on=cols[:4], suffixes=("", "_f"))
     assert len(both) == len(df_s) and (both["rms_mm"] == both["rms_mm_f"]).all()
-    # resume: lose the second stage of the last round (rows and their stops), rerun: same rows, same stops
-    last = int(df_s["case"].max())
+    # resume after a kill during the first round's second stage: its rows and every recorded stop are
+    # lost; the rerun re-derives the same stops from the stage-1 rows and runs the same jobs again
     with sqlite3.connect(results_path(tmp_path / "staged")) as con:
-        con.execute("DELETE FROM results WHERE \"case\" = ? AND rep >= 5", (last,))
+        con.execute("DELETE FROM results WHERE \"case\" = 1 AND rep >= 5")
+        con.execute("DELETE FROM meta WHERE key = ?", (STOPS_KEY,))
+    lost = int(((df_s["case"] == 1) & (df_s["rep"] >= 5)).sum())
+    assert lost > 0
     again = run_mutation(staged_f, tmp_path / "staged", jobs=1, backend="threading", progress=False, look=interim_look)
-    assert again.n_new == len(df_s[(df_s["case"] == last) & (df_s["rep"] >= 5)])
+    assert again.n_new == lost
     pd.testing.assert_frame_equal(load_results(tmp_path / "staged")[cols].sort_values(cols[:4]).reset_index(drop=True),
                                   df_s[cols].sort_values(cols[:4]).reset_index(drop=True))
     assert load_metadata(tmp_path / "staged")[STOPS_KEY] == stops
