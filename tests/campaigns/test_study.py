@@ -5,8 +5,10 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from faultlab.campaigns.mutation import load_mutation_experiment
 from faultlab.campaigns.study import load_study_experiment, sampled_load
 from faultlab.errors import ConfigError
 from faultlab.space import read_class_weights
@@ -72,6 +74,23 @@ def test_the_shipped_study_runs_the_paper_faults_and_sampled_mutants_at_both_sca
     assert quick.experiment.space["inactivity"]["classes"]["inactive"] == [120]
     assert dict(quick.experiment.slam.options)["particles"] == 20 and full.experiment.slam.config.particles == 200
     assert quick.study.multiplicity == "holm" and not quick.study.timeouts_detect
+
+
+def test_the_medium_study_is_the_quick_protocol_with_five_runs_and_fifty_of_the_mutation_studys_mutants():
+    medium = load_study_experiment("study-medium")
+    quick = load_study_experiment("study", quick=True)
+    paper = load_mutation_experiment("mutation-paper").selection.run
+    # the drawn subset the file's comment states: positions default_rng(1).choice(150, 50), sorted
+    positions = sorted(np.random.default_rng(1).choice(len(paper), size=50, replace=False).tolist())
+    assert list(medium.selection.run) == [paper[i] for i in positions]
+    assert medium.experiment.runs == 5 and quick.experiment.runs == 1
+    assert medium.experiment.variants[:18] == quick.experiment.variants[:18]    # the same 17 faults
+    for key in ("n_steps", "repetitions", "timeout_s", "space"):                  # the quick scale's SLAM and space
+        assert getattr(medium.experiment, key) == getattr(quick.experiment, key), key
+    assert [(s.kind, s.n_cases) for s in medium.experiment.suites] == [(s.kind, s.n_cases)
+                                                                        for s in quick.experiment.suites]
+    assert dict(medium.experiment.slam.options) == dict(quick.experiment.slam.options)
+    assert medium.study.whole == quick.study.whole and medium.study.sizes == quick.study.sizes
 
 
 def test_quick_replaces_keys_and_merges_tables_key_by_key(tmp_path):
