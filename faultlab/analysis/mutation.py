@@ -30,18 +30,19 @@ from faultlab.analysis.metadata import judged_metric
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import mutant_variant
 from faultlab.mutation.outcome import MutantOutcome
+from faultlab.runner.staging import STOPS_KEY
 from faultlab.runner.store import MUTATION_FILE, load_metadata, load_results
 from faultlab.stats.killmatrix import suite_kills
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_DIRECTION
 
 __all__ = ["MUTATION_TABLES", "MutationAnalysis", "analyse_mutation", "mutation_scores", "compare_suites",
-           "clopper_pearson", "mutant_outcomes", "stored_direction", "OBSERVED_EQUIVALENT"]
+           "clopper_pearson", "mutant_outcomes", "stored_direction", "adaptive_savings", "OBSERVED_EQUIVALENT"]
 
 #: Tables of a :class:`MutationAnalysis`, saved as ``<name>.csv``.
 MUTATION_TABLES = ("outcomes", "scores", "mcnemar")
 OUTCOME_COLUMNS = ["mutant", "unit", "operator", "run", "suite", "outcome", "survival", "represented_by",
                    "killing_case", "direction", "median_diff_mm", "ratio", "n_cases_run", "n_cases", "min_p",
-                   "max_p_equivalence", "min_mde_mm", "note"]
+                   "max_p_equivalence", "min_mde_mm", "reps_used", "n_stopped", "note"]
 
 
 def clopper_pearson(k: int, n: int, alpha: float = DEFAULT_ALPHA) -> tuple[float, float]:
@@ -83,10 +84,21 @@ def stored_direction(sel: dict) -> str:
     return str(sel.get("direction", PAPER_DIRECTION))
 
 
-def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suites: dict | None = None) -> pd.DataFrame:
+def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suites: dict | None = None,
+                    stops=()) -> pd.DataFrame:
     """One row per (mutant, run, suite), :data:`OUTCOME_COLUMNS`, from a campaign's results and its
     ``mutation.json`` record ``sel`` (``alpha``, ``direction``, ``run``, ``screened``, ``unit``,
-    ``operator``, ``represented_by``); see the module docstring."""
+    ``operator``, ``represented_by``); see the module docstring.
+
+    ``stops`` are the adaptive stops of the store (:data:`~faultlab.runner.staging.STOPS_KEY`
+    entries): a pair stopped early is not killed on its case
+    (:func:`~faultlab.stats.killmatrix.suite_kills`).  ``reps_used`` lists the repetitions each
+    case run used (``/``-separated, case order), ``n_stopped`` how many of them stopped early;
+    ``min_mde_mm`` is the smallest detectable shift over the cases at the per-case level from the
+    pairs each case actually used (infinite on a case whose pairs cannot reach the level).
+    """
+    stopped = {(int(e["run"]), str(e["suite"]), int(e["case"]), str(e["variant"])): str(e["reason"])
+               for e in stops or ()}
     alpha = float(sel["alpha"])
     direction = stored_direction(sel)
     ncases = results.groupby(["run", "suite"])["case"].max().to_dict()
@@ -96,7 +108,8 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
     per_suite = {}
     for (run, suite), n in ncases.items():
         part = results[(results["run"] == run) & (results["suite"] == suite)]
-        per_suite[(run, suite)] = suite_kills(part, case_alpha=alpha / n, metric=metric, direction=direction)
+        per_suite[(run, suite)] = suite_kills(part, case_alpha=alpha / n, metric=metric, direction=direction,
+                                          stopped=stopped)
     for mid in sel["run"]:
         variant = mutant_variant(mid)
         mine = {rs: v[v["fault"] == variant].sort_values("case") for rs, v in per_suite.items()}
@@ -106,7 +119,9 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
             n = ncases[(run, suite)]
             base = dict(mutant=mid, unit=sel["unit"].get(mid, ""), operator=sel["operator"].get(mid, ""), run=run,
                         suite=suite, represented_by="", n_cases=n, n_cases_run=len(mv), note="", survival="",
-                        direction="", median_diff_mm=math.nan, ratio=math.nan)
+                        direction="", median_diff_mm=math.nan, ratio=math.nan,
+                        reps_used="/".join(str(int(k)) for k in mv["n_reps"]),
+                        n_stopped=int((mv["stopped"] != "").sum()))
             kills = mv[mv["kill"] != ""]
             p = pd.to_numeric(mv["p"], errors="coerce")
             mde = pd.to_numeric(mv["mde_mm"], errors="coerce")
@@ -144,7 +159,8 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
                              run=run, suite=suite, outcome=cls, survival="",
                              represented_by=sel["represented_by"].get(mid, ""), killing_case=0, direction="",
                              median_diff_mm=math.nan, ratio=math.nan, n_cases_run=0, n_cases=n, min_p=math.nan,
-                             max_p_equivalence=math.nan, min_mde_mm=math.nan, note="not run (screened out)"))
+                             max_p_equivalence=math.nan, min_mde_mm=math.nan, reps_used="", n_stopped=0,
+                             note="not run (screened out)"))
     return pd.DataFrame(rows, columns=OUTCOME_COLUMNS)
 
 
@@ -156,6 +172,23 @@ OBSERVED_EQUIVALENT = "equivalent_observed"
 SURVIVED_EQUIVALENT = "equivalent"
 SURVIVED_INCONCLUSIVE = "inconclusive"
 KILL_CLASSES = (MutantOutcome.KILLED.value, MutantOutcome.CRASH.value, MutantOutcome.TIMEOUT.value)
+
+
+def adaptive_savings(results: pd.DataFrame, experiment: dict, stops) -> dict | None:
+    """What adaptive repetitions saved (None for a fixed-K campaign): the design, the pairs
+    stopped early, the executions stored and those all ``K`` repetitions of the same (case,
+    variant) pairs would have needed (the cases that ran: early stopping across cases is apart)."""
+    design = experiment.get("adaptive") if isinstance(experiment, dict) else None
+    if not design:
+        return None
+    k = int(design["stages"][-1])
+    fixed = int(results.groupby(["run", "suite", "case", "variant"]).ngroups) * k
+    reasons: dict = {}
+    for e in stops or ():
+        reasons[str(e["reason"])] = reasons.get(str(e["reason"]), 0) + 1
+    return dict(stages=list(design["stages"]), futility=design["futility"], n_stops=len(stops or ()),
+                stop_reasons=reasons, executions=len(results), executions_fixed_k=fixed,
+                executions_saved=fixed - len(results))
 
 
 def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
@@ -227,13 +260,15 @@ def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> Mutati
     metric = judged_metric(meta)
     spec = exp.get("suites", {}) if isinstance(exp, dict) else {}
     pairs = spec.items() if isinstance(spec, dict) else (tuple(p) for p in spec)  # stored as [[kind, n], ...]
-    outcomes = mutant_outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)})
+    stops = meta.get(STOPS_KEY) or []
+    outcomes = mutant_outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)}, stops=stops)
     suites = list(dict.fromkeys(results["suite"]))
     info = dict(alpha=sel["alpha"], direction=stored_direction(sel), n_mutants_run=len(sel["run"]), n_screened=len(sel["screened"]),
                 n_jobs=len(results), runtime_s_sum=float(results["runtime_s"].sum()),
                 status_counts={k: int(v) for k, v in results["status"].value_counts().items()},
                 repetitions=int(results["rep"].max()) + 1, suites=suites,
                 outcome_counts={f"{s}:{o}": int(n) for (s, o), n in
-                                outcomes.groupby(["suite", "outcome"]).size().items()})
+                                outcomes.groupby(["suite", "outcome"]).size().items()},
+                adaptive=adaptive_savings(results, exp, stops))
     return MutationAnalysis(outcomes=outcomes, scores=mutation_scores(outcomes, alpha=alpha),
                             mcnemar=compare_suites(outcomes, suites), meta=info)

@@ -28,16 +28,46 @@ A mutant that survives a suite comes with the smallest shift of the mean map err
 have detected (80 % power): the smallest per-case detectable shift ``mde_mm`` of the suite's
 cases (estimated from the baseline's spread, :func:`~faultlab.stats.verdict.case_verdicts`).
 
+Adaptive repetitions.  An ``[adaptive]`` table (``stages``, cumulative, the last equal to
+``repetitions``; ``futility``, default 0.5; :class:`~faultlab.runner.staging.StagedDesign`) runs
+the K repetitions of each case round in stages, with the rule of
+:mod:`faultlab.stats.sequential` (:func:`~faultlab.stats.sequential.interim_look`).  Stage 1 runs
+the first ``stages[0]`` repetitions of the case's baseline and of every mutant the suite has not
+killed.  Before each later stage, every (case, mutant) pair still running is looked at, from its
+stored repetitions alone: it stops when the baseline failed, when the fixed-K test can no longer
+reject (curtailment), or when its interim p value exceeds the futility bound; a pair whose mutant
+failed (crash/timeout) continues.  The look uses exactly the kill test's level and sidedness:
+``alpha / n`` of the case's suite and two-sided for ``direction = "either"``, ``"greater"`` for
+``"worse"``.  The table's ``level`` and ``alternative`` are therefore derived (an explicit value
+that differs is refused).  A later stage runs only the pairs still running and their case's
+baseline, repetition by repetition (common random numbers).  The rule never stops with a
+rejection, so the kill level stays the fixed-K test's; a futility stop can only lose kills
+(power), and a stopped pair forgoes observing a mutant crash in its remaining repetitions.  With
+``futility = 1`` only curtailment stops and every test decision equals the fixed-K one.
+
+After the round the kills are the fixed-K kill test on the stored rows
+(:func:`~faultlab.stats.killmatrix.suite_kills` with the round's stops): a stopped pair is
+"not killed" on that case (its stored p value cannot reach the level), its verdict reason names
+why it stopped, and its smallest detectable shift is computed from the pairs it actually used.
+The stops are recorded in the store's metadata under :data:`~faultlab.runner.staging.STOPS_KEY`
+(run, suite, case, variant, repetitions used, reason) as ``faultlab run`` records them; every
+decision depends only on stored rows, so a campaign resumed after a kill, or rerun from the same
+seed, reaches the same stops and the same rows.
+
 The campaign's outcomes, scores and suite comparisons are computed from its store by
 :func:`faultlab.analysis.mutation.analyse_mutation`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+import pandas as pd
 
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
@@ -46,8 +76,10 @@ from faultlab.mutation.variants import MutantSelection, mutant_variant, select_m
 from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, load_results, parse_experiment,
                              prepare_cases, result_row, store_session, stream_results)
 from faultlab.runner.progress import progress as show_progress
+from faultlab.runner.staging import STOPS_KEY, LookRule, StagedDesign, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import MUTATION_FILE, check_store, job_metrics, results_path, store_lock
 from faultlab.stats.killmatrix import suite_kills
+from faultlab.stats.sequential import interim_look
 from faultlab.stats.verdict import alternative_of, min_pairs
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS
 
@@ -68,6 +100,16 @@ class MutationExperiment:
 
     def case_alpha(self, n_cases: int) -> float:
         return self.alpha / n_cases
+
+    def case_design(self, n_cases: int) -> StagedDesign | None:
+        """The staged design of a suite of ``n_cases`` cases (None without ``[adaptive]``): the
+        experiment's stages and futility bound at the kill test's level ``alpha / n_cases`` and
+        sidedness."""
+        design = self.experiment.adaptive
+        if design is None:
+            return None
+        return _suite_design(design, level=self.case_alpha(n_cases), alternative=alternative_of(self.direction),
+                             where=f"{self.experiment.source}: adaptive")
 
 
 def parse_selector(text: str) -> dict:
@@ -119,6 +161,9 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
     if "variants" in data:
         raise ConfigError(f"{path}: variants: a mutation experiment's variants come from [mutation]")
     data["variants"] = [BASELINE, *map(mutant_variant, selection.run)]
+    if data.get("adaptive") is not None:
+        data["adaptive"] = _adaptive_table(data["adaptive"], data.get("suites"), alpha=alpha, direction=direction,
+                                           where=f"{path}: adaptive")
     exp = parse_experiment(data, source=str(path), text=text)
     mexp = MutationExperiment(experiment=exp, selection=selection, alpha=alpha, direction=direction)
     alternative = alternative_of(direction)
@@ -129,7 +174,46 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
                               f"{n} cases of suite {s.kind!r} a case is judged at {alpha / n:.4g}, which the exact "
                               f"{alternative} sign-flip test reaches only from K = "
                               f"{min_pairs(alpha / n, alternative=alternative)}")
+        if n is not None:
+            mexp.case_design(n)  # the futility bound must lie in [level, 1] at every suite's level
     return mexp
+
+
+def _suite_design(design: StagedDesign, *, level: float, alternative: str, where: str) -> StagedDesign:
+    try:
+        return dataclasses.replace(design, level=level, alternative=alternative)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+
+
+def _adaptive_table(table, suites, *, alpha: float, direction: str, where: str):
+    """The ``[adaptive]`` table with ``level`` and ``alternative`` those of the kill test.
+
+    The per-case level is ``alpha / n`` of each suite; the table records the smallest (a suite
+    with fewer cases looks at its own, larger level: :meth:`MutationExperiment.case_design`).  An
+    explicit ``level`` must equal every suite's per-case level, an explicit ``alternative`` the
+    direction's sidedness.
+    """
+    if not isinstance(table, dict):
+        return table  # parse_experiment names the type error
+    table = dict(table)
+    alternative = alternative_of(direction)
+    if "alternative" in table and table["alternative"] != alternative:
+        raise ConfigError(f"{where}.alternative = {table['alternative']!r} contradicts [mutation].direction = "
+                          f"{direction!r}, whose kill test is {alternative}; omit it (it is derived)")
+    counts = sorted({int(n) for n in (suites or {}).values() if isinstance(n, int) and not isinstance(n, bool)
+                     and n >= 1}) if isinstance(suites, dict) else []
+    levels = [alpha / n for n in counts]
+    if "level" in table:
+        level = table["level"]
+        if (isinstance(level, bool) or not isinstance(level, (int, float))
+                or not levels or any(not math.isclose(level, lv, rel_tol=1e-9) for lv in levels)):
+            want = " and ".join(f"{lv:.4g} (alpha / {n})" for lv, n in zip(levels, counts)) or "alpha / n"
+            raise ConfigError(f"{where}.level = {level!r} differs from the kill test's per-case level {want} "
+                              f"(alpha = {alpha} Bonferroni-split over a suite's cases); omit it (it is derived)")
+    table["level"] = min(levels) if levels else alpha
+    table["alternative"] = alternative
+    return table
 
 
 def selection_from_table(table: dict, *, source: str) -> MutantSelection:
@@ -156,10 +240,14 @@ class MutationRun:
     n_new: int
     n_skipped_early: int
     wall_time_s: float
+    n_saved_adaptive: int = 0
+    n_stops: int = 0
 
     def __str__(self) -> str:
+        adaptive = (f", {self.n_saved_adaptive} saved by adaptive repetitions ({self.n_stops} (case, mutant) "
+                    f"pair(s) stopped early)" if self.n_stops or self.n_saved_adaptive else "")
         return (f"{self.n_mutants} mutants: {self.n_jobs_run} of at most {self.n_jobs_max} jobs needed "
-                f"({self.n_skipped_early} skipped by early stopping), {self.n_new} run now, "
+                f"({self.n_skipped_early} skipped by early stopping{adaptive}), {self.n_new} run now, "
                 f"{self.wall_time_s:.0f} s; results in {self.out}")
 
 
@@ -171,8 +259,13 @@ def _n_cases(cases) -> dict:
 
 
 def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs: int = 2, backend: str = "loky",
-                 force_new: bool = False, progress: bool = True) -> MutationRun:
-    """Run (or resume) a mutation campaign with early stopping (see the module docstring)."""
+                 force_new: bool = False, progress: bool = True, look: LookRule = interim_look) -> MutationRun:
+    """Run (or resume) a mutation campaign with early stopping (see the module docstring).
+
+    ``look`` is the interim rule of an experiment with ``[adaptive]`` repetitions
+    (:func:`faultlab.stats.sequential.interim_look`, as ``faultlab run`` passes it to the runner);
+    ignored otherwise.
+    """
     if not isinstance(mexp, MutationExperiment):
         mexp = load_mutation_experiment(mexp)
     exp = mexp.experiment
@@ -187,15 +280,18 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
         cases = prepare_cases(exp, out)
         info = {(c.run, c.suite, c.case): c for c in cases}
         n_cases = _n_cases(cases)
+        designs = {rs: mexp.case_design(n) for rs, n in n_cases.items()}
         specs = expand_jobs(exp, ((c.run, c.suite, c.case, c.path, c.cost) for c in cases),
                             metrics=job_metrics(exp.metrics, store.meta))
         by_case: dict = {}
         for s in specs:
             by_case.setdefault((s.key.run, s.key.suite, s.key.case), []).append(s)
         killed: dict = {rs: set() for rs in n_cases}
-        n_needed = 0
+        stopped: dict = {}  # (run, suite, case, variant) -> why the pair stopped early
+        n_needed = n_full = 0
+        n_stages = 1 if exp.adaptive is None else len(exp.adaptive.stages)
         for r in range(1, max(n_cases.values()) + 1):
-            todo, round_specs = [], []
+            round_specs = []
             for (run, suite), n in n_cases.items():
                 if r > n or len(killed[(run, suite)]) == len(mexp.selection.run):
                     continue  # no case left, or every mutant killed: the baseline is not needed either
@@ -203,24 +299,17 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                     if s.key.variant in killed[(run, suite)]:
                         continue
                     round_specs.append(s)
-            done = store.done_keys()
-            todo = [s for s in round_specs if s.key.astuple() not in done]
-            todo.sort(key=lambda s: (-s.cost, s.key))
-            n_needed += len(round_specs)
-            t_round = time.perf_counter()
-            session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
-            n_round = 0
-            with store_session(store, session, t0=t_round) as ended:
-                with show_progress(len(round_specs), done=len(round_specs) - len(todo),
-                                   desc=f"faultlab mutate case {r}", unit="job", enabled=progress) as bar:
-                    # one job per batch: a mutant may couple the filters of a batch through a unit
-                    for res in stream_results(batch_jobs(todo, size=1), jobs=jobs, backend=backend):
-                        k = res.key
-                        store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
-                        n_round += 1
-                        ended["n_new"] = n_round
-                        bar.update(1)
-            n_new += n_round
+            n_full += len(round_specs)
+            running = None
+            for stage in range(n_stages):
+                if stage > 0:
+                    running = _look(store, out, round_specs, designs, stage=stage, metric=exp.metric, look=look,
+                                    running=running, stopped=stopped)
+                todo_specs = (round_specs if exp.adaptive is None
+                              else stage_jobs(round_specs, design=exp.adaptive, stage=stage, running=running))
+                n_needed += len(todo_specs)
+                desc = f"faultlab mutate case {r}" + (f" stage {stage + 1}/{n_stages}" if n_stages > 1 else "")
+                n_new += _run_round(store, todo_specs, info, jobs=jobs, backend=backend, progress=progress, desc=desc)
             df = load_results(out)
             df = df[df["case"] == r]
             for (run, suite), n in n_cases.items():
@@ -229,10 +318,56 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                 part = df[(df["run"] == run) & (df["suite"] == suite)]
                 if part.empty:
                     continue
-                k = suite_kills(part, case_alpha=mexp.case_alpha(n), metric=exp.metric, direction=mexp.direction)
+                k = suite_kills(part, case_alpha=mexp.case_alpha(n), metric=exp.metric, direction=mexp.direction,
+                                stopped=stopped)
                 killed[(run, suite)].update(k.loc[k["kill"] != "", "fault"])
     return MutationRun(out=out, n_mutants=len(mexp.selection.run), n_jobs_max=len(specs), n_jobs_run=n_needed,
-                       n_new=n_new, n_skipped_early=len(specs) - n_needed, wall_time_s=time.perf_counter() - t0)
+                       n_new=n_new, n_skipped_early=len(specs) - n_full, wall_time_s=time.perf_counter() - t0,
+                       n_saved_adaptive=n_full - n_needed, n_stops=len(stopped))
+
+
+def _look(store, out: Path, round_specs: list, designs: dict, *, stage: int, metric: str, look: LookRule,
+          running: set | None, stopped: dict) -> set:
+    """The interim look before ``stage`` of a case round, suite by suite at its own per-case level:
+    records the new stops (store metadata :data:`STOPS_KEY` and ``stopped``) and returns the
+    (run, suite, case, variant) pairs that go on."""
+    df = load_results(out)
+    pairs = {(s.key.run, s.key.suite, s.key.case, s.key.variant) for s in round_specs}
+    mine = df[pd.MultiIndex.from_frame(df[["run", "suite", "case", "variant"]]).isin(list(pairs))]
+    go_on: set = set()
+    for (run, suite), design in designs.items():
+        part = mine[(mine["run"] == run) & (mine["suite"] == suite)]
+        if part.empty:
+            continue
+        before = None if running is None else {p for p in running if p[:2] == (run, suite)}
+        decisions, cont = look_before_stage(part, design=design, stage=stage, metric=metric, look=look,
+                                            running=before)
+        store.set_meta(STOPS_KEY, record_stops(decisions, design=design, stage=stage,
+                                               previous=store.meta.get(STOPS_KEY, [])))
+        stopped.update({k: d for k, d in decisions.items() if d != "continue"})
+        go_on |= cont
+    return go_on
+
+
+def _run_round(store, todo_specs: list, info: dict, *, jobs: int, backend: str, progress: bool, desc: str) -> int:
+    """Run the jobs of ``todo_specs`` missing from ``store`` in one session; the rows written."""
+    done = store.done_keys()
+    todo = [s for s in todo_specs if s.key.astuple() not in done]
+    todo.sort(key=lambda s: (-s.cost, s.key))
+    t_round = time.perf_counter()
+    session = store.begin_session(jobs=jobs, backend=backend, n_todo=len(todo))
+    n_round = 0
+    with store_session(store, session, t0=t_round) as ended:
+        with show_progress(len(todo_specs), done=len(todo_specs) - len(todo), desc=desc, unit="job",
+                           enabled=progress) as bar:
+            # one job per batch: a mutant may couple the filters of a batch through a unit
+            for res in stream_results(batch_jobs(todo, size=1), jobs=jobs, backend=backend):
+                k = res.key
+                store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
+                n_round += 1
+                ended["n_new"] = n_round
+                bar.update(1)
+    return n_round
 
 
 def _check_level(out: Path, mexp: MutationExperiment, *, force_new: bool) -> None:

@@ -116,6 +116,21 @@ def _test_text(meta: dict) -> str:
     return "exact two-sided paired sign-flip test (the mutant changes the map error, worse or better)"
 
 
+def _adaptive_text(adaptive: dict | None) -> str:
+    """The report's sentence on adaptive repetitions ('' for a fixed-K campaign)."""
+    if not adaptive:
+        return ""
+    why = ", ".join(f"{n} {r.replace('_', ' ')}" for r, n in sorted(adaptive["stop_reasons"].items())) or "none"
+    fixed = adaptive["executions_fixed_k"]
+    share = f" ({100 * adaptive['executions_saved'] / fixed:.1f} %)" if fixed else ""
+    return (f" Adaptive repetitions in stages {adaptive['stages']} (interim look at the kill test's per-case level "
+            f"and sidedness, futility bound {adaptive['futility']:g}): {adaptive['n_stops']} (case, mutant) pair(s) "
+            f"stopped early ({why}) and count as not killed on that case; {adaptive['executions']} executions "
+            f"instead of the {fixed} that all K repetitions of the same pairs need, {adaptive['executions_saved']} "
+            f"saved{share}. The outcomes table lists the repetitions each case used (reps_used); a survivor's "
+            f"detectable shift is computed from them.")
+
+
 def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path]:
     """Analyse the campaign in ``results`` and write tables, Markdown and ``mutation.pdf`` to ``reports``."""
     analysis = analyse_mutation(results)
@@ -138,6 +153,7 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
           f"margin on every case of the suite at alpha, else 'inconclusive'. A mutant whose maps are bit-identical "
           f"to the baseline's in every paired run is 'equivalent (observed)' and leaves the score's denominator. "
           f"{meta['n_jobs']} SLAM executions, {meta['runtime_s_sum']:.0f} s of SLAM time."
+          + _adaptive_text(meta.get("adaptive"))
           + (" The campaign is INCOMPLETE: 'incomplete' mutants were not killed by the cases run so far and count "
              "as not killed, so every score is a lower bound." if (analysis.outcomes["outcome"] == "incomplete").any()
              else ""), "",

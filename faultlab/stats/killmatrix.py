@@ -95,7 +95,8 @@ from faultlab.seeds import study_seed_sequence
 from faultlab.stats.cases import holm_within, rule_verdicts
 from faultlab.stats.detection import outcomes
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
-from faultlab.stats.verdict import Verdict, case_verdicts
+from faultlab.stats.sequential import Look
+from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, case_verdicts
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects", "combined_detects",
@@ -681,12 +682,22 @@ def _mcnemar_exact(only_a: np.ndarray, only_b: np.ndarray) -> np.ndarray:
 
 
 def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms",
-                direction: str = DEFAULT_DIRECTION) -> pd.DataFrame:
+                direction: str = DEFAULT_DIRECTION, stopped: Mapping[tuple, str] | None = None) -> pd.DataFrame:
     """Per (run, suite, case, mutant variant): whether the case kills it, and how.
 
     Returns the :func:`case_verdicts` frame at level ``case_alpha`` (two-sided unless
     ``direction`` is the paper's ``"worse"``) with a column ``kill``: ``killed`` (test rejects),
-    ``crash``/``timeout`` (the mutant alone failed), ``""`` otherwise.
+    ``crash``/``timeout`` (the mutant alone failed), ``""`` otherwise; and a column ``stopped``:
+    why a pair of an adaptive campaign stopped before ``K`` repetitions (``stopped`` maps
+    ``(run, suite, case, variant)`` to the reason recorded under
+    :data:`faultlab.runner.staging.STOPS_KEY`), ``""`` for a pair that used every repetition.
+
+    The kill is the test on the stored rows whatever the number of repetitions.  A pair stopped
+    for futility or curtailment cannot be killed by them (its p value exceeds the level: the rule
+    of :mod:`faultlab.stats.sequential`; it stopped with no mutant failure), so it is "not
+    killed" on the case: its verdict is ``not_detected`` with the stop as ``reason`` where too
+    few pairs would otherwise make it ``cannot_judge``.  A pair stopped because the baseline
+    failed stays ``cannot_judge``.  ``n_pairs`` and ``mde_mm`` are those of the repetitions it used.
     """
     v = case_verdicts(results, alpha=case_alpha, metric=metric, direction=direction)
     kill = np.where(v["verdict"] == "detected", MutantOutcome.KILLED.value, "").astype(object)
@@ -698,7 +709,17 @@ def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms"
             r = v.iloc[i]
             kill[i] = (MutantOutcome.TIMEOUT.value if timeouts.get((r["run"], r["suite"], r["case"], r["fault"]), False)
                        else MutantOutcome.CRASH.value)
-    return v.assign(kill=kill)
+    stopped = dict(stopped or {})
+    why = np.array([str(stopped.get((int(r), str(s), int(c), str(f)), ""))
+                    for r, s, c, f in zip(v["run"], v["suite"], v["case"], v["fault"])], dtype=object)
+    v = v.assign(kill=kill, stopped=why)
+    early = (why != "") & (why != Look.BASELINE_FAILED.value) & (v["reason"] == TOO_FEW_PAIRS).to_numpy(bool)
+    if early.any():
+        v.loc[early, "verdict"] = Verdict.NOT_DETECTED.value
+        v.loc[early, "reason"] = why[early]
+        v["detected"] = v["detected"].astype("boolean")
+        v.loc[early, "detected"] = False
+    return v
 
 
 _STUDY_KEYS = ("sizes", "draws", "bootstrap", "seed", "alpha", "multiplicity", "timeouts_detect", "whole", "quick")

@@ -76,3 +76,25 @@ def test_survivors_split_into_equivalent_and_inconclusive_and_identical_maps_lea
     s = mutation_scores(o.reset_index()).set_index(["suite", "by", "group"]).loc[("fixed", "all", "all")]
     assert (s["killed"], s["judged"], s["equivalent_observed"]) == (1, 3, 1)
     assert (s["survived_equivalent"], s["survived_inconclusive"]) == (1, 1)
+
+
+def test_a_pair_stopped_early_is_not_killed_on_its_case_and_its_detectable_shift_uses_the_pairs_it_used():
+    from faultlab.stats.verdict import case_verdicts
+    k = 10
+    rng = np.random.default_rng(4)
+    noise = rng.normal(0.0, 5.0, k)
+    df = paired_frame({"mutant:noisy": noise, "mutant:kill": np.full(k, 40.0)}, k)
+    # the noisy mutant stopped for futility after 5 repetitions: its rows 5..9 were never run
+    df = df[~((df["variant"] == "mutant:noisy") & (df["rep"] >= 5))].reset_index(drop=True)
+    sel = {"alpha": 0.05, "direction": "either", "run": ["noisy", "kill"], "screened": {}, "unit": {},
+           "operator": {}, "represented_by": {}}
+    stops = [{"run": 1, "suite": "fixed", "case": 1, "variant": "mutant:noisy", "repetitions": 5, "reason": "futile"}]
+    o = mutant_outcomes(df, sel, stops=stops).set_index("mutant")
+    # without the stop record 5 pairs are too few for a two-sided test at 0.05 (cannot_judge, unscored)
+    assert mutant_outcomes(df, sel).set_index("mutant").loc["noisy", "outcome"] == "cannot_judge"
+    assert o.loc["noisy", "outcome"] == "survived"
+    assert (o.loc["noisy", "reps_used"], o.loc["noisy", "n_stopped"]) == ("5", 1)
+    assert (o.loc["kill", "outcome"], o.loc["kill", "reps_used"], o.loc["kill", "n_stopped"]) == ("killed", "10", 0)
+    # the smallest detectable shift of the 5 pairs it used at the per-case level: none (2 * 2^-5 > 0.05)
+    ref = case_verdicts(df, alpha=0.05, direction="either").set_index("fault").loc["mutant:noisy", "mde_mm"]
+    assert o.loc["noisy", "min_mde_mm"] == ref == np.inf

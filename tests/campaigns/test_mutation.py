@@ -67,3 +67,86 @@ def test_the_shipped_mutation_experiment_has_the_fewest_repetitions_its_two_side
     assert mexp.direction == "either"
     n = max(s.n_cases for s in mexp.experiment.suites)
     assert mexp.experiment.repetitions == min_pairs(mexp.alpha / n, alternative="two-sided")
+
+
+ADAPTIVE = TINY.replace("repetitions = 7", "repetitions = 10") + "[adaptive]\nstages = [5, 10]\n"
+
+
+@pytest.mark.parametrize("extra, message", [
+    ("level = 0.05\n", "adaptive.level = 0.05 differs from the kill test's per-case level .*0.025 \\(alpha / 2\\)"),
+    ("alternative = \"greater\"\n", "contradicts \\[mutation\\].direction = 'either'"),
+    ("futility = 0.01\n", "futility must lie in \\[level, 1\\] = \\[0.025, 1\\]"),
+])
+def test_an_adaptive_table_that_contradicts_the_kill_test_is_refused_naming_file_and_key(tmp_path, extra, message):
+    f = tmp_path / "m.toml"
+    f.write_text(ADAPTIVE.format(kill=SIGN_FLIP, eq=EQUIVALENT) + extra)
+    with pytest.raises(ConfigError, match=message) as err:
+        load_mutation_experiment(f)
+    assert str(f) in str(err.value)
+
+
+def test_an_adaptive_table_takes_the_kill_tests_level_and_sidedness_per_suite(tmp_path):
+    f = tmp_path / "m.toml"
+    f.write_text(ADAPTIVE.format(kill=SIGN_FLIP, eq=EQUIVALENT) + "futility = 0.5\n")
+    mexp = load_mutation_experiment(f)
+    assert mexp.case_design(2).level == 0.05 / 2 and mexp.case_design(1).level == 0.05
+    assert mexp.case_design(2).alternative == "two-sided" and mexp.case_design(2).stages == (5, 10)
+    f.write_text(ADAPTIVE.format(kill=SIGN_FLIP, eq=EQUIVALENT).replace("[adaptive]", "[adaptive]\nlevel = 0.025")
+                 .replace("fixed = 1", "fixed = 2"))
+    assert load_mutation_experiment(f).case_design(2).level == 0.025  # an explicit level equal to alpha / n
+    with pytest.raises(ConfigError, match="last stage"):
+        f.write_text(ADAPTIVE.format(kill=SIGN_FLIP, eq=EQUIVALENT).replace("[5, 10]", "[5, 9]"))
+        load_mutation_experiment(f)
+
+
+# bit-identical maps to the baseline's (observed equivalent in the reduced study): all-zero differences
+IDENTICAL = "apply_resample:unary_minus:3"
+
+
+@pytest.mark.slow
+def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_resume_to_the_same_rows(tmp_path):
+    import sqlite3
+
+    from faultlab.runner.store import load_metadata, results_path
+    from faultlab.runner.staging import STOPS_KEY
+    from faultlab.stats.sequential import interim_look
+
+    fixed_f, staged_f = tmp_path / "fixed.toml", tmp_path / "staged.toml"
+    fixed_f.write_text(ADAPTIVE.split("[adaptive]")[0].format(kill=SIGN_FLIP, eq=IDENTICAL))
+    # futility = 1: curtailment only, every test decision is the fixed-K one
+    staged_f.write_text(ADAPTIVE.format(kill=SIGN_FLIP, eq=IDENTICAL) + "futility = 1\n")
+    fixed = run_mutation(fixed_f, tmp_path / "fixed", jobs=1, backend="threading", progress=False)
+    staged = run_mutation(staged_f, tmp_path / "staged", jobs=1, backend="threading", progress=False)
+    a_fixed, a_staged = analyse_mutation(tmp_path / "fixed"), analyse_mutation(tmp_path / "staged")
+    key = ["mutant", "suite"]
+    kills = lambda a: a.outcomes.set_index(key)["outcome"].isin(["killed", "crash", "timeout"])
+    pd.testing.assert_series_equal(kills(a_staged), kills(a_fixed))
+    # the identical mutant's differences are all 0: after 5 pairs no outcome of the other 5 can reach
+    # alpha / n (two-sided 2 * 2^-5 > 0.05), so every case it ran stopped there, curtailed
+    stops = load_metadata(tmp_path / "staged")[STOPS_KEY]
+    df_f, df_s = load_results(tmp_path / "fixed"), load_results(tmp_path / "staged")
+    ran = df_s[df_s["variant"] == f"mutant:{IDENTICAL}"].groupby(["suite", "case"]).size()
+    assert len(ran) and (ran == 5).all()
+    assert {(e["suite"], e["case"]) for e in stops if e["variant"] == f"mutant:{IDENTICAL}"} == set(ran.index)
+    assert all(e["reason"] in ("curtailed", "futile") and e["repetitions"] == 5 for e in stops)
+    assert staged.n_jobs_run == len(df_s) < len(df_f) == fixed.n_jobs_run
+    assert staged.n_saved_adaptive == staged.n_stops * 5 + 5 * sum(  # a case whose pairs all stopped: its baseline too
+        1 for (s, c), g in df_s.groupby(["suite", "case"]) if g["rep"].max() == 4)
+    assert "saved by adaptive repetitions" in str(staged)
+    assert a_staged.meta["adaptive"]["executions_saved"] == len(df_s.groupby(["suite", "case", "variant"])) * 10 - len(df_s)
+    # common random numbers, seeds per job: every staged row is the fixed-K campaign's row
+    cols = ["suite", "case", "variant", "rep", "status", "rms_mm"]
+    both = df_s[cols].merge(df_f[cols], on=cols[:4], suffixes=("", "_f"))
+    assert len(both) == len(df_s) and (both["rms_mm"] == both["rms_mm_f"]).all()
+    # resume after a kill during the first round's second stage: its rows and every recorded stop are
+    # lost; the rerun re-derives the same stops from the stage-1 rows and runs the same jobs again
+    with sqlite3.connect(results_path(tmp_path / "staged")) as con:
+        con.execute("DELETE FROM results WHERE \"case\" = 1 AND rep >= 5")
+        con.execute("DELETE FROM meta WHERE key = ?", (STOPS_KEY,))
+    lost = int(((df_s["case"] == 1) & (df_s["rep"] >= 5)).sum())
+    assert lost > 0
+    again = run_mutation(staged_f, tmp_path / "staged", jobs=1, backend="threading", progress=False, look=interim_look)
+    assert again.n_new == lost
+    pd.testing.assert_frame_equal(load_results(tmp_path / "staged")[cols].sort_values(cols[:4]).reset_index(drop=True),
+                                  df_s[cols].sort_values(cols[:4]).reset_index(drop=True))
+    assert load_metadata(tmp_path / "staged")[STOPS_KEY] == stops
