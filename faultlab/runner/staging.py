@@ -83,6 +83,11 @@ class StagedDesign:
                 or not self.level <= self.futility <= 1):
             raise ConfigError(f"futility must lie in [level, 1] = [{self.level:g}, 1], got {self.futility!r}")
 
+    def smallest_interim_p(self, k: int) -> float:
+        """The smallest p value the interim look's exact sign-flip test reaches on ``k`` pairs: ``2^-k``
+        one-sided, ``min(1, 2^(1-k))`` two-sided (every difference of one sign)."""
+        return min(1.0, 2.0 ** (1 - k)) if self.alternative == "two-sided" else 2.0 ** -k
+
     @property
     def total(self) -> int:
         """``K``: the repetitions of a pair that never stops."""
@@ -100,10 +105,19 @@ class StagedDesign:
         if "stages" not in table or not isinstance(table["stages"], (list, tuple)):
             raise ConfigError(f"{where}: stages must be a list of cumulative repetitions, e.g. [5, 10]")
         try:
-            return cls(stages=tuple(table["stages"]), level=table.get("level", 0.05),
-                       alternative=table.get("alternative", "greater"), futility=table.get("futility", 0.5))
+            design = cls(stages=tuple(table["stages"]), level=table.get("level", 0.05),
+                         alternative=table.get("alternative", "greater"), futility=table.get("futility", 0.5))
         except ConfigError as exc:
             raise ConfigError(f"{where}: {exc}") from None
+        first = design.stages[0]
+        if len(design.stages) > 1 and design.smallest_interim_p(first) > design.futility:
+            # a valid rule (it only loses power), but one that can detect nothing: a configuration mistake
+            raise ConfigError(
+                f"{where}: stages: a first stage of {first} repetitions stops every pair at the first look "
+                f"whatever its data: the smallest {design.alternative} sign-flip p value of {first} pairs, "
+                f"{design.smallest_interim_p(first):g}, exceeds futility = {design.futility:g}; start with more "
+                f"repetitions or raise futility")
+        return design
 
 
 def _usable(frame: pd.DataFrame, col: str) -> np.ndarray:

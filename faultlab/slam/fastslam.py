@@ -96,7 +96,7 @@ so the storage is copy-on-write with a per-column ancestry index
 ``anc[lineage[i], j]`` (see :class:`ParticleState`).  Resampling only composes
 ``lineage = lineage[idx]`` (O(N)); before the filter gathers the observed
 columns it materialises the pending lineage once (``anc = anc[lineage]``, a
-row gather of O(N C) int32, only after a resampling), and after the update it
+row gather of O(N C) int16, only after a resampling), and after the update it
 writes every particle's new estimates of the observed columns into its own row
 and points those columns of ``anc`` at it (all particles update the same
 observed columns, so this is exact).  Inactivity (no observation) therefore
@@ -174,6 +174,7 @@ from faultlab.slam.bookkeeping import (TrajectoryLog, UnitSlam, UnitTable, best_
 from faultlab.slam.contract import STREAM_UNITS
 from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.sharing import correct_in_sharer_order
+from faultlab.slam import particles as _particles
 from faultlab.slam.particles import ParticleState, landmark_rows
 from faultlab.slam.protocol import Estimate, Observations
 from faultlab.slam.streams import unit_streams
@@ -552,8 +553,9 @@ class FastSlam(UnitSlam):
         self._started = True
 
     def _local_ancestry(self, b: int, cap: int) -> np.ndarray:
-        """Identity ancestry (B N, cap), int32, with each filter's rows numbered from 0 (its own storage)."""
-        rows = np.tile(np.arange(self._n, dtype=np.int32), b)
+        """Identity ancestry (B N, cap) of :func:`~faultlab.slam.particles.ancestry_dtype`, with each
+        filter's rows numbered from 0 (its own storage)."""
+        rows = np.tile(np.arange(self._n, dtype=_particles.ancestry_dtype(self._n)), b)
         return np.ascontiguousarray(np.broadcast_to(rows[:, None], (b * self._n, cap)))
 
     def _require_started(self) -> None:
@@ -641,6 +643,10 @@ class FastSlam(UnitSlam):
             elif name == "P":
                 self._P[:, :, :, sl] = np.asarray(new, dtype=float).transpose(2, 3, 1, 0)
             else:
+                new = np.asarray(new)  # row numbers; negative ones count from the end, as numpy indexes
+                if new.size and (new.min() < -n or new.max() >= n):
+                    raise SlamOutputError(f"{self.name}: apply_resample returned an ancestry with row numbers "
+                                          f"outside [-{n}, {n})")
                 self._anc[sl] = new
 
     def _drop_failed(self) -> None:

@@ -331,7 +331,7 @@ class Program:
         text += f"; {status}; stderr: " + (tail.replace("\n", " | ") if tail else "(empty)")
         return SlamProcessError(text, rule=rule, detail=what)
 
-    def send(self, line: str, *, deadline: float, what: str) -> None:
+    def send(self, line: str, *, deadline: float, what: str, rule: str = "reply-timeout") -> None:
         data = memoryview((line + "\n").encode())
         fd = self.proc.stdin.fileno()
         with selectors.DefaultSelector() as sel:
@@ -339,7 +339,7 @@ class Program:
             while data:
                 left = deadline - time.monotonic()
                 if left <= 0 or not sel.select(left):
-                    raise self.failure(f"did not read {what} in time", rule="reply-timeout", wait_s=0)
+                    raise self.failure(f"did not read {what} in time", rule=rule, wait_s=0)
                 try:
                     n = os.write(fd, data)
                 except BrokenPipeError:
@@ -451,7 +451,7 @@ class ProcessSlam(SlamAdapter):
         if self._deadline < deadline:
             deadline, rule = self._deadline, "execution-timeout"
         try:
-            child.send(line, deadline=deadline, what=what)
+            child.send(line, deadline=deadline, what=what, rule=rule)  # the deadline's own rule
             return child.receive(deadline=deadline, what=what, rule=rule)
         except SlamProcessError:
             self._child = None

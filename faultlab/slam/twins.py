@@ -38,6 +38,7 @@ from typing import Callable
 import numpy as np
 
 from faultlab.slam import paperunits as _paperunits
+from faultlab.slam import particles as _particles
 from faultlab.slam import units as _units
 from faultlab.slam.units import _mat22, _vec2
 
@@ -376,7 +377,7 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
     n : int
         Particles per filter.
     mu_store, P_store, anc : ndarray
-        The filter's storage (2, cap, M), (2, 2, cap, M) and materialised ancestry (M, cap), int32;
+        The filter's storage (2, cap, M), (2, 2, cap, M) and materialised ancestry (M, cap) (:func:`~faultlab.slam.particles.ancestry_dtype`);
         updated in place.
 
     Returns
@@ -471,7 +472,7 @@ def warm_up() -> float:
     pb = np.ascontiguousarray(P0.transpose(2, 3, 1, 0))
     _, mu_new, P_new = correct_pairs(poses, z, mb, pb, Q)
     store_mu, store_P = np.zeros((2, 4, n)), np.zeros((2, 2, 4, n))
-    anc = np.zeros((n, 4), dtype=np.int32)
+    anc = np.zeros((n, 4), dtype=_particles.ancestry_dtype(n))  # the type the filter stores
     cols = np.arange(k, dtype=np.intp)
     scatter_rows(mu_new, P_new, cols, 0, np.arange(n, dtype=np.intp), store_mu, store_P, anc)
     gather_rows(store_mu, store_P, anc, cols, 0, n, mb, pb)

@@ -8,7 +8,7 @@ from faultlab.errors import ConfigError
 from faultlab.runner import load_experiment, load_metadata, load_results, run_experiment
 from faultlab.runner.experiment import parse_experiment
 from faultlab.runner.staging import STOPS_KEY, StagedDesign
-from faultlab.stats.sequential import interim_look
+from faultlab.stats.sequential import interim_look, interim_p
 from faultlab.vocabulary import BASELINE
 from tests.runner.suts import SMALL_SPACE
 
@@ -103,5 +103,18 @@ def test_refusals(tmp_path):
         _experiment().replace(repetitions=5)
     with pytest.raises(ConfigError, match="strictly increasing"):
         _experiment(stages=[4, 4])
+    # a first stage too short for any interim p value to stay under the futility bound
+    for stages, alternative, futility in (([1, 10], "two-sided", 0.5), ([1, 10], "greater", 0.4),
+                                          ([2, 10], "two-sided", 0.4)):
+        with pytest.raises(ConfigError, match="adaptive: stages: .* stops every pair at the first look"):
+            StagedDesign.from_mapping({"stages": stages, "alternative": alternative, "futility": futility},
+                                      where="adaptive")
+    for stages, alternative, futility in (([1, 10], "greater", 0.5), ([2, 10], "two-sided", 0.5), ([1], "two-sided", 0.5)):
+        StagedDesign.from_mapping({"stages": stages, "alternative": alternative, "futility": futility},
+                                  where="adaptive")                                 # some data can continue
+    # the bound is the test's own: every difference positive gives it
+    for k, alternative in ((1, "greater"), (3, "greater"), (2, "two-sided"), (4, "two-sided")):
+        design = StagedDesign(stages=(k, k + 1), alternative=alternative, futility=1.0)
+        assert design.smallest_interim_p(k) == interim_p(np.arange(1.0, k + 1), alternative=alternative)
     # no [adaptive]: the hash is the one it had before the key existed
     assert "adaptive" not in _experiment(adaptive=False).canonical_json()

@@ -26,7 +26,7 @@ def test_gather_and_scatter_copy_what_numpy_indexing_copies(b, n, k, data):
     rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
     cap, bn = k + 3, b * n
     mu_store, P_store = rng.normal(size=(2, cap, bn)), rng.normal(size=(2, 2, cap, bn))
-    anc = rng.integers(0, n, size=(bn, cap)).astype(np.int32)
+    anc = rng.integers(0, n, size=(bn, cap)).astype(np.int16)  # as the filter stores it
     cols = rng.permutation(cap)[:k].astype(np.intp)
     p0 = n * data.draw(st.integers(0, b - 1))
     p1 = n * data.draw(st.integers(p0 // n + 1, b))
@@ -52,9 +52,9 @@ def test_gather_and_scatter_copy_what_numpy_indexing_copies(b, n, k, data):
 @given(st.integers(1, 8), st.integers(0, 6), st.integers(0, 3), st.data())
 def test_take_rows_is_numpy_row_indexing(n, width, extra, data):
     rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
-    src = rng.integers(-9, 9, size=(n, width + extra)).astype(np.int32)
+    src = rng.integers(-9, 9, size=(n, width + extra)).astype(np.int16)
     rows = rng.integers(0, n, size=n)
-    dst = np.full((n, width + extra), 77, dtype=np.int32)
+    dst = np.full((n, width + extra), 77, dtype=np.int16)
     kernels.take_rows(src, rows, dst, width)
     np.testing.assert_array_equal(dst[:, :width], src[rows, :width])
     assert (dst[:, width:] == 77).all()

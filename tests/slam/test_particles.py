@@ -5,7 +5,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.special import logsumexp
 
-from faultlab.slam.particles import ParticleState, empty_covariances, empty_means, initial_ancestry, landmark_rows
+from faultlab.slam.particles import (ParticleState, ancestry_dtype, empty_covariances, empty_means, initial_ancestry,
+                                     landmark_rows)
 
 
 def test_initial_state_is_uniform_at_the_pose_with_an_empty_identity_map():
@@ -26,7 +27,8 @@ def test_storage_shapes_zeros_and_component_major_layout():
     assert not mu.any() and not P.any()
     # one component of one landmark for all particles is contiguous: particle stride = one float
     assert mu.strides[0] == mu.itemsize and P.strides[0] == P.itemsize
-    assert anc.dtype == np.int32 and anc.flags.c_contiguous
+    assert anc.dtype == ancestry_dtype(4) == np.int16 and anc.flags.c_contiguous
+    assert ancestry_dtype(32767) == np.int16 and ancestry_dtype(32768) == np.int32  # every row number fits
 
 
 @settings(max_examples=40, deadline=None)

@@ -155,6 +155,20 @@ def test_an_execution_past_its_timeout_is_a_failure():
     assert info.value.rule == "execution-timeout"
 
 
+
+def test_a_request_after_the_execution_deadline_names_the_execution_timeout_not_the_reply_one(monkeypatch):
+    # on a loaded machine a step may only be sent after the execution's deadline has passed: the failure
+    # is the execution's, whichever of sending or reading the request notices it
+    slam = ProcessSlam(ProcessSlamConfig(command=(sys.executable, "-c", SLOW_ACK, "0"), reply_timeout_s=30,
+                                         execution_timeout_s=60.0))
+    slam.reset(np.zeros(3), rng=np.random.default_rng(1))
+    slam.step([0.1, 0.0])
+    later = time.monotonic() + 61.0
+    monkeypatch.setattr(time, "monotonic", lambda: later)  # the clock the deadlines are read on
+    with pytest.raises(SlamProcessError) as info:
+        slam.step([0.1, 0.0])
+    assert info.value.rule == "execution-timeout"
+
 def test_a_malformed_estimate_names_the_broken_rule(example_slam):
     slam = ProcessSlam(_config(example_slam, env=(("EXAMPLE_SLAM_BREAK", "estimate"),)))
     slam.reset(np.zeros(3), rng=np.random.default_rng(1))

@@ -241,7 +241,7 @@ def stored_steps(draw):
     mu_store = rng.normal(size=(2, cap, m)) * 5.0
     L = rng.normal(size=(2, 2, cap, m)) * 0.3
     P_store = np.einsum("ikcp,jkcp->ijcp", L, L) + 0.01 * np.eye(2)[:, :, None, None]
-    anc = rng.integers(0, n, size=(m, cap)).astype(np.int32)
+    anc = rng.integers(0, n, size=(m, cap)).astype(np.int16)  # as the filter stores it
     cols = rng.permutation(cap)[:k].astype(np.intp)
     seen = rng.random(k) < draw(st.sampled_from([0.0, 0.7, 1.0]))
     poses = rng.normal(size=(m, 3)) * np.array([3.0, 3.0, 2.0])
