@@ -11,6 +11,7 @@ import functools
 import math
 import sys
 import textwrap
+import weakref
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -20,13 +21,16 @@ import numpy as np
 import pandas as pd
 from matplotlib.backends.backend_agg import RendererAgg
 from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.collections import LineCollection, PolyCollection
+from matplotlib.colors import to_rgba
 from matplotlib.font_manager import FontProperties
 from matplotlib.figure import Figure
+from matplotlib.text import Text
 
 from faultlab.report.figures import PAGE_SIZE
 
-__all__ = ["PAGE_TITLE_ATTR", "TABLE_FONT_RANGE", "PdfReport", "new_page", "text_pages", "table_pages",
-           "write_pdf", "page_title"]
+__all__ = ["PAGE_TITLE_ATTR", "TABLE_FONT_RANGE", "PdfReport", "TableCell", "new_page", "text_pages", "table_pages",
+           "table_cells", "write_pdf", "page_title"]
 
 _TITLE_SIZE = 15
 _TEXT_SIZE = 9.5
@@ -257,31 +261,81 @@ def table_pages(title: str, frame: pd.DataFrame, *, note: str | None = None,
             if not rows:
                 ax.text(0, 1, "(no rows)", va="top", fontsize=fontsize + 1)
             else:
-                chunk = frame.iloc[rows, cols]
-                cell_colours = None
-                if colours is not None:
-                    cell_colours = [[c if c else "white" for c in row] for row in colours.iloc[rows, cols].to_numpy()]
-                table = ax.table(cellText=chunk.to_numpy().tolist(), colLabels=list(chunk.columns),
-                                 cellColours=cell_colours, colWidths=list(widths[cols] / widths[cols].sum()),
-                                 bbox=[0, 0, 1, 1], cellLoc=align, colLoc=align)
-                table.auto_set_font_size(False)
-                table.set_fontsize(fontsize)
-                for (r, c), cell in table.get_celld().items():
-                    cell.set_height((header_in if r == 0 else row_heights[rows[r - 1]]) / table_h)
-                    cell.set_linewidth(0.4)
-                    cell.set_edgecolor("0.7")
-                    cell.PAD = 0.5 * _PAD_EM * fontsize / widths[cols[c]]  # fraction of the cell width
-                    if r == 0:
-                        cell.set_text_props(fontweight="bold")
-                        cell.set_facecolor("0.9")
-                    elif bold is not None and bool(bold.iloc[rows[r - 1], cols[c]]):
-                        cell.set_text_props(fontweight="bold")
+                row_h = [header_in] + [row_heights[i] for i in rows]
+                _draw_table(ax, frame.iloc[rows, cols], widths=widths[cols], heights=np.array(row_h) / table_h,
+                            fontsize=fontsize, align=align, pad=0.5 * _PAD_EM * fontsize / 72 / table_w,
+                            colours=None if colours is None else colours.iloc[rows, cols].to_numpy(),
+                            bold=None if bold is None else bold.iloc[rows, cols].to_numpy(bool))
             y = 1 - (top_in + table_h + 0.12) / h
             for line in note_lines:
                 fig.text(_MARGIN_IN / w, y, line, fontsize=_NOTE_SIZE, va="top", ha="left", color="0.2")
                 y -= _NOTE_LINE_IN / h
             pages.append(fig)
     return pages
+
+
+@dataclass(frozen=True)
+class TableCell:
+    """One drawn cell of a :func:`table_pages` table: its text and geometry (axes fractions)."""
+
+    text: Text
+    facecolor: tuple[float, float, float, float]
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+
+
+#: Geometry and colour of the cells of every table drawn, by axes (forgotten with the figure).
+_DRAWN: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _draw_table(ax, chunk: pd.DataFrame, *, widths: np.ndarray, heights: np.ndarray, fontsize: float, align: str,
+                pad: float, colours: np.ndarray | None, bold: np.ndarray | None) -> None:
+    """Draw ``chunk`` (header row first) into ``ax`` filling it: the grid as one line collection, the
+    header and coloured cells as one polygon collection, one text per cell.
+
+    ``widths`` are the columns' widths (any unit), ``heights`` the rows' heights (header first) as
+    fractions of the axes, ``pad`` the horizontal text padding as a fraction of the axes width.  Each
+    cell's text carries the gid ``cell:<row>:<col>`` (row 0: the header), which :func:`table_cells`
+    reads back.  (A matplotlib ``Table`` draws the same with a patch per cell and a layout pass,
+    about twice as slow to save.)
+    """
+    xs = np.concatenate([[0.0], np.cumsum(widths) / widths.sum()])
+    ys = 1.0 - np.concatenate([[0.0], np.cumsum(heights)])
+    ys[-1] = 0.0
+    n_rows, n_cols = len(heights), len(widths)
+    faces = [(c, 0, "0.9") for c in range(n_cols)]
+    if colours is not None:
+        faces += [(c, r + 1, colours[r, c]) for r in range(n_rows - 1) for c in range(n_cols)
+                  if colours[r, c] and to_rgba(colours[r, c]) != to_rgba("white")]
+    cells = {(r, c): to_rgba("white") for r in range(n_rows) for c in range(n_cols)}
+    if faces:
+        polys = [[(xs[c], ys[r + 1]), (xs[c + 1], ys[r + 1]), (xs[c + 1], ys[r]), (xs[c], ys[r])] for c, r, _ in faces]
+        ax.add_collection(PolyCollection(polys, facecolors=[f for *_, f in faces], edgecolors="none",
+                                         transform=ax.transAxes, zorder=0))
+        cells.update({(r, c): to_rgba(f) for c, r, f in faces})
+    grid = [[(0, y), (1, y)] for y in ys] + [[(x, ys[-1]), (x, ys[0])] for x in xs]
+    ax.add_collection(LineCollection(grid, colors="0.7", linewidths=0.4, transform=ax.transAxes, zorder=1))
+    texts = [list(map(str, chunk.columns))] + chunk.to_numpy().tolist()
+    for r, row in enumerate(texts):
+        for c, text in enumerate(row):
+            x = {"left": xs[c] + pad, "right": xs[c + 1] - pad}.get(align, (xs[c] + xs[c + 1]) / 2)
+            heavy = r == 0 or (bold is not None and bool(bold[r - 1, c]))
+            t = ax.text(x, (ys[r] + ys[r + 1]) / 2, text, ha=align, va="center", fontsize=fontsize,
+                        fontweight="bold" if heavy else "normal", transform=ax.transAxes, clip_on=False, zorder=2)
+            t.set_gid(f"cell:{r}:{c}")
+    _DRAWN[ax] = {(r, c): (xs[c], xs[c + 1], ys[r + 1], ys[r], cells[(r, c)]) for r in range(n_rows)
+                  for c in range(n_cols)}
+
+
+def table_cells(ax) -> dict[tuple[int, int], TableCell]:
+    """The cells :func:`table_pages` drew into ``ax``, by (row, column), row 0 the header; {} if none."""
+    geometry = _DRAWN.get(ax, {})
+    texts = {tuple(map(int, t.get_gid().split(":")[1:])): t for t in ax.texts
+             if (t.get_gid() or "").startswith("cell:")}
+    return {key: TableCell(text=texts[key], facecolor=face, x0=x0, x1=x1, y0=y0, y1=y1)
+            for key, (x0, x1, y0, y1, face) in geometry.items()}
 
 
 @dataclass(frozen=True)

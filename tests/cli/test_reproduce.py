@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 from pathlib import Path
 
 import pandas as pd
@@ -28,12 +29,21 @@ def _run(argv: list[str]) -> tuple[int, str, str]:
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
-    """One real ``reproduce --quick`` of the paper's protocol (the smoke version)."""
+    """One real ``reproduce --quick --out D`` of the paper's protocol (the smoke version), run from an
+    empty working directory: the report goes to ``D/report``; the files before and after are recorded."""
     base = tmp_path_factory.mktemp("quick")
-    code, out, err = _run(["reproduce", "--quick", "--experiment", str(PAPER_TOML),
-                           "--out", str(base / "results"), "--reports", str(base / "reports"),
-                           "--no-progress"])
-    return base, code, out, err
+    cwd = base / "cwd"
+    cwd.mkdir()
+    before = sorted(p.relative_to(base) for p in base.rglob("*"))
+    old = os.getcwd()
+    os.chdir(cwd)
+    try:
+        code, out, err = _run(["reproduce", "--quick", "--experiment", str(PAPER_TOML),
+                               "--out", str(base / "results"), "--no-progress"])
+    finally:
+        os.chdir(old)
+    new = [p for p in sorted(p.relative_to(base) for p in base.rglob("*")) if p not in before]
+    return base, code, out, err, new
 
 
 def _pages(pdf: Path) -> list[str]:
@@ -42,19 +52,19 @@ def _pages(pdf: Path) -> list[str]:
 
 @pytest.mark.slow
 def test_reproduce_quick_succeeds_and_says_where(quick):
-    base, code, out, err = quick
+    base, code, out, err, _ = quick
     assert code == 0, err
     assert f"results: {base / 'results'}" in out
-    assert str(base / "reports" / "report.pdf") in out
+    assert str(base / "results" / "report" / "report.pdf") in out
     assert "36 jobs:" in out and "36 run now" in out  # (systematic 5 + random 2 + fixed 2 cases) x 4
     assert "comparable statements agree with the paper" in out
 
 
 @pytest.mark.slow
 def test_reproduce_quick_writes_a_readable_pdf_with_the_table2_page(quick):
-    base, code, _, err = quick
+    base, code, _, err, _ = quick
     assert code == 0, err
-    pdf = base / "reports" / "report.pdf"
+    pdf = base / "results" / "report" / "report.pdf"
     reader = pypdf.PdfReader(str(pdf))
     pages = [p.extract_text() for p in reader.pages]
     assert len(pages) >= 12
@@ -74,9 +84,9 @@ def test_reproduce_quick_writes_a_readable_pdf_with_the_table2_page(quick):
 
 @pytest.mark.slow
 def test_reproduce_quick_writes_the_tables(quick):
-    base, code, _, err = quick
+    base, code, _, err, _ = quick
     assert code == 0, err
-    reports = base / "reports"
+    reports = base / "results" / "report"
     for name in OUTPUTS:
         assert (reports / name).is_file(), name
     t2 = pd.read_csv(reports / "table2.csv", dtype=str, keep_default_na=False)
@@ -97,7 +107,7 @@ def test_reproduce_quick_writes_the_tables(quick):
 
 @pytest.mark.slow
 def test_report_rebuilds_from_saved_results_without_rerunning(quick, tmp_path, monkeypatch):
-    base, code, _, err = quick
+    base, code, _, err, _ = quick
     assert code == 0, err
     import faultlab.runner
     import faultlab.runner.execution
@@ -114,8 +124,8 @@ def test_report_rebuilds_from_saved_results_without_rerunning(quick, tmp_path, m
     assert code == 0, err
     assert "report written to" in out
     for name in ("table2.csv", "table2.md", "table2.tex", "detection_rates.csv", "comparison.md"):
-        assert (tmp_path / "again" / name).read_text() == (base / "reports" / name).read_text(), name
-    assert len(_pages(tmp_path / "again" / "report.pdf")) == len(_pages(base / "reports" / "report.pdf"))
+        assert (tmp_path / "again" / name).read_text() == (base / "results" / "report" / name).read_text(), name
+    assert len(_pages(tmp_path / "again" / "report.pdf")) == len(_pages(base / "results" / "report" / "report.pdf"))
     assert load_metadata(base / "results")["sessions"] == sessions
 
 
@@ -152,26 +162,14 @@ def test_ablation_options_are_checked_before_anything_runs(tmp_path):
 
 
 @pytest.mark.slow
-def test_reproduce_quick_writes_only_under_out(tmp_path, monkeypatch):
+def test_reproduce_quick_writes_only_under_out(quick):
     """From an empty working directory, ``reproduce --quick --out D`` writes the store, the cases and the
-    report under D, and nothing anywhere else (shrunk further: tiny cases, few steps and particles)."""
-    import faultlab.campaigns.reproduce as rp
-    from tests.report.conftest import write_tiny_experiment
-
-    monkeypatch.setattr(rp, "QUICK_STEPS", 15)
-    monkeypatch.setattr(rp, "QUICK_PARTICLES", 6)
-    experiment = write_tiny_experiment(tmp_path / "experiment")
-    cwd, out = tmp_path / "cwd", tmp_path / "D"
-    cwd.mkdir()
-    monkeypatch.chdir(cwd)
-    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
-    code, printed, err = _run(["reproduce", "--quick", "--experiment", str(experiment), "--out", str(out),
-                               "--no-progress"])
+    report under D, and nothing anywhere else."""
+    base, code, printed, err, new = quick
     assert code == 0, err
-    assert list(cwd.iterdir()) == []
-    after = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
-    new = [p for p in after if p not in before]
-    assert new and all(p.parts[0] == "D" for p in new), new
+    out = base / "results"
+    assert list((base / "cwd").iterdir()) == []
+    assert new and all(p.parts[0] == "results" for p in new), new
     assert (out / "results.sqlite").is_file() and any((out / "cases").rglob("*.npz"))
     for name in OUTPUTS:
         assert (out / "report" / name).is_file(), name

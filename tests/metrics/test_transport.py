@@ -110,6 +110,7 @@ def monkeypatch_sparse():
 
     mp = pytest.MonkeyPatch()
     mp.setattr(transport, "DENSE_PAIRS", 0)
+    mp.setattr(transport, "DENSE_FALLBACK_PAIRS", 0)  # every round it needs, no early dense answer
     yield
     mp.undo()
 
@@ -135,7 +136,33 @@ def test_sparse_route_with_missing_neighbourhood_arcs(monkeypatch):
     from faultlab.metrics import transport
 
     monkeypatch.setattr(transport, "DENSE_PAIRS", 0)
+    monkeypatch.setattr(transport, "DENSE_FALLBACK_PAIRS", 0)
     rng = np.random.default_rng(11)
     p = np.concatenate([rng.normal(0, 0.1, size=(30, 2)), rng.normal(50, 0.1, size=(10, 2))])
     q = np.concatenate([rng.normal(0, 0.1, size=(10, 2)), rng.normal(50, 0.1, size=(25, 2))])
     np.testing.assert_allclose(transport.earth_movers_distance(p, q), _pot_emd(p, q), rtol=1e-9)
+
+
+def test_a_drifted_map_gives_way_to_the_dense_solver_after_the_round_budget(monkeypatch):
+    # A rotated and shifted map (as dead reckoning drifts): the optimal plan is not local, arc
+    # generation would need about 9 rounds; below DENSE_FALLBACK_PAIRS it stops after _QUICK_ROUNDS
+    # solves and the dense solver answers, with POT's value.
+    import ot
+
+    from faultlab.metrics import transport
+
+    rng = np.random.default_rng(3)
+    p = rng.uniform(0, 10, size=(1500, 2))
+    turn = np.array([[np.cos(0.05), -np.sin(0.05)], [np.sin(0.05), np.cos(0.05)]])
+    q = p[:1400] @ turn.T + 0.5
+    # the shipped thresholds (the module's sparse fixture may have changed them for earlier tests)
+    monkeypatch.setattr(transport, "DENSE_PAIRS", 1_500_000)
+    monkeypatch.setattr(transport, "DENSE_FALLBACK_PAIRS", 6_000_000)
+    assert transport.DENSE_PAIRS < p.shape[0] * q.shape[0] <= transport.DENSE_FALLBACK_PAIRS
+    solves, dense = [], []
+    emd2, dense_route = ot.emd2, transport._dense
+    monkeypatch.setattr(ot, "emd2", lambda *a, **k: solves.append(1) or emd2(*a, **k))
+    monkeypatch.setattr(transport, "_dense", lambda *a: dense.append(1) or dense_route(*a))
+    value = transport.earth_movers_distance(p, q)
+    assert dense == [1] and len(solves) == transport._QUICK_ROUNDS + 1   # the budget's solves, then the dense one
+    np.testing.assert_allclose(value, _pot_emd(p, q), rtol=1e-9)

@@ -7,7 +7,7 @@ import pypdf  # test dependency (pyproject [test] extra): reads the PDF back
 from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 
-from faultlab.report.pdf import PAGE_TITLE_ATTR, page_title, table_pages, text_pages, write_pdf
+from faultlab.report.pdf import PAGE_TITLE_ATTR, page_title, table_cells, table_pages, text_pages, write_pdf
 
 
 def _texts(fig: Figure) -> list[str]:
@@ -41,16 +41,23 @@ def test_table_pages_split_rows_and_colour_cells():
     bold.loc[3, "b"] = True
     pages = table_pages("T", frame, colours=colours, bold=bold, max_rows=10, note="a note")
     assert [page_title(p) for p in pages] == ["T", "T (continued)", "T (continued)"]
-    table = pages[0].axes[0].tables[0]
-    cells = table.get_celld()
+    cells = table_cells(pages[0].axes[0])
     assert len(cells) == (10 + 1) * 2  # header + 10 rows, 2 columns
-    assert cells[(0, 0)].get_text().get_text() == "a"
-    assert cells[(4, 1)].get_text().get_text() == "x"
-    assert cells[(4, 1)].get_facecolor() == to_rgba("#c6efce")
-    assert cells[(4, 1)].get_text().get_fontweight() == "bold"
-    assert cells[(5, 1)].get_facecolor() == to_rgba("white")
-    last = pages[2].axes[0].tables[0].get_celld()
-    assert last[(5, 0)].get_text().get_text() == "24"
+    assert cells[(0, 0)].text.get_text() == "a" and cells[(0, 0)].text.get_fontweight() == "bold"
+    assert cells[(0, 0)].facecolor == to_rgba("0.9")                       # the header's grey
+    assert cells[(4, 1)].text.get_text() == "x"
+    assert cells[(4, 1)].facecolor == to_rgba("#c6efce")
+    assert cells[(4, 1)].text.get_fontweight() == "bold"
+    assert cells[(5, 1)].facecolor == to_rgba("white") and cells[(5, 1)].text.get_fontweight() == "normal"
+    # the cells tile the axes: rows top to bottom, columns left to right, no gap
+    assert cells[(0, 0)].y1 == 1 and cells[(10, 1)].y0 == 0 and cells[(0, 0)].x0 == 0 and cells[(0, 1)].x1 == 1
+    assert all(cells[(r, 0)].y0 == cells[(r + 1, 0)].y1 for r in range(10))
+    # each text sits inside its cell
+    for cell in cells.values():
+        x, y = cell.text.get_position()
+        assert cell.x0 <= x <= cell.x1 and cell.y0 <= y <= cell.y1
+    last = table_cells(pages[2].axes[0])
+    assert last[(5, 0)].text.get_text() == "24"
     assert "a note" in _texts(pages[0])
 
 
@@ -98,18 +105,18 @@ def test_tables_are_at_least_8_pt_sized_to_their_content_with_the_caption_under_
     for page in pages:
         renderer = _drawn(page)
         (ax,) = page.axes
-        (table,) = ax.tables
-        cells = table.get_celld()
-        assert min(cell.get_text().get_fontsize() for cell in cells.values()) >= 8.0
+        cells = table_cells(ax)
+        assert cells and min(cell.text.get_fontsize() for cell in cells.values()) >= 8.0
         # Every column is about as wide as its widest text: never 40 % blank.
+        axes_w = ax.get_window_extent(renderer).width
         columns = {c for _, c in cells}
         for c in columns:
             col = [cells[(r, cc)] for r, cc in cells if cc == c]
-            text_w = max(cell.get_text().get_window_extent(renderer).width for cell in col)
-            cell_w = col[0].get_window_extent(renderer).width
+            text_w = max(cell.text.get_window_extent(renderer).width for cell in col)
+            cell_w = (col[0].x1 - col[0].x0) * axes_w
             assert text_w <= cell_w and text_w >= 0.6 * cell_w
         # The key column is repeated on every page; the caption sits right under the table.
-        assert cells[(1, 0)].get_text().get_text() == "row 0"
+        assert cells[(1, 0)].text.get_text() == "row 0"
         table_bottom = ax.get_window_extent(renderer).y0
         (caption,) = [t for t in page.texts if t.get_text() == "the caption"]
         gap = table_bottom - caption.get_window_extent(renderer).y1
@@ -119,6 +126,6 @@ def test_tables_are_at_least_8_pt_sized_to_their_content_with_the_caption_under_
 def test_long_cell_texts_wrap_instead_of_shrinking_the_font():
     frame = pd.DataFrame({"name": ["a", "b"], "text": ["word " * 80, "short"]})
     (page,) = table_pages("Long", frame)
-    cells = page.axes[0].tables[0].get_celld()
-    assert cells[(1, 1)].get_text().get_text().count("\n") >= 2
-    assert cells[(1, 1)].get_text().get_fontsize() >= 8.0
+    cells = table_cells(page.axes[0])
+    assert cells[(1, 1)].text.get_text().count("\n") >= 2
+    assert cells[(1, 1)].text.get_fontsize() >= 8.0
