@@ -4,7 +4,8 @@
 metadata.  Both classify every faulty job once (:func:`faultlab.stats.outcomes`, with the
 detection rule stored with the campaign) and derive every table from that classification:
 detection rates with confidence intervals and "by Suite" (Table II, Sec. VII-D), false alarms,
-the statistical oracle, suite comparisons and parameter effects (beyond the paper), Table II's
+the statistical oracle, suite comparisons, parameter effects and the continuous effects
+(:func:`faultlab.analysis.effects.campaign_effects`; beyond the paper), Table II's
 cells, coverage (Sec. V) and the paper's own figures recomputed from its raw data
 (:func:`faultlab.stats.paper_table`).  Reports, figures and commands render an
 :class:`Analysis`; they never compute a statistic themselves.
@@ -28,10 +29,12 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from faultlab.analysis.effects import campaign_effects
 from faultlab.analysis.metadata import (adaptive_summary, count_expected_jobs, judged_metric, metrics_note,
                                         read_rule, read_space)
 from faultlab.analysis.schema import (
     BY_SUITE,
+    CAMPAIGN_EFFECTS,
     CASE_COMPARISONS,
     CASE_RATES,
     CLASS_EFFECTS,
@@ -88,7 +91,7 @@ JSON_FILE = "analysis.json"
 #: Tables of the statistics beyond the paper; a :class:`Note` under one of these names says why
 #: the table holds nothing to show.
 BEYOND_THE_PAPER: tuple[str, ...] = ("false_alarms", "oracle", "suite_comparisons", "parameter_effects",
-                                      "case_verdicts", "case_rates", "suite_verdicts", "case_comparisons",
+                                      "campaign_effects", "case_verdicts", "case_rates", "suite_verdicts", "case_comparisons",
                                       "replica_false_alarms", "paper_comparisons", "class_effects")
 
 
@@ -140,7 +143,8 @@ class Analysis:
     ------
     jobs, cases, outcomes, detection_rates, by_suite, false_alarms, oracle, oracle_summary,
     suite_comparisons, parameter_effects, table2_cells, paper_rates, paper_by_suite, coverage,
-    runtimes, case_verdicts, case_rates, suite_verdicts, case_comparisons, replica_false_alarms, paper_comparisons, class_effects : DataFrame
+    runtimes, case_verdicts, case_rates, suite_verdicts, case_comparisons, replica_false_alarms, paper_comparisons,
+    class_effects, campaign_effects : DataFrame
         Treat them as read-only.
     """
 
@@ -175,6 +179,7 @@ class Analysis:
     replica_false_alarms: pd.DataFrame
     paper_comparisons: pd.DataFrame
     class_effects: pd.DataFrame
+    campaign_effects: pd.DataFrame
 
     # ------------------------------------------------------------------ construction
 
@@ -235,8 +240,12 @@ class Analysis:
                                                  parameters=parameters, n_reps=results["rep"].nunique())
         by_case, case_notes = _case_tables(results, pairs, metadata, rule=rule, alpha=alpha, paper=paper_tab,
                                            cases=cases, parameters=parameters, metric=metric)
+        effects, effects_note = _guarded(
+            CAMPAIGN_EFFECTS, lambda: campaign_effects(results, metric=metric, rule=rule, alpha=alpha),
+            "Continuous effects", (FaultlabError, ValueError, np.linalg.LinAlgError))
         notes = (_rule_notes(metadata, stored, rule, metric) + _equivalence_notes(equivalent) + [paper_note]
-                 + _completeness_notes(metadata, len(results)) + [coverage_note] + beyond_notes + case_notes)
+                 + _completeness_notes(metadata, len(results)) + [coverage_note] + beyond_notes + case_notes
+                 + [effects_note])
         return cls(
             rule=rule, alpha=float(alpha), rep=rep, parameters=parameters, metadata=metadata,
             equivalent_faults=equivalent,
@@ -248,6 +257,7 @@ class Analysis:
             by_suite=BY_SUITE.conform(tabulate_by_suite(shown, alpha=alpha)),
             coverage=coverage,
             runtimes=runtime_table(results),
+            campaign_effects=effects,
             **_per_source_tables(results, pairs, paper_tab, rep=rep),
             **beyond,
             **by_case,
@@ -336,6 +346,9 @@ class Analysis:
     def load(cls, directory: str | Path) -> "Analysis":
         """Read an Analysis written by :meth:`save`.
 
+        A table added to the saved form after ``directory`` was written (``campaign_effects``) loads
+        empty, with a :class:`Note` under its name saying so.
+
         Raises
         ------
         ResultsError
@@ -360,8 +373,15 @@ class Analysis:
                 notes=tuple(Note(n["topic"], n["text"]) for n in data["notes"]))
         except (KeyError, TypeError, ValueError, FaultlabError) as exc:
             raise ResultsError(f"{path}: malformed saved analysis ({type(exc).__name__}: {exc})") from exc
-        tables = {s.name: s.read_csv(directory / f"{s.name}.csv") for s in TABLES}
-        return cls(**scalars, **tables)
+        tables, later = {}, []
+        for s in TABLES:
+            path = directory / f"{s.name}.csv"
+            if s.name in _LATER_TABLES and not path.exists():  # saved before the table existed
+                tables[s.name] = s.empty()
+                later.append(Note(s.name, _LATER_TABLES[s.name]))
+            else:
+                tables[s.name] = s.read_csv(path)
+        return cls(**(scalars | {"notes": scalars["notes"] + tuple(later)}), **tables)
 
     def _scalars(self) -> dict:
         """Everything but the tables, JSON-shaped."""
@@ -380,6 +400,11 @@ class Analysis:
 
 
 _TABLE_NAMES = tuple(s.name for s in TABLES)
+#: Tables added to the saved form after its format version: a directory saved before one existed loads
+#: with that table empty and this note under its name.
+_LATER_TABLES: dict[str, str] = {
+    "campaign_effects": "Continuous effects: not available (this analysis was saved before they were part of it; "
+                        "analyse the results store again to compute them)."}
 assert set(_TABLE_NAMES) <= {f.name for f in fields(Analysis)}, "every table of the schema is an Analysis field"
 
 

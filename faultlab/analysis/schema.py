@@ -26,6 +26,7 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
+from faultlab.analysis.effects import CAMPAIGN_EFFECT_COLUMNS
 from faultlab.errors import ResultsError
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.stats.class_effects import CLASS_EFFECT_COLUMNS
@@ -42,7 +43,7 @@ __all__ = ["TableSchema", "KINDS", "THIS_RUN", "PAPER", "ALL_VARIANTS", "TABLES"
     "JOBS", "CASES", "OUTCOMES", "DETECTION_RATES", "BY_SUITE", "FALSE_ALARMS", "ORACLE", "ORACLE_SUMMARY",
     "SUITE_COMPARISONS", "PARAMETER_EFFECTS", "TABLE2_CELLS", "PAPER_RATES", "PAPER_BY_SUITE", "COVERAGE",
     "RUNTIMES", "CASE_VERDICTS", "CASE_RATES", "SUITE_VERDICTS", "CASE_COMPARISONS", "REPLICA_FALSE_ALARMS", "PAPER_COMPARISONS",
-    "CLASS_EFFECTS"]
+    "CLASS_EFFECTS", "CAMPAIGN_EFFECTS"]
 
 #: ``source`` of rows from the analysed campaign.
 THIS_RUN = "this run"
@@ -300,9 +301,15 @@ CLASS_EFFECTS = TableSchema.define(
     "verdicts (ML, Firth where separated), the parameter's LR test with Holm over the fault's parameters, events "
     "per predictor; a (model) row where too few data (faultlab.stats.class_effects.fit_class_effects).",
     CLASS_EFFECT_COLUMNS, df="int")
+CAMPAIGN_EFFECTS = TableSchema.define(
+    "campaign_effects", "Per continuous response (the baseline's difficulty, each fault's effect size): its mean "
+    "over the cases with a t interval, and the cluster-robust regression per parameter where the campaign has "
+    "enough cases per coefficient, else a (size) row saying what it would need "
+    "(faultlab.analysis.effects.campaign_effects).", CAMPAIGN_EFFECT_COLUMNS, response="str", estimate="float")
 
 #: Every table of an Analysis, in the order they are saved.
 TABLES: tuple[TableSchema, ...] = (JOBS, CASES, OUTCOMES, DETECTION_RATES, BY_SUITE, FALSE_ALARMS, ORACLE,
                                    ORACLE_SUMMARY, SUITE_COMPARISONS, PARAMETER_EFFECTS, TABLE2_CELLS,
                                    PAPER_RATES, PAPER_BY_SUITE, COVERAGE, RUNTIMES, CASE_VERDICTS, CASE_RATES,
-                                   SUITE_VERDICTS, CASE_COMPARISONS, REPLICA_FALSE_ALARMS, PAPER_COMPARISONS, CLASS_EFFECTS)
+                                   SUITE_VERDICTS, CASE_COMPARISONS, REPLICA_FALSE_ALARMS, PAPER_COMPARISONS, CLASS_EFFECTS,
+                                   CAMPAIGN_EFFECTS)

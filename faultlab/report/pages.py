@@ -632,19 +632,15 @@ def _suite_comparison_pages(analysis: Analysis) -> list[Figure]:
 
 
 def _effect_pages(analysis: Analysis) -> list[Figure]:
-    """The continuous effect analysis (:func:`faultlab.analysis.effects.campaign_effects`): per case the
-    baseline's difficulty and each fault's effect size, their mean over cases and, where the campaign is
-    large enough, the cluster-robust regression on the parameters; the size it would need otherwise."""
-    from faultlab.analysis.effects import campaign_effects
+    """The continuous effect analysis (the Analysis' ``campaign_effects``): per case the baseline's
+    difficulty and each fault's effect size, their mean over cases and, where the campaign is large
+    enough, the cluster-robust regression on the parameters; the size it would need otherwise."""
     from faultlab.report.effects import response_label
 
-    jobs = analysis.this_run_jobs.drop(columns=["source"]).merge(analysis.cases, on=["run", "suite", "case"],
-                                                                 how="left")
-    metric = str(analysis.metadata.get("metric", "rms"))
-    try:
-        eff = campaign_effects(jobs, metric=metric, rule=analysis.rule, alpha=analysis.alpha)
-    except FaultlabError as exc:
-        return text_pages(EFFECT_PAGE_TITLE, [f"Not available: {exc}"])
+    unavailable = analysis.notes_on("campaign_effects")
+    if unavailable:
+        return text_pages(EFFECT_PAGE_TITLE, [n.text for n in unavailable])
+    eff = analysis.campaign_effects
     log_scale = eff["response"] != "difficulty"
     show = pd.DataFrame({
         "response": eff["response"].map(response_label),
@@ -706,9 +702,11 @@ def _class_effect_pages(analysis: Analysis) -> list[Figure]:
                             f"parameters. Fits need {MIN_EPV:g} events per predictor (EPV).")
 
 
-#: Page renderer of each statistic beyond the paper, in the Analysis' order.
+#: Page renderer of each statistic beyond the paper, in the Analysis' order.  The continuous effects
+#: (``campaign_effects``) are drawn where the parameter effects' page stands, once: _effect_pages.
 _BEYOND_PAGES = {"false_alarms": _false_alarm_pages, "oracle": _oracle_pages,
                  "suite_comparisons": _suite_comparison_pages, "parameter_effects": _effect_pages,
+                 "campaign_effects": lambda analysis: [],
                  "case_verdicts": _case_verdict_pages, "case_rates": _case_rate_pages,
                  "suite_verdicts": _suite_verdict_pages,
                  "case_comparisons": _case_comparison_pages, "replica_false_alarms": _replica_false_alarm_pages,

@@ -14,6 +14,7 @@ import pytest
 
 import faultlab.stats.detection
 from faultlab.analysis import Analysis, Note, analyse
+from faultlab.analysis.effects import CAMPAIGN_EFFECT_COLUMNS
 from faultlab.analysis.schema import TABLES
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import load_metadata, load_results
@@ -345,3 +346,58 @@ def test_saved_analysis_names_no_machine_path_and_older_ones_load_portable(stric
     mine.write_bytes(shipped.read_bytes() + b"\n")
     digest = hashlib.sha256(mine.read_bytes()).hexdigest()
     assert data_label(mine) == f"mine.csv (sha256 {digest})" and data_label("rel/mine.csv") == "rel/mine.csv"
+
+
+def test_campaign_effects_are_those_of_the_results_by_the_judged_metric(rich, strict):
+    import scipy.stats
+
+    from faultlab.analysis.effects import campaign_effects
+
+    ref = _named(campaign_effects(rich, metric="rms", rule=strict.rule, alpha=strict.alpha), "campaign_effects")
+    pd.testing.assert_frame_equal(strict.campaign_effects, ref, check_exact=True)
+    assert strict.notes_on("campaign_effects") == ()
+    # brute force: the difficulty is each case's mean log baseline error over its repetitions; its row is their
+    # mean over the 12 cases with the t interval
+    base = rich[rich["variant"] == "baseline"]
+    per_case = np.log(base["rms_mm"]).groupby([base["run"], base["suite"], base["case"]]).mean()
+    row = strict.campaign_effects.query("response == 'difficulty' and term == '(mean over cases)'").iloc[0]
+    assert row["n_cases"] == len(per_case) == 12
+    assert row["estimate"] == pytest.approx(per_case.mean(), rel=1e-12)
+    interval = scipy.stats.t.interval(0.95, len(per_case) - 1, loc=per_case.mean(), scale=scipy.stats.sem(per_case))
+    assert (row["low"], row["high"]) == pytest.approx(interval, rel=1e-9)
+    # judged by EMD (half the RMS error in these results): the difficulty drops by log 2, the effect sizes
+    # (log ratios of the same repetition) stay
+    emd = Analysis.from_frame(rich, STRICT, metric="emd", paper=False).campaign_effects
+    means = [t.set_index("response").query("term == '(mean over cases)'")["estimate"]
+             for t in (strict.campaign_effects, emd)]
+    assert means[1]["difficulty"] == pytest.approx(means[0]["difficulty"] - np.log(2.0), rel=1e-12)
+    faults = [r for r in means[0].index if r.startswith("effect:")]
+    assert len(faults) == 2 and means[1][faults].to_numpy() == pytest.approx(means[0][faults].to_numpy(), rel=1e-9)
+
+
+def test_campaign_effects_that_cannot_be_computed_leave_an_empty_table_and_a_note(rich, monkeypatch):
+    def fail(*args, **kwargs):
+        raise ResultsError("no baseline jobs")
+
+    monkeypatch.setattr("faultlab.analysis.result.campaign_effects", fail)
+    a = Analysis.from_frame(rich, STRICT, paper=False)
+    assert a.campaign_effects.empty and list(a.campaign_effects.columns) == list(CAMPAIGN_EFFECT_COLUMNS)
+    assert [n.text for n in a.notes_on("campaign_effects")] == ["Continuous effects: not available (no baseline jobs)."]
+    assert not a.case_verdicts.empty  # the other tables are computed
+
+
+def test_an_analysis_saved_before_the_campaign_effects_loads_without_them(strict, tmp_path):
+    strict.save(tmp_path)
+    (tmp_path / "campaign_effects.csv").unlink()
+    old = Analysis.load(tmp_path)
+    assert old.campaign_effects.empty and list(old.campaign_effects.columns) == list(CAMPAIGN_EFFECT_COLUMNS)
+    (note,) = old.notes_on("campaign_effects")
+    assert "saved before" in note.text and "analyse the results store again" in note.text
+    assert old.notes[:-1] == strict.notes
+    assert all(getattr(old, s.name).equals(getattr(strict, s.name)) for s in TABLES if s.name != "campaign_effects")
+    # saved again, it keeps saying so; only that table may be missing
+    old.save(tmp_path / "again")
+    assert Analysis.load(tmp_path / "again").equals(old)
+    (tmp_path / "case_rates.csv").unlink()
+    with pytest.raises(ResultsError, match="case_rates.csv: cannot read table case_rates"):
+        Analysis.load(tmp_path)

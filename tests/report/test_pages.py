@@ -142,3 +142,49 @@ def test_case_level_pages_state_test_alpha_family_and_what_could_not_be_judged()
     why = a.class_effects.query("fault == 'motion_sign_error'")["note"].iloc[0]
     assert why and why in text
     assert "12 cases for 2 coefficients (1 varying parameters + intercept): the regression view needs about 20 cases" in text
+
+
+def test_the_effects_page_renders_the_stored_campaign_effects(two_reps, monkeypatch, tmp_path):
+    import dataclasses
+
+    from faultlab.report.pages import EFFECT_PAGE_TITLE
+    from faultlab.report.pdf import write_pdf
+
+    def computed(*args, **kwargs):
+        raise AssertionError("the report computed the campaign effects itself")
+
+    monkeypatch.setattr("faultlab.analysis.effects.campaign_effects", computed)
+    eff = two_reps.campaign_effects
+    means = eff[eff["term"] == "(mean over cases)"]
+    assert len(means) == 4  # the difficulty and the three faults' effect sizes
+    # a planted estimate in the stored table is what the page prints
+    planted = eff.copy()
+    planted.loc[means.index[0], ["estimate", "low", "high"]] = (1.2345, 1.0, 1.5)
+    pages = beyond_pages(dataclasses.replace(two_reps, campaign_effects=planted))
+    effects = [p for p in pages if page_title(p) == EFFECT_PAGE_TITLE]
+    assert len(effects) == 1
+    text = _text(effects)
+    assert "+1.23 [+1, +1.5]" in text
+    for e, lo, hi in means[["estimate", "low", "high"]].to_numpy()[1:]:
+        assert f"{e:+.3g} [{lo:+.3g}, {hi:+.3g}]" in text
+    write_pdf(tmp_path / "report.pdf", pages)
+    assert (tmp_path / "report.pdf").stat().st_size > 0
+
+
+def test_the_effects_page_says_why_the_campaign_effects_are_missing(monkeypatch):
+    from faultlab.analysis import BEYOND_THE_PAPER
+    from faultlab.errors import ResultsError
+    from faultlab.report.pages import EFFECT_PAGE_TITLE
+
+    def fail(*args, **kwargs):
+        raise ResultsError("no baseline jobs")
+
+    monkeypatch.setattr("faultlab.analysis.result.campaign_effects", fail)
+    a = Analysis.from_frame(_results(reps=2), paper=False)
+    pages = beyond_pages(a)
+    effects = [p for p in pages if page_title(p) == EFFECT_PAGE_TITLE]
+    assert len(effects) == 1
+    assert "Continuous effects: not available (no baseline jobs)." in _text(effects)
+    # the reason is also on the page of what these results allow, not among the report's general notes
+    assert "Continuous effects: not available (no baseline jobs)." in _text(pages[:1])
+    assert "campaign_effects" in BEYOND_THE_PAPER
