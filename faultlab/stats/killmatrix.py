@@ -96,7 +96,7 @@ from faultlab.stats.cases import holm_within, rule_verdicts
 from faultlab.stats.detection import outcomes
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.stats.sequential import Look
-from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, case_verdicts
+from faultlab.stats.verdict import MAX_EXACT_PAIRS, TOO_FEW_PAIRS, Verdict, case_verdicts
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects", "combined_detects",
@@ -306,10 +306,15 @@ def judge_suite(km: KillMatrix, rows, *, alpha: float = DEFAULT_ALPHA, method: s
     rejecting = suite_rejections(p, alpha=alpha, method=method)
     means = km.mean_log_ratio[rows].T
     pooled = np.full(len(km.variants), np.nan)
+    exact: dict[int, list[tuple[int, np.ndarray]]] = {}
     for j in range(len(km.variants)):
         m = means[j][~np.isnan(means[j]) & ~np.isnan(p[j])]
-        if m.size:
+        if m.size > MAX_EXACT_PAIRS:  # Monte Carlo: one variant after another, as the rng's draws go
             pooled[j] = pooled_pvalues(m[None, :], rng=rng)[0][0]
+        elif m.size:
+            exact.setdefault(m.size, []).append((j, m))
+    for group in exact.values():  # the enumerated test of every variant with as many tested cases at once
+        pooled[[j for j, _ in group]] = pooled_pvalues(np.stack([m for _, m in group]))[0]
     both = suite_decisions(p, pooled, failed, alpha=alpha)
     return pd.DataFrame({"variant": list(km.variants),
                          "detected": failed.any(axis=1) | rejecting.any(axis=1),

@@ -322,6 +322,26 @@ def test_judge_suite_pools_a_diffuse_effect_the_per_case_minimum_misses():
     assert j.loc["diffuse", "by_pool"] and not j.loc["diffuse", "by_case"]
     assert not j.loc["none", "detected_pooled"]
 
+
+def test_judge_suite_pools_every_variant_as_the_pooled_test_of_its_own_case_means():
+    # variants with different numbers of tested cases (a case without a usable pair is left out)
+    # are judged together by size; each pooled p is the test of that variant's case means alone
+    from faultlab.stats.pooling import pooled_pvalues
+
+    rng = np.random.default_rng(9)
+    diffs = {("random", c): {f"v{i}": list(rng.normal(40.0 * i, 30.0, 6)) for i in range(4)} for c in range(1, 9)}
+    for c, v in ((2, "v2"), (5, "v2"), (6, "v3")):
+        diffs[("random", c)][v] = "crash"                        # no usable pair: the case is untested
+    km = kill_matrix(_results(diffs, k=6), rule=DetectionRule())
+    j = judge_suite(km, np.arange(8)).set_index("variant")
+    sizes = {}
+    for v in ("v0", "v1", "v2", "v3"):
+        means = km.mean_log_ratio[:, km.variants.index(v)]
+        means = means[~np.isnan(means) & ~np.isnan(km.p[:, km.variants.index(v)])]
+        sizes[v] = means.size
+        assert j.loc[v, "pooled_p"] == pooled_pvalues(means[None, :])[0][0], v
+    assert sizes == {"v0": 8, "v1": 8, "v2": 6, "v3": 7}
+
 # -- the per-case kill of a mutation campaign, the [study] table --------------------------------
 
 
