@@ -18,6 +18,7 @@ runs = 1
 n_steps = 30
 repetitions = 7
 timeout_s = 60.0
+metrics = ["rms"]
 [suites]
 random = 2
 fixed = 1
