@@ -356,6 +356,7 @@ def test_a_sample_of_live_mutants_batched_is_bit_identical_to_single_runs(scenar
     sample = random.Random(0).sample(live, 30)
     seeds = SEEDS[:3]
     compared = identical = rerun_alone = 0
+    differing = []
     for mutant in sample:
         fault = mutant_fault(mutant, FastSlamSteps)
 
@@ -377,7 +378,17 @@ def test_a_sample_of_live_mutants_batched_is_bit_identical_to_single_runs(scenar
             assert all(o.error is not None for o in first), mutant.id
             rerun_alone += 1
             continue
-        identical += all(_outcomes_equal(a, b) for a, b in zip(first, got))
+        if all(_outcomes_equal(a, b) for a, b in zip(first, got)):
+            identical += 1
+            continue
+        # a batch that differs: a batching difference only if the batch itself is reproducible (a
+        # mutant may read a work array it never fills, whose content depends on earlier allocations)
+        np.ones((4096, 64)) @ np.ones((64, 64))
+        again = batched(make, scenario, seeds)
+        if not all(_outcomes_equal(a, b) for a, b in zip(got, again)):
+            compared -= 1
+            continue
+        differing.append(mutant.id)
     assert compared >= 25
-    assert identical + rerun_alone == compared
+    assert identical + rerun_alone == compared, differing
     assert identical >= compared // 2
