@@ -61,6 +61,9 @@ def register(subparsers) -> None:
         **epilog(["faultlab report results/quick", "faultlab report reports/store --reports reports"]))
     r.add_argument("results", help="results directory (or its results.sqlite)")
     r.add_argument("--reports", default=None, help="report directory (default: RESULTS/report)")
+    r.add_argument("--no-pdf", action="store_true",
+                   help="write the tables, the comparison and fidelity only, without report.pdf (seconds instead of "
+                        "tens of seconds)")
     r.set_defaults(func=report_handler)
 
 
@@ -100,5 +103,5 @@ def report_handler(args: argparse.Namespace) -> int:
     from faultlab.runner.store import results_path
 
     reports = args.reports if args.reports is not None else default_reports(results_path(args.results).parent)
-    print(rebuild_report(args.results, reports))
+    print(rebuild_report(args.results, reports, pdf=not args.no_pdf))
     return 0

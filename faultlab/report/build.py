@@ -52,9 +52,11 @@ class ReportFiles:
     Attributes
     ----------
     reports_dir : Path
-    table2_csv, table2_md, table2_tex, detection_csv, detection_md, comparison_md, pdf : Path
+    table2_csv, table2_md, table2_tex, detection_csv, detection_md, comparison_md : Path
+    pdf : Path or None
+        ``report.pdf``; None when the report was written without it (``pdf=False``).
     n_pages : int
-        Pages of ``report.pdf``.
+        Pages of ``report.pdf`` (0 without it).
     page_titles : tuple of str
         Title of every page, in order.
     comparison : Comparison
@@ -72,7 +74,7 @@ class ReportFiles:
     detection_csv: Path
     detection_md: Path
     comparison_md: Path
-    pdf: Path
+    pdf: Path | None
     n_pages: int
     page_titles: tuple[str, ...]
     comparison: Comparison
@@ -81,13 +83,13 @@ class ReportFiles:
 
     @property
     def files(self) -> list[Path]:
-        return [self.table2_csv, self.table2_md, self.table2_tex, self.detection_csv,
-                self.detection_md, self.comparison_md, self.pdf]
+        return [p for p in (self.table2_csv, self.table2_md, self.table2_tex, self.detection_csv,
+                            self.detection_md, self.comparison_md, self.pdf) if p is not None]
 
     def __str__(self) -> str:
         lines = [f"report written to {self.reports_dir} ({self.n_rows} result rows):"]
-        lines += [f"  {p}" for p in self.files[:-1]]
-        lines.append(f"  {self.pdf} ({self.n_pages} pages)")
+        lines += [f"  {p}" for p in self.files if p != self.pdf]
+        lines.append(f"  {self.pdf} ({self.n_pages} pages)" if self.pdf is not None else "  (no PDF: pdf=False)")
         lines.append(self.comparison.summary())
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
@@ -96,7 +98,7 @@ class ReportFiles:
 def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: float = DEFAULT_ALPHA,
                  range_factor: float = 2.0, paper_raw: str | Path | None = None,
                  paper_reported: str | Path | None = None, fidelity: Fidelity | None = None,
-                 ablation: AblationResult | None = None) -> ReportFiles:
+                 ablation: AblationResult | None = None, pdf: bool = True) -> ReportFiles:
     """Write Table II, detection rates, the comparison and ``report.pdf`` from saved results.
 
     Parameters
@@ -117,6 +119,8 @@ def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: flo
         The map errors against the paper's raw data: rendered as pages of ``report.pdf``.
     ablation : AblationResult, optional
         The effects of the paper profile's differences: rendered as pages of ``report.pdf``.
+    pdf : bool
+        Write ``report.pdf`` (False: the tables and the comparison only, in a fraction of the time).
 
     Returns
     -------
@@ -129,12 +133,12 @@ def build_report(results_dir: str | Path, reports_dir: str | Path, *, alpha: flo
     """
     analysis = analyse(results_dir, alpha=alpha, paper_raw=paper_raw, paper_reported=paper_reported)
     return render_report(analysis, reports_dir, store_dir=results_dir, range_factor=range_factor,
-                         fidelity=fidelity, ablation=ablation)
+                         fidelity=fidelity, ablation=ablation, pdf=pdf)
 
 
 def render_report(analysis: Analysis, reports_dir: str | Path, *, store_dir: str | Path | None = None,
                   range_factor: float = 2.0, fidelity: Fidelity | None = None,
-                  ablation: AblationResult | None = None) -> ReportFiles:
+                  ablation: AblationResult | None = None, pdf: bool = True) -> ReportFiles:
     """Write the report of an Analysis (e.g. one loaded with :meth:`Analysis.load`).
 
     Parameters
@@ -145,7 +149,7 @@ def render_report(analysis: Analysis, reports_dir: str | Path, *, store_dir: str
     store_dir : path, optional
         The results store whose saved test cases are pictured; default the store the analysis
         was made from (its metadata's ``path``).  Cases that cannot be read are noted.
-    range_factor, fidelity, ablation
+    range_factor, fidelity, ablation, pdf
         As for :func:`build_report`.
     """
     reports_dir = Path(reports_dir)
@@ -154,6 +158,11 @@ def render_report(analysis: Analysis, reports_dir: str | Path, *, store_dir: str
     comparison_md = reports_dir / "comparison.md"
     comparison_md.write_text(comparison.markdown(), encoding="utf-8")
     general = [n.text for n in analysis.notes if n.topic not in BEYOND_THE_PAPER]
+    files = dict(reports_dir=reports_dir, table2_csv=tables.table2_csv, table2_md=tables.table2_md,
+                 table2_tex=tables.table2_tex, detection_csv=tables.detection_csv, detection_md=tables.detection_md,
+                 comparison_md=comparison_md, comparison=comparison, n_rows=analysis.n_rows)
+    if not pdf:
+        return ReportFiles(**files, pdf=None, n_pages=0, page_titles=(), notes=tuple(general))
     pictures, seeds, picture_notes = case_pages(_store_dir(analysis, store_dir), analysis)
     notes = general + picture_notes
     extra = ((fidelity_pages(fidelity, ablation) if fidelity is not None else [])
@@ -161,12 +170,9 @@ def render_report(analysis: Analysis, reports_dir: str | Path, *, store_dir: str
     pages = (summary_pages(analysis, comparison) + title_pages(analysis, comparison, notes)
              + _body_pages(analysis, comparison, pictures, extra)
              + metadata_pages(analysis, seeds))
-    pdf = _write_pdf(analysis, reports_dir, pages)
-    return ReportFiles(
-        reports_dir=reports_dir, table2_csv=tables.table2_csv, table2_md=tables.table2_md,
-        table2_tex=tables.table2_tex, detection_csv=tables.detection_csv, detection_md=tables.detection_md,
-        comparison_md=comparison_md, pdf=pdf.path, n_pages=pdf.n_pages, page_titles=pdf.titles,
-        comparison=comparison, n_rows=analysis.n_rows, notes=tuple(notes))
+    written = _write_pdf(analysis, reports_dir, pages)
+    return ReportFiles(**files, pdf=written.path, n_pages=written.n_pages, page_titles=written.titles,
+                       notes=tuple(notes))
 
 
 def _store_dir(analysis: Analysis, store_dir: str | Path | None) -> Path:

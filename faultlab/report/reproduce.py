@@ -31,11 +31,11 @@ class RebuiltReport:
 
 
 def rebuild_report(results: str | Path, reports: str | Path, *,
-                   ablation: AblationResult | None = None) -> RebuiltReport:
+                   ablation: AblationResult | None = None, pdf: bool = True) -> RebuiltReport:
     """Write the report of saved results (tables, fidelity.csv/.md, report.pdf), running nothing.
 
     The ablation's pages only when its result is given (its arms are separate campaigns:
-    ``reproduce --ablation`` resumes them).
+    ``reproduce --ablation`` resumes them); ``pdf=False`` writes the tables without ``report.pdf``.
 
     Raises
     ------
@@ -43,5 +43,5 @@ def rebuild_report(results: str | Path, reports: str | Path, *,
         No results store at ``results``, or it holds no rows.
     """
     fid = fidelity(results)  # computed once, rendered as fidelity.md and as pages of report.pdf
-    report = build_report(results, reports, fidelity=fid, ablation=ablation)
+    report = build_report(results, reports, fidelity=fid, ablation=ablation, pdf=pdf)
     return RebuiltReport(report=report, fidelity=write_fidelity(fid, reports, ablation))

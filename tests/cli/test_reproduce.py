@@ -129,6 +129,18 @@ def test_report_rebuilds_from_saved_results_without_rerunning(quick, tmp_path, m
     assert load_metadata(base / "results")["sessions"] == sessions
 
 
+
+@pytest.mark.slow
+def test_report_without_the_pdf_writes_the_same_tables_and_no_pdf(quick, tmp_path):
+    base, code, _, err, _ = quick
+    assert code == 0, err
+    code, out, err = _run(["report", str(base / "results"), "--reports", str(tmp_path / "tables"), "--no-pdf"])
+    assert code == 0, err
+    assert "(no PDF" in out and not (tmp_path / "tables" / "report.pdf").exists()
+    for name in ("table2.csv", "table2.md", "table2.tex", "detection_rates.csv", "detection_rates.md",
+                 "comparison.md", "fidelity.csv", "fidelity.md"):
+        assert (tmp_path / "tables" / name).read_text() == (base / "results" / "report" / name).read_text(), name
+
 def test_report_without_results_is_a_clear_error(tmp_path):
     code, out, err = _run(["report", str(tmp_path / "none"), "--reports", str(tmp_path / "r")])
     assert code == 1
