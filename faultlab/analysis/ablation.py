@@ -90,19 +90,7 @@ class AblationResult(TableBundle):
     SCHEMAS = (ABLATION,)
     META_FILE = ABLATION_JSON
     WHAT = "ablation"
-
-    @property
-    def meta(self) -> dict:
-        """The scalars: ``alpha``, ``n_boot``, ``seed``, ``campaign``."""
-        return {"alpha": self.alpha, "n_boot": self.n_boot, "seed": self.seed, "campaign": self.campaign}
-
-    @classmethod
-    def from_saved(cls, tables: Mapping[str, pd.DataFrame], meta: Mapping) -> "AblationResult":
-        try:
-            return cls(alpha=float(meta["alpha"]), n_boot=int(meta["n_boot"]), seed=int(meta["seed"]),
-                       campaign=dict(meta["campaign"]), ablation=tables["ablation"])
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ResultsError(f"{cls.META_FILE}: not the metadata of a saved {cls.WHAT} ({exc})") from exc
+    META_FIELDS = {"alpha": float, "n_boot": int, "seed": int, "campaign": dict}
 
 
 def paired_effect(paper, alternative, *, n_boot: int = 4000, alpha: float = DEFAULT_ALPHA,

@@ -2,8 +2,8 @@
 
 A frozen dataclass whose fields are its tables (DataFrames, named in ``TABLES``) and its metadata
 inherits :class:`TableBundle`: ``table(name)``, ``save(directory)`` and ``load(directory)``, with the
-metadata in ``META_FILE``.  The metadata is the field ``meta`` (a dict) unless the subclass
-overrides :attr:`~TableBundle.meta` and :meth:`~TableBundle.from_saved`.  A table with a
+metadata in ``META_FILE``.  The metadata is the field ``meta`` (a dict), or, when the subclass
+names them in ``META_FIELDS`` (field -> the type a loaded value is converted to), those scalar fields.  A table with a
 :class:`~faultlab.analysis.schema.TableSchema` in ``SCHEMAS`` is written and read by its schema
 (:meth:`~faultlab.analysis.schema.TableSchema.to_csv`, ``read_csv``), so it loads back exactly.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import ClassVar, Mapping
+from typing import Callable, ClassVar, Mapping
 
 import pandas as pd
 
@@ -29,6 +29,13 @@ class TableBundle:
     META_FILE: ClassVar[str] = "meta.json"
     WHAT: ClassVar[str] = "analysis"
     SCHEMAS: ClassVar[tuple[TableSchema, ...]] = ()
+    #: Scalar fields saved as the metadata, each with the type its saved value is read back as;
+    #: empty: the metadata is the field ``meta``.
+    META_FIELDS: ClassVar[Mapping[str, Callable]] = {}
+
+    def saved_meta(self) -> dict:
+        """The metadata :meth:`save` writes to ``META_FILE``: the ``META_FIELDS``, or the field ``meta``."""
+        return {name: getattr(self, name) for name in self.META_FIELDS} if self.META_FIELDS else self.meta
 
     @classmethod
     def _schema(cls, name: str) -> TableSchema | None:
@@ -49,7 +56,7 @@ class TableBundle:
                 self.table(name).to_csv(d / f"{name}.csv", index=False)
             else:
                 schema.to_csv(self.table(name), d / f"{name}.csv")
-        (d / self.META_FILE).write_text(json.dumps(self.meta, indent=1, sort_keys=True, default=str))
+        (d / self.META_FILE).write_text(json.dumps(self.saved_meta(), indent=1, sort_keys=True, default=str))
         return d
 
     @classmethod
@@ -66,6 +73,12 @@ class TableBundle:
 
     @classmethod
     def from_saved(cls, tables: Mapping[str, pd.DataFrame], meta: Mapping):
-        """The bundle of saved ``tables`` (name -> frame) and ``meta``; a subclass whose metadata is
-        not one ``meta`` field overrides this and :attr:`meta`."""
-        return cls(**tables, meta=dict(meta))
+        """The bundle of saved ``tables`` (name -> frame) and ``meta``: the ``META_FIELDS`` read back
+        with their types, or ``meta`` whole as the field ``meta``."""
+        if not cls.META_FIELDS:
+            return cls(**tables, meta=dict(meta))
+        try:
+            scalars = {name: kind(meta[name]) for name, kind in cls.META_FIELDS.items()}
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ResultsError(f"{cls.META_FILE}: not the metadata of a saved {cls.WHAT} ({exc})") from exc
+        return cls(**tables, **scalars)

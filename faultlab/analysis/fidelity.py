@@ -121,21 +121,7 @@ class Fidelity(TableBundle):
     SCHEMAS = (FIDELITY,)
     META_FILE = FIDELITY_JSON
     WHAT = "fidelity comparison"
-
-    @property
-    def meta(self) -> dict:
-        """The scalars: ``alpha``, ``factor``, ``min_n``, ``n_boot``, ``seed``, ``campaign``."""
-        return {"alpha": self.alpha, "factor": self.factor, "min_n": self.min_n, "n_boot": self.n_boot,
-                "seed": self.seed, "campaign": self.campaign}
-
-    @classmethod
-    def from_saved(cls, tables: Mapping[str, pd.DataFrame], meta: Mapping) -> "Fidelity":
-        try:
-            return cls(alpha=float(meta["alpha"]), factor=float(meta["factor"]), min_n=int(meta["min_n"]),
-                       n_boot=int(meta["n_boot"]), seed=int(meta["seed"]), campaign=dict(meta["campaign"]),
-                       fidelity=tables["fidelity"])
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ResultsError(f"{cls.META_FILE}: not the metadata of a saved {cls.WHAT} ({exc})") from exc
+    META_FIELDS = {"alpha": float, "factor": float, "min_n": int, "n_boot": int, "seed": int, "campaign": dict}
 
 
 def _check(alpha: float, factor: float, n_boot: int, min_n: int) -> None:
