@@ -3,8 +3,9 @@
 A frozen dataclass whose fields are its tables (DataFrames, named in ``TABLES``) and its metadata
 inherits :class:`TableBundle`: ``table(name)``, ``save(directory)`` and ``load(directory)``, with the
 metadata in ``META_FILE``.  The metadata is the field ``meta`` (a dict), or, when the subclass
-names them in ``META_FIELDS`` (field -> the type a loaded value is converted to), those scalar fields.  A table with a
-:class:`~faultlab.analysis.schema.TableSchema` in ``SCHEMAS`` is written and read by its schema
+names them in ``META_FIELDS`` (field -> the type a loaded value is converted to), those scalar
+fields.  A table with a :class:`~faultlab.analysis.schema.TableSchema` in ``SCHEMAS`` is written
+and read by its schema
 (:meth:`~faultlab.analysis.schema.TableSchema.to_csv`, ``read_csv``), so it loads back exactly.
 """
 
