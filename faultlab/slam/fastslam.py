@@ -448,12 +448,7 @@ class FastSlam(UnitSlam):
             logw = self._logw
         self._poses, self._logw = poses, logw
         # resampling (Table 13.1, lines 24-28), filter by filter
-        for j in range(slots):
-            self._call(j, self._resample, j, empty)
-        if self._dead:
-            self._drop_failed()
-        self._record_poses()
-        self._t += 1
+        self._end_step(self._resample, empty)
 
     def estimate(self) -> Estimate:
         self._require_started()
@@ -739,8 +734,13 @@ class FastSlam(UnitSlam):
         else:
             logw = self._logw
         self._poses, self._logw = poses, logw
-        for j in range(slots):
-            self._call(j, self._resample_reference, j, empty)
+        self._end_step(self._resample_reference, empty)
+
+    def _end_step(self, resample: Callable[[int, bool], None], empty: bool) -> None:
+        """The end of a step: ``resample`` each filter, remove those that failed in the step, record
+        the poses and advance the step count."""
+        for j in range(len(self._reps)):
+            self._call(j, resample, j, empty)
         if self._dead:
             self._drop_failed()
         self._record_poses()
