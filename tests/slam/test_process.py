@@ -155,7 +155,6 @@ def test_an_execution_past_its_timeout_is_a_failure():
     assert info.value.rule == "execution-timeout"
 
 
-
 def test_a_request_after_the_execution_deadline_names_the_execution_timeout_not_the_reply_one(monkeypatch):
     # on a loaded machine a step may only be sent after the execution's deadline has passed: the failure
     # is the execution's, whichever of sending or reading the request notices it
@@ -169,14 +168,16 @@ def test_a_request_after_the_execution_deadline_names_the_execution_timeout_not_
         slam.step([0.1, 0.0])
     assert info.value.rule == "execution-timeout"
 
-def test_a_malformed_estimate_names_the_broken_rule(example_slam):
-    slam = ProcessSlam(_config(example_slam, env=(("EXAMPLE_SLAM_BREAK", "estimate"),)))
+
+@pytest.mark.parametrize("breaks, rule", [("estimate", "estimate-landmarks"), ("trajectory", "estimate-trajectory")])
+def test_a_malformed_estimate_of_the_program_names_the_broken_rule(example_slam, breaks, rule):
+    slam = ProcessSlam(_config(example_slam, env=(("EXAMPLE_SLAM_BREAK", breaks),)))
     slam.reset(np.zeros(3), rng=np.random.default_rng(1))
     for u, obs in _scene():
         slam.step(u, obs)
-    with pytest.raises(SlamProcessError, match="rule estimate-landmarks") as info:
+    with pytest.raises(SlamProcessError, match=f"rule {rule}") as info:
         slam.estimate()
-    assert info.value.rule == "estimate-landmarks"
+    assert info.value.rule == rule
 
 
 def test_a_program_that_cannot_start_is_a_slam_failure(tmp_path):
@@ -232,15 +233,6 @@ def test_a_trajectory_is_optional_and_must_have_one_pose_per_step():
         estimate_from_reply(json.dumps(base | {"trajectory": rows}), n_steps=3)
     assert info.value.rule == "estimate-trajectory"
 
-
-def test_a_malformed_trajectory_of_the_program_names_the_broken_rule(example_slam):
-    slam = ProcessSlam(_config(example_slam, env=(("EXAMPLE_SLAM_BREAK", "trajectory"),)))
-    slam.reset(np.zeros(3), rng=np.random.default_rng(1))
-    for u, obs in _scene():
-        slam.step(u, obs)
-    with pytest.raises(SlamProcessError, match="rule estimate-trajectory") as info:
-        slam.estimate()
-    assert info.value.rule == "estimate-trajectory"
 
 
 def test_options_are_validated_and_round_trip():
