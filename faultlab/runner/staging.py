@@ -85,7 +85,9 @@ class StagedDesign:
 
     def smallest_interim_p(self, k: int) -> float:
         """The smallest p value the interim look's exact sign-flip test reaches on ``k`` pairs: ``2^-k``
-        one-sided, ``min(1, 2^(1-k))`` two-sided (every difference of one sign)."""
+        one-sided, ``min(1, 2^(1-k))`` two-sided (every difference of one sign).  The same as
+        :func:`faultlab.stats.verdict.min_p_value`, which the runner, below the statistics, cannot import
+        (a test keeps them equal)."""
         return min(1.0, 2.0 ** (1 - k)) if self.alternative == "two-sided" else 2.0 ** -k
 
     @property

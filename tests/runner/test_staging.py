@@ -9,6 +9,7 @@ from faultlab.runner import load_experiment, load_metadata, load_results, run_ex
 from faultlab.runner.experiment import parse_experiment
 from faultlab.runner.staging import STOPS_KEY, StagedDesign
 from faultlab.stats.sequential import interim_look, interim_p
+from faultlab.stats.verdict import min_p_value
 from faultlab.vocabulary import BASELINE
 from tests.runner.suts import SMALL_SPACE
 
@@ -116,5 +117,6 @@ def test_refusals(tmp_path):
     for k, alternative in ((1, "greater"), (3, "greater"), (2, "two-sided"), (4, "two-sided")):
         design = StagedDesign(stages=(k, k + 1), alternative=alternative, futility=1.0)
         assert design.smallest_interim_p(k) == interim_p(np.arange(1.0, k + 1), alternative=alternative)
+        assert design.smallest_interim_p(k) == min_p_value(k, alternative=alternative)
     # no [adaptive]: the hash is the one it had before the key existed
     assert "adaptive" not in _experiment(adaptive=False).canonical_json()
