@@ -7,6 +7,10 @@ from scipy.spatial.distance import cdist
 
 from faultlab.errors import ScenarioError, SlamOutputError
 from faultlab.metrics import earth_movers_distance
+from faultlab.metrics import transport as _transport
+
+#: The shipped route thresholds, read before any test changes them.
+SHIPPED_THRESHOLDS = {"DENSE_PAIRS": _transport.DENSE_PAIRS, "DENSE_FALLBACK_PAIRS": _transport.DENSE_FALLBACK_PAIRS}
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -156,8 +160,8 @@ def test_a_drifted_map_gives_way_to_the_dense_solver_after_the_round_budget(monk
     turn = np.array([[np.cos(0.05), -np.sin(0.05)], [np.sin(0.05), np.cos(0.05)]])
     q = p[:1400] @ turn.T + 0.5
     # the shipped thresholds (the module's sparse fixture may have changed them for earlier tests)
-    monkeypatch.setattr(transport, "DENSE_PAIRS", 1_500_000)
-    monkeypatch.setattr(transport, "DENSE_FALLBACK_PAIRS", 6_000_000)
+    for name, value in SHIPPED_THRESHOLDS.items():
+        monkeypatch.setattr(transport, name, value)
     assert transport.DENSE_PAIRS < p.shape[0] * q.shape[0] <= transport.DENSE_FALLBACK_PAIRS
     solves, dense = [], []
     emd2, dense_route = ot.emd2, transport._dense
