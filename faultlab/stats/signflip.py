@@ -34,8 +34,9 @@ with the ``2^h`` prefix sums sorted, the patterns with ``g(P) >= t`` are a tail 
 list and those with ``g(P) <= t`` a head; a bisection over the sorted sums finds each boundary
 in ``h + 1`` evaluations of ``g``, each made of the very additions and the division NumPy
 performs.  The counts are therefore SciPy's counts exactly -- no tolerance is re-derived, only
-reproduced -- at a cost of ``2^(K-h) (h + 1) (K - h)`` additions per row and alternative
-instead of ``2^K K``.  Every step is a whole-array NumPy operation over the rows.
+reproduced -- at a cost of a sort of ``2^h`` sums and ``2^(K-h) (h + 1) (K - h)`` additions per
+row and alternative instead of ``2^K K`` additions; with ``K - h`` about ``K / 3``, at ``K = 20``
+a sort of 8,192 sums and 12,544 additions instead of 20,971,520 additions.  Every step is a whole-array NumPy operation over the rows.
 """
 
 from __future__ import annotations
@@ -53,8 +54,8 @@ BATCH_BUDGET = 2 ** 22
 #: SciPy's relative tolerance of the comparison with the observed statistic (100 machine epsilons).
 TIE_TOLERANCE = np.finfo(np.float64).eps * 100
 
-#: Elements of the largest intermediate array of :func:`split_pvalues` (rows x suffix patterns x
-#: suffix pairs); rows are processed in chunks within it.
+#: Elements of the largest intermediate array of :func:`split_pvalues` (rows x prefix patterns, or
+#: rows x suffix patterns x suffix pairs); rows are processed in chunks within it.
 _CHUNK_BUDGET = 2 ** 21
 
 
@@ -130,14 +131,20 @@ def _boundaries(prefix: np.ndarray, suffix: np.ndarray, k: int, threshold: np.nd
     return lo
 
 
+def _suffix_length(k: int) -> int:
+    """Pairs of the suffix: about a third, as a suffix pattern costs ``h + 1`` evaluations of ``K - h``
+    additions and a prefix sum only its share of a sort (measured fastest at ``K = 20``)."""
+    return (k + 1) // 3
+
+
 def _split_counts(d: np.ndarray, low: np.ndarray, high: np.ndarray, *, greater: bool,
                   less: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
     """Patterns whose sequential null mean is ``>= low`` and ``<= high``, per row of ``d`` (m, K)."""
     m, k = d.shape
-    h = (k + 1) // 2
+    rest = _suffix_length(k)
+    h = k - rest
     prefix = np.sort(_prefix_sums(d[:, :h]), axis=1)
     n = prefix.shape[1]
-    rest = k - h
     signs = 1.0 - 2.0 * ((np.arange(2 ** rest)[:, None] >> np.arange(rest)) & 1)  # (S, K - h) of +-1
     suffix = d.T[h:, :, None] * signs.T[:, None, :]  # (K - h, m, S), exact: products with +-1
     count_ge = count_le = None
@@ -176,7 +183,8 @@ def split_pvalues(d: np.ndarray, alternative: str) -> np.ndarray:
     less = alternative in ("less", "two-sided")
     count_ge = np.zeros(m, dtype=np.int64)
     count_le = np.zeros(m, dtype=np.int64)
-    rows = max(1, _CHUNK_BUDGET // (2 ** (k - (k + 1) // 2) * k))
+    rest = _suffix_length(k)
+    rows = max(1, _CHUNK_BUDGET // max(2 ** (k - rest), 2 ** rest * rest))
     for start in range(0, m, rows):
         part = slice(start, start + rows)
         ge, le = _split_counts(d[part], low[part], high[part], greater=greater, less=less)
