@@ -36,7 +36,8 @@ in ``h + 1`` evaluations of ``g``, each made of the very additions and the divis
 performs.  The counts are therefore SciPy's counts exactly -- no tolerance is re-derived, only
 reproduced -- at a cost of a sort of ``2^h`` sums and ``2^(K-h) (h + 1) (K - h)`` additions per
 row and alternative instead of ``2^K K`` additions; with ``K - h`` about ``K / 3``, at ``K = 20``
-a sort of 8,192 sums and 12,544 additions instead of 20,971,520 additions.  Every step is a whole-array NumPy operation over the rows.
+a sort of 8,192 sums and 12,544 additions instead of 20,971,520 additions.  Every step is a
+whole-array NumPy operation over the rows.
 """
 
 from __future__ import annotations
