@@ -381,11 +381,12 @@ def predict_poses(poses, u, eps, noisy, std_v, std_omega, cos_th, sin_th, out):
 
 
 @_jit
-def gather_observed(mu_store, P_store, anc, cols, new_slot, mu_init, P_init, x, n, mb, pb, dx, dy):
+def gather_observed(mu_store, P_store, anc, cols, seen, mu_init, P_init, x, n, mb, pb, dx, dy):
     """The gather of :func:`gather_pairs` for all ``M`` particles, with the observations that start
-    a landmark (``new_slot[j] >= 0``) taking ``mu_init[:, new_slot[j]]`` (2, k_new, M) and
-    ``P_init`` (2, 2, k_new, M) instead (``init_landmarks``), and the offsets of
-    ``predict_measurement``: ``dx = mb[0] - x[:, 0]``, ``dy = mb[1] - x[:, 1]`` (k, M)."""
+    a landmark (``not seen[j]``, the ``s``-th such) taking ``mu_init[:, s]`` (2, k_new, M) and
+    ``P_init[:, :, s]`` (2, 2, k_new, M) instead (``init_landmarks`` of the unseen observations in
+    order), and the offsets of ``predict_measurement``: ``dx = mb[0] - x[:, 0]``,
+    ``dy = mb[1] - x[:, 1]`` (k, M)."""
     k = cols.shape[0]
     m = x.shape[0]
     rows = np.empty((k, m), dtype=np.intp)
@@ -393,11 +394,14 @@ def gather_observed(mu_store, P_store, anc, cols, new_slot, mu_init, P_init, x, 
         off = (i // n) * n
         for j in range(k):
             rows[j, i] = anc[i, cols[j]] + off
+    s = -1
     for j in range(k):
         c = cols[j]
-        s = new_slot[j]
+        new = not seen[j]
+        if new:
+            s += 1
         for i in range(m):
-            if s >= 0:
+            if new:
                 m0 = mu_init[0, s, i]
                 m1 = mu_init[1, s, i]
                 p00 = P_init[0, 0, s, i]
