@@ -729,7 +729,7 @@ class FastSlam(UnitSlam):
                 if math.isfinite(tops[j]):
                     lw -= math.log(np.add.reduce(np.exp(lw)))  # ``np.exp(lw).sum()``
                 elif self._call(j, self._normalise, lw.copy()) is _FAILED:  # raises for one filter
-                    lw[...] = self._logw[sl]
+                    lw[...] = self._logw[j * n:(j + 1) * n]
         else:
             logw = self._logw
         self._poses, self._logw = poses, logw

@@ -369,7 +369,7 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
         Predicted poses of all particles (filters of ``n`` side by side).
     z : ndarray, shape (k, 2)
     cols : ndarray of intp, shape (k,)
-        Storage columns of the observations.
+        Storage columns of the observations (distinct: an id is observed at most once per step).
     seen : ndarray of bool, shape (k,)
         Whether each observation's landmark was seen before.
     init : (mu (M, k_new, 2), P (M, k_new, 2, 2)) or None
@@ -402,17 +402,17 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
     else:
         mi = np.ascontiguousarray(np.asarray(init[0], dtype=float).transpose(2, 1, 0))
         pi = np.ascontiguousarray(np.asarray(init[1], dtype=float).transpose(2, 3, 1, 0))
+    rows = np.empty((k, m), dtype=np.intp)
     mb = np.empty((2, k, m))
-    pb = np.empty((2, 2, k, m))
     dx = np.empty((k, m))
     dy = np.empty((k, m))
-    kn.gather_observed(mu_store, P_store, anc, cols, seen, mi, pi, poses, n, mb, pb, dx, dy)
+    kn.gather_observed(mu_store, anc, cols, seen, mi, poses, n, rows, mb, dx, dy)
     bearing = np.arctan2(dy, dx)
     q00, q01, q11, add = q
     # the kernel reads each pair's dy and bearing before it writes its det and t: they share memory
     t, det = bearing, dy
-    kn.correct_observed(poses, z, seen, mb, pb, dx, dy, bearing, q00, q01, q11, add,
-                        cols, n, mu_store, P_store, anc, t, det)
+    kn.correct_observed(poses, z, seen, mb, rows, pi, dx, dy, bearing, q00, q01, q11, add, cols, n,
+                        mu_store, P_store, anc, t, det)
     np.log(det, out=det)
     shifted = np.empty(m)
     tops = np.empty(m // n)
