@@ -421,33 +421,37 @@ def gather_observed(mu_store, anc, cols, seen, mu_init, x, n, rows, mb, dx, dy):
 def correct_observed(x, z, seen, mb, rows, P_init, dx, dy, bearing, q00, q01, q11, add_q01, cols, n,
                      mu_store, P_store, anc, t, det):
     """:func:`fused_correction` followed by the write-back of :func:`scatter_pairs` (owner: every
-    particle its own row), without intermediate arrays beyond one column's results.
+    particle its own row), without intermediate arrays beyond one column's covariances.
 
     ``mb`` (2, k, M) are the means of :func:`gather_observed`; the covariances are read from the
-    storage rows ``rows`` (k, M) of the known landmarks (``seen[j]``) and from ``P_init``
-    (2, 2, k_new, M) (``init_landmarks``, the unseen observations in order) for the others.
-    Particle ``i`` (of all ``M``, filters of ``n``) writes row ``i`` of the storage: its EKF update
-    of the known landmarks and the initial values of the others, and points ``anc[i, cols[j]]``
-    at its row within its filter.  Each column is read completely before it is written (the
-    columns ``cols`` are distinct).  ``t`` and ``det`` are written for every pair as by
-    :func:`fused_correction`.
+    storage rows ``rows`` (k, M) of the known landmarks (``seen[j]``), a whole column before any
+    of it is written (the columns ``cols`` are distinct), and from ``P_init`` (2, 2, k_new, M)
+    (``init_landmarks``, the unseen observations in order) for the others.  Particle ``i`` (of all
+    ``M``, filters of ``n``) writes row ``i`` of the storage: its EKF update of the known
+    landmarks and the initial values of the others, and points ``anc[i, cols[j]]`` at its row
+    within its filter.  ``t`` and ``det`` are written for every pair as by :func:`fused_correction`.
     """
     k, m = dx.shape
-    out = np.empty((6, m))  # one column's results, written back once the column is read
+    pcol = np.empty((3, m))  # one column's stored covariances, read before the column is written
     s = -1
     for j in range(k):
         r = z[j, 0]
         b = z[j, 1]
         c = cols[j]
         known = seen[j]
-        if not known:
+        if known:
+            for i in range(m):
+                w = rows[j, i]
+                pcol[0, i] = P_store[0, 0, c, w]
+                pcol[1, i] = P_store[0, 1, c, w]
+                pcol[2, i] = P_store[1, 1, c, w]
+        else:
             s += 1
         for i in range(m):
             if known:
-                w = rows[j, i]
-                p00 = P_store[0, 0, c, w]
-                p01 = P_store[0, 1, c, w]
-                p11 = P_store[1, 1, c, w]
+                p00 = pcol[0, i]
+                p01 = pcol[1, i]
+                p11 = pcol[2, i]
             else:
                 p00 = P_init[0, 0, s, i]
                 p01 = P_init[0, 1, s, i]
@@ -459,26 +463,19 @@ def correct_observed(x, z, seen, mb, rows, P_init, dx, dy, bearing, q00, q01, q1
             if known:
                 a, bb, cc, e, f = _ekf_pair(mb[0, j, i], mb[1, j, i], p00, p01, p11, h00, h01, h10, h11,
                                             s00, s01, s11, n0, n1)
-                out[0, i] = a
-                out[1, i] = bb
-                out[2, i] = cc
-                out[3, i] = e
-                out[4, i] = e
-                out[5, i] = f
+                mu_store[0, c, i] = a
+                mu_store[1, c, i] = bb
+                P_store[0, 0, c, i] = cc
+                P_store[0, 1, c, i] = e
+                P_store[1, 0, c, i] = e
+                P_store[1, 1, c, i] = f
             else:
-                out[0, i] = mb[0, j, i]
-                out[1, i] = mb[1, j, i]
-                out[2, i] = p00
-                out[3, i] = p01
-                out[4, i] = P_init[1, 0, s, i]
-                out[5, i] = p11
-        for i in range(m):
-            mu_store[0, c, i] = out[0, i]
-            mu_store[1, c, i] = out[1, i]
-            P_store[0, 0, c, i] = out[2, i]
-            P_store[0, 1, c, i] = out[3, i]
-            P_store[1, 0, c, i] = out[4, i]
-            P_store[1, 1, c, i] = out[5, i]
+                mu_store[0, c, i] = mb[0, j, i]
+                mu_store[1, c, i] = mb[1, j, i]
+                P_store[0, 0, c, i] = p00
+                P_store[0, 1, c, i] = p01
+                P_store[1, 0, c, i] = P_init[1, 0, s, i]
+                P_store[1, 1, c, i] = p11
     for i in range(m):
         o = i - (i // n) * n
         for j in range(k):
