@@ -775,14 +775,14 @@ class FastSlam(UnitSlam):
         """Columns of ``ids`` (k,), adding columns for unseen ids; returns (cols, seen)."""
         sid, scol = self._sorted_ids, self._sorted_cols
         if sid.size:
-            pos = np.searchsorted(sid, ids)
+            pos = sid.searchsorted(ids)
             np.minimum(pos, sid.size - 1, out=pos)
             seen = sid[pos] == ids
             cols = scol[pos]  # valid where seen
         else:
             seen = np.zeros(ids.size, dtype=bool)
             cols = np.empty(ids.size, dtype=np.intp)
-        if not seen.all():
+        if not np.logical_and.reduce(seen):
             new_ids = ids[~seen]
             C = self._ids.size
             new_cols = np.arange(C, C + new_ids.size, dtype=np.intp)
