@@ -23,7 +23,7 @@ from faultlab.runner.execution import JobResult, execute_batch, watch_parent, wo
 from faultlab.runner.jobs import JobBatch, JobKey
 from faultlab.vocabulary import BACKENDS
 
-__all__ = ["stream_results", "check_backend"]
+__all__ = ["stream_results", "stream_batches", "check_backend"]
 
 
 def check_backend(name: str) -> None:
@@ -96,6 +96,8 @@ def _backend(name: str, jobs: int) -> Iterator[tuple[str, int]]:
 def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator[JobResult]:
     """Execute the batches of ``todo`` and yield their jobs' results as they finish (any order).
 
+    The results of :func:`stream_batches`, one job at a time.
+
     Parameters
     ----------
     todo : list of JobBatch
@@ -109,6 +111,23 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
     ------
     JobResult
         One per job of ``todo``, in the order they finish.
+    """
+    for results in stream_batches(todo, jobs=jobs, backend=backend):
+        yield from results
+
+
+def stream_batches(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator[list[JobResult]]:
+    """Execute the batches of ``todo`` and yield each batch's results together as soon as it finishes.
+
+    Parameters are those of :func:`stream_results`.  A loky worker that dies is handled as there:
+    the batches it may have been running are rerun one at a time, and the jobs of one that kills
+    its worker again are yielded as ``crash`` results.
+
+    Yields
+    ------
+    list of JobResult
+        The results of one batch (in the batch's order), or of the batches a dead worker left, in
+        the order they finish; every job of ``todo`` appears exactly once.
     """
     pending = list(todo)
     while pending:
@@ -126,7 +145,7 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
                 parallel = Parallel(return_as="generator_unordered", batch_size=1)
                 for results in parallel(tasks(pending)):
                     returned.add(tuple(r.key for r in results))
-                    yield from results
+                    yield results
             return
         except BrokenProcessPool:
             if backend != "loky":
@@ -134,6 +153,7 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
             # A worker died. Batches in flight are suspects: rerun each alone; a repeat kill is a crash.
             suspects = [b for b in pending if b.keys in dispatched and b.keys not in returned]
             results, innocent = _find_killer(suspects)
-            yield from results
+            if results:
+                yield results
             pending = innocent + [b for b in pending if b.keys not in dispatched]
 
