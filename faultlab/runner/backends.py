@@ -1,12 +1,13 @@
 """Backends: running batches of jobs on joblib workers and streaming their results back.
 
-:func:`stream_results` dispatches :class:`~faultlab.runner.jobs.JobBatch` es to a joblib backend
-(loky processes, threads, a dask.distributed cluster or ray) and yields each job's
-:class:`~faultlab.runner.execution.JobResult` as it finishes (joblib's
-``return_as="generator_unordered"``), so a caller can commit results one row at a time.  A loky
-worker that dies (segfault, ``os._exit``, out of memory) is detected, its in-flight batches are
-rerun one by one in a fresh worker, and a batch that kills its worker again is recorded as
-``crash`` for each of its jobs.
+:func:`stream_batches` dispatches :class:`~faultlab.runner.jobs.JobBatch` es to a joblib backend
+(loky processes, threads, a dask.distributed cluster or ray) and yields each batch's
+:class:`~faultlab.runner.execution.JobResult` s together as soon as the batch finishes (joblib's
+``return_as="generator_unordered"``), so a caller can commit them in one transaction;
+:func:`stream_results` yields the same results one job at a time.  A loky worker that dies
+(segfault, ``os._exit``, out of memory) is detected, its in-flight batches are rerun one by one in
+a fresh worker, and a batch that kills its worker again is recorded as ``crash`` for each of its
+jobs.
 """
 
 from __future__ import annotations

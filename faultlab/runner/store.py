@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import functools
 import hashlib
 import json
 import math
@@ -154,7 +155,14 @@ def _digest_layout() -> tuple[str, ...]:
 
 
 def _column_digest(column: str, value) -> bytes:
-    return hashlib.blake2b(_encode(value), digest_size=_COLUMN_DIGEST, person=column.encode()[:16]).digest()
+    return _encoded_digest(column, _encode(value))
+
+
+@functools.lru_cache(maxsize=4096)
+def _encoded_digest(column: str, encoded: bytes) -> bytes:
+    """The column digest of a type-tagged value; remembered, since most columns of a row are its case's
+    parameters and classes, the same in every row of the case (the tag keeps 1, 1.0 and "1" apart)."""
+    return hashlib.blake2b(encoded, digest_size=_COLUMN_DIGEST, person=column.encode()[:16]).digest()
 
 
 def row_checksum(values) -> bytes:
