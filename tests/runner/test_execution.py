@@ -119,3 +119,27 @@ def test_load_case_gives_the_saved_case_a_fresh_copy_each_time_and_rereads_a_rew
     assert _same_scenario(load_case(first.path), load_scenario(second.path))
     with pytest.raises(ScenarioError, match="missing file"):
         load_case(tmp_path / "nowhere" / "case1.npz")
+
+
+def test_the_guarded_sut_is_fed_what_the_unguarded_one_is_and_keeps_a_step_of_its_own(tmp_path):
+    from faultlab.runner.execution import _Guarded
+    from faultlab.slam.protocol import run_slam
+    from tests.runner.suts import TinySlam
+
+    class Stepping(TinySlam):
+        """A SUT whose step() does more than validate: the guard must call it, not update()."""
+
+        def step(self, control, observations=None):
+            self.stepped = getattr(self, "stepped", 0) + 1
+            super().step(control, observations)
+
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", **one_case(n_steps=30)))
+    (info,) = prepare_cases(exp, tmp_path)
+    scenario = load_case(info.path)
+    plain = run_slam(TinySlam(), scenario, rng=np.random.default_rng(5))
+    guarded = run_slam(_Guarded(TinySlam(), deadline=float("inf")), scenario, rng=np.random.default_rng(5))
+    stepping = Stepping()
+    own = run_slam(_Guarded(stepping, deadline=float("inf")), scenario, rng=np.random.default_rng(5))
+    for est in (guarded, own):
+        assert np.array_equal(est.pose, plain.pose) and np.array_equal(est.landmarks, plain.landmarks)
+    assert stepping.stepped == scenario.n_steps
