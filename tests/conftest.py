@@ -48,3 +48,13 @@ def tmpfs(tmp_path):
 def small_tmpfs(tmpfs):
     """A 1 MiB tmpfs (see :func:`tmpfs`)."""
     return tmpfs("1m")
+
+
+def pytest_collection_finish(session):
+    """Move what collection left alive (the imported modules, the collected tests) out of the garbage
+    collector's view: a test worker holds a few hundred thousand such objects, and every full
+    collection (automatic, or forced by a library) would otherwise walk them all again."""
+    import gc
+
+    gc.collect()
+    gc.freeze()

@@ -25,13 +25,13 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 from scipy.stats import wilcoxon
-from statsmodels.stats.multitest import multipletests
 
 from faultlab.analysis.bundle import TableBundle
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
 from faultlab.slam.profiles import ABLATIONS, Ablation
+from faultlab.stats.multiplicity import holm
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, JobStatus
 
 __all__ = ["AblationResult", "ABLATION", "ABLATION_CSV", "ABLATION_JSON", "KEYS", "paired_effect",
@@ -185,7 +185,7 @@ def compare_arms(arms: Mapping[str, pd.DataFrame], *, ablations: Sequence[Ablati
     if not rows:
         raise ResultsError("no ablation has a case that finished in both of its arms")
     table = pd.DataFrame(rows)
-    table["p_holm"] = multipletests(table["p"].to_numpy(), alpha=alpha, method="holm")[1]
+    table["p_holm"] = holm(table["p"].to_numpy(), alpha=alpha)[1]
     return AblationResult(alpha=float(alpha), n_boot=int(n_boot), seed=int(seed), campaign=dict(campaign or {}),
                           ablation=ABLATION.conform(table))
 

@@ -37,12 +37,12 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 from scipy.stats import mannwhitneyu
-from statsmodels.stats.multitest import multipletests
 
 from faultlab.analysis.bundle import TableBundle
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
+from faultlab.stats.multiplicity import holm
 from faultlab.stats.paper import RAW_CSV, load_paper_raw, resolve_data_path
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, PAPER_PROTOCOL, SUITE_ORDER, JobStatus
 
@@ -235,7 +235,7 @@ def compare_with_paper(results: pd.DataFrame, paper: pd.DataFrame, *, metadata: 
     if not rows:
         raise ResultsError("no suite and variant has map errors both in this campaign and in the paper's data")
     table = pd.DataFrame(rows)
-    table["p_holm"] = multipletests(table["p"].to_numpy(), alpha=alpha, method="holm")[1]
+    table["p_holm"] = holm(table["p"].to_numpy(), alpha=alpha)[1]
     n = np.minimum(table["n"], table["paper_n"])
     table["verdict"] = [str(_verdict(p, lo, hi, k, alpha=alpha, factor=factor, min_n=min_n))
                         for p, lo, hi, k in zip(table["p_holm"], table["ratio_low"], table["ratio_high"], n)]

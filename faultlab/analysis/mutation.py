@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.contingency_tables import mcnemar
 from statsmodels.stats.proportion import proportion_confint
 
@@ -33,6 +32,7 @@ from faultlab.mutation.outcome import MutantOutcome
 from faultlab.runner.staging import STOPS_KEY
 from faultlab.runner.store import MUTATION_FILE, load_metadata, load_results
 from faultlab.stats.killmatrix import suite_kills
+from faultlab.stats.multiplicity import holm
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_DIRECTION
 
 __all__ = ["MUTATION_TABLES", "MutationAnalysis", "analyse_mutation", "mutation_scores", "compare_suites",
@@ -243,7 +243,7 @@ def compare_suites(outcomes: pd.DataFrame, suites) -> pd.DataFrame:
     ok = df["p"].notna().to_numpy()
     df["p_holm"] = math.nan
     if ok.any():
-        df.loc[ok, "p_holm"] = multipletests(df.loc[ok, "p"].to_numpy(), method="holm")[1]
+        df.loc[ok, "p_holm"] = holm(df.loc[ok, "p"].to_numpy())[1]
     return df
 
 

@@ -42,11 +42,11 @@ from itertools import combinations
 
 import numpy as np
 import pandas as pd
-from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError
 from faultlab.metrics.detection import DetectionRule
+from faultlab.stats.multiplicity import holm
 from faultlab.stats.verdict import (MAX_EXACT_PAIRS, Verdict, alternative_of, case_verdicts,
                                     detectable_shift_factor)
 from faultlab.vocabulary import DEFAULT_ALPHA, SUITE_ORDER, Outcome, ordered
@@ -95,7 +95,7 @@ def holm_within(p, families) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n,)
-        statsmodels ``multipletests(method="holm")`` within each family; NaN where p is NaN.
+        statsmodels' Holm adjustment (:func:`faultlab.stats.multiplicity.holm`) within each family; NaN where p is NaN.
     """
     p = np.asarray(p, dtype=float)
     fam = pd.Series(np.asarray(families)).reset_index(drop=True)
@@ -103,7 +103,7 @@ def holm_within(p, families) -> np.ndarray:
     ok = ~np.isnan(p)
     for _, idx in fam[ok].groupby(fam[ok]).groups.items():
         idx = np.asarray(idx)
-        out[idx] = multipletests(p[idx], method="holm")[1]
+        out[idx] = holm(p[idx])[1]
     return out
 
 

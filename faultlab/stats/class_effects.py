@@ -32,8 +32,8 @@ import warnings
 import numpy as np
 import pandas as pd
 from scipy.stats import chi2
-from statsmodels.stats.multitest import multipletests
 
+from faultlab.stats.multiplicity import holm
 from faultlab.stats.verdict import Verdict
 
 __all__ = ["CLASS_EFFECT_COLUMNS", "MIN_EPV", "SIGNED_DISCRETE", "class_design", "fit_class_effects"]
@@ -163,12 +163,12 @@ def fit_class_effects(verdicts: pd.DataFrame, cases: pd.DataFrame, parameters) -
             lr = max(0.0, 2 * (ll - ll0))
             stats[p] = (lr, len(cols), float(chi2.sf(lr, len(cols))))
         params = list(terms)
-        holm = dict(zip(params, multipletests([stats[p][2] for p in params], method="holm")[1]))
+        adjusted = dict(zip(params, holm([stats[p][2] for p in params])[1]))
         for p in params:
             for c in terms[p]:
                 i = names.index(c) + 1
                 rows.append({**base, "parameter": p, "term": c, "epv": epv, "method": method, "coef": coef[i],
                              "std_err": bse[i], "odds_ratio": math.exp(coef[i]), "lr_chi2": stats[p][0],
-                             "df": stats[p][1], "p": stats[p][2], "p_holm": float(holm[p]),
+                             "df": stats[p][1], "p": stats[p][2], "p_holm": float(adjusted[p]),
                              "note": "separation: Firth's penalised likelihood" if firth else ""})
     return pd.DataFrame(rows, columns=list(CLASS_EFFECT_COLUMNS))

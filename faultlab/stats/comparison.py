@@ -22,10 +22,10 @@ from itertools import combinations
 import numpy as np
 import pandas as pd
 from scipy.stats import fisher_exact, norm
-from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.proportion import confint_proportions_2indep
 
 from faultlab.stats.detection import DetectionRule, _check_columns
+from faultlab.stats.multiplicity import holm
 from faultlab.stats.rates import detection_rates
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, ordered
 
@@ -120,5 +120,5 @@ def compare_suite_rates(rates: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, fa
                          "rd_high": float(rd_hi), "odds_ratio": orr, "or_low": or_lo, "or_high": or_hi,
                          "haldane": corr, "p": float(p)})
     table = pd.DataFrame(rows, columns=_COLUMNS[:-1])
-    table["p_holm"] = multipletests(table["p"].to_numpy(), method="holm")[1] if len(table) else []
+    table["p_holm"] = holm(table["p"].to_numpy())[1] if len(table) else []
     return table

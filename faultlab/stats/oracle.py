@@ -59,11 +59,11 @@ from math import comb
 import numpy as np
 import pandas as pd
 from scipy.stats import PermutationMethod, mannwhitneyu, rankdata
-from statsmodels.stats.multitest import multipletests
 
 from faultlab.errors import ConfigError
 from faultlab.seeds import stable_code
 from faultlab.stats.detection import _check_columns
+from faultlab.stats.multiplicity import holm
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA
 from faultlab.stats.rates import _sort
 from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER
@@ -218,7 +218,7 @@ def oracle_detections(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, me
     table["detected"] = False
     tested = table["p"].notna().to_numpy()
     if tested.any():
-        reject, p_holm, _, _ = multipletests(table.loc[tested, "p"].to_numpy(), alpha=alpha, method="holm")
+        reject, p_holm = holm(table.loc[tested, "p"].to_numpy(), alpha=alpha)
         table.loc[tested, "p_holm"] = p_holm
         table.loc[tested, "detected"] = reject
     table["detected"] = table["detected"].astype(bool)

@@ -76,10 +76,23 @@ def test_the_shipped_study_runs_the_paper_faults_and_sampled_mutants_at_both_sca
     assert quick.study.multiplicity == "holm" and not quick.study.timeouts_detect
 
 
+def test_the_large_study_is_the_medium_protocol_at_the_planned_pools_and_mutants():
+    large = load_study_experiment("study-large")
+    medium = load_study_experiment("study-medium")
+    pools = {s.kind: large.experiment.runs * s.n_cases for s in large.experiment.suites}
+    assert pools == {"systematic": 165, "random": 165, "pairwise": 220, "base-choice": 242, "effect-guided": 165}
+    assert len(large.selection.run) == 270
+    assert large.experiment.variants[:18] == medium.experiment.variants[:18]    # the baseline and 17 faults
+    for key in ("n_steps", "repetitions", "timeout_s", "space", "seed"):
+        assert getattr(large.experiment, key) == getattr(medium.experiment, key), key
+    assert dict(large.experiment.slam.options) == dict(medium.experiment.slam.options)
+    assert large.study == medium.study
+
+
 def test_the_medium_study_is_the_quick_protocol_with_five_runs_and_fifty_of_the_mutation_studys_mutants():
     medium = load_study_experiment("study-medium")
     quick = load_study_experiment("study", quick=True)
-    paper = load_mutation_experiment("mutation-paper").selection.run
+    paper = load_mutation_experiment("mutation-paper", mutants="sample=150").selection.run
     # the drawn subset the file's comment states: positions default_rng(1).choice(150, 50), sorted
     positions = sorted(np.random.default_rng(1).choice(len(paper), size=50, replace=False).tolist())
     assert list(medium.selection.run) == [paper[i] for i in positions]
