@@ -225,9 +225,20 @@ def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> 
                                        "score", "ci_low", "ci_high"])
 
 
-def compare_suites(outcomes: pd.DataFrame, suites) -> pd.DataFrame:
-    """Exact McNemar test (statsmodels ``mcnemar(exact=True)``) of every pair of suite kinds on the
-    (mutant, run) pairs both judged; Holm-adjusted over the pairs."""
+def compare_suites(outcomes: pd.DataFrame, suites, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
+    """Every pair of suite kinds compared on the (mutant, run) pairs both judged.
+
+    Columns: the exact McNemar test (statsmodels ``mcnemar(exact=True)``: ``p``, Holm-adjusted over the
+    pairs ``p_holm``) on the counts ``both, a_only, b_only, neither``; the score difference ``diff``
+    (a - b: ``(a_only - b_only) / n``) with a ``1 - alpha`` interval ``ci_low, ci_high``; and
+    ``equivalent_within``, the smallest margin d for which two one-sided tests at ``alpha`` show the
+    difference within +-d (the largest magnitude of the ``1 - 2 alpha`` interval).
+
+    The interval is the difference of the two discordant shares, each within its exact
+    Clopper-Pearson interval at half the miss rate (Bonferroni): conservative (a test checks its
+    coverage by simulation) and never of zero width.  The mutants are the independently drawn units, so the interval needs one pair per mutant;
+    with several runs of a mutant it is NaN (not judged).
+    """
     judged = outcomes[outcomes["outcome"].isin((*KILL_CLASSES, MutantOutcome.SURVIVED.value))]
     kill = judged.assign(k=judged["outcome"].isin(KILL_CLASSES)).pivot_table(
         index=["mutant", "run"], columns="suite", values="k", aggfunc="first")
@@ -236,15 +247,31 @@ def compare_suites(outcomes: pd.DataFrame, suites) -> pd.DataFrame:
         both = kill[[a, b]].dropna().astype(bool)
         ka, kb = both[a].to_numpy(), both[b].to_numpy()
         t = np.array([[np.sum(ka & kb), np.sum(ka & ~kb)], [np.sum(~ka & kb), np.sum(~ka & ~kb)]])
-        p = float(mcnemar(t, exact=True).pvalue) if len(both) else math.nan
-        rows.append(dict(suite_a=a, suite_b=b, n=len(both), both=int(t[0, 0]), a_only=int(t[0, 1]),
-                         b_only=int(t[1, 0]), neither=int(t[1, 1]), p=p))
-    df = pd.DataFrame(rows, columns=["suite_a", "suite_b", "n", "both", "a_only", "b_only", "neither", "p"])
+        n = len(both)
+        p = float(mcnemar(t, exact=True).pvalue) if n else math.nan
+        one_per_mutant = n > 0 and both.index.get_level_values("mutant").is_unique
+        lo, hi = _difference_interval(int(t[0, 1]), int(t[1, 0]), n, level=1 - alpha) if one_per_mutant \
+            else (math.nan, math.nan)
+        lo2, hi2 = _difference_interval(int(t[0, 1]), int(t[1, 0]), n, level=1 - 2 * alpha) if one_per_mutant \
+            else (math.nan, math.nan)
+        rows.append(dict(suite_a=a, suite_b=b, n=n, both=int(t[0, 0]), a_only=int(t[0, 1]), b_only=int(t[1, 0]),
+                         neither=int(t[1, 1]), p=p, diff=(int(t[0, 1]) - int(t[1, 0])) / n if n else math.nan,
+                         ci_low=lo, ci_high=hi, equivalent_within=max(abs(lo2), abs(hi2))))
+    df = pd.DataFrame(rows, columns=["suite_a", "suite_b", "n", "both", "a_only", "b_only", "neither", "p", "diff",
+                                     "ci_low", "ci_high", "equivalent_within"])
     ok = df["p"].notna().to_numpy()
-    df["p_holm"] = math.nan
+    df.insert(df.columns.get_loc("p") + 1, "p_holm", math.nan)
     if ok.any():
         df.loc[ok, "p_holm"] = holm(df.loc[ok, "p"].to_numpy())[1]
     return df
+
+
+def _difference_interval(a_only: int, b_only: int, n: int, *, level: float) -> tuple[float, float]:
+    """``level`` interval of ``(a_only - b_only) / n``: each share within its exact interval at level
+    ``1 - (1 - level) / 2``."""
+    (a_lo, a_hi), (b_lo, b_hi) = (proportion_confint(k, n, alpha=(1 - level) / 2, method="beta")
+                                  for k in (a_only, b_only))
+    return float(a_lo - b_hi), float(a_hi - b_lo)
 
 
 def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> MutationAnalysis:
@@ -271,4 +298,4 @@ def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> Mutati
                                 outcomes.groupby(["suite", "outcome"]).size().items()},
                 adaptive=adaptive_savings(results, exp, stops))
     return MutationAnalysis(outcomes=outcomes, scores=mutation_scores(outcomes, alpha=alpha),
-                            mcnemar=compare_suites(outcomes, suites), meta=info)
+                            mcnemar=compare_suites(outcomes, suites, alpha=alpha), meta=info)

@@ -54,7 +54,10 @@ def _mcnemar_table(analysis: MutationAnalysis) -> pd.DataFrame:
     return pd.DataFrame({"suites": [f"{a} vs {b}" for a, b in zip(m["suite_a"], m["suite_b"])], "pairs": m["n"],
                          "both": m["both"], "only first": m["a_only"], "only second": m["b_only"],
                          "neither": m["neither"], "p (exact)": [f"{p:.3g}" for p in m["p"]],
-                         "p (Holm)": [f"{p:.3g}" for p in m["p_holm"]]})
+                         "p (Holm)": [f"{p:.3g}" for p in m["p_holm"]],
+                         "score difference (95 % CI)": [f"{100 * d:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f}) pp"
+                                                        for d, lo, hi in zip(m["diff"], m["ci_low"], m["ci_high"])],
+                         "equivalent within (TOST)": [f"+-{100 * e:.1f} pp" for e in m["equivalent_within"]]})
 
 
 def matrix_figure(analysis: MutationAnalysis, *, figsize=PAGE_SIZE) -> Figure:
@@ -159,7 +162,13 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
              else ""), "",
           "## Mutation score per suite (95 % Clopper-Pearson)", "", markdown_table(all_scores.drop(columns="group")),
           "## Outcomes per suite", "", markdown_table(counts),
-          "## Suites compared on the same mutants (exact McNemar)", "", markdown_table(_mcnemar_table(analysis)),
+          "## Suites compared on the same mutants (exact McNemar)", "",
+          "The score difference is the first suite's minus the second's on the pairs both judged, with a 95 % "
+          "interval (the two discordant shares, each within its exact Clopper-Pearson interval at 97.5 %: "
+          "conservative); 'equivalent within' is the smallest "
+          "margin d for which two one-sided tests at 5 % show the difference inside +-d (the largest magnitude "
+          "of the 90 % interval): no difference larger than d, at that level.", "",
+          markdown_table(_mcnemar_table(analysis)),
           "## Score per operator", "", markdown_table(ops), "## Score per unit", "", markdown_table(units),
           "## Equivalent as observed (bit-identical maps, not scored)", "",
           markdown_table(observed) if len(observed) else "None.\n",

@@ -55,6 +55,52 @@ def test_mcnemar_exact_equals_the_binomial_test_on_the_discordant_pairs():
 
 
 
+def _paired(n_both, a_only, b_only, neither):
+    table, i = {}, 0
+    for count, (a, b) in ((n_both, ("killed", "killed")), (a_only, ("killed", "survived")),
+                          (b_only, ("survived", "killed")), (neither, ("survived", "survived"))):
+        for _ in range(count):
+            table[(f"m{i}", "u", "o")] = {"systematic": a, "fixed": b}
+            i += 1
+    return _outcomes(table)
+
+
+def test_the_score_difference_interval_is_the_bonferroni_pair_of_exact_intervals_and_covers():
+    a_only, b_only, n = 30, 5, 200
+    row = compare_suites(_paired(150, a_only, b_only, n - 150 - a_only - b_only), ["systematic", "fixed"]).iloc[0]
+    assert row["diff"] == pytest.approx((a_only - b_only) / n)
+    # Clopper-Pearson bounds from the beta quantiles, each share at 1 - 0.05 / 2
+    a_lo, a_hi = beta.ppf(0.0125, a_only, n - a_only + 1), beta.ppf(0.9875, a_only + 1, n - a_only)
+    b_lo, b_hi = beta.ppf(0.0125, b_only, n - b_only + 1), beta.ppf(0.9875, b_only + 1, n - b_only)
+    assert (row["ci_low"], row["ci_high"]) == (pytest.approx(a_lo - b_hi), pytest.approx(a_hi - b_lo))
+    assert row["ci_low"] > 0 and row["p"] < 0.05               # McNemar rejects as well
+    assert row["diff"] < row["equivalent_within"] < row["ci_high"]   # TOST at 5 %: the narrower 90 % interval
+    # coverage of the true difference on simulated mutant samples (multinomial discordance), at least 95 %
+    rng = np.random.default_rng(11)
+    probs = np.array([0.7, 0.12, 0.05, 0.13])                 # both, a only, b only, neither
+    covered = 0
+    for counts in rng.multinomial(120, probs, size=200):
+        r = compare_suites(_paired(*counts), ["systematic", "fixed"]).iloc[0]
+        covered += r["ci_low"] <= probs[1] - probs[2] <= r["ci_high"]
+    assert covered >= 0.95 * 200 - 3
+
+
+def test_without_a_discordant_mutant_the_interval_is_the_exact_bound_not_zero_width():
+    row = compare_suites(_paired(180, 0, 0, 20), ["systematic", "fixed"]).iloc[0]
+    bound95 = beta.ppf(1 - 0.025 / 2, 1, 200)   # Clopper-Pearson upper bound of 0 of 200 at 1 - 0.05 / 2
+    bound90 = beta.ppf(1 - 0.05 / 2, 1, 200)
+    assert row["diff"] == 0 and row["p"] == 1
+    assert (row["ci_low"], row["ci_high"]) == (pytest.approx(-bound95), pytest.approx(bound95))
+    assert row["equivalent_within"] == pytest.approx(bound90) and 0 < bound90 < bound95
+
+
+def test_several_runs_of_a_mutant_leave_the_interval_unjudged():
+    o = _paired(10, 3, 1, 6)
+    o = pd.concat([o, o.assign(run=2)], ignore_index=True)
+    row = compare_suites(o, ["systematic", "fixed"]).iloc[0]
+    assert row["n"] == 40 and np.isnan(row["ci_low"]) and np.isnan(row["equivalent_within"])
+
+
 def test_survivors_split_into_equivalent_and_inconclusive_and_identical_maps_leave_the_denominator():
     k = 8
     rng = np.random.default_rng(1)
