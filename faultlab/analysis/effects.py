@@ -21,7 +21,7 @@ a Sobol stage not run) says what size it needs.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -160,6 +160,9 @@ class EffectsAnalysis:
     notes : tuple of str
     info : dict
         Scale and cost: settings, design sizes, executions, wall time per stage.
+    weights : dict of str to DataFrame
+        Per fault with an effect response (``effect:<fault>``): the class weights of an
+        ``effect-guided`` suite aimed at it (:func:`study_weights` in the study's space).
     """
 
     responses: tuple[str, ...]
@@ -171,6 +174,7 @@ class EffectsAnalysis:
     kept: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     info: dict = field(default_factory=dict)
+    weights: dict = field(default_factory=dict)
 
 
 def analyse_effects(out: str | Path) -> EffectsAnalysis:
@@ -271,10 +275,15 @@ def analyse_effects(out: str | Path) -> EffectsAnalysis:
     info["executions"] = sum(s["executions"] for s in info["stages"].values())
     info["wall_time_s"] = sum(s["wall_time_s"] for s in info["stages"].values())
     info["slam_time_s"] = sum(s["slam_time_s"] for s in info["stages"].values())
-    return EffectsAnalysis(responses=tuple(responses), morris=morris, sobol=sobol,
-                           regression=_concat(reg_rows, REGRESSION_COLUMNS + ("stage",)), cases=all_cases,
-                           partial=_concat(pd_rows, ("x", "mean", "std_err", "n", "parameter", "column")),
-                           kept=kept, notes=tuple(notes), info=info)
+    analysis = EffectsAnalysis(responses=tuple(responses), morris=morris, sobol=sobol,
+                               regression=_concat(reg_rows, REGRESSION_COLUMNS + ("stage",)), cases=all_cases,
+                               partial=_concat(pd_rows, ("x", "mean", "std_err", "n", "parameter", "column")),
+                               kept=kept, notes=tuple(notes), info=info)
+    overrides = info["experiment"]["space"]
+    space = space_from_mapping(overrides, source="the study's [space]") if overrides else None
+    weights = {r.partition(":")[2]: study_weights(analysis, r, space=space)
+               for r in analysis.responses if r.startswith("effect:")}
+    return replace(analysis, weights=weights)
 
 
 def _load(sessions: list) -> dict:

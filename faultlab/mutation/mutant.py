@@ -320,8 +320,13 @@ def _rebuild(steps_type: type, mutant_id: str, digest: str, original: Callable) 
     return mutant, source
 
 
+@functools.lru_cache(maxsize=256)
 def build_mutant_unit(steps_type: type, mutant_id: str, digest: str, original: Callable) -> Callable:
     """The unit of mutant ``mutant_id`` compiled from source (the replacement of :func:`mutant_fault`).
+
+    Compiled once per process and reused: a campaign applies the mutant to a fresh SLAM for every
+    batch of its jobs.  The unit holds no state of its own (it runs in a copy of its module's
+    namespace, like the original unit, which every SLAM shares too), so reusing it changes no result.
 
     Parameters
     ----------

@@ -12,7 +12,7 @@ Rendered from one :class:`~faultlab.analysis.effects.EffectsAnalysis`:
 * ``morris.csv``, ``sobol.csv``, ``regression.csv``, ``cases.csv``, ``partial.csv`` and
   ``effects.md`` (ranked tables, scale, cost and notes);
 * ``weights_<fault>.csv``: class weights of an ``effect-guided`` suite aimed at that fault
-  (:func:`~faultlab.analysis.effects.study_weights`), for ``faultlab generate --weights`` or a
+  (``EffectsAnalysis.weights``, by :func:`~faultlab.analysis.effects.study_weights`), for ``faultlab generate --weights`` or a
   space file's ``[weights]``.
 """
 
@@ -25,12 +25,11 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from faultlab.analysis.effects import EffectsAnalysis, analyse_effects, study_weights
+from faultlab.analysis.effects import EffectsAnalysis, analyse_effects
 from faultlab.analysis.responses import DIFFICULTY
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
-from faultlab.space import space_from_mapping
 
 __all__ = ["EFFECTS_TABLES", "summary_table", "morris_figure", "sobol_figure", "partial_figure", "effects_markdown",
            "write_effects_report", "response_label"]
@@ -266,13 +265,10 @@ def write_effects_report(results: str | Path, reports: str | Path) -> list[Path]
         paths.append(path)
     (out / "effects.md").write_text(effects_markdown(analysis))
     paths.append(out / "effects.md")
-    overrides = analysis.info.get("experiment", {}).get("space") or {}
-    space = space_from_mapping(overrides, source="the study's [space]") if overrides else None
-    for r in analysis.responses:
-        if r.startswith("effect:"):
-            path = out / f"weights_{r.partition(':')[2]}.csv"
-            study_weights(analysis, r, space=space).to_csv(path, index=False)
-            paths.append(path)
+    for fault, weights in analysis.weights.items():
+        path = out / f"weights_{fault}.csv"
+        weights.to_csv(path, index=False)
+        paths.append(path)
     for name, make in (("morris", morris_figure), ("sobol", sobol_figure), ("partial", partial_figure)):
         fig = make(analysis)
         fig.savefig(out / f"{name}.png", dpi=110)

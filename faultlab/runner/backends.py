@@ -1,12 +1,13 @@
 """Backends: running batches of jobs on joblib workers and streaming their results back.
 
-:func:`stream_results` dispatches :class:`~faultlab.runner.jobs.JobBatch` es to a joblib backend
-(loky processes, threads, a dask.distributed cluster or ray) and yields each job's
-:class:`~faultlab.runner.execution.JobResult` as it finishes (joblib's
-``return_as="generator_unordered"``), so a caller can commit results one row at a time.  A loky
-worker that dies (segfault, ``os._exit``, out of memory) is detected, its in-flight batches are
-rerun one by one in a fresh worker, and a batch that kills its worker again is recorded as
-``crash`` for each of its jobs.
+:func:`stream_batches` dispatches :class:`~faultlab.runner.jobs.JobBatch` es to a joblib backend
+(loky processes, threads, a dask.distributed cluster or ray) and yields each batch's
+:class:`~faultlab.runner.execution.JobResult` s together as soon as the batch finishes (joblib's
+``return_as="generator_unordered"``), so a caller can commit them in one transaction;
+:func:`stream_results` yields the same results one job at a time.  A loky worker that dies
+(segfault, ``os._exit``, out of memory) is detected, its in-flight batches are rerun one by one in
+a fresh worker, and a batch that kills its worker again is recorded as ``crash`` for each of its
+jobs.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from faultlab.runner.execution import JobResult, execute_batch, watch_parent, wo
 from faultlab.runner.jobs import JobBatch, JobKey
 from faultlab.vocabulary import BACKENDS
 
-__all__ = ["stream_results", "check_backend"]
+__all__ = ["stream_results", "stream_batches", "check_backend"]
 
 
 def check_backend(name: str) -> None:
@@ -96,6 +97,8 @@ def _backend(name: str, jobs: int) -> Iterator[tuple[str, int]]:
 def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator[JobResult]:
     """Execute the batches of ``todo`` and yield their jobs' results as they finish (any order).
 
+    The results of :func:`stream_batches`, one job at a time.
+
     Parameters
     ----------
     todo : list of JobBatch
@@ -109,6 +112,23 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
     ------
     JobResult
         One per job of ``todo``, in the order they finish.
+    """
+    for results in stream_batches(todo, jobs=jobs, backend=backend):
+        yield from results
+
+
+def stream_batches(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator[list[JobResult]]:
+    """Execute the batches of ``todo`` and yield each batch's results together as soon as it finishes.
+
+    Parameters are those of :func:`stream_results`.  A loky worker that dies is handled as there:
+    the batches it may have been running are rerun one at a time, and the jobs of one that kills
+    its worker again are yielded as ``crash`` results.
+
+    Yields
+    ------
+    list of JobResult
+        The results of one batch (in the batch's order), or of the batches a dead worker left, in
+        the order they finish; every job of ``todo`` appears exactly once.
     """
     pending = list(todo)
     while pending:
@@ -126,7 +146,7 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
                 parallel = Parallel(return_as="generator_unordered", batch_size=1)
                 for results in parallel(tasks(pending)):
                     returned.add(tuple(r.key for r in results))
-                    yield from results
+                    yield results
             return
         except BrokenProcessPool:
             if backend != "loky":
@@ -134,6 +154,7 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
             # A worker died. Batches in flight are suspects: rerun each alone; a repeat kill is a crash.
             suspects = [b for b in pending if b.keys in dispatched and b.keys not in returned]
             results, innocent = _find_killer(suspects)
-            yield from results
+            if results:
+                yield results
             pending = innocent + [b for b in pending if b.keys not in dispatched]
 

@@ -3,8 +3,9 @@
 The parent process generates every test case once per (run, suite) and saves it under
 ``out/cases`` *before* dispatching (as in the paper, all variants see the same cases).  The jobs
 missing from the store are batched (:func:`~faultlab.runner.jobs.batch_jobs`), executed on a
-backend (:func:`~faultlab.runner.backends.stream_results`) and committed to SQLite one row at a
-time (:func:`result_row`), so a killed run loses only the jobs in flight and a rerun resumes;
+backend (:func:`~faultlab.runner.backends.stream_batches`) and committed to SQLite one batch at a
+time as it returns (:func:`result_row`, one transaction per batch), so a killed run loses only the
+jobs in flight and a rerun resumes;
 a resumed campaign batches only the missing repetitions.
 """
 
@@ -22,7 +23,7 @@ from typing import Callable, Iterator, Mapping, Sequence
 from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
 from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, slam_units
 from faultlab.runner.variants import resolve_variant
-from faultlab.runner.backends import check_backend, stream_results
+from faultlab.runner.backends import check_backend, stream_batches
 from faultlab.runner.execution import JobResult
 from faultlab.runner.experiment import Experiment, load_experiment
 from faultlab.runner.jobs import batch_jobs, expand_jobs
@@ -359,11 +360,12 @@ def _run_specs(store, specs: list, info: dict, sut, *, jobs: int, backend: str, 
         with show_progress(len(specs), done=len(specs) - len(todo), desc="faultlab run", unit="job",
                            enabled=progress,
                            counts={"crash": counts["crash"], "timeout": counts["timeout"]}) as bar:
-            for res in stream_results(batches, jobs=jobs, backend=backend):
-                k = res.key
-                store.write(result_row(info[(k.run, k.suite, k.case)], res), session=session)
-                n_new += 1
+            for results in stream_batches(batches, jobs=jobs, backend=backend):
+                store.write_many([result_row(info[(r.key.run, r.key.suite, r.key.case)], r) for r in results],
+                                 session=session)
+                n_new += len(results)
                 ended["n_new"] = n_new
-                counts[res.status.value] = counts.get(res.status.value, 0) + 1
-                bar.update(1, crash=counts["crash"], timeout=counts["timeout"])
+                for res in results:
+                    counts[res.status.value] = counts.get(res.status.value, 0) + 1
+                bar.update(len(results), crash=counts["crash"], timeout=counts["timeout"])
     return n_new

@@ -7,8 +7,9 @@ Layout of an output directory ``out``::
     out/previous-<UTC time>/              an older store moved aside by ``force_new``
     out/mutation.json, out/study.json     a mutation campaign's selection, a study's settings
 
-Each finished job is committed as its own transaction, so a run killed with
-SIGKILL loses at most the jobs in flight.  ``UNIQUE (run, suite, case, variant,
+The jobs a worker returns together (the repetitions of one batch) are committed as one
+transaction as soon as they arrive, so a run killed with SIGKILL loses at most the jobs in
+flight.  ``UNIQUE (run, suite, case, variant,
 rep)`` makes a duplicate row impossible.  The ``meta`` table holds the
 experiment's hash and text, the package version, the root seed and the
 creation time; the ``sessions`` table one row per invocation (wall time, new rows).
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import functools
 import hashlib
 import json
 import math
@@ -153,7 +155,14 @@ def _digest_layout() -> tuple[str, ...]:
 
 
 def _column_digest(column: str, value) -> bytes:
-    return hashlib.blake2b(_encode(value), digest_size=_COLUMN_DIGEST, person=column.encode()[:16]).digest()
+    return _encoded_digest(column, _encode(value))
+
+
+@functools.lru_cache(maxsize=4096)
+def _encoded_digest(column: str, encoded: bytes) -> bytes:
+    """The column digest of a type-tagged value; remembered, since most columns of a row are its case's
+    parameters and classes, the same in every row of the case (the tag keeps 1, 1.0 and "1" apart)."""
+    return hashlib.blake2b(encoded, digest_size=_COLUMN_DIGEST, person=column.encode()[:16]).digest()
 
 
 def row_checksum(values) -> bytes:
@@ -638,18 +647,35 @@ class ResultStore:
 
     def write(self, row: Mapping, *, session: int | None = None) -> None:
         """Insert one row (keys = :data:`RESULT_COLUMNS`) with its checksum, in its own committed transaction."""
-        values = _stored_values(row)
+        self.write_many([row], session=session)
+
+    def write_many(self, rows, *, session: int | None = None) -> None:
+        """Insert ``rows`` (keys = :data:`RESULT_COLUMNS`), each with its checksum, in one committed transaction.
+
+        All of them are stored or none (a job already stored refuses the whole group).  The rows are
+        exactly those :meth:`write` stores one at a time; grouping the jobs a worker returns
+        together (the repetitions of a batch) saves a commit, and its ``fsync``, per row.
+        """
+        rows = list(rows)
+        if not rows:
+            return
         cols = ", ".join(_q(c) for c in RESULT_COLUMNS)
         marks = ", ".join("?" for _ in RESULT_COLUMNS)
-        statements = [(f"INSERT INTO results ({cols}, session, written_unix, checksum) "
-                       f"VALUES ({marks}, ?, ?, ?)", values + [session, time.time(), row_checksum(values)])]
+        now = time.time()
+        statements = []
+        for row in rows:
+            values = _stored_values(row)
+            statements.append((f"INSERT INTO results ({cols}, session, written_unix, checksum) "
+                               f"VALUES ({marks}, ?, ?, ?)", values + [session, now, row_checksum(values)]))
         if session is not None:
-            statements.append(("UPDATE sessions SET n_new = n_new + 1 WHERE id = ?", (session,)))
-        key = tuple(row[c] for c in ID_COLUMNS)
+            statements.append(("UPDATE sessions SET n_new = n_new + ? WHERE id = ?", (len(rows), session)))
+        keys = [tuple(row[c] for c in ID_COLUMNS) for row in rows]
+        what = f"job {keys[0]}" if len(keys) == 1 else f"{len(keys)} jobs from {keys[0]} on"
         try:
-            self._execute(f"writing job {key}", statements)
+            self._execute(f"writing {what}", statements)
         except sqlite3.IntegrityError as exc:
-            raise ResultsError(f"{self.path}: job {key} is already stored ({exc})") from exc
+            stored = "is" if len(keys) == 1 else "include a job that is"
+            raise ResultsError(f"{self.path}: {what} {stored} already stored ({exc})") from exc
 
 
 # ---------------------------------------------------------------------- reading

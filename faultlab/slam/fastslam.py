@@ -382,6 +382,7 @@ class FastSlam(UnitSlam):
                                                ("effective_sample_size", "resample", "apply_resample"))
         # every unit the reference: a whole step in a few compiled passes (:meth:`_update_reference`)
         self._ref_step = self._jit and type(self._steps) is FastSlamSteps and not self._steps.replaced()
+        self._q_entries = _twins.noise_entries(self._Q) if self._ref_step else None
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
@@ -670,7 +671,7 @@ class FastSlam(UnitSlam):
         """Log every active filter's best pose at the end of a step (NaN for a failed repetition)."""
         slots = len(self._reps)
         if slots == self._n_reps == 1:
-            self._trajectory.append(self._poses[int(np.argmax(self._logw))])
+            self._trajectory.append(self._poses[self._logw.argmax()])
             return
         row = np.full((self._n_reps, 3), np.nan)
         if slots:
@@ -717,20 +718,18 @@ class FastSlam(UnitSlam):
             z = np.empty((k, 2))
             z[:, 0] = observations.ranges
             z[:, 1] = observations.bearings
-            new = None if seen.all() else np.flatnonzero(~seen)
             init = None
-            if new is not None:
+            if not np.logical_and.reduce(seen):
                 steps = self._steps
-                init = steps.init_landmarks(poses, z[new], self._Q, wrap=steps.wrap_bearing)
-            logw, tops = _twins.correct_observed(poses, z, cols, seen, new, init, self._Q, self._logw, n,
+                init = steps.init_landmarks(poses, z[np.flatnonzero(~seen)], self._Q, wrap=steps.wrap_bearing)
+            logw, tops = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, self._logw, n,
                                                  self._mu, self._P, self._anc)
             for j in range(slots):
-                sl = self._slice(j)
-                lw = logw[sl]
+                lw = logw[j * n:(j + 1) * n]
                 if math.isfinite(tops[j]):
-                    lw -= math.log(np.exp(lw).sum())
+                    lw -= math.log(np.add.reduce(np.exp(lw)))  # ``np.exp(lw).sum()``
                 elif self._call(j, self._normalise, lw.copy()) is _FAILED:  # raises for one filter
-                    lw[...] = self._logw[sl]
+                    lw[...] = self._logw[j * n:(j + 1) * n]
         else:
             logw = self._logw
         self._poses, self._logw = poses, logw
@@ -757,14 +756,15 @@ class FastSlam(UnitSlam):
         if idx is None:
             return
         if len(self._reps) == 1:
-            self._poses = self._poses[idx]
-            self._logw = np.full(n, -math.log(n))
+            self._poses = self._poses.take(idx, axis=0)
+            self._logw = np.empty(n)
+            self._logw.fill(-math.log(n))
         else:
             if not self._poses.flags.writeable:
                 self._poses = self._poses.copy()
             self._poses[sl] = self._poses[sl][idx]
             self._logw[sl] = -math.log(n)
-        self._lineage[j] = self._lineage[j][idx]
+        self._lineage[j] = self._lineage[j].take(idx)
         self._n_resampled[self._reps[j]] += 1
 
     def _normalise(self, logw: np.ndarray) -> np.ndarray:
@@ -775,14 +775,14 @@ class FastSlam(UnitSlam):
         """Columns of ``ids`` (k,), adding columns for unseen ids; returns (cols, seen)."""
         sid, scol = self._sorted_ids, self._sorted_cols
         if sid.size:
-            pos = np.searchsorted(sid, ids)
+            pos = sid.searchsorted(ids)
             np.minimum(pos, sid.size - 1, out=pos)
             seen = sid[pos] == ids
             cols = scol[pos]  # valid where seen
         else:
             seen = np.zeros(ids.size, dtype=bool)
             cols = np.empty(ids.size, dtype=np.intp)
-        if not seen.all():
+        if not np.logical_and.reduce(seen):
             new_ids = ids[~seen]
             C = self._ids.size
             new_cols = np.arange(C, C + new_ids.size, dtype=np.intp)

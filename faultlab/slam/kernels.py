@@ -381,68 +381,81 @@ def predict_poses(poses, u, eps, noisy, std_v, std_omega, cos_th, sin_th, out):
 
 
 @_jit
-def gather_observed(mu_store, P_store, anc, cols, new_slot, mu_init, P_init, x, n, mb, pb, dx, dy):
-    """The gather of :func:`gather_pairs` for all ``M`` particles, with the observations that start
-    a landmark (``new_slot[j] >= 0``) taking ``mu_init[:, new_slot[j]]`` (2, k_new, M) and
-    ``P_init`` (2, 2, k_new, M) instead (``init_landmarks``), and the offsets of
-    ``predict_measurement``: ``dx = mb[0] - x[:, 0]``, ``dy = mb[1] - x[:, 1]`` (k, M)."""
+def gather_observed(mu_store, anc, cols, seen, mu_init, x, n, rows, mb, dx, dy):
+    """The gather of the means of :func:`gather_pairs` for all ``M`` particles, with the
+    observations that start a landmark (``not seen[j]``, the ``s``-th such) taking
+    ``mu_init[:, s]`` (2, k_new, M) instead (``init_landmarks`` of the unseen observations in
+    order), and the offsets of ``predict_measurement``: ``dx = mb[0] - x[:, 0]``,
+    ``dy = mb[1] - x[:, 1]`` (k, M).  ``rows`` (k, M) receives each pair's storage row
+    ``anc[i, cols[j]] + (i // n) n`` (read by :func:`correct_observed` for the covariances)."""
     k = cols.shape[0]
     m = x.shape[0]
-    rows = np.empty((k, m), dtype=np.intp)
     for i in range(m):  # particle-major: one row of anc at a time
         off = (i // n) * n
         for j in range(k):
             rows[j, i] = anc[i, cols[j]] + off
+    s = -1
     for j in range(k):
         c = cols[j]
-        s = new_slot[j]
-        for i in range(m):
-            if s >= 0:
-                m0 = mu_init[0, s, i]
-                m1 = mu_init[1, s, i]
-                p00 = P_init[0, 0, s, i]
-                p01 = P_init[0, 1, s, i]
-                p10 = P_init[1, 0, s, i]
-                p11 = P_init[1, 1, s, i]
-            else:
+        if seen[j]:
+            for i in range(m):
                 r = rows[j, i]
                 m0 = mu_store[0, c, r]
                 m1 = mu_store[1, c, r]
-                p00 = P_store[0, 0, c, r]
-                p01 = P_store[0, 1, c, r]
-                p10 = P_store[1, 0, c, r]
-                p11 = P_store[1, 1, c, r]
-            mb[0, j, i] = m0
-            mb[1, j, i] = m1
-            pb[0, 0, j, i] = p00
-            pb[0, 1, j, i] = p01
-            pb[1, 0, j, i] = p10
-            pb[1, 1, j, i] = p11
-            dx[j, i] = m0 - x[i, 0]
-            dy[j, i] = m1 - x[i, 1]
+                mb[0, j, i] = m0
+                mb[1, j, i] = m1
+                dx[j, i] = m0 - x[i, 0]
+                dy[j, i] = m1 - x[i, 1]
+        else:
+            s += 1
+            for i in range(m):
+                m0 = mu_init[0, s, i]
+                m1 = mu_init[1, s, i]
+                mb[0, j, i] = m0
+                mb[1, j, i] = m1
+                dx[j, i] = m0 - x[i, 0]
+                dy[j, i] = m1 - x[i, 1]
 
 
 @_jit
-def correct_observed(x, z, seen, mb, pb, dx, dy, bearing, q00, q01, q11, add_q01, cols, n,
+def correct_observed(x, z, seen, mb, rows, P_init, dx, dy, bearing, q00, q01, q11, add_q01, cols, n,
                      mu_store, P_store, anc, t, det):
     """:func:`fused_correction` followed by the write-back of :func:`scatter_pairs` (owner: every
-    particle its own row), without the intermediate arrays.
+    particle its own row), without intermediate arrays beyond one column's covariances.
 
-    Particle ``i`` (of all ``M``, filters of ``n``) writes row ``i`` of the storage: its EKF update
-    of the observations of known landmarks (``seen[j]``) and the initial values ``mb``, ``pb`` of
-    the others, and points ``anc[i, cols[j]]`` at its row within its filter.  ``t`` and ``det``
-    are written for every pair as by :func:`fused_correction`.
+    ``mb`` (2, k, M) are the means of :func:`gather_observed`; the covariances are read from the
+    storage rows ``rows`` (k, M) of the known landmarks (``seen[j]``), a whole column before any
+    of it is written (the columns ``cols`` are distinct), and from ``P_init`` (2, 2, k_new, M)
+    (``init_landmarks``, the unseen observations in order) for the others.  Particle ``i`` (of all
+    ``M``, filters of ``n``) writes row ``i`` of the storage: its EKF update of the known
+    landmarks and the initial values of the others, and points ``anc[i, cols[j]]`` at its row
+    within its filter.  ``t`` and ``det`` are written for every pair as by :func:`fused_correction`.
     """
     k, m = dx.shape
+    pcol = np.empty((3, m))  # one column's stored covariances, read before the column is written
+    s = -1
     for j in range(k):
         r = z[j, 0]
         b = z[j, 1]
         c = cols[j]
         known = seen[j]
+        if known:
+            for i in range(m):
+                w = rows[j, i]
+                pcol[0, i] = P_store[0, 0, c, w]
+                pcol[1, i] = P_store[0, 1, c, w]
+                pcol[2, i] = P_store[1, 1, c, w]
+        else:
+            s += 1
         for i in range(m):
-            p00 = pb[0, 0, j, i]
-            p01 = pb[0, 1, j, i]
-            p11 = pb[1, 1, j, i]
+            if known:
+                p00 = pcol[0, i]
+                p01 = pcol[1, i]
+                p11 = pcol[2, i]
+            else:
+                p00 = P_init[0, 0, s, i]
+                p01 = P_init[0, 1, s, i]
+                p11 = P_init[1, 1, s, i]
             h00, h01, h10, h11, n0, n1, s00, s01, s11, tq, dd = _pair_terms(
                 dx[j, i], dy[j, i], bearing[j, i], x[i, 2], r, b, p00, p01, p11, q00, q01, q11, add_q01)
             t[j, i] = tq
@@ -461,7 +474,7 @@ def correct_observed(x, z, seen, mb, pb, dx, dy, bearing, q00, q01, q11, add_q01
                 mu_store[1, c, i] = mb[1, j, i]
                 P_store[0, 0, c, i] = p00
                 P_store[0, 1, c, i] = p01
-                P_store[1, 0, c, i] = pb[1, 0, j, i]
+                P_store[1, 0, c, i] = P_init[1, 0, s, i]
                 P_store[1, 1, c, i] = p11
     for i in range(m):
         o = i - (i // n) * n

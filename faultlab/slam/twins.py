@@ -43,7 +43,7 @@ from faultlab.slam import units as _units
 from faultlab.slam.units import _mat22, _vec2
 
 __all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "predict_poses",
-           "correct_observed", "gather_rows",
+           "correct_observed", "noise_entries", "gather_rows",
            "scatter_rows", "take_rows", "warm_up",
            "sample_controls", "motion_model", "predict_measurement", "innovation", "innovation_covariance",
            "log_likelihood", "ekf_update",
@@ -153,7 +153,9 @@ def innovation(z: np.ndarray, zhat: np.ndarray, *, wrap) -> np.ndarray:
     return nu
 
 
-def _q_entries(Q) -> tuple[float, float, float, bool]:
+def noise_entries(Q) -> tuple[float, float, float, bool]:
+    """The entries the kernels read of the measurement noise ``Q`` (2, 2): ``(Q[0, 0], Q[0, 1],
+    Q[1, 1], Q[0, 1] != 0)`` (the last: whether the reference adds ``Q[0, 1]`` at all)."""
     Q = np.asarray(Q)
     return float(Q[0, 0]), float(Q[0, 1]), float(Q[1, 1]), bool(Q[0, 1] != 0.0)
 
@@ -165,7 +167,7 @@ def innovation_covariance(H: np.ndarray, P: np.ndarray, Q: np.ndarray) -> np.nda
         return _units.innovation_covariance(H, P, Q)
     n, k = H.shape[:2]
     buf, S = _mat22((n, k))
-    q00, q01, q11, add = _q_entries(Q)
+    q00, q01, q11, add = noise_entries(Q)
     _k().sandwich(_kt(H[..., 0, 0]), _kt(H[..., 0, 1]), _kt(H[..., 1, 0]), _kt(H[..., 1, 1]),
                   _kt(P[..., 0, 0]), _kt(P[..., 0, 1]), _kt(P[..., 1, 1]), q00, q01, q11, add,
                   buf[0, 0], buf[0, 1], buf[1, 1])
@@ -223,7 +225,7 @@ def resample(w: np.ndarray, n_eff: float, empty: bool, rng: np.random.Generator,
     n = w.shape[0]
     if empty or n_eff >= n / config.resample_ratio:
         return None
-    if not (isinstance(w, np.ndarray) and w.dtype == np.float64 and w.ndim == 1 and (w >= 0.0).all()):
+    if not (isinstance(w, np.ndarray) and w.dtype == np.float64 and w.ndim == 1 and np.minimum.reduce(w) >= 0.0):
         return _units.low_variance_indices(w, rng)  # NaN or negative weights: numpy's search
     r = rng.uniform(0.0, 1.0 / n)
     out = np.empty(n, dtype=np.intp)
@@ -306,7 +308,7 @@ def correct_pairs(x: np.ndarray, z: np.ndarray, mb: np.ndarray, pb: np.ndarray,
     bearing = np.arctan2(dy, dx)
     mu_new = np.empty((2, k, m))
     P_new = np.empty((2, 2, k, m))
-    q00, q01, q11, add = _q_entries(Q)
+    q00, q01, q11, add = noise_entries(Q)
     t = np.empty((k, m))
     det = np.empty((k, m))
     kn.fused_correction(x, z, mb, pb, dx, dy, bearing, q00, q01, q11, add, mu_new, P_new, t, det)
@@ -347,9 +349,10 @@ _NO_INIT_MU = np.empty((2, 0, 0))
 _NO_INIT_P = np.empty((2, 2, 0, 0))
 
 
-def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: np.ndarray, new: np.ndarray | None,
-                     init: tuple[np.ndarray, np.ndarray] | None, Q: np.ndarray, logw: np.ndarray, n: int,
-                     mu_store: np.ndarray, P_store: np.ndarray, anc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                     init: tuple[np.ndarray, np.ndarray] | None, q: tuple[float, float, float, bool],
+                     logw: np.ndarray, n: int, mu_store: np.ndarray, P_store: np.ndarray,
+                     anc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The correction of every particle by the reference units, writing the storage in place.
 
     Equals, bit for bit, what the filter does with the reference units in a step with
@@ -365,13 +368,15 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
     poses : ndarray, shape (M, 3)
         Predicted poses of all particles (filters of ``n`` side by side).
     z : ndarray, shape (k, 2)
-    cols, seen : ndarray, shape (k,)
-        Storage columns of the observations and whether their landmark was seen before.
-    new : ndarray of intp, shape (k_new,), or None
-        ``flatnonzero(~seen)`` (None if every landmark was seen).
+    cols : ndarray of intp, shape (k,)
+        Storage columns of the observations (distinct: an id is observed at most once per step).
+    seen : ndarray of bool, shape (k,)
+        Whether each observation's landmark was seen before.
     init : (mu (M, k_new, 2), P (M, k_new, 2, 2)) or None
-        ``init_landmarks(poses, z[new], Q, wrap=wrap_bearing)``.
-    Q : ndarray, shape (2, 2)
+        ``init_landmarks(poses, z[flatnonzero(~seen)], Q, wrap=wrap_bearing)`` (None if every
+        landmark was seen).
+    q : tuple
+        ``noise_entries(Q)`` of the measurement noise ``Q`` (2, 2).
     logw : ndarray, shape (M,)
         Normalised log weights before the step.
     n : int
@@ -391,28 +396,27 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
     kn = _k()
     k, m = z.shape[0], poses.shape[0]
     cols = np.asarray(cols, dtype=np.intp)
-    slot = np.full(k, -1, dtype=np.intp)
-    if new is None:
+    seen = np.asarray(seen, dtype=np.bool_)
+    if init is None:
         mi, pi = _NO_INIT_MU, _NO_INIT_P
     else:
-        slot[new] = np.arange(new.size)
         mi = np.ascontiguousarray(np.asarray(init[0], dtype=float).transpose(2, 1, 0))
         pi = np.ascontiguousarray(np.asarray(init[1], dtype=float).transpose(2, 3, 1, 0))
+    rows = np.empty((k, m), dtype=np.intp)
     mb = np.empty((2, k, m))
-    pb = np.empty((2, 2, k, m))
     dx = np.empty((k, m))
     dy = np.empty((k, m))
-    kn.gather_observed(mu_store, P_store, anc, cols, slot, mi, pi, poses, n, mb, pb, dx, dy)
+    kn.gather_observed(mu_store, anc, cols, seen, mi, poses, n, rows, mb, dx, dy)
     bearing = np.arctan2(dy, dx)
-    q00, q01, q11, add = _q_entries(Q)
+    q00, q01, q11, add = q
     # the kernel reads each pair's dy and bearing before it writes its det and t: they share memory
     t, det = bearing, dy
-    kn.correct_observed(poses, z, np.asarray(seen, dtype=np.bool_), mb, pb, dx, dy, bearing, q00, q01, q11, add,
-                        cols, n, mu_store, P_store, anc, t, det)
+    kn.correct_observed(poses, z, seen, mb, rows, pi, dx, dy, bearing, q00, q01, q11, add, cols, n,
+                        mu_store, P_store, anc, t, det)
     np.log(det, out=det)
     shifted = np.empty(m)
     tops = np.empty(m // n)
-    kn.combine_observed(t, det, np.asarray(seen, dtype=np.bool_), logw, n, shifted, tops)
+    kn.combine_observed(t, det, seen, logw, n, shifted, tops)
     return shifted, tops
 
 
@@ -482,9 +486,9 @@ def warm_up() -> float:
     seen = np.array([True, False])
     new = np.flatnonzero(~seen)
     logw = np.full(n, -math.log(n))
-    correct_observed(x, z, cols, seen, new, _units.init_landmarks(x, z[new], Q, wrap=_units.wrap_bearing), Q,
-                     logw, n, store_mu, store_P, anc)
-    correct_observed(x, z, cols, np.ones(k, dtype=bool), None, None, Q, logw, n, store_mu, store_P, anc)
+    correct_observed(x, z, cols, seen, _units.init_landmarks(x, z[new], Q, wrap=_units.wrap_bearing),
+                     noise_entries(Q), logw, n, store_mu, store_P, anc)
+    correct_observed(x, z, cols, np.ones(k, dtype=bool), None, noise_entries(Q), logw, n, store_mu, store_P, anc)
     _k().systematic_indices(np.full(n, 1.0 / n), 0.1, np.empty(n, dtype=np.intp))
     _warmed = True
     return time.perf_counter() - t0

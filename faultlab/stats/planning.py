@@ -249,6 +249,12 @@ class StudyScale:
     cpu_hours: float
 
 
+#: The scales a plan tabulates: pool cases per strategy, mutants, assumed reverse discordance.
+TABULATED_POOLS = (20, 50, 100, 150, 200)
+TABULATED_MUTANTS = (50, 100, 150, 200, 300)
+TABULATED_REVERSE = (0.0, 0.02, 0.05, 0.10)
+
+
 @dataclass(frozen=True)
 class StudyPlan:
     """The scale a study needs for its target differences, its cost, and the largest scale that fits.
@@ -285,6 +291,22 @@ class StudyPlan:
     def cluster_cores(self) -> int:
         """Cores that run the needed scale within the budget's hours."""
         return max(1, math.ceil(self.needed.cpu_hours / self.budget_hours))
+
+    def detection_by_pool(self, pools=TABULATED_POOLS) -> list[tuple[int, float]]:
+        """(pool cases per strategy, detectable single-case detection difference in pp) at the plan's
+        comparison level and power."""
+        return [(n, 100 * detectable_detection(n, centre=self.centre, alpha=self.comparison_alpha, power=self.power))
+                for n in pools]
+
+    def score_by_mutants(self, mutants=TABULATED_MUTANTS) -> list[tuple[int, float]]:
+        """(mutants, detectable mutation-score difference in pp) at the plan's reverse discordance."""
+        return [(m, 100 * detectable_score(m, reverse=self.reverse, alpha=self.comparison_alpha, power=self.power))
+                for m in mutants]
+
+    def mutants_by_reverse(self, reverse=TABULATED_REVERSE) -> list[tuple[float, int]]:
+        """(assumed reverse discordance, mutants needed for the target score difference)."""
+        return [(r, mutants_for_score(self.target_score_pp / 100, reverse=r, alpha=self.comparison_alpha,
+                                      power=self.power)) for r in reverse]
 
 
 def _scale(kind, *, strategies, cases, faults, mutants, repetitions, runs, seconds, det_pp, score_pp,

@@ -141,6 +141,16 @@ def test_sigkill_then_resume_gives_the_same_report_as_an_uninterrupted_run(tmp_p
             pd.testing.assert_frame_equal(pd.read_csv(pa), pd.read_csv(pb), check_exact=True)
     assert (tmp_path / "rep-killed" / "effects.md").read_text().split("## ")[1:] == \
         (tmp_path / "rep-whole" / "effects.md").read_text().split("## ")[1:]
+    # the effect-guided weights are the analysis's (computed once), one file per fault with an effect response
+    from faultlab.analysis.effects import analyse_effects
+
+    analysis = analyse_effects(whole)
+    effects = [r for r in analysis.responses if r.startswith("effect:")]
+    assert effects and sorted(analysis.weights) == sorted(r.partition(":")[2] for r in effects)
+    for r in effects:
+        fault = r.partition(":")[2]
+        written = pd.read_csv(tmp_path / "rep-whole" / f"weights_{fault}.csv")
+        pd.testing.assert_frame_equal(written, analysis.weights[fault].reset_index(drop=True), check_dtype=False)
 
 
 def test_a_study_killed_after_every_case_had_one_job_is_still_unfinished(tmp_path, tiny):

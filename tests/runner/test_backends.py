@@ -106,3 +106,15 @@ def test_workers_end_when_the_parent_alone_is_killed(tmp_path):
         for c in _descendants(proc.pid) | children:
             with contextlib.suppress(OSError):
                 os.kill(c, signal.SIGKILL)
+
+
+def test_stream_batches_yields_each_batchs_results_together_and_every_job_once(tmp_path):
+    from faultlab.runner import batch_jobs, expand_jobs, load_experiment, prepare_cases, stream_batches
+
+    exp = load_experiment(fastslam_batches(tmp_path, repetitions=3, variants=["baseline", "missing_angle_wrap"]))
+    infos = prepare_cases(exp, tmp_path / "out")
+    batches = batch_jobs(expand_jobs(exp, ((i.run, i.suite, i.case, i.path, i.cost) for i in infos)), size=2)
+    assert sorted(len(b) for b in batches) == [1] * 4 + [2] * 4  # 3 repetitions: a batch of 2 and one of 1
+    groups = list(stream_batches(batches, jobs=2, backend="threading"))
+    assert sorted(tuple(r.key for r in g) for g in groups) == sorted(b.keys for b in batches)
+    assert all(r.status.value == "ok" for g in groups for r in g)

@@ -8,11 +8,13 @@ import threading
 import numpy as np
 import pytest
 
+from faultlab.errors import ScenarioError
 from faultlab.vocabulary import JobStatus
 from faultlab.runner import load_experiment, load_results, prepare_cases, run_experiment
 from faultlab.runner import execution as execution_module
-from faultlab.runner.execution import _alarm, execute_batch, execute_job, tune_allocator
+from faultlab.runner.execution import _alarm, execute_batch, execute_job, load_case, tune_allocator
 from faultlab.runner.jobs import JobBatch, JobKey, JobSpec, expand_jobs
+from faultlab.scenario.model import load_scenario, save_scenario
 from tests.runner.suts import SUTS, fastslam_batches, one_case, write_experiment
 
 
@@ -94,3 +96,50 @@ def test_the_executors_tune_glibcs_allocator_once(tmp_path):
     execute_job(JobSpec(JobKey(1, "random", 1, "baseline", 0), str(info.path), exp.slam, seed=1, timeout_s=30.0))
     assert execution_module._allocator_tuned is True  # set by the executor, in this (worker) process
     assert tune_allocator() is True
+
+
+def _same_scenario(a, b) -> bool:
+    arrays = [f.name for f in dataclasses.fields(a) if isinstance(getattr(a, f.name), np.ndarray)]
+    return (a.case == b.case and a.seed == b.seed and a.meta == b.meta
+            and all(np.array_equal(getattr(a, k), getattr(b, k)) and getattr(a, k).dtype == getattr(b, k).dtype
+                    for k in arrays))
+
+
+def test_load_case_gives_the_saved_case_a_fresh_copy_each_time_and_rereads_a_rewritten_file(tmp_path):
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", **one_case(runs=2)))
+    first, second = prepare_cases(exp, tmp_path / "out")
+    a = load_case(first.path)
+    assert _same_scenario(a, load_scenario(first.path))
+    a.obs_range[:] = -1.0  # a SLAM writing into what it is fed
+    a.meta["config"] = "changed"
+    b = load_case(str(first.path))
+    assert _same_scenario(b, load_scenario(first.path)) and b.obs_range is not a.obs_range
+    # the file replaced by another case (a new store in the same directory): read again
+    save_scenario(load_scenario(second.path), first.path)
+    assert _same_scenario(load_case(first.path), load_scenario(second.path))
+    with pytest.raises(ScenarioError, match="missing file"):
+        load_case(tmp_path / "nowhere" / "case1.npz")
+
+
+def test_the_guarded_sut_is_fed_what_the_unguarded_one_is_and_keeps_a_step_of_its_own(tmp_path):
+    from faultlab.runner.execution import _Guarded
+    from faultlab.slam.protocol import run_slam
+    from tests.runner.suts import TinySlam
+
+    class Stepping(TinySlam):
+        """A SUT whose step() does more than validate: the guard must call it, not update()."""
+
+        def step(self, control, observations=None):
+            self.stepped = getattr(self, "stepped", 0) + 1
+            super().step(control, observations)
+
+    exp = load_experiment(write_experiment(tmp_path / "e.toml", **one_case(n_steps=30)))
+    (info,) = prepare_cases(exp, tmp_path)
+    scenario = load_case(info.path)
+    plain = run_slam(TinySlam(), scenario, rng=np.random.default_rng(5))
+    guarded = run_slam(_Guarded(TinySlam(), deadline=float("inf")), scenario, rng=np.random.default_rng(5))
+    stepping = Stepping()
+    own = run_slam(_Guarded(stepping, deadline=float("inf")), scenario, rng=np.random.default_rng(5))
+    for est in (guarded, own):
+        assert np.array_equal(est.pose, plain.pose) and np.array_equal(est.landmarks, plain.landmarks)
+    assert stepping.stepped == scenario.n_steps

@@ -4,6 +4,7 @@ import struct
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -483,3 +484,23 @@ def test_job_metrics_keep_the_stores_choice_of_the_ate():
     assert job_metrics(every, {}) == ("rms", "emd")  # a store from before the metrics key: no ATE
     assert job_metrics(("rms",), {"metrics": list(every)}) == ("rms",)
     assert job_metrics(("emd", "rms"), {"metrics": ["rms", "ate"]}) == ("rms", "emd")
+
+
+def test_write_many_stores_the_rows_write_stores_one_at_a_time_in_one_transaction(tmp_path, exp):
+    rows = [_row(1, "random", 1, "baseline", rep, rms=10.0 + rep) for rep in range(4)]
+    rows[2] = _row(1, "random", 1, "baseline", 2, status="crash")
+    with ResultStore.open(tmp_path / "one", exp) as store:
+        s = store.begin_session(jobs=1, backend="loky", n_todo=4)
+        for r in rows:
+            store.write(r, session=s)
+    with ResultStore.open(tmp_path / "many", exp) as store:
+        s = store.begin_session(jobs=1, backend="loky", n_todo=4)
+        store.write_many(rows, session=s)
+        assert store.conn.execute("SELECT n_new FROM sessions WHERE id = ?", (s,)).fetchone()[0] == 4
+        # one more group holding a stored job is refused whole: nothing of it is written
+        with pytest.raises(ResultsError, match="already stored"):
+            store.write_many([_row(1, "random", 2, "baseline", 0), rows[1]], session=s)
+        assert store.conn.execute("SELECT n_new FROM sessions WHERE id = ?", (s,)).fetchone()[0] == 4
+    one, many = load_results(tmp_path / "one"), load_results(tmp_path / "many")  # checksums verified
+    pd.testing.assert_frame_equal(one, many)
+    assert len(many) == 4 and many.status.tolist() == ["ok", "ok", "crash", "ok"]

@@ -285,7 +285,8 @@ def test_the_observed_step_is_the_units_in_sequence(step):
         want_mu[:, cols[None, :], np.arange(m)[:, None]] = mu1.transpose(2, 0, 1)
         want_P[:, :, cols[None, :], np.arange(m)[:, None]] = P1.transpose(2, 3, 0, 1)
         want_anc[:, cols] = (np.arange(m) % n)[:, None]
-        shifted, tops = twins.correct_observed(poses, z, cols, seen, new, init, Q, logw, n, mu_store, P_store, anc)
+        shifted, tops = twins.correct_observed(poses, z, cols, seen, init, twins.noise_entries(Q), logw, n,
+                                               mu_store, P_store, anc)
     assert same_bits(mu_store, want_mu) and same_bits(P_store, want_P)
     np.testing.assert_array_equal(anc, want_anc)
     for f in range(m // n):

@@ -143,6 +143,20 @@ def test_plan_meets_its_targets_and_the_fitting_scale_fits():
     assert cheap.needed.repetitions == min_repetitions(5) and cheap.needed.cases == 5
 
 
+def test_the_tabulated_scales_are_read_off_the_power_functions_at_the_plans_level():
+    plan = plan_study("strategies", strategies=4, faults=17, seconds_per_execution=4.0)
+    a = plan.comparison_alpha
+    pools, scores, needed = plan.detection_by_pool(), plan.score_by_mutants(), plan.mutants_by_reverse()
+    for n, pp in pools:   # the detectable difference has the plan's power, a smaller one has less
+        assert detection_power(n, n, pp / 100, centre=plan.centre, alpha=a) == pytest.approx(plan.power, abs=1e-3)
+    assert [pp for _, pp in pools] == sorted((pp for _, pp in pools), reverse=True)
+    assert [pp for _, pp in scores] == sorted((pp for _, pp in scores), reverse=True)
+    for r, m in needed:   # the smallest number of mutants with the power for the target
+        only_b = r
+        assert mcnemar_power(m, plan.target_score_pp / 100 + only_b, only_b, alpha=a) >= plan.power
+    assert [m for _, m in needed] == sorted(m for _, m in needed)
+
+
 def test_the_largest_fitting_scale_is_no_worse_than_any_other_fitting_scale():
     plan = plan_study("mutation", strategies=3, seconds_per_execution=1.0, budget_hours=1.0, cores=2)
     f = plan.fitting
