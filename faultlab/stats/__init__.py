@@ -30,6 +30,7 @@ _EXPORTS = {
     "calibration": ["CalibrationStatus", "CalibrationCheck", "false_alarm_rates", "check_calibration",
                     "exact_interval"],
     "comparison": ["COMPARISON_COLUMNS", "compare_suite_rates", "compare_suites", "odds_ratio"],
+    "multiplicity": ["holm"],
     "detection": ["DetectionRule", "KEY_COLUMNS", "OUTCOME_COLUMNS", "classify", "detects", "outcomes",
                   "pair_with_baseline"],
     "effects": ["EFFECT_COLUMNS", "NUMERIC_PARAMETERS", "fit_effects", "format_effects", "parameter_effects",
