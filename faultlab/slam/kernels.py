@@ -400,21 +400,20 @@ def gather_observed(mu_store, anc, cols, seen, mu_init, x, n, rows, mb, dx, dy):
         if seen[j]:
             for i in range(m):
                 r = rows[j, i]
-                m0 = mu_store[0, c, r]
-                m1 = mu_store[1, c, r]
-                mb[0, j, i] = m0
-                mb[1, j, i] = m1
-                dx[j, i] = m0 - x[i, 0]
-                dy[j, i] = m1 - x[i, 1]
+                _put_mean(mb, dx, dy, x, j, i, mu_store[0, c, r], mu_store[1, c, r])
         else:
             s += 1
             for i in range(m):
-                m0 = mu_init[0, s, i]
-                m1 = mu_init[1, s, i]
-                mb[0, j, i] = m0
-                mb[1, j, i] = m1
-                dx[j, i] = m0 - x[i, 0]
-                dy[j, i] = m1 - x[i, 1]
+                _put_mean(mb, dx, dy, x, j, i, mu_init[0, s, i], mu_init[1, s, i])
+
+
+@_jit
+def _put_mean(mb, dx, dy, x, j, i, m0, m1):
+    """Pair (j, i)'s landmark mean and its offset from the particle's position."""
+    mb[0, j, i] = m0
+    mb[1, j, i] = m1
+    dx[j, i] = m0 - x[i, 0]
+    dy[j, i] = m1 - x[i, 1]
 
 
 @_jit
