@@ -191,6 +191,12 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         raise ResultsError(f"{out}: K = {k} repetitions reach no suite size's per-case level with the "
                            f"{alternative} test (sizes {list(spec.sizes)})")
     spec = dataclasses.replace(spec, sizes=tuple(n for n in spec.sizes if n not in too_large))
+    # a kill matrix of the rows stored so far would judge cases on fewer repetitions, or leave cases out,
+    # without saying so: an unfinished study is not analysed
+    expected = count_expected_jobs(meta)
+    if int(meta["n_rows"]) < expected:
+        raise ResultsError(f"{out}: the study is unfinished ({int(meta['n_rows']):,} of {expected:,} SLAM executions "
+                           f"stored); `faultlab study run` on it resumes the study")
     km = kill_matrix(results, rule=rule, metric=judged_metric(meta))
     ev, mutants, detection, whole, whole_skipped = _evaluate(km, spec, k=k, alternative=alternative)
     status = results["status"].astype(str).value_counts().to_dict()
@@ -206,7 +212,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "slam_time_s": float(results["runtime_s"].sum()), "store_wall_time_s": float(meta["wall_time_s"]),
         "sessions": [{k: v for k, v in s.items() if k != "load"} for s in sessions],
         "wall_time_s": float(sum(s.get("wall_time_s") or 0.0 for s in sessions)),
-        "load": _load_summary(sessions), "complete": int(meta["n_rows"]) == count_expected_jobs(meta),
+        "load": _load_summary(sessions), "complete": True,
         "cannot_judge_cases": int((~km.judged).any(axis=1).sum()),
         "alternative": alternative, "sizes_not_evaluated": {str(n): need for n, need in too_large.items()},
         "whole_not_evaluated": whole_skipped,

@@ -69,6 +69,20 @@ def test_study_run_and_report_on_a_tiny_pool(tmp_path, capsys):
     md = (rep / "study.md").read_text()
     assert "## Power" in md and "bootstrap" in md
 
+    # a study whose stored cases do not make a kill matrix yet is refused as unfinished, and nothing written
+    import shutil
+    import sqlite3
+
+    part = tmp_path / "part"
+    shutil.copytree(out, part)
+    with sqlite3.connect(part / "results.sqlite") as conn:
+        conn.execute("DELETE FROM results WHERE variant = 'weight_overwritten' AND rep >= 3")
+    capsys.readouterr()
+    assert main(["study", "report", str(part), "--reports", str(tmp_path / "rep-part")]) == 1
+    err = capsys.readouterr().err
+    assert "the study is unfinished" in err and "of 224 SLAM executions stored" in err and err.count("\n") == 1
+    assert not (tmp_path / "rep-part").exists()
+
     # the whole random suite (its 3 cases) judged by Holm over its cases (statsmodels), crashes detect
     from statsmodels.stats.multitest import multipletests
     from statsmodels.stats.proportion import proportion_confint
@@ -316,7 +330,9 @@ def test_killed_then_resumed_study_reports_as_the_uninterrupted_one(tmp_path, ca
     capsys.readouterr()
     code = main(["study", "report", str(out), "--reports", str(tmp_path / "rep-killed")])
     err = capsys.readouterr().err
-    assert code == 0 or (code == 1 and err.startswith("faultlab: error: ") and err.count("\n") == 1), err
+    assert code == 0 or (code == 1 and err.startswith("faultlab: error: ") and err.count("\n") == 1
+                         and "the study is unfinished" in err and "study run" in err), err
+    assert code == 0 or not (tmp_path / "rep-killed").exists()  # a refused report writes nothing
     assert main(["study", "run", str(exp), "--out", str(out), *args]) == 0
     assert f"({72 - committed} run now, {committed} already done)" in capsys.readouterr().out
     text = (out / "study.json").read_text()
