@@ -194,7 +194,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     # a kill matrix of the rows stored so far would judge cases on fewer repetitions, or leave cases out,
     # without saying so: an unfinished study is not analysed
     expected = count_expected_jobs(meta)
-    if int(meta["n_rows"]) < expected:
+    if expected is not None and int(meta["n_rows"]) < expected:
         raise ResultsError(f"{out}: the study is unfinished ({int(meta['n_rows']):,} of {expected:,} SLAM executions "
                            f"stored); `faultlab study run` on it resumes the study")
     km = kill_matrix(results, rule=rule, metric=judged_metric(meta))
@@ -212,7 +212,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "slam_time_s": float(results["runtime_s"].sum()), "store_wall_time_s": float(meta["wall_time_s"]),
         "sessions": [{k: v for k, v in s.items() if k != "load"} for s in sessions],
         "wall_time_s": float(sum(s.get("wall_time_s") or 0.0 for s in sessions)),
-        "load": _load_summary(sessions), "complete": True,
+        "load": _load_summary(sessions), "complete": expected is not None,
         "cannot_judge_cases": int((~km.judged).any(axis=1).sum()),
         "alternative": alternative, "sizes_not_evaluated": {str(n): need for n, need in too_large.items()},
         "whole_not_evaluated": whole_skipped,
