@@ -238,7 +238,8 @@ def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
     # the 215-mutant run's CPU time per execution (its README): 3618 CPU s for 8275 executions
     ("mutation-paper", "mutation-paper", ["--seconds-per-execution", "0.44"]),
     # the reduced SLAM's measured cost (its README): 2442 CPU s for 306,000 executions
-    ("study-medium", "study-medium", ["--seconds-per-execution", "0.008"])])
+    ("study-medium", "study-medium", ["--seconds-per-execution", "0.008"]),
+    ("study-large", "study-large", ["--seconds-per-execution", "0.008"])])
 def test_the_committed_plan_is_what_the_verb_renders(study, folder, cost, tmp_path, capsys):
     from pathlib import Path
 
