@@ -236,8 +236,9 @@ def compare_suites(outcomes: pd.DataFrame, suites, *, alpha: float = DEFAULT_ALP
 
     The interval is the difference of the two discordant shares, each within its exact
     Clopper-Pearson interval at half the miss rate (Bonferroni): conservative (a test checks its
-    coverage by simulation) and never of zero width.  The mutants are the independently drawn units, so the interval needs one pair per mutant;
-    with several runs of a mutant it is NaN (not judged).
+    coverage by simulation) and never of zero width.  The mutants are the independently drawn
+    units, so the interval needs one pair per mutant; with several runs of a mutant it is NaN (not
+    judged).
     """
     judged = outcomes[outcomes["outcome"].isin((*KILL_CLASSES, MutantOutcome.SURVIVED.value))]
     kill = judged.assign(k=judged["outcome"].isin(KILL_CLASSES)).pivot_table(
@@ -249,11 +250,10 @@ def compare_suites(outcomes: pd.DataFrame, suites, *, alpha: float = DEFAULT_ALP
         t = np.array([[np.sum(ka & kb), np.sum(ka & ~kb)], [np.sum(~ka & kb), np.sum(~ka & ~kb)]])
         n = len(both)
         p = float(mcnemar(t, exact=True).pvalue) if n else math.nan
-        one_per_mutant = n > 0 and both.index.get_level_values("mutant").is_unique
-        lo, hi = _difference_interval(int(t[0, 1]), int(t[1, 0]), n, level=1 - alpha) if one_per_mutant \
-            else (math.nan, math.nan)
-        lo2, hi2 = _difference_interval(int(t[0, 1]), int(t[1, 0]), n, level=1 - 2 * alpha) if one_per_mutant \
-            else (math.nan, math.nan)
+        lo = hi = lo2 = hi2 = math.nan
+        if n and both.index.get_level_values("mutant").is_unique:  # one pair per mutant
+            lo, hi = _difference_interval(int(t[0, 1]), int(t[1, 0]), n, level=1 - alpha)
+            lo2, hi2 = _difference_interval(int(t[0, 1]), int(t[1, 0]), n, level=1 - 2 * alpha)
         rows.append(dict(suite_a=a, suite_b=b, n=n, both=int(t[0, 0]), a_only=int(t[0, 1]), b_only=int(t[1, 0]),
                          neither=int(t[1, 1]), p=p, diff=(int(t[0, 1]) - int(t[1, 0])) / n if n else math.nan,
                          ci_low=lo, ci_high=hi, equivalent_within=max(abs(lo2), abs(hi2))))
@@ -269,9 +269,8 @@ def compare_suites(outcomes: pd.DataFrame, suites, *, alpha: float = DEFAULT_ALP
 def _difference_interval(a_only: int, b_only: int, n: int, *, level: float) -> tuple[float, float]:
     """``level`` interval of ``(a_only - b_only) / n``: each share within its exact interval at level
     ``1 - (1 - level) / 2``."""
-    (a_lo, a_hi), (b_lo, b_hi) = (proportion_confint(k, n, alpha=(1 - level) / 2, method="beta")
-                                  for k in (a_only, b_only))
-    return float(a_lo - b_hi), float(a_hi - b_lo)
+    (a_lo, a_hi), (b_lo, b_hi) = (clopper_pearson(k, n, alpha=(1 - level) / 2) for k in (a_only, b_only))
+    return a_lo - b_hi, a_hi - b_lo
 
 
 def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> MutationAnalysis:
