@@ -19,16 +19,23 @@ def _pp(x: float) -> str:
     return "none detectable" if math.isinf(x) else f"{x:.1f} pp"
 
 
-def _scale_rows(plan: StudyPlan, scale: StudyScale) -> list[str]:
+def _scale_cells(plan: StudyPlan, scale: StudyScale) -> list[tuple[str, str]]:
     what = "pool cases per strategy" if plan.kind == "strategies" else "cases per suite"
-    rows = [f"| {what} | {scale.cases} |", f"| largest suite judged | {scale.largest_suite} |",
-            f"| mutants | {scale.mutants} |", f"| repetitions K | {scale.repetitions} |"]
+    cells = [(what, f"{scale.cases}"), ("largest suite judged", f"{scale.largest_suite}"),
+             ("mutants", f"{scale.mutants}"), ("repetitions K", f"{scale.repetitions}")]
     if plan.kind == "strategies":
-        rows.append(f"| detectable single-case detection difference | {_pp(scale.detection_pp)} |")
-    rows += [f"| detectable mutation-score difference | {_pp(scale.score_pp)} |",
-             f"| SLAM executions | {scale.executions:,} |", f"| CPU hours | {scale.cpu_hours:,.1f} |",
-             f"| wall hours on {plan.cores} cores | {scale.cpu_hours / plan.cores:,.1f} |"]
-    return rows
+        cells.append(("detectable single-case detection difference", _pp(scale.detection_pp)))
+    cells += [("detectable mutation-score difference", _pp(scale.score_pp)),
+              ("SLAM executions", f"{scale.executions:,}"), ("CPU hours", f"{scale.cpu_hours:,.1f}"),
+              (f"wall hours on {plan.cores} cores", f"{scale.cpu_hours / plan.cores:,.1f}")]
+    return cells
+
+
+def _scale_rows(plan: StudyPlan, *scales: StudyScale) -> list[str]:
+    """One Markdown row per figure, one column per scale."""
+    columns = [_scale_cells(plan, s) for s in scales]
+    return [f"| {label} | " + " | ".join(col[i][1] for col in columns) + " |"
+            for i, (label, _) in enumerate(columns[0])]
 
 
 def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, cost_source: str,
@@ -86,6 +93,23 @@ def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, co
             lines += ["## Largest scale that fits", "",
                       "Chosen to minimise the larger detectable difference relative to its target.", "",
                       "| | |", "|---|---|", *_scale_rows(plan, plan.fitting)]
+    if plan.split is not None:
+        halves = plan.split
+        lines += ["", "## Split design", "",
+                  "The detection target needs pool cases, the score target mutants; crossing them runs every mutant "
+                  "on every pool case. The split design runs the needed pools on the baseline and the faults (fault "
+                  "half) and the needed mutants on pools of the largest suite judged (mutant half), as two studies "
+                  "with the same protocol and seed. Its score power is over mutants, as above; the spread a small "
+                  "pool adds to a drawn suite's score is not modelled (the report's bootstrap over cases measures "
+                  "it).", "",
+                  "| | fault half | mutant half |", "|---|---|---|"]
+        lines += _scale_rows(plan, *halves)
+        total = sum(h.cpu_hours for h in halves)
+        lines += ["", f"Both halves: {sum(h.executions for h in halves):,} executions, {total:,.1f} CPU hours, "
+                      f"{total / plan.cores:,.1f} h on {plan.cores} cores: it "
+                      + ("fits the budget." if plan.split_fits else
+                         f"does **not** fit the budget: in {plan.budget_hours:g} h it needs "
+                         f"{max(1, math.ceil(total / plan.budget_hours))} cores.")]
     lines += ["", "## Detectable differences by scale", ""]
     if plan.kind == "strategies":
         pools = plan.detection_by_pool()

@@ -42,6 +42,16 @@ measured seconds per execution gives CPU hours; a plan fits a budget of ``hours`
 when CPU hours <= hours * cores.  When the needed scale does not fit, :func:`plan_study` also
 gives the largest scale that fits, chosen to minimise the larger of the two detectable
 differences relative to its target, and the differences it can detect.
+
+Split design (strategies study with faults and mutants): the two targets need different things --
+the detection difference needs pool cases (it is judged per variant over the pool), the score
+difference needs mutants (judged over mutants) -- so crossing them (every pool case runs every
+mutant) pays for pool cases x mutants.  :attr:`StudyPlan.split` costs the alternative: a *fault
+half* (the needed pools, baseline and faults) and a *mutant half* (pools of the largest suite
+judged, the smallest that can draw it, baseline and the needed mutants), each a study of its own
+with the same protocol and seed.  Its mutation-score power is the McNemar power over mutants, as
+for the crossed design: neither plan models the spread that a small pool adds to a drawn suite's
+score, which the study's bootstrap over cases measures (:func:`faultlab.stats.killmatrix.compare_scores`).
 """
 
 from __future__ import annotations
@@ -291,6 +301,28 @@ class StudyPlan:
     def cluster_cores(self) -> int:
         """Cores that run the needed scale within the budget's hours."""
         return max(1, math.ceil(self.needed.cpu_hours / self.budget_hours))
+
+    @property
+    def split(self) -> tuple[StudyScale, StudyScale] | None:
+        """The needed scale as a fault half and a mutant half (see the module docstring), or None
+        for a mutation study, or a study without faults or without mutants."""
+        need = self.needed
+        if self.kind != "strategies" or self.faults < 1 or need.mutants < 1:
+            return None
+        small = need.largest_suite  # the smallest pool that can draw the largest suite judged
+        common = dict(strategies=self.strategies, repetitions=need.repetitions, runs=self.runs,
+                      seconds=self.seconds_per_execution, largest_suite=need.largest_suite)
+        faults = _scale("strategies", cases=need.cases, faults=self.faults, mutants=0, det_pp=need.detection_pp,
+                        score_pp=math.inf, **common)
+        mutants = _scale("strategies", cases=small, faults=0, mutants=need.mutants, score_pp=need.score_pp,
+                         det_pp=100 * detectable_detection(small, centre=self.centre, alpha=self.comparison_alpha,
+                                                           power=self.power), **common)
+        return faults, mutants
+
+    @property
+    def split_fits(self) -> bool:
+        halves = self.split
+        return halves is not None and sum(h.cpu_hours for h in halves) <= self.budget_hours * self.cores
 
     def detection_by_pool(self, pools=TABULATED_POOLS) -> list[tuple[int, float]]:
         """(pool cases per strategy, detectable single-case detection difference in pp) at the plan's

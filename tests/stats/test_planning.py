@@ -202,3 +202,22 @@ def test_a_files_scale_counts_every_pool_and_states_the_smallest_pools_power():
     assert bigger.detection_pp < scale.detection_pp and bigger.cases == 30
     with pytest.raises(ConfigError, match="two or more pools"):
         file_scale(plan, pools=[16], mutants=10, repetitions=10, largest_suite=22)
+
+
+def test_the_split_design_runs_faults_on_the_needed_pools_and_mutants_on_the_smallest():
+    from faultlab.stats.planning import plan_study
+
+    plan = plan_study("strategies", strategies=5, faults=17, max_suite=22, seconds_per_execution=0.02)
+    need = plan.needed
+    faults, mutants = plan.split
+    k = need.repetitions
+    # brute-force counts: every pool case of a half runs that half's variants and the baseline K times
+    assert faults.executions == 5 * need.cases * (1 + 17) * k
+    assert mutants.executions == 5 * 22 * (1 + need.mutants) * k
+    assert faults.executions + mutants.executions < need.executions
+    assert faults.detection_pp == need.detection_pp and mutants.score_pp == need.score_pp
+    assert math.isinf(faults.score_pp) and mutants.detection_pp > need.detection_pp
+    assert plan.split_fits == ((faults.cpu_hours + mutants.cpu_hours) <= plan.budget_hours * plan.cores)
+    assert not plan.fits and plan.split_fits  # 13 CPU hours crossed, under 6 split at 0.02 s
+    assert plan_study("strategies", strategies=5, faults=0, max_suite=22, seconds_per_execution=0.02).split is None
+    assert plan_study("mutation", strategies=3, seconds_per_execution=0.02).split is None
