@@ -89,6 +89,21 @@ def test_the_large_study_is_the_medium_protocol_at_the_planned_pools_and_mutants
     assert large.study == medium.study
 
 
+def test_the_large_studys_halves_split_its_variants_over_the_same_protocol():
+    large = load_study_experiment("study-large")
+    faults = load_study_experiment("study-large-faults")
+    mutants = load_study_experiment("study-large-mutants")
+    assert faults.selection is None and faults.experiment.runs == large.experiment.runs
+    assert list(faults.experiment.variants) == list(large.experiment.variants[:18])  # the baseline and 17 faults
+    assert mutants.experiment.runs == 2 and list(mutants.selection.run) == list(large.selection.run)
+    assert list(mutants.experiment.variants) == [large.experiment.variants[0], *large.experiment.variants[18:]]
+    for half in (faults, mutants):
+        for key in ("n_steps", "repetitions", "timeout_s", "space", "seed", "suites", "detection", "metric"):
+            assert getattr(half.experiment, key) == getattr(large.experiment, key), key
+        assert dict(half.experiment.slam.options) == dict(large.experiment.slam.options)
+        assert half.study == large.study
+
+
 def test_the_medium_study_is_the_quick_protocol_with_five_runs_and_fifty_of_the_mutation_studys_mutants():
     medium = load_study_experiment("study-medium")
     quick = load_study_experiment("study", quick=True)
