@@ -27,16 +27,17 @@ from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
 from faultlab.stats.cases import detectable_difference
-from faultlab.stats.killmatrix import (WHOLE_COLUMNS, KillMatrix, StudySpec, compare_scores, detection_table,
+from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, WHOLE_COLUMNS, KillMatrix, StudySpec,
+                                       compare_detection, compare_scores, detection_table,
                                        evaluate_suites, kill_matrix, score_table, study_spec, whole_suite_table,
                                        whole_suites)
 from faultlab.stats.verdict import alternative_of, min_pairs
-from faultlab.vocabulary import PAPER_FAULTS
+from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
 __all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]
 
 #: Tables of a :class:`StudyAnalysis`, saved as ``<name>.csv``.
-STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power", "whole")
+STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power", "whole", "detection_comparisons")
 _META_FILE = "study_meta.json"
 
 
@@ -62,6 +63,9 @@ class StudyAnalysis(TableBundle):
     whole : DataFrame
         :func:`~faultlab.stats.killmatrix.whole_suite_table` of the strategies in ``[study] whole``:
         each evaluation run's generated suite (e.g. a whole pairwise covering array) judged whole.
+    detection_comparisons : DataFrame
+        :func:`~faultlab.stats.killmatrix.compare_detection` for every fault: the strategies' single-case
+        detection probabilities compared pair by pair, with intervals, Holm and equivalence margins.
     meta : dict
         Settings, mutants, run time per session, sampled machine load, SLAM time, job counts.
     """
@@ -72,6 +76,8 @@ class StudyAnalysis(TableBundle):
     comparisons: pd.DataFrame
     power: pd.DataFrame
     whole: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(WHOLE_COLUMNS)))
+    detection_comparisons: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=list(DETECTION_COMPARISON_COLUMNS)))
     meta: dict = field(default_factory=dict)
 
     TABLES = STUDY_TABLES
@@ -130,7 +136,8 @@ def _evaluate(km: KillMatrix, spec: StudySpec, *, k: int | None, alternative: st
     detection = detection_table(ev, km.variants)
     detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
     whole, skipped = _whole(km, spec, mutants, k=k, alternative=alternative)
-    return ev, mutants, detection, whole, skipped
+    faults = [v for v in km.variants if v != BASELINE and v not in mutants]
+    return ev, mutants, detection, whole, skipped, compare_detection(ev, faults, alpha=spec.alpha)
 
 
 def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
@@ -153,12 +160,13 @@ def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
         frame["mean_log_ratio"] = np.nan
     km = KillMatrix.from_frame(frame)
     spec = study_spec(meta["study"], source=str(d / _META_FILE))
-    ev, _, detection, whole, skipped = _evaluate(km, spec, k=meta.get("repetitions"), alternative=alternative)
+    ev, _, detection, whole, skipped, compared = _evaluate(km, spec, k=meta.get("repetitions"),
+                                                           alternative=alternative)
     meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {}),
                    "whole_not_evaluated": skipped}
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole, meta=meta)
+                         whole=whole, detection_comparisons=compared, meta=meta)
 
 
 def analyse_study(out: str | Path) -> StudyAnalysis:
@@ -198,7 +206,7 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         raise ResultsError(f"{out}: the study is unfinished ({int(meta['n_rows']):,} of {expected:,} SLAM executions "
                            f"stored); `faultlab study run` on it resumes the study")
     km = kill_matrix(results, rule=rule, metric=judged_metric(meta))
-    ev, mutants, detection, whole, whole_skipped = _evaluate(km, spec, k=k, alternative=alternative)
+    ev, mutants, detection, whole, whole_skipped, compared = _evaluate(km, spec, k=k, alternative=alternative)
     status = results["status"].astype(str).value_counts().to_dict()
     sessions = settle_sessions(info.get("sessions", []), load_sessions(out))
     meta_out = {
@@ -222,5 +230,5 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     }
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole, meta=meta_out)
+                         whole=whole, detection_comparisons=compared, meta=meta_out)
 

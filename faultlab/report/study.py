@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from faultlab.analysis.study import StudyAnalysis, analyse_study
+from faultlab.analysis.study import STUDY_TABLES, StudyAnalysis, analyse_study
 from faultlab.report.figures import PAGE_SIZE, suite_palette
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
@@ -124,6 +124,36 @@ def _comparisons_md(analysis: StudyAnalysis) -> pd.DataFrame:
         "only a / only b (mean)": [f"{a:.1f} / {b:.1f}" for a, b in zip(c["only_a"], c["only_b"])],
         "McNemar p (median)": [_p(p) for p in c["mcnemar_p_median"]],
         "drawn pairs with McNemar p <= 0.05": [_pct(x) for x in c["mcnemar_share_sig"]]})
+
+
+def _detection_comparisons_md(c: pd.DataFrame) -> pd.DataFrame:
+    """One row per fault: the pairs whose difference is shown (Holm within the fault), the largest
+    equivalence margin of the others and the range of detectable differences."""
+    rows = []
+    for fault, g in c.groupby("variant", sort=False):
+        shown = g[g["shown"]].sort_values("p_holm")
+        rest = g[~g["shown"]]
+        rows.append({
+            "fault": fault,
+            "differences shown (a - b, 95 % CI, Holm p)": "; ".join(
+                f"{r.strategy_a} - {r.strategy_b} {100 * r.diff:+.0f} pp ({100 * r.ci_low:+.0f} to "
+                f"{100 * r.ci_high:+.0f}), {_p(r.p_holm)}" for r in shown.itertuples()) or "none",
+            "other pairs equivalent within": f"±{100 * rest['equivalence_margin'].max():.0f} pp" if len(rest) else "-",
+            "detectable at 80 %": f"{100 * g['mdd80'].min():.0f}-{100 * g['mdd80'].max():.0f} pp"})
+    return pd.DataFrame(rows)
+
+
+def _detection_comparisons_text(c: pd.DataFrame, alpha: float) -> str:
+    pairs = c.groupby("variant").size().max()
+    study = int((c["p_holm_study"] <= alpha).sum())
+    return (f"The share of a strategy's pool cases that alone detect the fault (a suite of one case), compared "
+            f"pair by pair: the difference with its 95 % Agresti-Caffo interval and the two-sided test on the same "
+            f"adjusted proportions (statsmodels), Holm over the {pairs} pairs of a fault (the power plan's family). "
+            f"{int(c['shown'].sum())} of {len(c)} comparisons are shown at {alpha}; {study} also under Holm over all "
+            f"{len(c)} (`p_holm_study` in `detection_comparisons.csv`). For the other pairs, two one-sided tests at "
+            f"{alpha} (per pair, not adjusted for the family) show the difference within the margin given (the largest over the fault's pairs; each pair's "
+            f"own is `equivalence_margin`). Detectable: the difference a pair detects with 80 % power at Holm's "
+            f"first step ({alpha} / {pairs}).")
 
 
 def _whole_md(whole: pd.DataFrame) -> pd.DataFrame:
@@ -256,6 +286,11 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         markdown_table(_detection_md(analysis)),
         f"![detection probability vs suite size]({FIGURE_FILE})", "",
     ]
+    if not analysis.detection_comparisons.empty:
+        c = analysis.detection_comparisons
+        md += ["## Strategies compared on the single-case detection probability, per fault", "",
+               _detection_comparisons_text(c, st["alpha"]), "",
+               markdown_table(_detection_comparisons_md(c))]
     if not analysis.scores.empty:
         md += ["## Expected mutation score of a drawn suite (95 % bootstrap interval over cases and mutants)", "",
                markdown_table(_scores_md(analysis)),
@@ -285,8 +320,8 @@ def study_markdown(analysis: StudyAnalysis) -> str:
            + _mdd_text(analysis.comparisons), "",
            markdown_table(p.round(3)),
            "Files: `kill_matrix.csv` (per pool case and variant), `detection.csv` (every variant, strategy and size; "
-           "`rate_paper` = the same under the paper's rule without correction), `scores.csv`, `comparisons.csv`, "
-           "`power.csv`, `study_meta.json`.", ""]
+           "`rate_paper` = the same under the paper's rule without correction), `detection_comparisons.csv`, "
+           "`scores.csv`, `comparisons.csv`, `power.csv`, `whole.csv`, `study_meta.json`.", ""]
     return "\n".join(md)
 
 
@@ -295,7 +330,7 @@ def write_study_report(results: str | Path, reports: str | Path) -> list[Path]:
     analysis = analyse_study(results)
     out = Path(reports)
     analysis.save(out)
-    paths = [out / f"{name}.csv" for name in ("kill_matrix", "detection", "scores", "comparisons", "power", "whole")]
+    paths = [out / f"{name}.csv" for name in STUDY_TABLES]
     (out / REPORT_FILE).write_text(study_markdown(analysis))
     fig = detection_figure(analysis)
     fig.savefig(out / FIGURE_FILE, dpi=110)

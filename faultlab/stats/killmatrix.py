@@ -78,6 +78,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -85,14 +86,14 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm
 from statsmodels.stats.contingency_tables import mcnemar
-from statsmodels.stats.proportion import proportion_confint
+from statsmodels.stats.proportion import confint_proportions_2indep, proportion_confint, test_proportions_2indep
 
 from faultlab.config import Table
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.metrics.detection import DetectionRule
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.seeds import study_seed_sequence
-from faultlab.stats.cases import holm_within, rule_verdicts
+from faultlab.stats.cases import detectable_difference, holm_within, rule_verdicts
 from faultlab.stats.detection import outcomes
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.stats.sequential import Look
@@ -103,6 +104,7 @@ __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRI
            "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "exact_detection_interval", "score_table", "compare_scores", "detectable_score_difference", "smallest_showable_difference",
+           "DETECTION_COMPARISON_COLUMNS", "compare_detection",
            "COMPARISON_POWER", "WHOLE_COLUMNS", "whole_suites", "whole_suite_table"]
 
 #: Multiplicity rules within a suite's cases.
@@ -672,6 +674,65 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFr
     out = pd.DataFrame(rows)
     out.insert(out.columns.get_loc("p_boot") + 1, "p_holm", holm_within(out["p_boot"].to_numpy(float),
                                                                          out["size"].to_numpy()))
+    return out
+
+
+#: Columns of :func:`compare_detection`.
+DETECTION_COMPARISON_COLUMNS = ("variant", "strategy_a", "strategy_b", "pool_a", "detect_a", "pool_b", "detect_b",
+                                "rate_a", "rate_b", "diff", "ci_low", "ci_high", "p", "p_holm", "p_holm_study",
+                                "shown", "equivalence_margin", "mdd80")
+
+
+def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
+                      power: float = COMPARISON_POWER) -> pd.DataFrame:
+    """Strategies compared per variant on the single-case detection probability.
+
+    The unit of evidence is the pool case: a strategy's rate is the share of its pool cases that
+    alone detect the variant (a suite of one case: exact p <= ``alpha``, or the variant crashes;
+    ``n_strong`` at size 1).  Per (variant, strategy pair):
+
+    * ``diff`` = rate a - rate b with its 95 % Agresti-Caffo interval and ``p``, the two-sided
+      Wald test on the same adjusted proportions (statsmodels ``confint_proportions_2indep`` and
+      ``test_proportions_2indep``, ``method="agresti-caffo"``): the interval excludes 0 exactly
+      when the test rejects at ``alpha``, it is defined at 0 % and 100 % and never of zero width;
+    * ``p_holm``: Holm over the variant's strategy pairs (the family the power plan uses),
+      ``shown`` = ``p_holm <= alpha``; ``p_holm_study``: Holm over every row of the table;
+    * ``equivalence_margin``: the smallest margin d for which two one-sided tests at ``alpha``
+      show ``|difference| < d`` (by their duality, the largest end of the ``1 - 2 alpha``
+      interval; statsmodels ``tost_proportions_2indep`` gives p = ``alpha`` there);
+    * ``mdd80``: the smallest difference, around the two rates' mean, that a two-sided test at
+      Holm's first step (``alpha`` / pairs, the strictest level a pair is judged at) detects with
+      ``power`` for these pool sizes (:func:`faultlab.stats.cases.detectable_difference`).
+
+    Empty (with the columns) when suites of one case were not evaluated.
+    """
+    strategies = [s for s, n in ev.n_strong if n == 1]
+    pairs = list(itertools.combinations(strategies, 2))
+    rows = []
+    for v in variants:
+        j = ev.variants.index(v)
+        for a, b in pairs:
+            ka, na = int(ev.n_strong[(a, 1)][j]), int(ev.pool_sizes[a])
+            kb, nb = int(ev.n_strong[(b, 1)][j]), int(ev.pool_sizes[b])
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                lo, hi = confint_proportions_2indep(ka, na, kb, nb, method="agresti-caffo", compare="diff",
+                                                    alpha=alpha)
+                lo2, hi2 = confint_proportions_2indep(ka, na, kb, nb, method="agresti-caffo", compare="diff",
+                                                      alpha=2 * alpha)
+                p = test_proportions_2indep(ka, na, kb, nb, method="agresti-caffo", compare="diff").pvalue
+            mid = (ka / na + kb / nb) / 2
+            rows.append({"variant": v, "strategy_a": a, "strategy_b": b, "pool_a": na, "detect_a": ka, "pool_b": nb,
+                         "detect_b": kb, "rate_a": ka / na, "rate_b": kb / nb, "diff": ka / na - kb / nb,
+                         "ci_low": float(lo), "ci_high": float(hi), "p": float(p),
+                         "equivalence_margin": float(max(abs(lo2), abs(hi2))),
+                         "mdd80": detectable_difference(mid, na, nb, alpha=alpha / max(1, len(pairs)), power=power)})
+    out = pd.DataFrame(rows, columns=[c for c in DETECTION_COMPARISON_COLUMNS
+                                      if c not in ("p_holm", "p_holm_study", "shown")])
+    p = out["p"].to_numpy(float)
+    out.insert(out.columns.get_loc("p") + 1, "p_holm", holm_within(p, out["variant"].to_numpy()))
+    out.insert(out.columns.get_loc("p_holm") + 1, "p_holm_study", holm_within(p, np.zeros(p.size)))
+    out.insert(out.columns.get_loc("p_holm_study") + 1, "shown", out["p_holm"].to_numpy(float) <= alpha)
     return out
 
 

@@ -15,7 +15,9 @@ from statsmodels.stats.multitest import multipletests
 
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.metrics.detection import DetectionRule
-from faultlab.stats.killmatrix import (KillMatrix, StudySpec, bootstrap_probabilities, compare_scores,
+from faultlab.stats.cases import detectable_difference
+from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, KillMatrix, StudySpec, SuiteDraws,
+                                       bootstrap_probabilities, compare_detection, compare_scores,
                                        detection_probability, detection_table, draw_suites, evaluate_suites,
                                        combined_detects, judge_suite, kill_matrix, score_table, strong_cases,
                                        study_spec,
@@ -497,3 +499,74 @@ def test_study_spec_reads_whole_suites():
     for bad in ("pairwise", ["pairwise", "pairwise"], [1]):
         with pytest.raises(ConfigError, match="whole"):
             study_spec({"whole": bad}, source="f.toml")
+
+
+def _draws_of_counts(pools: dict, strong: dict) -> SuiteDraws:
+    """Suite draws holding only what compare_detection reads: pool sizes and size-1 strong counts."""
+    variants = tuple(next(iter(strong.values())).keys())
+    return SuiteDraws(variants=variants, detects={}, detects_paper={}, exact={}, boot={},
+                      mutant_boot=np.empty((0, 0), dtype=np.int64), mutants=(), pool_sizes=pools,
+                      n_strong={(s, 1): np.array([strong[s][v] for v in variants]) for s in pools})
+
+
+def test_detection_comparison_counts_the_cases_that_alone_detect():
+    km = hand_matrix()
+    ev = evaluate_suites(km, [1, 3], draws=200, bootstrap=50, seed=2, mutants=["mutant:x"])
+    comp = compare_detection(ev, ["fault_a", "fault_b"])
+    assert list(comp.columns) == list(DETECTION_COMPARISON_COLUMNS) and len(comp) == 2
+    for _, r in comp.iterrows():
+        j = km.variants.index(r["variant"])
+        for side in ("a", "b"):
+            rows = (km.cases["strategy"] == r[f"strategy_{side}"]).to_numpy()
+            # brute force: a case of a one-case suite detects when it crashes or its p <= alpha
+            want = int((km.crash[rows, j] | (np.nan_to_num(km.p[rows, j], nan=1.0) <= ALPHA)).sum())
+            assert r[f"detect_{side}"] == want and r[f"pool_{side}"] == rows.sum()
+        assert r["diff"] == pytest.approx(r["rate_a"] - r["rate_b"])
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # statsmodels' ratio and odds ratio of 0 % rates
+@settings(max_examples=150, deadline=None)
+@given(st.integers(5, 250), st.integers(5, 250), st.data())
+def test_detection_comparison_interval_test_and_equivalence_margin_agree(na, nb, data):
+    """statsmodels' own TOST is the reference for the margin; the interval and the test are dual."""
+    from statsmodels.stats.proportion import tost_proportions_2indep
+
+    ka, kb = data.draw(st.integers(0, na)), data.draw(st.integers(0, nb))
+    ev = _draws_of_counts({"a": na, "b": nb}, {"a": {"f": ka}, "b": {"f": kb}})
+    r = compare_detection(ev, ["f"]).iloc[0]
+    assert r["ci_low"] < r["diff"] < r["ci_high"] or r["ci_low"] < r["ci_high"]  # never of zero width
+    assert r["ci_high"] - r["ci_low"] > 0
+    if abs(r["p"] - ALPHA) > 1e-6:
+        assert (r["p"] <= ALPHA) == (r["ci_low"] > 0 or r["ci_high"] < 0)
+    d = r["equivalence_margin"]
+    tost = tost_proportions_2indep(ka, na, kb, nb, -d, d, method="agresti-caffo").pvalue
+    assert tost == pytest.approx(ALPHA, abs=1e-6)
+    assert r["mdd80"] == detectable_difference((ka / na + kb / nb) / 2, na, nb, alpha=ALPHA)  # one pair
+
+
+def test_detection_comparison_finds_a_planted_difference_and_keeps_its_level_on_a_a_pools():
+    """Binomial pools: 30 points apart the test shows it; equal rates it rejects at about alpha (A/A)."""
+    rng = np.random.default_rng(20261126)
+    n, sims = 165, 400
+    shown = aa = 0
+    for _ in range(sims):
+        planted = _draws_of_counts({"a": n, "b": n}, {"a": {"f": rng.binomial(n, 0.65)},
+                                                     "b": {"f": rng.binomial(n, 0.35)}})
+        shown += bool(compare_detection(planted, ["f"])["shown"].iloc[0])
+        same = _draws_of_counts({"a": n, "b": n}, {"a": {"f": rng.binomial(n, 0.3)}, "b": {"f": rng.binomial(n, 0.3)}})
+        aa += bool(compare_detection(same, ["f"])["p"].iloc[0] <= ALPHA)
+    assert shown / sims > 0.99
+    # false alarms: at most alpha plus three binomial standard errors of 400 A/A runs
+    assert aa / sims <= ALPHA + 3 * np.sqrt(ALPHA * (1 - ALPHA) / sims)
+
+
+def test_detection_comparison_holm_is_within_a_fault_and_over_the_study():
+    pools = {"a": 100, "b": 100, "c": 100}
+    strong = {"a": {"f": 80, "g": 50}, "b": {"f": 50, "g": 50}, "c": {"f": 60, "g": 45}}
+    comp = compare_detection(_draws_of_counts(pools, strong), ["f", "g"])
+    for v, part in comp.groupby("variant"):
+        want = multipletests(part["p"], method="holm")[1]
+        np.testing.assert_allclose(part["p_holm"], want)
+    np.testing.assert_allclose(comp["p_holm_study"], multipletests(comp["p"], method="holm")[1])
+    assert (comp["shown"] == (comp["p_holm"] <= ALPHA)).all()
+    assert comp.loc[(comp["variant"] == "f") & (comp["strategy_a"] == "a") & (comp["strategy_b"] == "b"), "shown"].item()
