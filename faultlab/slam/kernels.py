@@ -416,11 +416,53 @@ def _put_mean(mb, dx, dy, x, j, i, m0, m1):
     dy[j, i] = m1 - x[i, 1]
 
 
+#: Rows of :func:`correct_observed`'s column buffers: inputs (offsets, bearing, heading, mean,
+#: covariance) and outputs (quadratic form, determinant, updated mean and covariance).
+_DX, _DY, _BEARING, _THETA, _MU0, _MU1, _P00, _P01, _P11 = range(9)
+_T, _DET, _NMU0, _NMU1, _N00, _N01, _N11 = range(7)
+
+
+@_jit
+def _correct_column(cin, cout, r, b, q00, q01, q11, add_q01, known):
+    """One observation's pairs through :func:`_pair_terms` (and :func:`_ekf_pair` if ``known``):
+    ``cin`` (9, M) holds the pairs' inputs, ``cout`` (7, M) receives their outputs.
+
+    The loop reads one buffer and writes the other, with no branch that depends on the pair, so
+    that the compiler can run it on several pairs at once (SIMD): the operations are those of the
+    scalar kernels, each correctly rounded, so every value is the same bit for bit.
+    """
+    m = cin.shape[1]
+    if known:
+        for i in range(m):
+            p00 = cin[_P00, i]
+            p01 = cin[_P01, i]
+            p11 = cin[_P11, i]
+            h00, h01, h10, h11, n0, n1, s00, s01, s11, tq, dd = _pair_terms(
+                cin[_DX, i], cin[_DY, i], cin[_BEARING, i], cin[_THETA, i], r, b, p00, p01, p11,
+                q00, q01, q11, add_q01)
+            a, bb, cc, e, f = _ekf_pair(cin[_MU0, i], cin[_MU1, i], p00, p01, p11, h00, h01, h10, h11,
+                                        s00, s01, s11, n0, n1)
+            cout[_T, i] = tq
+            cout[_DET, i] = dd
+            cout[_NMU0, i] = a
+            cout[_NMU1, i] = bb
+            cout[_N00, i] = cc
+            cout[_N01, i] = e
+            cout[_N11, i] = f
+    else:
+        for i in range(m):
+            h00, h01, h10, h11, n0, n1, s00, s01, s11, tq, dd = _pair_terms(
+                cin[_DX, i], cin[_DY, i], cin[_BEARING, i], cin[_THETA, i], r, b, cin[_P00, i], cin[_P01, i],
+                cin[_P11, i], q00, q01, q11, add_q01)
+            cout[_T, i] = tq
+            cout[_DET, i] = dd
+
+
 @_jit
 def correct_observed(x, z, seen, mb, rows, P_init, dx, dy, bearing, q00, q01, q11, add_q01, cols, n,
                      mu_store, P_store, anc, t, det):
     """:func:`fused_correction` followed by the write-back of :func:`scatter_pairs` (owner: every
-    particle its own row), without intermediate arrays beyond one column's covariances.
+    particle its own row), without intermediate arrays beyond one column's buffers.
 
     ``mb`` (2, k, M) are the means of :func:`gather_observed`; the covariances are read from the
     storage rows ``rows`` (k, M) of the known landmarks (``seen[j]``), a whole column before any
@@ -428,53 +470,58 @@ def correct_observed(x, z, seen, mb, rows, P_init, dx, dy, bearing, q00, q01, q1
     (``init_landmarks``, the unseen observations in order) for the others.  Particle ``i`` (of all
     ``M``, filters of ``n``) writes row ``i`` of the storage: its EKF update of the known
     landmarks and the initial values of the others, and points ``anc[i, cols[j]]`` at its row
-    within its filter.  ``t`` and ``det`` are written for every pair as by :func:`fused_correction`.
+    within its filter.  ``t`` and ``det`` are written for every pair as by :func:`fused_correction`
+    (they may share memory with ``bearing`` and ``dy``: a column is read before it is written).
+    Each column's pairs are computed by :func:`_correct_column` from a buffer of their inputs.
     """
     k, m = dx.shape
-    pcol = np.empty((3, m))  # one column's stored covariances, read before the column is written
+    cin = np.empty((9, m))
+    cout = np.empty((7, m))
+    for i in range(m):
+        cin[_THETA, i] = x[i, 2]
     s = -1
     for j in range(k):
-        r = z[j, 0]
-        b = z[j, 1]
         c = cols[j]
         known = seen[j]
+        for i in range(m):
+            cin[_DX, i] = dx[j, i]
+            cin[_DY, i] = dy[j, i]
+            cin[_BEARING, i] = bearing[j, i]
         if known:
             for i in range(m):
                 w = rows[j, i]
-                pcol[0, i] = P_store[0, 0, c, w]
-                pcol[1, i] = P_store[0, 1, c, w]
-                pcol[2, i] = P_store[1, 1, c, w]
+                cin[_MU0, i] = mb[0, j, i]
+                cin[_MU1, i] = mb[1, j, i]
+                cin[_P00, i] = P_store[0, 0, c, w]
+                cin[_P01, i] = P_store[0, 1, c, w]
+                cin[_P11, i] = P_store[1, 1, c, w]
         else:
             s += 1
+            for i in range(m):
+                cin[_P00, i] = P_init[0, 0, s, i]
+                cin[_P01, i] = P_init[0, 1, s, i]
+                cin[_P11, i] = P_init[1, 1, s, i]
+        _correct_column(cin, cout, z[j, 0], z[j, 1], q00, q01, q11, add_q01, known)
         for i in range(m):
-            if known:
-                p00 = pcol[0, i]
-                p01 = pcol[1, i]
-                p11 = pcol[2, i]
-            else:
-                p00 = P_init[0, 0, s, i]
-                p01 = P_init[0, 1, s, i]
-                p11 = P_init[1, 1, s, i]
-            h00, h01, h10, h11, n0, n1, s00, s01, s11, tq, dd = _pair_terms(
-                dx[j, i], dy[j, i], bearing[j, i], x[i, 2], r, b, p00, p01, p11, q00, q01, q11, add_q01)
-            t[j, i] = tq
-            det[j, i] = dd
-            if known:
-                a, bb, cc, e, f = _ekf_pair(mb[0, j, i], mb[1, j, i], p00, p01, p11, h00, h01, h10, h11,
-                                            s00, s01, s11, n0, n1)
-                mu_store[0, c, i] = a
-                mu_store[1, c, i] = bb
-                P_store[0, 0, c, i] = cc
+            t[j, i] = cout[_T, i]
+            det[j, i] = cout[_DET, i]
+        if known:
+            for i in range(m):
+                mu_store[0, c, i] = cout[_NMU0, i]
+                mu_store[1, c, i] = cout[_NMU1, i]
+                e = cout[_N01, i]
+                P_store[0, 0, c, i] = cout[_N00, i]
                 P_store[0, 1, c, i] = e
                 P_store[1, 0, c, i] = e
-                P_store[1, 1, c, i] = f
-            else:
+                P_store[1, 1, c, i] = cout[_N11, i]
+        else:
+            for i in range(m):
                 mu_store[0, c, i] = mb[0, j, i]
                 mu_store[1, c, i] = mb[1, j, i]
-                P_store[0, 0, c, i] = p00
-                P_store[0, 1, c, i] = p01
+                P_store[0, 0, c, i] = P_init[0, 0, s, i]
+                P_store[0, 1, c, i] = P_init[0, 1, s, i]
                 P_store[1, 0, c, i] = P_init[1, 0, s, i]
-                P_store[1, 1, c, i] = p11
+                P_store[1, 1, c, i] = P_init[1, 1, s, i]
     for i in range(m):
         o = i - (i // n) * n
         for j in range(k):
@@ -514,6 +561,36 @@ def _pairwise_block(a, lo, n):
         res += a[lo + i]
         i += 1
     return res
+
+
+@_jit
+def _pairwise_block_columns(a, out):
+    """``out[i] = _pairwise_block(a[:, i], 0, k)`` for every column of ``a`` (k, m), ``k <= 128``:
+    the same additions in the same order for each column, done for all columns side by side."""
+    k, m = a.shape
+    if k < 8:
+        for i in range(m):
+            out[i] = -0.0
+        for j in range(k):
+            for i in range(m):
+                out[i] += a[j, i]
+        return
+    acc = np.empty((8, m))
+    for q in range(8):
+        for i in range(m):
+            acc[q, i] = a[q, i]
+    j = 8
+    while j < k - (k % 8):
+        for q in range(8):
+            for i in range(m):
+                acc[q, i] += a[j + q, i]
+        j += 8
+    for i in range(m):
+        out[i] = ((acc[0, i] + acc[1, i]) + (acc[2, i] + acc[3, i])) + ((acc[4, i] + acc[5, i]) + (acc[6, i] + acc[7, i]))
+    while j < k:
+        for i in range(m):
+            out[i] += a[j, i]
+        j += 1
 
 
 @_jit
@@ -573,16 +650,32 @@ def combine_observed(t, log_det, seen, logw, n, out, tops):
     ``out`` is shifted by it (``out - top``).
     """
     k, m = t.shape
-    row = np.empty(k)
-    for i in range(m):
+    if k <= 128:  # one pairwise block per particle: summed for all particles at once (SIMD)
+        ll = np.empty((k, m))
         for j in range(k):
             if seen[j]:
-                row[j] = (t[j, i] + log_det[j, i]) * -0.5 - _LOG_TWO_PI
+                for i in range(m):
+                    ll[j, i] = (t[j, i] + log_det[j, i]) * -0.5 - _LOG_TWO_PI
             else:
-                row[j] = 0.0
-        s = 0.0
-        s += _pairwise_sum(row, 0, k)
-        out[i] = logw[i] + s
+                for i in range(m):
+                    ll[j, i] = 0.0
+        sums = np.empty(m)
+        _pairwise_block_columns(ll, sums)
+        for i in range(m):
+            s = 0.0
+            s += sums[i]
+            out[i] = logw[i] + s
+    else:
+        row = np.empty(k)
+        for i in range(m):
+            for j in range(k):
+                if seen[j]:
+                    row[j] = (t[j, i] + log_det[j, i]) * -0.5 - _LOG_TWO_PI
+                else:
+                    row[j] = 0.0
+            s = 0.0
+            s += _pairwise_sum(row, 0, k)
+            out[i] = logw[i] + s
     for f in range(m // n):
         top = out[f * n]
         for i in range(f * n + 1, (f + 1) * n):

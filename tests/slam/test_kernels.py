@@ -76,6 +76,18 @@ SUMMANDS = st.one_of(st.floats(-1e6, 1e6), st.floats(-1e300, 1e300), st.sampled_
 
 
 @settings(max_examples=200, deadline=None)
+@given(st.integers(0, 128), st.integers(1, 9), st.data())
+def test_pairwise_block_columns_adds_each_column_in_numpys_order(k, m, data):
+    """numpy's own reduction of each (contiguous) column is the reference, bit for bit."""
+    a = data.draw(arrays(np.float64, (k, m), elements=SUMMANDS))
+    got = np.empty(m)
+    kernels._pairwise_block_columns(a, got)
+    for i in range(m):
+        want = np.add.reduce(np.ascontiguousarray(a[:, i]))
+        assert np.float64(0.0 + got[i]).view(np.int64) == np.float64(want).view(np.int64)
+
+
+@settings(max_examples=200, deadline=None)
 @given(st.one_of(st.integers(0, 20), st.integers(100, 140), st.integers(250, 1100)), st.integers(0, 3), st.data())
 def test_pairwise_sum_adds_in_numpys_order(n, lo, data):
     """numpy's own reduction is the reference (its order differs from a plain loop beyond 8 values)."""
