@@ -241,7 +241,9 @@ def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
     ("study-medium", "study-medium", ["--seconds-per-execution", "0.008"]),
     # the fault half's measured cost (its README): 1384 s wall x 2 workers for 172,260 executions
     ("study-large", "study-large", ["--seconds-per-execution", "0.016"]),
-    ("study-large-faults", "study-large-faults", ["--seconds-per-execution", "0.016"])])
+    ("study-large-faults", "study-large-faults", ["--seconds-per-execution", "0.016"]),
+    # the mutant half's (its README): 1695 s wall x 2 workers for 471,540 executions
+    ("study-large-mutants", "study-large-mutants", ["--seconds-per-execution", "0.0072"])])
 def test_the_committed_plan_is_what_the_verb_renders(study, folder, cost, tmp_path, capsys):
     from pathlib import Path
 
