@@ -27,8 +27,9 @@ from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
 from faultlab.stats.cases import detectable_difference
-from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, WHOLE_COLUMNS, KillMatrix, StudySpec,
-                                       compare_detection, compare_scores, detection_table,
+from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, MEAN_DETECTION_COLUMNS, WHOLE_COLUMNS,
+                                       KillMatrix, StudySpec, compare_detection, compare_mean_detection,
+                                       compare_scores, detection_table,
                                        evaluate_suites, kill_matrix, score_table, study_spec, whole_suite_table,
                                        whole_suites)
 from faultlab.stats.verdict import alternative_of, min_pairs
@@ -37,7 +38,8 @@ from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 __all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]
 
 #: Tables of a :class:`StudyAnalysis`, saved as ``<name>.csv``.
-STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power", "whole", "detection_comparisons")
+STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power", "whole", "detection_comparisons",
+                "detection_means")
 _META_FILE = "study_meta.json"
 
 
@@ -66,6 +68,9 @@ class StudyAnalysis(TableBundle):
     detection_comparisons : DataFrame
         :func:`~faultlab.stats.killmatrix.compare_detection` for every fault: the strategies' single-case
         detection probabilities compared pair by pair, with intervals, Holm and equivalence margins.
+    detection_means : DataFrame
+        :func:`~faultlab.stats.killmatrix.compare_mean_detection` over the faults: the single-case
+        detection probability averaged over the faults, compared pair by pair with the case as the unit.
     meta : dict
         Settings, mutants, run time per session, sampled machine load, SLAM time, job counts.
     """
@@ -78,6 +83,7 @@ class StudyAnalysis(TableBundle):
     whole: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(WHOLE_COLUMNS)))
     detection_comparisons: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=list(DETECTION_COMPARISON_COLUMNS)))
+    detection_means: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(MEAN_DETECTION_COLUMNS)))
     meta: dict = field(default_factory=dict)
 
     TABLES = STUDY_TABLES
@@ -127,8 +133,9 @@ def _whole(km: KillMatrix, spec: StudySpec, mutants, *, k: int | None = None,
 
 
 def _evaluate(km: KillMatrix, spec: StudySpec, *, k: int | None, alternative: str):
-    """Drawn suites of every size from every pool, the detection table and the whole suites of a kill matrix:
-    ``(evaluation, mutants, detection, whole, whole_not_evaluated)``."""
+    """Drawn suites of every size from every pool, the detection table, the whole suites and the faults'
+    strategy comparisons of a kill matrix: ``(evaluation, mutants, detection, whole, whole_not_evaluated,
+    (detection_comparisons, detection_means))``."""
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))
     ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
                          alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
@@ -137,7 +144,9 @@ def _evaluate(km: KillMatrix, spec: StudySpec, *, k: int | None, alternative: st
     detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
     whole, skipped = _whole(km, spec, mutants, k=k, alternative=alternative)
     faults = [v for v in km.variants if v != BASELINE and v not in mutants]
-    return ev, mutants, detection, whole, skipped, compare_detection(ev, faults, alpha=spec.alpha)
+    compared = (compare_detection(ev, faults, alpha=spec.alpha),
+                compare_mean_detection(km, faults, alpha=spec.alpha, timeouts_detect=spec.timeouts_detect))
+    return ev, mutants, detection, whole, skipped, compared
 
 
 def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
@@ -166,7 +175,7 @@ def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
                    "whole_not_evaluated": skipped}
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole, detection_comparisons=compared, meta=meta)
+                         whole=whole, detection_comparisons=compared[0], detection_means=compared[1], meta=meta)
 
 
 def analyse_study(out: str | Path) -> StudyAnalysis:
@@ -230,5 +239,6 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     }
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole, detection_comparisons=compared, meta=meta_out)
+                         whole=whole, detection_comparisons=compared[0], detection_means=compared[1],
+                         meta=meta_out)
 

@@ -143,10 +143,31 @@ def _detection_comparisons_md(c: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _detection_means_md(m: pd.DataFrame) -> pd.DataFrame:
+    def interval(r) -> str:
+        if not np.isfinite(r.ci_low):
+            return f"{100 * r.diff:+.1f} pp (cannot be judged: no case's score varies)"
+        return f"{100 * r.diff:+.1f} pp ({100 * r.ci_low:+.1f} to {100 * r.ci_high:+.1f})"
+
+    return pd.DataFrame({
+        "a vs b": [f"{a} vs {b}" for a, b in zip(m["strategy_a"], m["strategy_b"])],
+        "mean a": m["mean_a"].map(_pct), "mean b": m["mean_b"].map(_pct),
+        "a - b (95 % CI)": [interval(r) for r in m.itertuples()],
+        "p (Welch)": m["p"].map(_p), "p (Holm)": m["p_holm"].map(_p),
+        "|a - b| shown below": [f"{100 * d:.1f} pp" if np.isfinite(d) else "n/a" for d in m["equivalence_margin"]]})
+
+
+def _detection_means_text(m: pd.DataFrame, alpha: float) -> str:
+    return (f"Averaged over the {int(m['variants'].iloc[0])} faults: each pool case scores the share of the faults it "
+            f"alone detects, and two strategies' pools are compared by Welch's t test (the case is the unit, since the "
+            f"faults share a pool's cases), Holm over the {len(m)} pairs; two one-sided tests at {alpha} give the "
+            f"margin within which a difference is shown to lie (`detection_means.csv`).")
+
+
 def _detection_comparisons_text(c: pd.DataFrame, alpha: float) -> str:
     pairs = c.groupby("variant").size().max()
     study = int((c["p_holm_study"] <= alpha).sum())
-    return (f"The share of a strategy's pool cases that alone detect the fault (a suite of one case), compared "
+    return (f"the share of a strategy's pool cases that alone detect the fault (a suite of one case), compared "
             f"pair by pair: the difference with its 95 % Agresti-Caffo interval and the two-sided test on the same "
             f"adjusted proportions (statsmodels), Holm over the {pairs} pairs of a fault (the power plan's family). "
             f"{int(c['shown'].sum())} of {len(c)} comparisons are shown at {alpha}; {study} also under Holm over all "
@@ -288,8 +309,11 @@ def study_markdown(analysis: StudyAnalysis) -> str:
     ]
     if not analysis.detection_comparisons.empty:
         c = analysis.detection_comparisons
-        md += ["## Strategies compared on the single-case detection probability, per fault", "",
-               _detection_comparisons_text(c, st["alpha"]), "",
+        md += ["## Strategies compared on the single-case detection probability", ""]
+        if not analysis.detection_means.empty:
+            md += [_detection_means_text(analysis.detection_means, st["alpha"]), "",
+                   markdown_table(_detection_means_md(analysis.detection_means))]
+        md += ["Per fault: " + _detection_comparisons_text(c, st["alpha"]), "",
                markdown_table(_detection_comparisons_md(c))]
     if not analysis.scores.empty:
         md += ["## Expected mutation score of a drawn suite (95 % bootstrap interval over cases and mutants)", "",
@@ -320,7 +344,7 @@ def study_markdown(analysis: StudyAnalysis) -> str:
            + _mdd_text(analysis.comparisons), "",
            markdown_table(p.round(3)),
            "Files: `kill_matrix.csv` (per pool case and variant), `detection.csv` (every variant, strategy and size; "
-           "`rate_paper` = the same under the paper's rule without correction), `detection_comparisons.csv`, "
+           "`rate_paper` = the same under the paper's rule without correction), `detection_means.csv`, `detection_comparisons.csv`, "
            "`scores.csv`, `comparisons.csv`, `power.csv`, `whole.csv`, `study_meta.json`.", ""]
     return "\n".join(md)
 

@@ -104,7 +104,7 @@ __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRI
            "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "exact_detection_interval", "score_table", "compare_scores", "detectable_score_difference", "smallest_showable_difference",
-           "DETECTION_COMPARISON_COLUMNS", "compare_detection",
+           "DETECTION_COMPARISON_COLUMNS", "compare_detection", "MEAN_DETECTION_COLUMNS", "compare_mean_detection",
            "COMPARISON_POWER", "WHOLE_COLUMNS", "whole_suites", "whole_suite_table"]
 
 #: Multiplicity rules within a suite's cases.
@@ -733,6 +733,54 @@ def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
     out.insert(out.columns.get_loc("p") + 1, "p_holm", holm_within(p, out["variant"].to_numpy()))
     out.insert(out.columns.get_loc("p_holm") + 1, "p_holm_study", holm_within(p, np.zeros(p.size)))
     out.insert(out.columns.get_loc("p_holm_study") + 1, "shown", out["p_holm"].to_numpy(float) <= alpha)
+    return out
+
+
+#: Columns of :func:`compare_mean_detection`.
+MEAN_DETECTION_COLUMNS = ("strategy_a", "strategy_b", "variants", "pool_a", "pool_b", "mean_a", "mean_b", "diff",
+                          "ci_low", "ci_high", "p", "p_holm", "shown", "equivalence_margin")
+
+
+def compare_mean_detection(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA,
+                           timeouts_detect: bool = False) -> pd.DataFrame:
+    """Strategies compared on the single-case detection probability averaged over ``variants``.
+
+    Each pool case scores the share of ``variants`` it alone detects (a suite of one case: a crash,
+    or exact p <= ``alpha``; :func:`strong_cases` at n = 1).  A pool's mean score is the strategy's
+    single-case detection probability averaged over the variants, and a pair's difference of means
+    is the average of the per-variant differences of :func:`compare_detection`.  The variants share
+    a pool's cases, so the case, not the (case, variant) pair, is the unit: two pools are two
+    independent samples of case scores, compared by Welch's t test with its 95 % interval (scipy
+    ``ttest_ind(equal_var=False)``), Holm over the strategy pairs (``p_holm``, ``shown``), and
+    ``equivalence_margin``, the smallest margin two one-sided Welch tests at ``alpha`` show (the
+    largest end of the ``1 - 2 alpha`` interval; statsmodels ``ttost_ind`` is the reference).
+    Where neither pool's scores vary, nothing can be judged: ``p``, the interval and the margin
+    are NaN rather than an interval of zero width.
+    """
+    from scipy.stats import ttest_ind
+
+    cols = [km.variants.index(v) for v in variants]
+    columns = [c for c in MEAN_DETECTION_COLUMNS if c not in ("p_holm", "shown")]
+    if not cols:
+        return pd.DataFrame(columns=list(MEAN_DETECTION_COLUMNS))
+    score = strong_cases(km, 1, alpha=alpha, timeouts_detect=timeouts_detect)[:, cols].mean(axis=1)
+    strategy = km.cases["strategy"].to_numpy()
+    rows = []
+    for a, b in itertools.combinations(km.strategies, 2):
+        xa, xb = score[strategy == a], score[strategy == b]
+        row = {"strategy_a": a, "strategy_b": b, "variants": len(cols), "pool_a": xa.size, "pool_b": xb.size,
+               "mean_a": float(xa.mean()), "mean_b": float(xb.mean()), "diff": float(xa.mean() - xb.mean()),
+               "ci_low": math.nan, "ci_high": math.nan, "p": math.nan, "equivalence_margin": math.nan}
+        if xa.size > 1 and xb.size > 1 and (np.ptp(xa) > 0 or np.ptp(xb) > 0):
+            res = ttest_ind(xa, xb, equal_var=False)
+            ci = res.confidence_interval(1 - alpha)
+            ci2 = res.confidence_interval(1 - 2 * alpha)
+            row |= {"ci_low": float(ci.low), "ci_high": float(ci.high), "p": float(res.pvalue),
+                    "equivalence_margin": float(max(abs(ci2.low), abs(ci2.high)))}
+        rows.append(row)
+    out = pd.DataFrame(rows, columns=columns)
+    out.insert(out.columns.get_loc("p") + 1, "p_holm", holm_within(out["p"].to_numpy(float), np.zeros(len(out))))
+    out.insert(out.columns.get_loc("p_holm") + 1, "shown", out["p_holm"].to_numpy(float) <= alpha)
     return out
 
 

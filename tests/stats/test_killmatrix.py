@@ -17,7 +17,8 @@ from faultlab.errors import ConfigError, ResultsError
 from faultlab.metrics.detection import DetectionRule
 from faultlab.stats.cases import detectable_difference
 from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, KillMatrix, StudySpec, SuiteDraws,
-                                       bootstrap_probabilities, compare_detection, compare_scores,
+                                       bootstrap_probabilities, compare_detection, compare_mean_detection,
+                                       compare_scores,
                                        detection_probability, detection_table, draw_suites, evaluate_suites,
                                        combined_detects, judge_suite, kill_matrix, score_table, strong_cases,
                                        study_spec,
@@ -570,3 +571,64 @@ def test_detection_comparison_holm_is_within_a_fault_and_over_the_study():
     np.testing.assert_allclose(comp["p_holm_study"], multipletests(comp["p"], method="holm")[1])
     assert (comp["shown"] == (comp["p_holm"] <= ALPHA)).all()
     assert comp.loc[(comp["variant"] == "f") & (comp["strategy_a"] == "a") & (comp["strategy_b"] == "b"), "shown"].item()
+
+
+def _score_matrix(scores: dict, n_variants: int, rng) -> KillMatrix:
+    """A kill matrix whose pool cases detect (p = 0.001) exactly round(score * n_variants) of the variants."""
+    rows, strategies = [], []
+    for s, case_scores in scores.items():
+        for x in case_scores:
+            k = int(round(x * n_variants))
+            p = np.full(n_variants, 0.5)
+            p[rng.permutation(n_variants)[:k]] = 0.001
+            rows.append(p)
+            strategies.append(s)
+    p = np.array(rows)
+    shape = p.shape
+    cases = pd.DataFrame({"strategy": strategies, "run": 1, "case": range(len(strategies))})
+    return KillMatrix(cases=cases, variants=tuple(f"f{j}" for j in range(n_variants)), p=p,
+                      crash=np.zeros(shape, bool), timeout=np.zeros(shape, bool), judged=np.ones(shape, bool),
+                      paper=np.zeros(shape, bool), mean_diff_mm=np.ones(shape),
+                      direction=np.full(shape, "worse", dtype=object), mean_log_ratio=np.zeros(shape))
+
+
+def test_mean_detection_is_the_average_of_the_per_fault_differences_with_welchs_interval():
+    from statsmodels.stats.weightstats import CompareMeans, DescrStatsW, ttost_ind
+
+    km = hand_matrix()
+    faults = ["fault_a", "fault_b"]
+    mean = compare_mean_detection(km, faults).iloc[0]
+    ev = evaluate_suites(km, [1], draws=50, bootstrap=20, seed=1, mutants=["mutant:x"])
+    per_fault = compare_detection(ev, faults)
+    assert mean["diff"] == pytest.approx(per_fault["diff"].mean())  # the same quantity, two routes
+    # Welch against statsmodels, on the per-case shares counted by hand
+    strong = np.nan_to_num(km.p[:, :2], nan=1.0) <= ALPHA
+    share = strong.mean(axis=1)
+    a, b = share[:6], share[6:]
+    cm = CompareMeans(DescrStatsW(a), DescrStatsW(b))
+    lo, hi = cm.tconfint_diff(alpha=ALPHA, usevar="unequal")
+    assert (mean["ci_low"], mean["ci_high"]) == pytest.approx((lo, hi))
+    assert mean["p"] == pytest.approx(cm.ttest_ind(usevar="unequal")[1])
+    d = mean["equivalence_margin"]
+    assert ttost_ind(a, b, -d, d, usevar="unequal")[0] == pytest.approx(ALPHA, abs=1e-9)
+
+
+def test_mean_detection_shows_a_planted_difference_and_cannot_judge_constant_pools():
+    rng = np.random.default_rng(20261126)
+    n = 165
+    planted = _score_matrix({"a": rng.binomial(17, 0.6, n) / 17, "b": rng.binomial(17, 0.5, n) / 17}, 17, rng)
+    row = compare_mean_detection(planted, list(planted.variants)).iloc[0]
+    assert row["shown"] and row["ci_low"] > 0 and row["ci_low"] < 0.1 < row["ci_high"]
+    flat = _score_matrix({"a": np.full(5, 0.5), "b": np.full(5, 0.5)}, 4, rng)
+    row = compare_mean_detection(flat, list(flat.variants)).iloc[0]
+    assert row["diff"] == 0 and np.isnan(row["p"]) and np.isnan(row["ci_low"]) and not row["shown"]
+
+
+def test_mean_detection_keeps_its_level_on_a_a_pools():
+    """False alarms of the averaged comparison on pools drawn from one strategy, counted against a bound."""
+    rng = np.random.default_rng(7)
+    sims, alarms = 300, 0
+    for _ in range(sims):
+        km = _score_matrix({"a": rng.binomial(17, 0.4, 60) / 17, "b": rng.binomial(17, 0.4, 60) / 17}, 17, rng)
+        alarms += bool(compare_mean_detection(km, list(km.variants))["p"].iloc[0] <= ALPHA)
+    assert alarms / sims <= ALPHA + 3 * np.sqrt(ALPHA * (1 - ALPHA) / sims)
