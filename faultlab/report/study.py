@@ -172,9 +172,9 @@ def _detection_comparisons_text(c: pd.DataFrame, alpha: float) -> str:
             f"adjusted proportions (statsmodels), Holm over the {pairs} pairs of a fault (the power plan's family). "
             f"{int(c['shown'].sum())} of {len(c)} comparisons are shown at {alpha}; {study} also under Holm over all "
             f"{len(c)} (`p_holm_study` in `detection_comparisons.csv`). For the other pairs, two one-sided tests at "
-            f"{alpha} (per pair, not adjusted for the family) show the difference within the margin given (the largest over the fault's pairs; each pair's "
-            f"own is `equivalence_margin`). Detectable: the difference a pair detects with 80 % power at Holm's "
-            f"first step ({alpha} / {pairs}).")
+            f"{alpha} (per pair, not adjusted for the family) show the difference within the margin given (the "
+            f"largest over the fault's pairs; each pair's own is `equivalence_margin`). Detectable: the difference a "
+            f"pair detects with 80 % power at Holm's first step ({alpha} / {pairs}).")
 
 
 def _whole_md(whole: pd.DataFrame) -> pd.DataFrame:

@@ -79,3 +79,26 @@ def test_an_interval_narrower_than_the_last_decimal_is_rounded_outwards_never_to
     assert _interval(1.0, 1 - 3e-12, 1.0) == "100 % (99.999-100.000)"
     assert _interval(0.5, 0.3, 0.7) == "50 % (30-70)"
     assert _interval(0.9, 0.8561, 0.8569) == "90 % (85.6-85.7)"  # visible at one decimal: not widened
+
+
+def test_markdown_shows_the_fault_comparisons_the_analysis_holds(tmp_path):
+    from dataclasses import replace
+
+    from faultlab.stats.killmatrix import compare_detection, compare_mean_detection
+
+    a = _analysis()
+    assert "single-case detection probability" not in study_markdown(a)   # none computed: no section
+    km = hand_matrix()
+    ev = evaluate_suites(km, [1], draws=50, bootstrap=20, seed=1, mutants=["mutant:x"])
+    per_fault = compare_detection(ev, ["fault_a", "fault_b"])
+    means = compare_mean_detection(km, ["fault_a", "fault_b"])
+    md = study_markdown(replace(a, detection_comparisons=per_fault, detection_means=means))
+    r = means.iloc[0]
+    assert (f"| systematic vs random | {100 * r['mean_a']:.0f} % | {100 * r['mean_b']:.0f} % | "
+            f"{100 * r['diff']:+.1f} pp ({100 * r['ci_low']:+.1f} to {100 * r['ci_high']:+.1f}) |") in md
+    for fault in ("fault_a", "fault_b"):
+        margin = per_fault.loc[per_fault["variant"] == fault, "equivalence_margin"].max()
+        assert f"| {fault} | none | ±{100 * margin:.0f} pp |" in md     # nothing shown with 5 and 6 cases
+    b = StudyAnalysis.load(replace(a, detection_comparisons=per_fault, detection_means=means).save(tmp_path))
+    pd.testing.assert_frame_equal(b.detection_means, means, check_dtype=False)
+    pd.testing.assert_frame_equal(b.detection_comparisons, per_fault, check_dtype=False)
