@@ -26,6 +26,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from faultlab.analysis.metadata import judged_metric
@@ -45,7 +46,8 @@ ACCURACY: tuple[str, ...] = ("slam", "name", "association", "metric") + ACCURACY
     "n_failed", "runtime_median_s")
 #: Columns of :attr:`SlamComparison.sensitivity`.
 SENSITIVITY: tuple[str, ...] = ("slam", "fault", "metric", "rule", "n_cases", "n_cannot_judge", "n", "k", "rate",
-                                "cp_low", "cp_high", "rep_k", "rep_n", "rep_rate", "rep_low", "rep_high")
+                                "cp_low", "cp_high", "mde_median_mm", "mde_min_mm", "mde_max_mm", "rep_k", "rep_n",
+                                "rep_rate", "rep_low", "rep_high")
 #: Columns of :attr:`SlamComparison.not_judged`.
 NOT_JUDGED: tuple[str, ...] = ("slam", "fault", "what", "count", "reason")
 
@@ -129,7 +131,10 @@ def compare_slams(stores: Mapping[str, str | Path], *, alpha: float = DEFAULT_AL
 def _sensitivity(label: str, a, metric: str, alpha: float, store) -> list[dict]:
     """Per fault: pooled case rates of the campaign's rule and the per-repetition rate of the paper's rule.
 
-    Both in the campaign's primary metric.  The per-repetition rates count every repetition (the
+    Both in the campaign's primary metric.  ``mde_*_mm``: the median, smallest and largest over the
+    fault's judged cases of the smallest shift the case's decision detects with 80 % power at the
+    level it was judged at (the verdicts' ``mde_mm``, :func:`faultlab.stats.verdict.case_verdicts`):
+    what a "not detected" could have missed.  The per-repetition rates count every repetition (the
     Analysis's Table II rates judge one repetition per case, in RMS), classified by the campaign's
     rule applied to that metric (:func:`faultlab.stats.detection.outcomes`).
     """
@@ -146,9 +151,13 @@ def _sensitivity(label: str, a, metric: str, alpha: float, store) -> list[dict]:
         rep = reps[reps["variant"] == r.fault]
         k, n = (int(rep["k"].sum()), int(rep["n"].sum())) if len(rep) else (0, 0)
         rep_row = rep.iloc[0] if len(rep) == 1 else None
+        mde = verdicts.loc[(verdicts["fault"] == r.fault) & verdicts["mde_mm"].notna(), "mde_mm"].to_numpy(float)
         rows.append({"slam": label, "fault": r.fault, "metric": metric, "rule": r.rule, "n_cases": r.n_cases,
                      "n_cannot_judge": r.n_cannot_judge, "n": r.n, "k": r.k, "rate": r.rate,
-                     "cp_low": r.cp_low, "cp_high": r.cp_high, "rep_k": k, "rep_n": n,
+                     "cp_low": r.cp_low, "cp_high": r.cp_high,
+                     "mde_median_mm": float(np.median(mde)) if mde.size else math.nan,
+                     "mde_min_mm": float(mde.min()) if mde.size else math.nan,
+                     "mde_max_mm": float(mde.max()) if mde.size else math.nan, "rep_k": k, "rep_n": n,
                      "rep_rate": k / n if n else math.nan,
                      "rep_low": float(rep_row["wilson_low"]) if rep_row is not None else math.nan,
                      "rep_high": float(rep_row["wilson_high"]) if rep_row is not None else math.nan})

@@ -24,6 +24,12 @@ def _mm(x: float) -> str:
     return "–" if x is None or not math.isfinite(x) else f"{x:,.0f}"
 
 
+def _shift(x: float) -> str:
+    """A detectable shift in mm: "none" when the decision could detect no shift at all, "any" when the
+    baseline's repetitions do not vary (a deterministic SLAM: every change of the error is detected)."""
+    return "none" if x == math.inf else "any" if x == 0 else _mm(x)
+
+
 def _minutes(seconds) -> str:
     if seconds is None or not math.isfinite(float(seconds)):
         return "–"
@@ -111,13 +117,17 @@ def slam_markdown(c: SlamComparison, *, figure: str = "slams.png") -> str:
               f"repetitions the paper's rule flags (faulty error > baseline + {rule.get('abs_mm', 250):g} mm and "
               f">= {100 * rule.get('rel', 0.25):.0f} % more; Wilson intervals): a shift smaller than that can "
               f"still be detected by the test, and a rare large one can be flagged without a detection.  Both "
-              f"in the SLAM's metric.", "",
-              "| SLAM | fault | metric | cases detected | rate, % | interval, % | not judged | repetitions flagged "
-              "| rate, % | interval, % |",
-              "|---|---|---|--:|--:|---|--:|--:|--:|---|"]
+              f"in the SLAM's metric.  Detectable shift: per judged case, the smallest shift of the error its "
+              f"decision detects with 80 % power at the level it was judged at (median over the cases, and their "
+              f"range; \"any\" where the baseline's repetitions do not vary, as for a deterministic SLAM): a fault "
+              f"not detected on a case may still shift it by less.", "",
+              "| SLAM | fault | metric | cases detected | rate, % | interval, % | not judged | detectable shift, mm "
+              "(median [range]) | repetitions flagged | rate, % | interval, % |",
+              "|---|---|---|--:|--:|---|--:|---|--:|--:|---|"]
     for r in c.sensitivity.itertuples(index=False):
         lines.append(f"| {r.slam} | {r.fault} | {r.metric.upper()} | {r.k}/{r.n} | {format_pct(r.rate)} | "
-                     f"{_interval_pct(r.cp_low, r.cp_high)} | {r.n_cannot_judge} | {r.rep_k}/{r.rep_n} | "
+                     f"{_interval_pct(r.cp_low, r.cp_high)} | {r.n_cannot_judge} | "
+                     f"{_shift(r.mde_median_mm)} [{_shift(r.mde_min_mm)}, {_shift(r.mde_max_mm)}] | {r.rep_k}/{r.rep_n} | "
                      f"{format_pct(r.rep_rate)} | {_interval_pct(r.rep_low, r.rep_high)} |")
     lines += ["", "## What could not be judged", ""]
     if c.not_judged.empty:

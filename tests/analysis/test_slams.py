@@ -55,6 +55,13 @@ def test_the_tables_hold_each_slams_figures(stores):
     for fault in ("naive_resampling", "motion_sign_error"):
         assert sens.loc[("fs1", fault), "k"] == ref.loc[fault, "k"]
         assert sens.loc[("fs1", fault), "n"] == ref.loc[fault, "n"]
+        # the detectable shift: the verdicts' own, summarised over the fault's judged cases
+        mde = v.loc[(v.fault == fault) & v.mde_mm.notna(), "mde_mm"].to_numpy(float)
+        assert mde.size == 2
+        got = sens.loc[("fs1", fault), ["mde_median_mm", "mde_min_mm", "mde_max_mm"]].to_numpy(float)
+        np.testing.assert_array_equal(got, [np.median(mde), mde.min(), mde.max()])
+    # K = 2 repetitions: the exact test cannot reach alpha, so no shift is detectable on any case
+    assert sens.loc[("fs1", "motion_sign_error"), "mde_median_mm"] == np.inf
     # the per-repetition rate of a SLAM without ids counts repetitions flagged by its EMD
     df = load_results(stores["fs1u"])
     b = df[df.variant == "baseline"].set_index(["case", "rep"]).emd_mm
