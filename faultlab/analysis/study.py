@@ -135,7 +135,7 @@ def _whole(km: KillMatrix, spec: StudySpec, mutants, *, k: int | None = None,
 def _evaluate(km: KillMatrix, spec: StudySpec, *, k: int | None, alternative: str):
     """Drawn suites of every size from every pool, the detection table, the whole suites and the faults'
     strategy comparisons of a kill matrix: ``(evaluation, mutants, detection, whole, whole_not_evaluated,
-    (detection_comparisons, detection_means))``."""
+    detection_comparisons, detection_means)``."""
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))
     ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
                          alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
@@ -144,9 +144,8 @@ def _evaluate(km: KillMatrix, spec: StudySpec, *, k: int | None, alternative: st
     detection.insert(1, "kind", ["mutant" if is_mutant_variant(v) else "fault" for v in detection["variant"]])
     whole, skipped = _whole(km, spec, mutants, k=k, alternative=alternative)
     faults = [v for v in km.variants if v != BASELINE and v not in mutants]
-    compared = (compare_detection(ev, faults, alpha=spec.alpha),
-                compare_mean_detection(km, faults, alpha=spec.alpha, timeouts_detect=spec.timeouts_detect))
-    return ev, mutants, detection, whole, skipped, compared
+    return (ev, mutants, detection, whole, skipped, compare_detection(ev, faults, alpha=spec.alpha),
+            compare_mean_detection(km, faults, alpha=spec.alpha, timeouts_detect=spec.timeouts_detect))
 
 
 def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
@@ -169,13 +168,13 @@ def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
         frame["mean_log_ratio"] = np.nan
     km = KillMatrix.from_frame(frame)
     spec = study_spec(meta["study"], source=str(d / _META_FILE))
-    ev, _, detection, whole, skipped, compared = _evaluate(km, spec, k=meta.get("repetitions"),
-                                                           alternative=alternative)
+    ev, _, detection, whole, skipped, per_fault, means = _evaluate(km, spec, k=meta.get("repetitions"),
+                                                                   alternative=alternative)
     meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {}),
                    "whole_not_evaluated": skipped}
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole, detection_comparisons=compared[0], detection_means=compared[1], meta=meta)
+                         whole=whole, detection_comparisons=per_fault, detection_means=means, meta=meta)
 
 
 def analyse_study(out: str | Path) -> StudyAnalysis:
@@ -215,7 +214,8 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         raise ResultsError(f"{out}: the study is unfinished ({int(meta['n_rows']):,} of {expected:,} SLAM executions "
                            f"stored); `faultlab study run` on it resumes the study")
     km = kill_matrix(results, rule=rule, metric=judged_metric(meta))
-    ev, mutants, detection, whole, whole_skipped, compared = _evaluate(km, spec, k=k, alternative=alternative)
+    ev, mutants, detection, whole, whole_skipped, per_fault, means = _evaluate(km, spec, k=k,
+                                                                               alternative=alternative)
     status = results["status"].astype(str).value_counts().to_dict()
     sessions = settle_sessions(info.get("sessions", []), load_sessions(out))
     meta_out = {
@@ -239,6 +239,5 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
     }
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole, detection_comparisons=compared[0], detection_means=compared[1],
-                         meta=meta_out)
+                         whole=whole, detection_comparisons=per_fault, detection_means=means, meta=meta_out)
 

@@ -84,7 +84,7 @@ from typing import Mapping
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm
+from scipy.stats import norm, ttest_ind
 from statsmodels.stats.contingency_tables import mcnemar
 from statsmodels.stats.proportion import confint_proportions_2indep, proportion_confint, test_proportions_2indep
 
@@ -757,8 +757,6 @@ def compare_mean_detection(km: KillMatrix, variants, *, alpha: float = DEFAULT_A
     Where neither pool's scores vary, nothing can be judged: ``p``, the interval and the margin
     are NaN rather than an interval of zero width.
     """
-    from scipy.stats import ttest_ind
-
     cols = [km.variants.index(v) for v in variants]
     columns = [c for c in MEAN_DETECTION_COLUMNS if c not in ("p_holm", "shown")]
     if not cols:
