@@ -661,12 +661,12 @@ class ResultStore:
             return
         cols = ", ".join(_q(c) for c in RESULT_COLUMNS)
         marks = ", ".join("?" for _ in RESULT_COLUMNS)
+        insert = f"INSERT INTO results ({cols}, session, written_unix, checksum) VALUES ({marks}, ?, ?, ?)"
         now = time.time()
         statements = []
         for row in rows:
             values = _stored_values(row)
-            statements.append((f"INSERT INTO results ({cols}, session, written_unix, checksum) "
-                               f"VALUES ({marks}, ?, ?, ?)", values + [session, now, row_checksum(values)]))
+            statements.append((insert, values + [session, now, row_checksum(values)]))
         if session is not None:
             statements.append(("UPDATE sessions SET n_new = n_new + ? WHERE id = ?", (len(rows), session)))
         keys = [tuple(row[c] for c in ID_COLUMNS) for row in rows]
