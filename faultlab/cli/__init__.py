@@ -18,7 +18,6 @@ import warnings
 from faultlab import __version__
 from faultlab.cli.options import epilog
 from faultlab.errors import FaultlabError
-from faultlab.runner.store import UnverifiedStoreWarning
 
 __all__ = ["main", "build_parser"]
 
@@ -78,7 +77,8 @@ def _silence_stdout() -> None:
 
 def _format_warning(message, category, filename, lineno, line=None) -> str:
     """A note about a store read without checksums is one line for a user, not a source location."""
-    if issubclass(category, UnverifiedStoreWarning):
+    store = sys.modules.get("faultlab.runner.store")  # not loaded: no store was read, so no such warning
+    if store is not None and issubclass(category, store.UnverifiedStoreWarning):
         return f"faultlab: note: {message}\n"
     return _python_format_warning(message, category, filename, lineno, line)
 
@@ -96,6 +96,9 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     at its next write, so a campaign keeps the rows it committed.
     """
     warnings.formatwarning = _format_warning
+    if (sys.argv[1:] if argv is None else argv) == ["--version"]:  # without importing any command
+        print(f"{prog} {__version__}")
+        return 0
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

@@ -5,15 +5,19 @@ from __future__ import annotations
 import argparse
 
 from faultlab import analysis, stats  # both load their submodules (statsmodels, ...) on first use
-from faultlab.cli.options import add_examples, add_verb_group, epilog, print_paths
+from faultlab.cli.options import LazyChoices, LazyText, add_examples, add_verb_group, epilog, print_paths
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.runner.staging import ALTERNATIVES
 
 __all__ = ["register"]
 
 
+def _alternatives() -> tuple[str, ...]:
+    from faultlab.runner.staging import ALTERNATIVES
+
+    return ALTERNATIVES
+
+
 def register(subparsers) -> None:
-    d = stats.DetectionRule()
     p = subparsers.add_parser(
         "paper-table", help="recompute Table II from the paper's raw data and compare with the printed one",
         description="Recompute the paper's Table II (detected cells, Detected Faults %, by Suite %) from "
@@ -29,9 +33,11 @@ def register(subparsers) -> None:
     p.add_argument("--reported", default=None, metavar="PATH",
                    help="printed percentages CSV (default: the paper's Table II percentages in paper_repro/)")
     p.add_argument("--abs-mm", type=float, default=None, metavar="MM",
-                   help=f"absolute RMS increase a detection must exceed (default {d.abs_mm:g} mm)")
+                   help=LazyText(lambda: f"absolute RMS increase a detection must exceed "
+                                         f"(default {stats.DetectionRule().abs_mm:g} mm)"))
     p.add_argument("--rel", type=float, default=None,
-                   help=f"relative RMS increase a detection needs at least (default {d.rel:g})")
+                   help=LazyText(lambda: f"relative RMS increase a detection needs at least "
+                                         f"(default {stats.DetectionRule().rel:g})"))
     add_examples(p, ["faultlab paper-table", "faultlab paper-table results/paper", "faultlab paper-table --abs-mm 200"])
     p.set_defaults(func=_paper_table)
 
@@ -58,8 +64,8 @@ def register(subparsers) -> None:
                    help="cumulative repetitions after each stage, the last the store's K (default: the stored "
                         "experiment's [adaptive] stages)")
     a.add_argument("--level", type=float, default=None, help="per-case level of the looks (default 0.05)")
-    a.add_argument("--alternative", default=None, choices=ALTERNATIVES,
-                   help="sidedness of the looks (default greater)")
+    a.add_argument("--alternative", default=None, choices=LazyChoices(_alternatives), metavar="SIDE",
+                   help=LazyText(lambda: f"sidedness of the looks: {', '.join(_alternatives())} (default greater)"))
     a.add_argument("--futility", type=float, default=None, help="futility bound in [level, 1] (default 0.5)")
     a.add_argument("--reports", default=None, metavar="DIR", help="write the tables and the page here")
     a.set_defaults(func=_adaptive)
