@@ -30,9 +30,10 @@ def _seconds(text: str) -> float:
 def _description() -> str:
     from faultlab.slam.conformance import CHECKS
 
-    return ("Start the program once per check and drive it through the protocol's edge cases: "
-            + ", ".join(CHECKS) + ". Each is reported as pass or FAIL with what to fix; the exit "
-            "status is 1 if any check fails.")
+    return ("Start the program and reset it once (if it cannot, one error and no check), then start it "
+            "once per check and drive it through the protocol's edge cases: " + ", ".join(CHECKS) + ". "
+            "Each is reported as pass or FAIL with what to fix; a check that times out ends the run (the "
+            "rest are reported as not run); the exit status is 1 if any check fails.")
 
 
 def register(subparsers) -> None:
