@@ -1,16 +1,16 @@
 """An effects study's analysis: responses per case, Morris screening, Sobol indices, regression view.
 
 Reads the stores of :func:`faultlab.campaigns.effects.run_effects` (runs nothing).  For every
-response (:mod:`faultlab.analysis.responses`: the baseline's difficulty, each fault's effect size,
+response (:mod:`faultlab.stats.responses`: the baseline's difficulty, each fault's effect size,
 each fault's detection probability) and stage, the design's response vector (one value per case,
-in design order) goes to SALib's estimators (:mod:`faultlab.analysis.sensitivity`):
+in design order) goes to SALib's estimators (:mod:`faultlab.inference.screening`):
 
 * ``morris``: ``mu*`` (bootstrap interval over trajectories), ``sigma``, ``mu`` for every factor;
   screening (:func:`screen_store`) keeps the ``keep`` largest ``mu*`` of the difficulty and of every
   effect response (detection, a coarse 0-1 share, is reported but does not steer screening);
 * ``sobol``: ``S1`` and ``ST`` with bootstrap intervals over the kept factors, corrected for the
   repetitions' noise (``noise_var`` = mean squared per-case standard error,
-  :func:`~faultlab.analysis.sensitivity.sobol_indices`);
+  :func:`~faultlab.inference.screening.sobol_indices`);
 * ``regression``: the cluster-robust OLS view over the cases of both stages.
 
 A response that some case lacks (every repetition failed) or that does not vary is not estimated;
@@ -28,9 +28,9 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from faultlab.analysis.metadata import read_rule
-from faultlab.analysis.responses import CASE_KEY, DIFFICULTY, case_responses, rep_values
-from faultlab.analysis.sensitivity import (MORRIS_COLUMNS, REGRESSION_COLUMNS, SOBOL_COLUMNS, morris_indices,
+from faultlab.stats.metadata import read_rule
+from faultlab.stats.responses import CASE_KEY, DIFFICULTY, case_responses, rep_values
+from faultlab.inference.screening import (MORRIS_COLUMNS, REGRESSION_COLUMNS, SOBOL_COLUMNS, morris_indices,
                                            noise_floor, partial_dependence, regression_view, screen, sobol_indices)
 from faultlab.errors import FaultlabError, ResultsError
 from faultlab.runner.store import load_metadata, load_results, load_sessions, results_path
@@ -151,7 +151,7 @@ class EffectsAnalysis:
     ----------
     responses : tuple of str
     morris, sobol, regression : DataFrame
-        Long tables with a ``response`` column (:data:`~faultlab.analysis.sensitivity.MORRIS_COLUMNS`, ...).
+        Long tables with a ``response`` column (:data:`~faultlab.inference.screening.MORRIS_COLUMNS`, ...).
     cases : DataFrame
         One row per (stage, case): parameter values and every response with its standard error.
     partial : DataFrame
@@ -378,12 +378,12 @@ CAMPAIGN_EFFECT_COLUMNS: tuple[str, ...] = ("response", "term", "n_cases", "esti
 def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, alpha: float = 0.05) -> pd.DataFrame:
     """The continuous effect analysis of an ordinary campaign (suites drawn for coverage, not a design).
 
-    Per response (difficulty, each fault's effect size; :mod:`faultlab.analysis.responses`):
+    Per response (difficulty, each fault's effect size; :mod:`faultlab.stats.responses`):
 
     * ``(mean over cases)``: the mean of the per-case values with its t interval over cases (the
       cases are the independent units);
     * one row per parameter: the cluster-robust regression coefficient per standard deviation
-      (:func:`~faultlab.analysis.sensitivity.regression_view`) when the campaign has at least
+      (:func:`~faultlab.inference.screening.regression_view`) when the campaign has at least
       :data:`CASES_PER_COEFFICIENT` cases per coefficient; otherwise one ``(size)`` row saying how
       many cases it would need, and that a designed study (``faultlab effects run``) is the way to
       rank parameters (with fewer cases the cluster-robust errors are far too small to trust).

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 import statsmodels.api as sm
 
-from faultlab.analysis.sensitivity import (morris_indices, noise_floor, partial_dependence, regression_view, screen,
+from faultlab.inference.screening import (morris_indices, noise_floor, partial_dependence, regression_view, screen,
                                            sobol_indices)
 from faultlab.errors import ResultsError
 from faultlab.space import table1_space
