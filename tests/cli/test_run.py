@@ -173,3 +173,16 @@ def test_sigterm_stops_like_ctrl_c_marks_the_session_and_the_run_resumes_to_the_
     resumed, clean = (load_results(p).sort_values(keys).reset_index(drop=True).drop(columns=["runtime_s"])
                       for p in (out, tmp_path / "clean"))
     pd.testing.assert_frame_equal(resumed, clean, check_exact=True)
+
+
+@pytest.mark.parametrize("command", [["run", "{f}", "--out", "{o}"], ["generate", "--space", "{f}", "--out", "{o}"],
+                                     ["study", "run", "{f}", "--out", "{o}"], ["effects", "run", "{f}", "--out", "{o}"]])
+def test_a_toml_file_that_is_not_utf8_is_one_error_line_naming_it(tmp_path, capsys, command):
+    bad = tmp_path / "bad.toml"
+    bad.write_bytes(b"seed = 1\n# \xff\xfe not UTF-8\n")
+    out = tmp_path / "out"
+    argv = [a.format(f=bad, o=out) for a in command]
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"faultlab: error: {bad}") and "not UTF-8" in err[0], err
+    assert not out.exists()
