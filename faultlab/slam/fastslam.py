@@ -1050,8 +1050,9 @@ class FastSlam(UnitSlam):
         k = cols.size
         mb, pb = self._gather(j, j + 1, cols)
         owner = np.asarray(self._owner[j])
-        lw, mu_new, P_new = correct_in_sharer_order(self._units(1), self._logw[sl], owner, poses[sl], z, seen,
-                                                    mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
+        correct = _twins.correct_in_sharer_order if self._jit else correct_in_sharer_order
+        lw, mu_new, P_new = correct(self._units(1), self._logw[sl], owner, poses[sl], z, seen,
+                                    mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
         logw[sl] = self._normalise(np.asarray(lw, dtype=float))
         wflat = owner[None, :] + self._base(j, j + 1, cols)  # sharers write equal values to their common row
         mu_store.reshape(2, cap * bn)[:, wflat] = np.asarray(mu_new).transpose(2, 1, 0)

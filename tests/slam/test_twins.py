@@ -29,6 +29,7 @@ from faultlab.slam import (REFERENCE_STEPS, EkfSlam, FastSlam, FastSlam2, FastSl
                            run_slam_batch)
 from faultlab.slam import twins
 from faultlab.slam import paperunits as PU
+from faultlab.slam import sharing
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import FastSlamSteps
 from faultlab.slam.profiles import get_profile
@@ -134,6 +135,46 @@ def test_the_fused_correction_is_the_units_in_sequence(problem):
     assert same_bits(ll, t_ll)
     assert same_bits(m1, t_mb.transpose(2, 1, 0))
     assert same_bits(P1, t_pb.transpose(3, 2, 0, 1))
+
+
+@settings(max_examples=150, deadline=None)
+@given(problems(), st.data())
+def test_the_sharer_order_correction_is_the_numpy_loop(problem, data):
+    """The compiled sharer-order correction against faultlab.slam.sharing's loop over the numpy
+    units: shared rows (any owners), new and known landmarks, extreme values."""
+    poses, mu, P, z, Q = problem
+    n, k = mu.shape[:2]
+    owner = np.array(data.draw(st.lists(st.integers(0, max(0, n - 1)), min_size=n, max_size=n)), dtype=np.intp)
+    seen = np.array(data.draw(st.lists(st.booleans(), min_size=k, max_size=k)), dtype=bool)
+    logw = np.array(data.draw(st.lists(st.floats(-50.0, 0.0), min_size=n, max_size=n)))
+    with quiet():
+        want = sharing.correct_in_sharer_order(REFERENCE_STEPS, logw, owner, poses, z, seen, mu, P, Q)
+        got = twins.correct_in_sharer_order(twins.twinned(REFERENCE_STEPS), logw, owner, poses, z, seen, mu, P, Q)
+    for g, w in zip(got, want):
+        assert same_bits(g, w)
+
+
+def test_the_sharer_order_twin_runs_the_numpy_loop_for_other_units():
+    """With a replaced correction unit the twin is the numpy loop with that unit (called per rank)."""
+    calls = []
+
+    def counting(H, P, Q):
+        calls.append(H.shape[0])
+        return U.innovation_covariance(H, P, Q)
+
+    steps = dataclasses.replace(REFERENCE_STEPS, innovation_covariance=counting)
+    rng = np.random.default_rng(4)
+    n, k = 5, 3
+    poses = rng.normal(size=(n, 3))
+    mu = rng.normal(size=(n, k, 2)) + 3.0
+    P = np.broadcast_to(np.eye(2) * 0.1, (n, k, 2, 2)).copy()
+    z = np.column_stack([rng.uniform(1, 2, k), rng.uniform(-1, 1, k)])
+    owner = np.array([0, 0, 0, 3, 3])
+    args = (np.full(n, -np.log(n)), owner, poses, z, np.ones(k, dtype=bool), mu, P, np.diag([0.1, 0.01]))
+    got = twins.correct_in_sharer_order(steps, *args)
+    assert calls == [2, 2, 1]  # one call per rank: two groups, then two, then the larger group's third
+    for g, w in zip(got, sharing.correct_in_sharer_order(steps, *args)):
+        assert same_bits(g, w)
 
 
 def test_twins_hand_other_inputs_to_the_numpy_unit():
