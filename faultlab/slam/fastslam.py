@@ -391,7 +391,9 @@ class FastSlam(UnitSlam):
         # step, the others call their units (:meth:`update`)
         self._ref_predict = self._jit and all(getattr(self._steps, name) is getattr(ref, name) for name in
                                               ("sample_controls", "motion_model", "wrap_heading"))
-        self._ref_correct = self._fused and self._ref_classify and self._steps.combine_weights is ref.combine_weights
+        self._ref_correct = self._fused and self._ref_classify  # then combine_weights is called if replaced
+        self._ref_combine = self._steps.combine_weights is ref.combine_weights
+        self._ref_apply = self._jit and self._steps.apply_resample is ref.apply_resample
         self._q_entries = _twins.noise_entries(self._Q) if self._jit else None
 
     # -- SlamAdapter -----------------------------------------------------------------------------
@@ -704,12 +706,46 @@ class FastSlam(UnitSlam):
             self._resample_reference(j, empty)
             return
         steps = self._units(1)  # per-filter units: never looped
+        if self._ref_apply:  # the decision by the units, the reference apply_resample's work directly
+            sl = self._slice(j)
+            w = np.exp(self._logw[sl])
+            idx = steps.resample(w, steps.effective_sample_size(w), empty, self._streams[j]["resample"],
+                                 self._config)
+            if idx is None:
+                return
+            idx = np.asarray(idx)
+            if idx.shape == (self._n,) and idx.dtype.kind in "iu":
+                self._apply_indices(j, idx)
+                return
+            given = self._filter_state(j)
+            self._store(j, given, steps.apply_resample(given, idx))
+            self._n_resampled[self._reps[j]] += 1
+            return
         given = self._filter_state(j)
         st, resampled = resample_tail(steps, given, empty, self._streams[j]["resample"], self._config,
                                       apply=steps.apply_resample)
         if resampled:
             self._store(j, given, st)
             self._n_resampled[self._reps[j]] += 1
+
+    def _apply_indices(self, j: int, idx: np.ndarray) -> None:
+        """What the reference ``apply_resample`` does to slot ``j`` with the indices ``idx`` (N,) of
+        integers, by the same indexing, written into the batch's arrays."""
+        n = self._n
+        sl = self._slice(j)
+        if len(self._reps) == 1:
+            poses = self._poses[idx]
+            self._lineage[j] = self._lineage[j][idx]
+            self._poses = poses
+            self._logw = np.full(n, -math.log(n))
+        else:
+            poses = self._poses[sl][idx]
+            self._lineage[j] = self._lineage[j][idx]
+            if not self._poses.flags.writeable:
+                self._poses = self._poses.copy()
+            self._poses[sl] = poses
+            self._logw[sl] = np.full(n, -math.log(n))
+        self._n_resampled[self._reps[j]] += 1
 
     def _update_reference(self, control: np.ndarray, observations: Observations) -> None:
         """:meth:`update` when every unit is the reference: the same operations on the same values,
@@ -744,10 +780,11 @@ class FastSlam(UnitSlam):
 
     def _correct_reference(self, steps: FastSlamSteps, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
                            observations: Observations) -> np.ndarray | None:
-        """The correction when the correction units, ``classify_new`` and ``combine_weights`` are the
-        references and every particle owns its storage row: the kernels of
-        :func:`~faultlab.slam.twins.correct_observed` around ``init_landmarks`` (the unit of
-        ``steps``, called once on all particles as by :meth:`_correct_rows`).  Returns the
+        """The correction when the correction units and ``classify_new`` are the references and every
+        particle owns its storage row: the kernels of :func:`~faultlab.slam.twins.correct_observed`
+        around ``init_landmarks`` (the unit of ``steps``, called once on all particles as by
+        :meth:`_correct_rows`) and, if it is not the reference, ``combine_weights`` (filter by filter,
+        as by :meth:`_combine`).  Returns the
         normalised log weights, or None (nothing written) when ``init_landmarks`` returned arrays
         of other shapes, which :meth:`_correct` then handles as the unit-by-unit path does."""
         slots, n = len(self._reps), self._n
@@ -762,6 +799,14 @@ class FastSlam(UnitSlam):
             k_new = int(np.count_nonzero(~seen))
             if not (np.shape(init[0]) == (slots * n, k_new, 2) and np.shape(init[1]) == (slots * n, k_new, 2, 2)):
                 return None
+        if not self._ref_combine:  # the log likelihoods by the kernels, combine_weights by its unit
+            loglik, _ = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, None, n,
+                                                self._mu, self._P, self._anc)
+            known = np.empty(loglik.shape, dtype=bool)
+            known[...] = seen
+            logw = np.array(self._logw)
+            self._combine(0, slots, 0, loglik, known, logw)
+            return logw
         logw, tops = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, self._logw, n,
                                              self._mu, self._P, self._anc)
         for j in range(slots):

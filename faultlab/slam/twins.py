@@ -379,8 +379,8 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
         landmark was seen).
     q : tuple
         ``noise_entries(Q)`` of the measurement noise ``Q`` (2, 2).
-    logw : ndarray, shape (M,)
-        Normalised log weights before the step.
+    logw : ndarray, shape (M,), or None
+        Normalised log weights before the step; None returns the log likelihoods instead.
     n : int
         Particles per filter.
     mu_store, P_store, anc : ndarray
@@ -394,6 +394,9 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
         maximum is not finite).
     tops : ndarray, shape (M // n,)
         The maximum of each filter.
+
+    With ``logw`` None: ``(loglik, None)``, ``loglik`` (M, k) the ``log_likelihood`` of every pair
+    (the transpose of a (k, M) array, the layout of :func:`correct_pairs`' result).
     """
     kn = _k()
     k, m = z.shape[0], poses.shape[0]
@@ -416,6 +419,9 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
     kn.correct_observed(poses, z, seen, mb, rows, pi, dx, dy, bearing, q00, q01, q11, add, cols, n,
                         mu_store, P_store, anc, t, det)
     np.log(det, out=det)
+    if logw is None:  # the log likelihoods themselves, for a replaced combine_weights
+        kn.finish_log_likelihood(t, det)
+        return t.T, None
     shifted = np.empty(m)
     tops = np.empty(m // n)
     kn.combine_observed(t, det, seen, logw, n, shifted, tops)

@@ -505,3 +505,75 @@ def test_non_finite_weights_end_the_compiled_step_as_the_numpy_one(monkeypatch):
     assert messages[0] == messages[1]
     got, want = run(FastSlam(cfg), True), run(numpy_filter(monkeypatch, lambda: FastSlam(cfg)), True)
     assert got == want and all("not finite" in m for m in got)
+
+
+# --------------------------------------------------------------------------- the partial reference step
+
+
+def _odd_resample(w, n_eff, empty, rng, config):
+    """Indices as floats: the reference apply_resample's indexing raises (IndexError)."""
+    idx = U.resample(w, n_eff, empty, rng, config)
+    return None if idx is None else idx.astype(float)
+
+
+def _short_resample(w, n_eff, empty, rng, config):
+    """One index too few: the state apply_resample returns has the wrong shape."""
+    idx = U.resample(w, n_eff, empty, rng, config)
+    return None if idx is None else idx[:-1]
+
+
+def _mean_init(poses, z, Q, *, wrap):
+    """init_landmarks returning one row for all particles (broadcast by the unit-by-unit path)."""
+    mu, P = U.init_landmarks(poses, z, Q, wrap=wrap)
+    return mu.mean(axis=0, keepdims=True), P[:1]
+
+
+def _flat_weights(logw, loglik, known):
+    """combine_weights that ignores which pairs are known."""
+    return logw + np.nan_to_num(loglik).sum(axis=1) * 0.5
+
+
+def _every_step_resample(w, n_eff, empty, rng, config):
+    return U.low_variance_indices(w, rng)
+
+
+@pytest.mark.parametrize("name, unit", [("resample", _odd_resample), ("resample", _short_resample),
+                                        ("resample", _every_step_resample), ("init_landmarks", _mean_init),
+                                        ("combine_weights", _flat_weights)],
+                         ids=["float-indices", "short-indices", "every-step", "broadcast-init", "flat-weights"])
+def test_the_partial_reference_step_equals_numpy_on_odd_replacements(monkeypatch, scenario, name, unit):
+    """Replacements with outputs the reference stages do not expect (other types, other shapes)
+    end or run the filter exactly as the numpy path does, single and batched."""
+    steps = dataclasses.replace(REFERENCE_STEPS, **{name: unit})
+    compiled = FastSlam(CFG, steps=steps)
+    assert not compiled._ref_step and compiled._ref_predict
+    plain = numpy_filter(monkeypatch, lambda: FastSlam(CFG, steps=steps))
+    assert_same_run(final(compiled, scenario, 6), final(plain, scenario, 6), name)
+    seeds = (3, 8)
+
+    def batch(slam):
+        with quiet():
+            try:
+                return run_slam_batch(slam, scenario, rngs=[np.random.default_rng(s) for s in seeds])
+            except Exception as exc:
+                return [repr(exc)] * len(seeds)
+
+    for got, want in zip(batch(FastSlam(CFG, steps=steps)), batch(numpy_filter(monkeypatch,
+                                                                            lambda: FastSlam(CFG, steps=steps)))):
+        assert (estimates_identical(got, want) if not isinstance(got, (str, BaseException))
+                else repr(got) == repr(want))
+
+
+def test_sampled_mutants_outside_the_correction_equal_numpy(monkeypatch, scenario):
+    """Live mutants of the units outside the correction (the partial reference step's other stages)."""
+    units = ["sample_controls", "motion_model", "combine_weights", "init_landmarks", "effective_sample_size",
+             "resample", "apply_resample"]
+    mutants = generate_mutants(REFERENCE_STEPS, units=units, plugins=False)
+    report = screen_mutants(mutants, unit_examples())
+    chosen = [next(i for i, r in report.results.items() if r.live and i.startswith(f"{u}:")) for u in units]
+    for mutant_id in chosen:
+        fault = mutant_fault(mutants.get(mutant_id), FastSlamSteps)
+        compiled = fault.apply(FastSlam(CFG))
+        assert compiled._ref_predict or compiled._ref_correct
+        assert_same_run(final(compiled, scenario, 2),
+                        final(numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG))), scenario, 2), mutant_id)
