@@ -31,7 +31,7 @@ cases (estimated from the baseline's spread, :func:`~faultlab.stats.verdict.case
 Adaptive repetitions.  An ``[adaptive]`` table (``stages``, cumulative, the last equal to
 ``repetitions``; ``futility``, default 0.5; :class:`~faultlab.runner.staging.StagedDesign`) runs
 the K repetitions of each case round in stages, with the rule of
-:mod:`faultlab.stats.sequential` (:func:`~faultlab.stats.sequential.interim_look`).  Stage 1 runs
+:mod:`faultlab.inference.sequential` (:func:`~faultlab.inference.sequential.interim_look`).  Stage 1 runs
 the first ``stages[0]`` repetitions of the case's baseline and of every mutant the suite has not
 killed.  Before each later stage, every (case, mutant) pair still running is looked at, from its
 stored repetitions alone: it stops when the baseline failed, when the fixed-K test can no longer
@@ -79,8 +79,8 @@ from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.staging import STOPS_KEY, LookRule, StagedDesign, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import MUTATION_FILE, check_store, job_metrics, results_path, store_lock
 from faultlab.stats.killmatrix import suite_kills
-from faultlab.stats.sequential import interim_look
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.sequential import interim_look
+from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS
 
 __all__ = ["MUTATION_FILE", "MutationExperiment", "MutationRun", "load_mutation_experiment", "parse_selector",
@@ -263,7 +263,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
     """Run (or resume) a mutation campaign with early stopping (see the module docstring).
 
     ``look`` is the interim rule of an experiment with ``[adaptive]`` repetitions
-    (:func:`faultlab.stats.sequential.interim_look`, as ``faultlab run`` passes it to the runner);
+    (:func:`faultlab.inference.sequential.interim_look`, as ``faultlab run`` passes it to the runner);
     ignored otherwise.
     """
     if not isinstance(mexp, MutationExperiment):

@@ -38,7 +38,7 @@ def register(subparsers) -> None:
 def handler(args: argparse.Namespace) -> int:
     from faultlab.errors import ConfigError
     from faultlab.runner import load_experiment
-    from faultlab.stats.sequential import interim_look
+    from faultlab.inference.sequential import interim_look
 
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
     experiment = load_experiment(args.experiment)

@@ -275,7 +275,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         ``runtime_s``.
     look : callable, optional
         The stopping rule of an experiment with ``[adaptive]`` repetitions
-        (:func:`faultlab.stats.sequential.interim_look`; required then, ignored otherwise).  The
+        (:func:`faultlab.inference.sequential.interim_look`; required then, ignored otherwise).  The
         repetitions run in stages (:mod:`faultlab.runner.staging`): a stage's jobs only for the
         pairs still running, each stage in its own session.
     on_start : callable, optional
@@ -307,7 +307,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")
     if experiment.adaptive is not None and look is None:
         raise ConfigError(f"{experiment.source}: [adaptive] repetitions need the stopping rule: pass "
-                          f"look=faultlab.stats.sequential.interim_look (the CLI does)")
+                          f"look=faultlab.inference.sequential.interim_look (the CLI does)")
     t0 = time.perf_counter()
     out = Path(out)
     sut, skipped = _preflight(experiment)

@@ -3,7 +3,7 @@
 An experiment with an ``[adaptive]`` table (:class:`StagedDesign`) runs repetition ``r`` of a
 (case, variant) only in the stage whose cumulative size first exceeds ``r``.  Stage 1 runs the
 first ``stages[0]`` repetitions of every pair.  Before each later stage, the pairs looked at are
-those still running; a *look* function (the rule of :mod:`faultlab.stats.sequential`, passed in
+those still running; a *look* function (the rule of :mod:`faultlab.inference.sequential`, passed in
 by the caller because statistics sit above the runner) decides from their stored rows alone
 whether each stops.  Jobs of the next stage are created only for pairs still running, and for
 the baseline of every case with at least one such pair, repetition by repetition (common random
@@ -38,7 +38,7 @@ STOPS_KEY = "adaptive_stops"
 ALTERNATIVES = ("greater", "less", "two-sided")
 
 #: ``look(differences, *, design, baseline_failed, variant_failed) -> str``: "continue" or the
-#: reason for stopping (see :func:`faultlab.stats.sequential.interim_look`).
+#: reason for stopping (see :func:`faultlab.inference.sequential.interim_look`).
 LookRule = Callable[..., str]
 
 
@@ -60,7 +60,7 @@ class StagedDesign:
         Sidedness of the per-case test.
     futility : float
         Non-binding futility bound in [level, 1]; 1 stops only pairs whose fixed-K test can no
-        longer reject (:mod:`faultlab.stats.sequential` states the rule and its level).
+        longer reject (:mod:`faultlab.inference.sequential` states the rule and its level).
     """
 
     stages: tuple[int, ...]
@@ -86,7 +86,7 @@ class StagedDesign:
     def smallest_interim_p(self, k: int) -> float:
         """The smallest p value the interim look's exact sign-flip test reaches on ``k`` pairs: ``2^-k``
         one-sided, ``min(1, 2^(1-k))`` two-sided (every difference of one sign).  The same as
-        :func:`faultlab.stats.verdict.min_p_value`, which the runner, below the statistics, cannot import
+        :func:`faultlab.inference.exact.min_p_value`, which the runner, below the statistics, cannot import
         (a test keeps them equal)."""
         return min(1.0, 2.0 ** (1 - k)) if self.alternative == "two-sided" else 2.0 ** -k
 
@@ -139,7 +139,7 @@ def look_at_pairs(results: pd.DataFrame, *, design: StagedDesign, upto: int, met
         Repetitions looked at: ``0 .. upto - 1``.
     metric : {"rms", "emd", "ate"}
     look : callable
-        The rule (:func:`faultlab.stats.sequential.interim_look`).
+        The rule (:func:`faultlab.inference.sequential.interim_look`).
 
     Returns
     -------
@@ -181,7 +181,7 @@ def look_before_stage(results: pd.DataFrame, *, design: StagedDesign, stage: int
         0-based stage the look precedes, ``1 <= stage < len(design.stages)``.
     metric : {"rms", "emd"}
     look : callable
-        The rule (:func:`faultlab.stats.sequential.interim_look`).
+        The rule (:func:`faultlab.inference.sequential.interim_look`).
     running : set of (run, suite, case, variant), optional
         Pairs still running after the previous look (``None`` before the first look: all); a
         pair stopped at an earlier look stays stopped.

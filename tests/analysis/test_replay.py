@@ -14,7 +14,7 @@ from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import load_experiment, load_metadata, load_results, run_experiment
 from faultlab.runner.experiment import parse_experiment
 from faultlab.runner.staging import STOPS_KEY, StagedDesign
-from faultlab.stats.sequential import interim_look
+from faultlab.inference.sequential import interim_look
 from faultlab.vocabulary import BASELINE, REPLICA
 from tests.runner.suts import SMALL_SPACE
 

@@ -8,8 +8,8 @@ from faultlab.errors import ConfigError
 from faultlab.runner import load_experiment, load_metadata, load_results, run_experiment
 from faultlab.runner.experiment import parse_experiment
 from faultlab.runner.staging import STOPS_KEY, StagedDesign
-from faultlab.stats.sequential import interim_look, interim_p
-from faultlab.stats.verdict import min_p_value
+from faultlab.inference.sequential import interim_look, interim_p
+from faultlab.inference.exact import min_p_value
 from faultlab.vocabulary import BASELINE
 from tests.runner.suts import SMALL_SPACE
 

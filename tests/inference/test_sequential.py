@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 from faultlab.errors import ConfigError
 from faultlab.runner.staging import StagedDesign
-from faultlab.stats.sequential import Look, interim_look, interim_p, smallest_final_p
-from faultlab.stats.verdict import sign_flip_pvalues
+from faultlab.inference.sequential import Look, interim_look, interim_p, smallest_final_p
+from faultlab.inference.exact import sign_flip_pvalues
 
 ALTS = ("greater", "less", "two-sided")
 

@@ -82,7 +82,7 @@ import numpy as np
 
 from faultlab.errors import ConfigError
 from faultlab.runner.staging import ALTERNATIVES, StagedDesign
-from faultlab.stats.verdict import MAX_EXACT_PAIRS, sign_flip_pvalues
+from faultlab.inference.exact import MAX_EXACT_PAIRS, sign_flip_pvalues
 
 __all__ = ["Look", "interim_p", "smallest_final_p", "interim_look"]
 
