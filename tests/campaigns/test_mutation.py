@@ -150,3 +150,20 @@ def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_re
     pd.testing.assert_frame_equal(load_results(tmp_path / "staged")[cols].sort_values(cols[:4]).reset_index(drop=True),
                                   df_s[cols].sort_values(cols[:4]).reset_index(drop=True))
     assert load_metadata(tmp_path / "staged")[STOPS_KEY] == stops
+
+
+@pytest.mark.slow
+def test_mutants_that_leave_a_matrix_entry_unwritten_give_the_same_store_in_two_runs(tmp_path):
+    """Both write one entry of a scratch matrix twice and another never: zero-filled, never old memory."""
+    f = tmp_path / "m.toml"
+    f.write_text(TINY.replace('ids = ["{kill}", "{eq}"]',
+                              'ids = ["predict_measurement:index:18", "innovation_covariance._sandwich_sym:index:12"]'))
+    mexp = load_mutation_experiment(f)
+    assert set(mexp.selection.run) == {"predict_measurement:index:18",
+                                       "innovation_covariance._sandwich_sym:index:12"}
+    stores = []
+    for name in ("first", "second"):
+        run_mutation(mexp, tmp_path / name, jobs=2, progress=False)
+        stores.append(load_results(tmp_path / name).drop(columns=["runtime_s"]))
+    assert len(stores[0]) > 0
+    pd.testing.assert_frame_equal(stores[0], stores[1], check_exact=True)

@@ -58,6 +58,10 @@ def test_reproduce_quick_succeeds_and_says_where(quick):
     assert str(base / "results" / "report" / "report.pdf") in out
     assert "36 jobs:" in out and "36 run now" in out  # (systematic 5 + random 2 + fixed 2 cases) x 4
     assert "comparable statements agree with the paper" in out
+    # the HTML report: an overview and a page per case (9 cases)
+    html = base / "results" / "report" / "html"
+    assert f"HTML report: {html / 'index.html'}" in out
+    assert (html / "index.html").is_file() and len(list((html / "cases").glob("*.html"))) == 9
 
 
 @pytest.mark.slow
