@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator, Mapping, Sequence
 
-from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
+from faultlab.errors import ConfigError, FaultlabError, InvalidCaseError, ResultsError, ScenarioError
 from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, slam_units
 from faultlab.runner.variants import resolve_variant
 from faultlab.runner.backends import check_backend, stream_batches
@@ -136,6 +136,8 @@ def _saved_case(path: Path, case: SuiteCase, experiment: Experiment) -> Scenario
         return None
     try:
         scenario = load_scenario(path)
+    except InvalidCaseError:
+        raise  # intact files with invalid content: never silently replaced
     except ScenarioError:
         return None  # half-written by a killed run: regenerate
     if scenario.seed != case.seed or dict(scenario.case.values) != dict(case.spec.values):

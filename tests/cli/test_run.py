@@ -186,3 +186,30 @@ def test_a_toml_file_that_is_not_utf8_is_one_error_line_naming_it(tmp_path, caps
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"faultlab: error: {bad}") and "not UTF-8" in err[0], err
     assert not out.exists()
+
+
+def test_a_saved_case_with_a_nan_landmark_stops_run_and_export_with_one_line_naming_it(tmp_path, capsys):
+    import dataclasses
+
+    import numpy as np
+
+    from faultlab.scenario import load_scenario, save_scenario
+
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    case = sorted((out / "cases").rglob("*.npz"))[0]
+    sc = load_scenario(case)
+    landmarks = sc.landmarks.copy()
+    landmarks[0, 1] = np.nan
+    save_scenario(dataclasses.replace(sc, landmarks=landmarks), case)  # checksums valid, content not
+    rows = load_results(out)
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(case) in err[0] and "landmarks holds 1 non-finite value(s)" in err[0], err
+    pd.testing.assert_frame_equal(load_results(out), rows)
+    assert main(["export", "--format", "tum", "--out", str(tmp_path / "exported"), str(case)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(case) in err[0] and "non-finite" in err[0], err
+    assert not (tmp_path / "exported").exists()
