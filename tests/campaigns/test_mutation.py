@@ -7,7 +7,7 @@ from faultlab.analysis.mutation import analyse_mutation
 from faultlab.campaigns.mutation import load_mutation_experiment, run_mutation
 from faultlab.errors import ConfigError
 from faultlab.runner.store import load_results
-from faultlab.stats.verdict import min_pairs
+from faultlab.inference.exact import min_pairs
 
 SIGN_FLIP = "motion_model:arithmetic:9"  # turns the wrong way: the map is ruined
 EQUIVALENT = "motion_model:index:3"      # screened equivalent: never runs
@@ -110,7 +110,6 @@ def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_re
 
     from faultlab.runner.store import load_metadata, results_path
     from faultlab.runner.staging import STOPS_KEY
-    from faultlab.stats.sequential import interim_look
 
     fixed_f, staged_f = tmp_path / "fixed.toml", tmp_path / "staged.toml"
     fixed_f.write_text(ADAPTIVE.split("[adaptive]")[0].format(kill=SIGN_FLIP, eq=IDENTICAL))
@@ -146,7 +145,7 @@ def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_re
         con.execute("DELETE FROM meta WHERE key = ?", (STOPS_KEY,))
     lost = int(((df_s["case"] == 1) & (df_s["rep"] >= 5)).sum())
     assert lost > 0
-    again = run_mutation(staged_f, tmp_path / "staged", jobs=1, backend="threading", progress=False, look=interim_look)
+    again = run_mutation(staged_f, tmp_path / "staged", jobs=1, backend="threading", progress=False)
     assert again.n_new == lost
     pd.testing.assert_frame_equal(load_results(tmp_path / "staged")[cols].sort_values(cols[:4]).reset_index(drop=True),
                                   df_s[cols].sort_values(cols[:4]).reset_index(drop=True))
