@@ -222,8 +222,11 @@ def selection_from_table(table: dict, *, source: str) -> MutantSelection:
     unknown = set(table) - set(_MUTATION_KEYS)
     if unknown:
         raise ConfigError(f"{source}: [mutation]: unknown key(s) {sorted(unknown)}; known: {', '.join(_MUTATION_KEYS)}")
-    selection = select_mutants(units=table.get("units"), operators=table.get("operators"), ids=table.get("ids"),
-                               sample=table.get("sample"), seed=int(table.get("seed", 0)))
+    try:
+        selection = select_mutants(units=table.get("units"), operators=table.get("operators"), ids=table.get("ids"),
+                                   sample=table.get("sample"), seed=int(table.get("seed", 0)))
+    except ConfigError as exc:
+        raise (exc if str(exc).startswith(f"{source}:") else ConfigError(f"{source}: {exc}")) from None
     if not selection.run:
         raise ConfigError(f"{source}: [mutation] selects no live mutant")
     return selection
@@ -270,6 +273,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
     out = Path(out)
     n_new = 0
     _check_level(out, mexp, force_new=force_new)
+    check_store(out, exp, force_new=force_new)  # a refusal writes nothing, not even the lock file
     with store_lock(out), ResultStore.open(out, exp, force_new=force_new) as store:
         (out / MUTATION_FILE).write_text(json.dumps(_selection_json(mexp), indent=1))
         cases = prepare_cases(exp, out)
