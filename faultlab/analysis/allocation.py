@@ -47,7 +47,7 @@ from faultlab.stats.killmatrix import (detection_probability, draw_suites, exact
                                        strong_cases)
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.metrics.detection import DetectionRule
-from faultlab.stats.verdict import MAX_EXACT_PAIRS, alternative_of, min_p_value
+from faultlab.inference.exact import MAX_EXACT_PAIRS, alternative_of, min_p_value
 from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["ALLOCATION_COLUMNS", "allocations", "suite_pooled_pvalues", "allocation_study", "allocation_summary",

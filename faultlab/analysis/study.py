@@ -32,7 +32,7 @@ from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, MEAN_DETECT
                                        compare_scores, detection_table,
                                        evaluate_suites, kill_matrix, score_table, study_spec, whole_suite_table,
                                        whole_suites)
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
 __all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]

@@ -121,7 +121,7 @@ def _k_report(args: argparse.Namespace) -> int:
 
 def _sides(exp) -> int:
     """Sides of the per-case sign-flip test of ``exp``'s detection rule (its declared direction)."""
-    from faultlab.stats.verdict import alternative_of
+    from faultlab.inference.exact import alternative_of
 
     return 2 if alternative_of(exp.detection.direction) == "two-sided" else 1
 
@@ -133,7 +133,7 @@ def _plan(args: argparse.Namespace) -> int:
     from faultlab.errors import ConfigError
     from faultlab.report.planning import PLAN_FILE, plan_markdown
     from faultlab.mutation.variants import is_mutant_variant
-    from faultlab.stats.planning import file_scale, plan_study
+    from faultlab.inference.planning import file_scale, plan_study
     from faultlab.vocabulary import BASELINE
 
     data, _ = read_toml(resolve_experiment(args.study, what="study file"), what="study file")

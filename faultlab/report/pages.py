@@ -42,7 +42,7 @@ from faultlab.runner.store import case_path
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
 from faultlab.stats.class_effects import MIN_EPV
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import JobStatus
 
 __all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "EFFECT_PAGE_TITLE", "CLASS_EFFECT_PAGE_TITLE", "summary_pages",

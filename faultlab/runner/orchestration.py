@@ -241,7 +241,7 @@ def store_session(store: ResultStore, session: int, *, t0: float) -> Iterator[di
 
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
-                   batch_size: int | None = None, look=None,
+                   batch_size: int | None = None,
                    on_start: Callable[[], None] | None = None,
                    cases: Sequence[SuiteCase] | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
@@ -273,11 +273,6 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         repetitions of a (case, variant) per job (default: all that are missing from the store;
         1: one repetition per job).  The results are the same whatever the batch size, except
         ``runtime_s``.
-    look : callable, optional
-        The stopping rule of an experiment with ``[adaptive]`` repetitions
-        (:func:`faultlab.stats.sequential.interim_look`; required then, ignored otherwise).  The
-        repetitions run in stages (:mod:`faultlab.runner.staging`): a stage's jobs only for the
-        pairs still running, each stage in its own session.
     on_start : callable, optional
         Called once every check passed and the store is open, before the first write to ``out``
         (a driver writing files of its own next to the store writes them there, so that a refused
@@ -305,9 +300,6 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     if batch_size is not None and (isinstance(batch_size, bool) or not isinstance(batch_size, int)
                                    or batch_size < 1):
         raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")
-    if experiment.adaptive is not None and look is None:
-        raise ConfigError(f"{experiment.source}: [adaptive] repetitions need the stopping rule: pass "
-                          f"look=faultlab.stats.sequential.interim_look (the CLI does)")
     t0 = time.perf_counter()
     out = Path(out)
     sut, skipped = _preflight(experiment)
@@ -331,7 +323,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
             else:
                 if stage > 0:
                     decisions, running = look_before_stage(load_results(out), design=design, stage=stage,
-                                                           metric=experiment.metric, look=look, running=running)
+                                                           metric=experiment.metric, running=running)
                     store.set_meta(STOPS_KEY, record_stops(decisions, design=design, stage=stage,
                                                            previous=store.meta.get(STOPS_KEY, [])))
                 todo_specs = stage_jobs(specs, design=design, stage=stage, running=running)

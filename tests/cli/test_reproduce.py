@@ -205,3 +205,23 @@ def test_reproduce_quick_writes_only_under_out(quick):
     for name in OUTPUTS:
         assert (out / "report" / name).is_file(), name
     assert str(out / "report" / "report.pdf") in printed
+
+
+@pytest.mark.slow
+def test_reproduce_runs_an_adaptive_experiment(tmp_path):
+    """An ``[adaptive]`` experiment runs from the command line with no extra option: the stopping rule is
+    the runner's own, and the pairs it stopped are recorded with the repetitions they used."""
+    from faultlab.runner.staging import STOPS_KEY
+    from tests.runner.suts import write_experiment
+
+    toml = write_experiment(tmp_path / "adaptive.toml", runs=1, repetitions=4,
+                            adaptive={"stages": [2, 4], "level": 0.1, "alternative": "greater", "futility": 0.5})
+    code, _, err = _run(["reproduce", "--experiment", str(toml), "--out", str(tmp_path / "o"),
+                         "--reports", str(tmp_path / "r"), "--no-progress"])
+    assert code == 0, err
+    results = load_results(tmp_path / "o")
+    stops = load_metadata(tmp_path / "o")[STOPS_KEY]
+    used = results.groupby(["run", "suite", "case", "variant"]).size()
+    assert set(used) <= {2, 4}
+    for e in stops:  # a stopped pair has exactly the first stage's repetitions
+        assert e["repetitions"] == 2 and used[(e["run"], e["suite"], e["case"], e["variant"])] == 2

@@ -140,3 +140,49 @@ def test_run_metrics_option_records_only_those(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "metrics unknown metric 'mae'" in err and "Traceback" not in err
     assert not (tmp_path / "bad").exists()  # a refused command writes nothing
+
+
+@pytest.mark.slow
+def test_sigterm_stops_like_ctrl_c_marks_the_session_and_the_run_resumes_to_the_uninterrupted_table(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, repetitions=3, n_steps=40,
+                           slam={"name": f"{SUTS}:make_tiny", "options": {"noise": 0.02, "delay": 0.005}})
+    out = tmp_path / "out"
+    total = 3 * 2 * 3
+    proc = subprocess.Popen([sys.executable, "-m", "faultlab", "run", str(exp), "--out", str(out), "--jobs", "2",
+                             "--no-progress"], cwd=ROOT, start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while _count_rows(out / "results.sqlite") < 2 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGTERM)  # the command alone, as timeout(1) or kill(1) send it
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    err = proc.stderr.read().decode()
+    assert proc.returncode == 143, err
+    assert err.strip().splitlines() == ["faultlab: terminated (SIGTERM); finished results are saved: rerun the same "
+                                        "command to resume"]
+    before = load_results(out)
+    assert 2 <= len(before) < total
+    assert load_metadata(out)["sessions"][0]["state"] == "interrupted"
+    run_experiment(exp, out, jobs=2, progress=False)
+    run_experiment(exp, tmp_path / "clean", jobs=2, progress=False)
+    keys = ["run", "suite", "case", "variant", "rep"]
+    resumed, clean = (load_results(p).sort_values(keys).reset_index(drop=True).drop(columns=["runtime_s"])
+                      for p in (out, tmp_path / "clean"))
+    pd.testing.assert_frame_equal(resumed, clean, check_exact=True)
+
+
+@pytest.mark.parametrize("command", [["run", "{f}", "--out", "{o}"], ["generate", "--space", "{f}", "--out", "{o}"],
+                                     ["study", "run", "{f}", "--out", "{o}"], ["effects", "run", "{f}", "--out", "{o}"]])
+def test_a_toml_file_that_is_not_utf8_is_one_error_line_naming_it(tmp_path, capsys, command):
+    bad = tmp_path / "bad.toml"
+    bad.write_bytes(b"seed = 1\n# \xff\xfe not UTF-8\n")
+    out = tmp_path / "out"
+    argv = [a.format(f=bad, o=out) for a in command]
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"faultlab: error: {bad}") and "not UTF-8" in err[0], err
+    assert not out.exists()
