@@ -12,9 +12,16 @@ __all__ = ["register"]
 
 
 def _alternatives() -> tuple[str, ...]:
-    from faultlab.runner.staging import ALTERNATIVES
+    from faultlab.inference.sequential import ALTERNATIVES
 
     return ALTERNATIVES
+
+
+def _design():
+    """The staged design's defaults (read when shown: the inference package is slow to import)."""
+    from faultlab.inference.sequential import StagedDesign
+
+    return StagedDesign
 
 
 def register(subparsers) -> None:
@@ -63,10 +70,13 @@ def register(subparsers) -> None:
     a.add_argument("--stages", default=None, metavar="K1,K2,...",
                    help="cumulative repetitions after each stage, the last the store's K (default: the stored "
                         "experiment's [adaptive] stages)")
-    a.add_argument("--level", type=float, default=None, help="per-case level of the looks (default 0.05)")
+    a.add_argument("--level", type=float, default=None,
+                   help=LazyText(lambda: f"per-case level of the looks (default {_design().level:g})"))
     a.add_argument("--alternative", default=None, choices=LazyChoices(_alternatives), metavar="SIDE",
-                   help=LazyText(lambda: f"sidedness of the looks: {', '.join(_alternatives())} (default greater)"))
-    a.add_argument("--futility", type=float, default=None, help="futility bound in [level, 1] (default 0.5)")
+                   help=LazyText(lambda: f"sidedness of the looks: {', '.join(_alternatives())} "
+                                         f"(default {_design().alternative})"))
+    a.add_argument("--futility", type=float, default=None,
+                   help=LazyText(lambda: f"futility bound in [level, 1] (default {_design().futility:g})"))
     a.add_argument("--reports", default=None, metavar="DIR", help="write the tables and the page here")
     a.set_defaults(func=_adaptive)
 

@@ -26,11 +26,11 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from faultlab.analysis.effects import EffectsAnalysis, analyse_effects
-from faultlab.analysis.responses import DIFFICULTY
 from faultlab.precision import write_csv
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
+from faultlab.stats.responses import DIFFICULTY
 
 __all__ = ["EFFECTS_TABLES", "summary_table", "morris_figure", "sobol_figure", "partial_figure", "effects_markdown",
            "write_effects_report", "response_label"]
