@@ -178,3 +178,16 @@ def test_a_refused_run_of_any_verb_leaves_every_file_byte_identical(finished, tm
             assert main([*command, str(changed), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
             _one_error(capsys.readouterr().err, "changed:")
             assert _files(out) == before, (verb, i)
+
+
+def test_disk_full_while_writing_a_report_is_one_line_naming_where_and_leaves_no_partial_file(finished, tmpfs,
+                                                                                              capsys):
+    _, out = finished
+    fs = tmpfs("1m")
+    with open(fs / "filler", "wb", buffering=0) as f:  # room for the tables, not for the figures and the PDF
+        f.write(bytes(2**20 - 96 * 2**10))
+    reports = fs / "reports"
+    assert main(["report", str(out), "--reports", str(reports)]) == 1
+    err = capsys.readouterr().err
+    _one_error(err, "the disk is full", str(reports))
+    assert not list(reports.rglob("*.partial"))
