@@ -90,3 +90,17 @@ def test_paper_fidelity_table_is_the_paper_profiles_rows():
     assert len(rows) == len(expected) - 1  # the separator row does not start with "| "
     for row, want in zip(rows, [expected[0]] + expected[2:]):
         assert row.startswith(want.rstrip(" |") + " | ")
+
+
+def test_every_test_the_integrity_page_cites_exists():
+    text = (DOCS / "explanation" / "integrity.md").read_text()
+    cited = 0
+    for row in (line for line in text.splitlines() if line.startswith("| ") and "`tests/" in line):
+        path = None
+        for ref in re.findall(r"`(tests/[^`]*|::[^`]*)`", row):
+            file, _, name = ref.partition("::") if ref.startswith("tests/") else (None, None, ref[2:])
+            path = ROOT / file if file else path
+            assert path is not None and path.exists(), ref
+            assert re.search(rf"^def {re.escape(name)}\(", path.read_text(), re.M), ref
+            cited += 1
+    assert cited >= 25
