@@ -25,7 +25,7 @@ from statsmodels.stats.contingency_tables import mcnemar
 from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import judged_metric
+from faultlab.stats.metadata import judged_metric
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import mutant_variant
 from faultlab.mutation.outcome import MutantOutcome

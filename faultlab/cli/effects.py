@@ -127,12 +127,11 @@ def _design(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from faultlab.analysis.effects import screen_store
     from faultlab.campaigns.effects import load_effects_experiment, run_effects
 
     eexp = load_effects_experiment(args.experiment, quick=args.quick)
     out = _out(args)
-    summaries = run_effects(eexp, out, screen=screen_store, jobs=args.jobs, backend=args.backend,
+    summaries = run_effects(eexp, out, jobs=args.jobs, backend=args.backend,
                             force_new=args.force_new, progress=not args.no_progress, batch_size=args.batch_size)
     for stage, s in summaries.items():
         print(f"{stage}: {s}")

@@ -51,10 +51,11 @@ import pandas as pd
 
 from faultlab import __version__
 from faultlab.errors import ResultsError
-from faultlab.vocabulary import MAP_METRICS, METRICS
+from faultlab.vocabulary import MAP_METRICS, METRICS, JobStatus
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 
 __all__ = [
+    "usable_rows",
     "RESULTS_FILE",
     "CASES_DIR",
     "ID_COLUMNS",
@@ -887,6 +888,15 @@ def _verify(path: Path, rows: list, checked: bool) -> None:
         _noted.add((path.resolve(), unverified, len(rows)))
         warnings.warn(f"{path}: {unverified} of {len(rows)} rows were written before row checksums existed "
                       f"and are read without verification", UnverifiedStoreWarning, stacklevel=3)
+
+
+def usable_rows(frame: pd.DataFrame, column: str) -> np.ndarray:
+    """True for the stored rows a test can use: the job finished ``ok`` with a finite ``column``.
+
+    A job ``ok`` without a finite error mapped nothing and counts as a failure, like a crash.
+    """
+    return (frame["status"].astype(str).to_numpy() == JobStatus.OK.value) & np.isfinite(
+        frame[column].to_numpy(dtype=float))
 
 
 def load_results(out: str | Path) -> pd.DataFrame:
