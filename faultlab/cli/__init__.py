@@ -39,6 +39,7 @@ COMMAND_MODULES = (
     "faultlab.cli.study",  # study plan, study run, study report
     "faultlab.cli.adapter",  # adapter check
     "faultlab.cli.export",  # export
+    "faultlab.cli.check",  # check
 )
 
 
