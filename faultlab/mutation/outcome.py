@@ -22,6 +22,7 @@ class MutantOutcome(StrEnum):
     EQUIVALENT = "equivalent"  # identical bytecode, or bit-identical unit outputs on every unit example
     STILLBORN = "stillborn"  # does not compile, or raises on every unit example
     DUPLICATE = "duplicate"  # bit-identical unit outputs to an earlier mutant of the same unit, which runs
+    INVALID = "invalid"  # a mutant of user source that cannot be imported or built: neither killed nor survived
 
 
 #: The outcomes screening assigns; a mutant with none of them is live.
