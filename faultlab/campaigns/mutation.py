@@ -282,6 +282,14 @@ def _load_target_experiment(path, data: dict, text: str, table: dict, *, jobs: i
     if ":" not in exp0.slam.name:
         raise ConfigError(f"{path}: [slam].name = {exp0.slam.name!r}: a campaign on a target needs the factory that "
                           f"runs it, as package.module:factory")
+    kill = KILL_EXACT if exp0.repetitions == 1 else KILL_SIGN_FLIP
+    n_max = max((s.n_cases for s in exp0.suites if s.n_cases is not None), default=1)
+    alternative = alternative_of(direction)
+    if kill == KILL_SIGN_FLIP and exp0.repetitions < min_pairs(alpha / n_max, alternative=alternative):
+        raise ConfigError(f"{path}: repetitions = {exp0.repetitions} is too few: a case is judged at alpha / "
+                          f"{n_max} = {alpha / n_max:.4g}, which the exact {alternative} sign-flip test reaches only "
+                          f"from K = {min_pairs(alpha / n_max, alternative=alternative)}; a deterministic SLAM "
+                          f"runs with repetitions = 1 and is judged exactly")
     target = parse_target(table["target"], functions=table.get("functions", ()), lines=table.get("lines", ()),
                           where=f"{where}.target")
     operators = table.get("operators")
@@ -292,24 +300,17 @@ def _load_target_experiment(path, data: dict, text: str, table: dict, *, jobs: i
     if not len(mutants):
         raise ConfigError(f"{where}: target {target} has no mutation point (functions skipped: "
                           f"{mutants.skipped or 'none'})")
+    reuse = _reuse_map(exp0, table.get("reuse"), where=where)
     scenarios, seeds, probe_key = _probes(exp0, table.get("probes", DEFAULT_PROBES))
     screening = screen_target(mutants, exp0.slam, scenarios, seeds, probe_key=probe_key, jobs=jobs)
     selection = select_source_mutants(mutants, screening, sample=table.get("sample"), seed=int(table.get("seed", 0)),
-                                      reuse=_reuse_map(exp0, table.get("reuse"), where=where))
+                                      reuse=reuse)
     if not selection.run and not selection.reused:
         raise ConfigError(f"{where} selects no live mutant of {target}")
     exp = parse_experiment(dict(data) | {"variants": [BASELINE, *map(mutant_variant, selection.run)]},
                            source=str(path), text=text)
-    kill = KILL_EXACT if exp.repetitions == 1 else KILL_SIGN_FLIP
-    n_max = max((s.n_cases for s in exp.suites if s.n_cases is not None), default=1)
     mexp = MutationExperiment(experiment=exp, selection=selection, alpha=alpha, direction=direction, kill=kill,
                               fixed_case_alpha=alpha / n_max, records=mutant_records(mutants, screening))
-    alternative = alternative_of(direction)
-    if kill == KILL_SIGN_FLIP and exp.repetitions < min_pairs(alpha / n_max, alternative=alternative):
-        raise ConfigError(f"{path}: repetitions = {exp.repetitions} is too few: a case is judged at alpha / "
-                          f"{n_max} = {alpha / n_max:.4g}, which the exact {alternative} sign-flip test reaches only "
-                          f"from K = {min_pairs(alpha / n_max, alternative=alternative)}; a deterministic SLAM "
-                          f"runs with repetitions = 1 and is judged exactly")
     return mexp
 
 
