@@ -11,6 +11,7 @@ __all__ = [
     "FaultlabError",
     "ConfigError",
     "ScenarioError",
+    "InvalidCaseError",
     "SlamInputError",
     "SlamOutputError",
     "SlamProcessError",
@@ -33,6 +34,10 @@ class ConfigError(FaultlabError, ValueError):
 
 class ScenarioError(FaultlabError, ValueError):
     """A test case cannot be generated, saved or loaded."""
+
+
+class InvalidCaseError(ScenarioError):
+    """A saved test case whose files are intact (checksums match) but whose content is not a valid case."""
 
 
 class SlamInputError(FaultlabError, ValueError):
