@@ -94,6 +94,9 @@ METRICS_KEY = "metrics"
 #: File in a mutation campaign's output directory recording its mutant selection and level
 #: (written by :func:`faultlab.campaigns.mutation.run_mutation`).
 MUTATION_FILE = "mutation.json"
+#: File in a mutation campaign on user code: the target module's source and every mutant's place,
+#: diff and screening (written by :func:`faultlab.campaigns.mutation.run_mutation`).
+MUTANTS_FILE = "mutants.json"
 #: File in a study's output directory recording its settings and sessions
 #: (written by :func:`faultlab.campaigns.study.run_study`).
 STUDY_FILE = "study.json"
