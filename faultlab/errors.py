@@ -12,6 +12,7 @@ __all__ = [
     "ConfigError",
     "ScenarioError",
     "NoGroundTruthError",
+    "InvalidCaseError",
     "SlamInputError",
     "SlamOutputError",
     "SlamProcessError",
@@ -38,6 +39,10 @@ class ScenarioError(FaultlabError, ValueError):
 
 class NoGroundTruthError(ScenarioError):
     """A metric or oracle that needs the ground truth was asked about a scenario without one (a real data set)."""
+
+
+class InvalidCaseError(ScenarioError):
+    """A saved test case whose files are intact (checksums match) but whose content is not a valid case."""
 
 
 class SlamInputError(FaultlabError, ValueError):

@@ -31,7 +31,7 @@ from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
 from faultlab.slam.profiles import ABLATIONS, Ablation
-from faultlab.stats.multiplicity import holm
+from faultlab.inference.multiplicity import holm
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, JobStatus
 
 __all__ = ["AblationResult", "ABLATION", "ABLATION_CSV", "ABLATION_JSON", "KEYS", "paired_effect",

@@ -42,7 +42,7 @@ from faultlab.analysis.bundle import TableBundle
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
-from faultlab.stats.multiplicity import holm
+from faultlab.inference.multiplicity import holm
 from faultlab.stats.paper import RAW_CSV, load_paper_raw, resolve_data_path
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, PAPER_PROTOCOL, SUITE_ORDER, JobStatus
 

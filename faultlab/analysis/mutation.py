@@ -25,14 +25,14 @@ from statsmodels.stats.contingency_tables import mcnemar
 from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import judged_metric
+from faultlab.stats.metadata import judged_metric
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import mutant_variant
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.runner.staging import STOPS_KEY
 from faultlab.runner.store import MUTATION_FILE, load_metadata, load_results
 from faultlab.stats.killmatrix import suite_kills
-from faultlab.stats.multiplicity import holm
+from faultlab.inference.multiplicity import holm
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_DIRECTION
 
 __all__ = ["MUTATION_TABLES", "MutationAnalysis", "analyse_mutation", "mutation_scores", "compare_suites",

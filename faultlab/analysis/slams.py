@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from faultlab.analysis.metadata import judged_metric
+from faultlab.stats.metadata import judged_metric
 from faultlab.analysis.result import analyse
 from faultlab.runner.store import load_results
 from faultlab.stats.accuracy import ACCURACY_COLUMNS, case_mean_accuracy

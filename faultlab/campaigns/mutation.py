@@ -29,9 +29,9 @@ have detected (80 % power): the smallest per-case detectable shift ``mde_mm`` of
 cases (estimated from the baseline's spread, :func:`~faultlab.stats.verdict.case_verdicts`).
 
 Adaptive repetitions.  An ``[adaptive]`` table (``stages``, cumulative, the last equal to
-``repetitions``; ``futility``, default 0.5; :class:`~faultlab.runner.staging.StagedDesign`) runs
+``repetitions``; ``futility``, default 0.5; :class:`~faultlab.inference.sequential.StagedDesign`) runs
 the K repetitions of each case round in stages, with the rule of
-:mod:`faultlab.stats.sequential` (:func:`~faultlab.stats.sequential.interim_look`).  Stage 1 runs
+:mod:`faultlab.inference.sequential` (:func:`~faultlab.inference.sequential.interim_look`).  Stage 1 runs
 the first ``stages[0]`` repetitions of the case's baseline and of every mutant the suite has not
 killed.  Before each later stage, every (case, mutant) pair still running is looked at, from its
 stored repetitions alone: it stops when the baseline failed, when the fixed-K test can no longer
@@ -76,11 +76,11 @@ from faultlab.mutation.variants import MutantSelection, mutant_variant, select_m
 from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, load_results, parse_experiment,
                              prepare_cases, result_row, store_session, stream_results)
 from faultlab.runner.progress import progress as show_progress
-from faultlab.runner.staging import STOPS_KEY, LookRule, StagedDesign, look_before_stage, record_stops, stage_jobs
+from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import MUTATION_FILE, check_store, job_metrics, results_path, store_lock
 from faultlab.stats.killmatrix import suite_kills
-from faultlab.stats.sequential import interim_look
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.sequential import StagedDesign
+from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS
 
 __all__ = ["MUTATION_FILE", "MutationExperiment", "MutationRun", "load_mutation_experiment", "parse_selector",
@@ -222,8 +222,11 @@ def selection_from_table(table: dict, *, source: str) -> MutantSelection:
     unknown = set(table) - set(_MUTATION_KEYS)
     if unknown:
         raise ConfigError(f"{source}: [mutation]: unknown key(s) {sorted(unknown)}; known: {', '.join(_MUTATION_KEYS)}")
-    selection = select_mutants(units=table.get("units"), operators=table.get("operators"), ids=table.get("ids"),
-                               sample=table.get("sample"), seed=int(table.get("seed", 0)))
+    try:
+        selection = select_mutants(units=table.get("units"), operators=table.get("operators"), ids=table.get("ids"),
+                                   sample=table.get("sample"), seed=int(table.get("seed", 0)))
+    except ConfigError as exc:
+        raise (exc if str(exc).startswith(f"{source}:") else ConfigError(f"{source}: {exc}")) from None
     if not selection.run:
         raise ConfigError(f"{source}: [mutation] selects no live mutant")
     return selection
@@ -259,13 +262,8 @@ def _n_cases(cases) -> dict:
 
 
 def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs: int = 2, backend: str = "loky",
-                 force_new: bool = False, progress: bool = True, look: LookRule = interim_look) -> MutationRun:
-    """Run (or resume) a mutation campaign with early stopping (see the module docstring).
-
-    ``look`` is the interim rule of an experiment with ``[adaptive]`` repetitions
-    (:func:`faultlab.stats.sequential.interim_look`, as ``faultlab run`` passes it to the runner);
-    ignored otherwise.
-    """
+                 force_new: bool = False, progress: bool = True) -> MutationRun:
+    """Run (or resume) a mutation campaign with early stopping (see the module docstring)."""
     if not isinstance(mexp, MutationExperiment):
         mexp = load_mutation_experiment(mexp)
     exp = mexp.experiment
@@ -275,6 +273,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
     out = Path(out)
     n_new = 0
     _check_level(out, mexp, force_new=force_new)
+    check_store(out, exp, force_new=force_new)  # a refusal writes nothing, not even the lock file
     with store_lock(out), ResultStore.open(out, exp, force_new=force_new) as store:
         (out / MUTATION_FILE).write_text(json.dumps(_selection_json(mexp), indent=1))
         cases = prepare_cases(exp, out)
@@ -303,7 +302,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
             running = None
             for stage in range(n_stages):
                 if stage > 0:
-                    running = _look(store, out, round_specs, designs, stage=stage, metric=exp.metric, look=look,
+                    running = _look(store, out, round_specs, designs, stage=stage, metric=exp.metric,
                                     running=running, stopped=stopped)
                 todo_specs = (round_specs if exp.adaptive is None
                               else stage_jobs(round_specs, design=exp.adaptive, stage=stage, running=running))
@@ -326,7 +325,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                        n_saved_adaptive=n_full - n_needed, n_stops=len(stopped))
 
 
-def _look(store, out: Path, round_specs: list, designs: dict, *, stage: int, metric: str, look: LookRule,
+def _look(store, out: Path, round_specs: list, designs: dict, *, stage: int, metric: str,
           running: set | None, stopped: dict) -> set:
     """The interim look before ``stage`` of a case round, suite by suite at its own per-case level:
     records the new stops (store metadata :data:`STOPS_KEY` and ``stopped``) and returns the
@@ -340,7 +339,7 @@ def _look(store, out: Path, round_specs: list, designs: dict, *, stage: int, met
         if part.empty:
             continue
         before = None if running is None else {p for p in running if p[:2] == (run, suite)}
-        decisions, cont = look_before_stage(part, design=design, stage=stage, metric=metric, look=look,
+        decisions, cont = look_before_stage(part, design=design, stage=stage, metric=metric,
                                             running=before)
         store.set_meta(STOPS_KEY, record_stops(decisions, design=design, stage=stage,
                                                previous=store.meta.get(STOPS_KEY, [])))

@@ -11,8 +11,10 @@ import argparse
 import errno
 import importlib
 import os
+import signal
 import sqlite3
 import sys
+import threading
 import warnings
 
 from faultlab import __version__
@@ -86,6 +88,18 @@ def _format_warning(message, category, filename, lineno, line=None) -> str:
 _python_format_warning = warnings.formatwarning
 
 
+class Terminated(KeyboardInterrupt):
+    """Raised in the main thread when the process receives SIGTERM (Slurm, systemd, ``timeout``, ``kill``).
+
+    A KeyboardInterrupt, so that a campaign stops exactly as on Ctrl-C: finished rows stay committed
+    and its session is marked ``interrupted``.
+    """
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     """Run the command of ``argv`` (default ``sys.argv[1:]``); returns the exit status.
 
@@ -93,7 +107,9 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
 
     A reader that closes the pipe early (``faultlab mutate list | head``) ends the command quietly
     with exit code 141, as a process killed by SIGPIPE (the shell's convention); the command stops
-    at its next write, so a campaign keeps the rows it committed.
+    at its next write, so a campaign keeps the rows it committed.  SIGTERM is handled like Ctrl-C
+    (:class:`Terminated`): the command stops, keeps what it finished, and exits with 143 (128 + 15;
+    Ctrl-C: 130).
     """
     warnings.formatwarning = _format_warning
     parser = build_parser(prog)
@@ -101,10 +117,17 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         code = int(args.func(args) or 0)
         sys.stdout.flush()
         return code
+    except Terminated:
+        print("faultlab: terminated (SIGTERM); finished results are saved: rerun the same command to resume",
+              file=sys.stderr)
+        return 128 + signal.SIGTERM
     except BrokenPipeError:
         _silence_stdout()
         return 128 + 13  # SIGPIPE
@@ -122,3 +145,6 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     except KeyboardInterrupt:
         print("faultlab: interrupted; finished results are saved", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

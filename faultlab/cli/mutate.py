@@ -69,7 +69,10 @@ def register(subparsers) -> None:
                                      "scores.csv/.md, mcnemar.csv/.md and mutation.pdf.")
     rep.add_argument("results", help="output directory of `faultlab mutate run`")
     rep.add_argument("--reports", default=None, help="where to write (default: RESULTS/report)")
-    add_examples(rep, ["faultlab mutate report results/mutation",
+    rep.add_argument("--html", action="store_true",
+                     help="also write the HTML report to REPORTS/html (a page per mutant with its diff, status and "
+                          "cases; sortable, filterable tables; opens offline)")
+    add_examples(rep, ["faultlab mutate report results/mutation --html",
                        "faultlab mutate report results/mutation --reports reports/mutation"])
     rep.set_defaults(func=_report)
 
@@ -112,4 +115,10 @@ def _report(args: argparse.Namespace) -> int:
     from faultlab.report.mutation import write_mutation_report
 
     reports = args.reports if args.reports is not None else Path(args.results) / "report"
-    return print_paths(write_mutation_report(args.results, reports))
+    print_paths(write_mutation_report(args.results, reports))
+    if args.html:
+        from faultlab.analysis.mutation import MutationAnalysis
+        from faultlab.report.html.mutation import write_mutation_html
+
+        print(write_mutation_html(MutationAnalysis.load(reports), args.results, Path(reports) / "html"))
+    return 0

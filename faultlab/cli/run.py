@@ -38,7 +38,6 @@ def register(subparsers) -> None:
 def handler(args: argparse.Namespace) -> int:
     from faultlab.errors import ConfigError
     from faultlab.runner import load_experiment
-    from faultlab.stats.sequential import interim_look
 
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
     experiment = load_experiment(args.experiment)
@@ -52,7 +51,7 @@ def handler(args: argparse.Namespace) -> int:
     if args.metrics is not None:
         experiment = experiment.replace(metrics=[m.strip() for m in args.metrics.split(",")])
     summary = run_experiment(experiment, out, jobs=args.jobs, backend=args.backend,
-                             force_new=args.force_new, progress=not args.no_progress, look=interim_look)
+                             force_new=args.force_new, progress=not args.no_progress)
     print(f"results: {summary.results}")
     print(summary)
     return 0

@@ -7,7 +7,7 @@ import argparse
 from faultlab import analysis, stats  # both load their submodules (statsmodels, ...) on first use
 from faultlab.cli.options import add_examples, add_verb_group, epilog, print_paths
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.runner.staging import ALTERNATIVES
+from faultlab.inference.sequential import ALTERNATIVES, StagedDesign
 
 __all__ = ["register"]
 
@@ -57,10 +57,10 @@ def register(subparsers) -> None:
     a.add_argument("--stages", default=None, metavar="K1,K2,...",
                    help="cumulative repetitions after each stage, the last the store's K (default: the stored "
                         "experiment's [adaptive] stages)")
-    a.add_argument("--level", type=float, default=None, help="per-case level of the looks (default 0.05)")
+    a.add_argument("--level", type=float, default=None, help=f"per-case level of the looks (default {StagedDesign.level:g})")
     a.add_argument("--alternative", default=None, choices=ALTERNATIVES,
-                   help="sidedness of the looks (default greater)")
-    a.add_argument("--futility", type=float, default=None, help="futility bound in [level, 1] (default 0.5)")
+                   help=f"sidedness of the looks (default {StagedDesign.alternative})")
+    a.add_argument("--futility", type=float, default=None, help=f"futility bound in [level, 1] (default {StagedDesign.futility:g})")
     a.add_argument("--reports", default=None, metavar="DIR", help="write the tables and the page here")
     a.set_defaults(func=_adaptive)
 

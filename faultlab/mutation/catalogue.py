@@ -39,7 +39,7 @@ from faultlab.slam.registry import build_slam
 
 __all__ = ["Catalogue", "CLASS_NOTES", "mutant_catalogue", "cache_dir", "list_mutants", "show_mutant", "class_counts"]
 
-_CACHE_FORMAT = "faultlab-mutant-screening-1"
+_CACHE_FORMAT = "faultlab-mutant-screening-2"
 
 #: What each class means, for the count lines of the listing.
 CLASS_NOTES = {
@@ -47,6 +47,7 @@ CLASS_NOTES = {
     "stillborn": "does not compile, or raises on every unit example",
     "equivalent": "identical bytecode, or bit-identical unit outputs on every unit example",
     "duplicate": "bit-identical unit outputs to an earlier mutant, which runs instead",
+    "nondeterministic": "unit outputs depend on what unwritten (np.empty) memory held: reported, never run",
 }
 
 

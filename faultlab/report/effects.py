@@ -26,7 +26,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from faultlab.analysis.effects import EffectsAnalysis, analyse_effects
-from faultlab.analysis.responses import DIFFICULTY
+from faultlab.stats.responses import DIFFICULTY
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration

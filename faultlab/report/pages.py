@@ -42,7 +42,7 @@ from faultlab.runner.store import case_path
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
 from faultlab.stats.class_effects import MIN_EPV
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import JobStatus
 
 __all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "EFFECT_PAGE_TITLE", "CLASS_EFFECT_PAGE_TITLE", "summary_pages",
@@ -336,17 +336,17 @@ def figure_pages(analysis: Analysis) -> list[Figure]:
 
 
 def _load_run_cases(store_dir: Path, analysis: Analysis, run: int) -> tuple[list[tuple[str, list]], list, int]:
-    """Rows of panels ``(suite, [(case, Scenario)])`` of one run, seed rows, unreadable files."""
+    """Rows of panels ``(suite, [(case, Scenario)])`` of one run, seed rows, why each unreadable file is."""
     cases = analysis.cases[analysis.cases["run"] == run]
     rows: list[tuple[str, list[tuple[int, Scenario]]]] = []
-    seeds, missing = [], 0
+    seeds, missing = [], []
     for suite in order_suites(cases["suite"]):
         loaded = []
         for c in sorted(int(c) for c in cases.loc[cases["suite"] == suite, "case"]):
             try:
                 loaded.append((c, load_scenario(case_path(store_dir, run, suite, c))))
-            except (FaultlabError, OSError):
-                missing += 1
+            except (FaultlabError, OSError) as exc:
+                missing.append(str(exc))
         seeds += [(run, suite, c, sc.seed, sc.landmarks.shape[0], sc.n_steps) for c, sc in loaded]
         rows += [(suite, loaded[i:i + _PANELS_PER_ROW]) for i in range(0, len(loaded), _PANELS_PER_ROW)]
     return rows, seeds, missing
@@ -383,7 +383,7 @@ def case_pages(store_dir: Path, analysis: Analysis) -> tuple[list[Figure], list,
     are left out and counted in a note.
     """
     runs = sorted(int(r) for r in analysis.cases["run"].unique())
-    pages, seeds, notes, missing = [], [], [], 0
+    pages, seeds, notes, missing = [], [], [], []
     for run in runs[:MAX_PICTURED_RUNS]:
         rows, run_seeds, run_missing = _load_run_cases(store_dir, analysis, run)
         seeds += run_seeds
@@ -391,8 +391,9 @@ def case_pages(store_dir: Path, analysis: Analysis) -> tuple[list[Figure], list,
         for start in range(0, len(rows), _ROWS_PER_PAGE):
             pages.append(_case_page(run, rows[start:start + _ROWS_PER_PAGE], continued=start > 0))
     if missing:
-        notes.append(f"{missing} saved test case file(s) under {store_dir}/cases could not be "
-                     "read; their pictures are left out.")
+        notes.append(f"{len(missing)} saved test case file(s) under {store_dir}/cases could not be "
+                     f"read; their pictures are left out: {'; '.join(missing[:3])}"
+                     + (f"; and {len(missing) - 3} more" if len(missing) > 3 else "") + ".")
     if len(runs) > MAX_PICTURED_RUNS:
         notes.append(f"test cases are pictured for evaluation runs 1-{MAX_PICTURED_RUNS} of {len(runs)}.")
     return pages, seeds, notes

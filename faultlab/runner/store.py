@@ -51,10 +51,11 @@ import pandas as pd
 
 from faultlab import __version__
 from faultlab.errors import ResultsError
-from faultlab.vocabulary import MAP_METRICS, METRICS
+from faultlab.vocabulary import MAP_METRICS, METRICS, JobStatus
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 
 __all__ = [
+    "usable_rows",
     "RESULTS_FILE",
     "CASES_DIR",
     "ID_COLUMNS",
@@ -444,6 +445,11 @@ def _is_blank(path: Path) -> bool:
         return False
 
 
+def _has_cases(out: Path) -> bool:
+    """Whether ``out`` holds a saved test case (a campaign committed its store's schema before saving any)."""
+    return any((out / CASES_DIR).rglob("*.npz")) if (out / CASES_DIR).is_dir() else False
+
+
 def check_store(out: str | Path, experiment, *, force_new: bool = False) -> None:
     """Refuse, writing nothing, what :meth:`ResultStore.open` would refuse.
 
@@ -453,14 +459,20 @@ def check_store(out: str | Path, experiment, *, force_new: bool = False) -> None
     Raises
     ------
     ResultsError
-        ``out`` is a file, or holds a damaged store, or the results of a different experiment
-        (without ``force_new``).
+        ``out`` is a file, or holds a damaged store (an empty store file next to saved cases
+        included), or the results of a different experiment (without ``force_new``).
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ResultsError(f"output directory {out} is a file, not a directory; name a directory")
     path = results_path(out)
-    if force_new or not path.exists() or _is_blank(path):
+    if force_new or not path.exists():
+        return
+    if path.stat().st_size == 0 and not path.with_name(path.name + "-wal").exists() and _has_cases(out):
+        raise ResultsError(f"{path} is empty (0 bytes) although {out / CASES_DIR} holds saved test cases: the "
+                           f"store was truncated or replaced, and its rows are lost. Use --force-new to start a "
+                           f"new store (the old files are moved aside, not deleted)")
+    if _is_blank(path):
         return
     conn = _connect_ro(path)
     try:
@@ -841,6 +853,15 @@ def _verify(path: Path, rows: list, checked: bool) -> None:
         _noted.add((path.resolve(), unverified, len(rows)))
         warnings.warn(f"{path}: {unverified} of {len(rows)} rows were written before row checksums existed "
                       f"and are read without verification", UnverifiedStoreWarning, stacklevel=3)
+
+
+def usable_rows(frame: pd.DataFrame, column: str) -> np.ndarray:
+    """True for the stored rows a test can use: the job finished ``ok`` with a finite ``column``.
+
+    A job ``ok`` without a finite error mapped nothing and counts as a failure, like a crash.
+    """
+    return (frame["status"].astype(str).to_numpy() == JobStatus.OK.value) & np.isfinite(
+        frame[column].to_numpy(dtype=float))
 
 
 def load_results(out: str | Path) -> pd.DataFrame:

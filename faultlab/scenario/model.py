@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from faultlab.errors import NoGroundTruthError, ScenarioError
+from faultlab.errors import InvalidCaseError, NoGroundTruthError, ScenarioError
 from faultlab.space.case import CaseSpec
 
 __all__ = ["Scenario", "save_scenario", "load_scenario"]
@@ -208,7 +208,9 @@ def load_scenario(path: str | Path) -> Scenario:
     Raises
     ------
     ScenarioError
-        A file is missing, truncated, damaged (checksum mismatch) or not a test case.
+        A file is missing, truncated, damaged (checksum mismatch) or not a test case;
+        :class:`~faultlab.errors.InvalidCaseError` if its files are intact but its content is not a
+        valid case (inconsistent shapes, NaN or infinite values).
     """
     base = Path(path)
     if base.suffix in (".npz", ".json"):
@@ -237,5 +239,26 @@ def load_scenario(path: str | Path) -> Scenario:
                       **arrays)
     except (KeyError, TypeError, ValueError) as exc:
         raise ScenarioError(f"test case {js}: unreadable ({type(exc).__name__}: {exc})") from exc
-    sc.validate()
+    try:
+        sc.validate()
+        _check_finite(sc)
+    except ScenarioError as exc:
+        raise InvalidCaseError(f"test case {npz}: {exc} (its checksums match: it was saved so; "
+                               f"regenerate it, e.g. with --force-new)") from None
     return sc
+
+
+def _check_finite(sc: Scenario) -> None:
+    """ScenarioError naming the first array of a saved case that holds a NaN or an infinity.
+
+    A case without ground truth has NaN landmarks and poses after the start by design (:meth:`Scenario.validate`
+    checks that pattern); its start pose and measurements must still be finite.
+    """
+    truth = ("landmarks", "true_poses") if sc.has_truth else ()
+    for name in (*truth, "controls", "obs_range", "obs_bearing"):
+        values = getattr(sc, name)
+        bad = ~np.isfinite(values)
+        if bad.any():
+            first = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise ScenarioError(f"{name} holds {int(bad.sum())} non-finite value(s), the first "
+                                f"{values[first]} at index {first if len(first) > 1 else first[0]}")

@@ -134,7 +134,7 @@ def test_study_run_refuses_too_few_repetitions_for_the_largest_size(tmp_path, ca
 
 
 def test_study_plan_writes_the_plan_of_a_tiny_study(tmp_path, capsys):
-    from faultlab.stats.planning import plan_study
+    from faultlab.inference.planning import plan_study
 
     from faultlab.analysis.planning import execution_cost
 
@@ -157,7 +157,7 @@ def test_study_plan_writes_the_plan_of_a_tiny_study(tmp_path, capsys):
 
 
 def test_study_plan_with_an_assumed_cost_says_so(tmp_path, capsys):
-    from faultlab.stats.planning import plan_study
+    from faultlab.inference.planning import plan_study
 
     (tmp_path / "tiny.toml").write_text(TINY)
     assert main(["study", "plan", str(tmp_path / "tiny.toml"), "--seconds-per-execution", "2.5",

@@ -116,6 +116,26 @@ def _swallow_hang(original):
     return stubborn_move
 
 
+def _spin_compiled(original):
+    import numba
+
+    @numba.njit(cache=False)
+    def spin(n):  # xorshift: LLVM cannot fold it away; holds the GIL throughout
+        x = np.uint64(88172645463325252)
+        for _ in range(n):
+            x ^= x << np.uint64(13)
+            x ^= x >> np.uint64(7)
+            x ^= x << np.uint64(17)
+        return x
+
+    spin(10)  # compiled before the step, so the step itself spins from its first instant
+
+    def spinning_move(pose, control, noise, rng):
+        spin(1 << 37)  # minutes of compiled code: only a deadline outside the worker stops it
+        return original(pose, control, noise, rng)
+    return spinning_move
+
+
 def _slow(original):
     def slow_move(pose, control, noise, rng):
         time.sleep(0.05)  # short steps: the cooperative deadline check stops it between steps
@@ -148,6 +168,7 @@ CRASH = _fault("tiny_crash", _crashing, "raises ZeroDivisionError")
 NAN = _fault("tiny_nan", _nan, "returns a NaN pose")
 HANG = _fault("tiny_hang", _hang, "busy-loops for a minute inside one step")
 STUBBORN = _fault("tiny_stubborn", _swallow_hang, "sleeps for a minute and swallows exceptions")
+SPIN = _fault("tiny_spin", _spin_compiled, "spins in a numba loop that holds the GIL for minutes")
 SLOW = _fault("tiny_slow", _slow, "sleeps 50 ms per step")
 EXIT = _fault("tiny_exit", _exit, "kills its process with os._exit(3)")
 BIAS = _fault("tiny_bias", _bias, "adds 2 cm to every forward motion")

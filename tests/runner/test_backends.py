@@ -118,3 +118,43 @@ def test_stream_batches_yields_each_batchs_results_together_and_every_job_once(t
     groups = list(stream_batches(batches, jobs=2, backend="threading"))
     assert sorted(tuple(r.key for r in g) for g in groups) == sorted(b.keys for b in batches)
     assert all(r.status.value == "ok" for g in groups for r in g)
+
+
+@pytest.mark.slow
+def test_a_slam_spinning_in_compiled_code_is_killed_past_its_deadline_and_the_pool_goes_on(tmp_path):
+    from faultlab.runner.backends import DEADLINE_GRACE_S
+
+    exp = write_experiment(tmp_path / "e.toml", **one_case(variants=["baseline", f"{SUTS}:SPIN"], repetitions=2,
+                                                           timeout_s=2.0))
+    start = time.monotonic()
+    summary = run_experiment(exp, tmp_path / "out", jobs=2, progress=False)
+    elapsed = time.monotonic() - start
+    df = load_results(tmp_path / "out")
+    spun = df[df.variant == f"{SUTS}:SPIN"]
+    assert list(spun.status) == ["timeout", "timeout"]
+    assert spun.error.str.contains("was killed").all()
+    assert (spun.runtime_s == 2.0 + DEADLINE_GRACE_S).all()
+    assert (df[df.variant == "baseline"].status == "ok").all() and summary.complete
+    # Each spin runs for minutes unless killed; killed, each ends within 2 s + grace + a poll (plus load).
+    assert elapsed < 90, f"{elapsed:.0f} s"
+
+
+def test_leftovers_of_dead_campaign_processes_are_removed_and_nothing_of_live_ones(tmp_path):
+    from faultlab.runner.backends import remove_leftovers
+
+    done = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead, live = int(done.stdout), os.getpid()  # a pid just reaped (reuse within the test is negligible)
+    planted = {}
+    for pid in (dead, live):
+        planted[pid] = [tmp_path / f"sem.loky-{pid}-abc123", tmp_path / f"joblib_memmapping_folder_{pid}_1a_2b",
+                        tmp_path / f"faultlab-deadlines-{pid}-xyz"]
+        planted[pid][0].write_bytes(b"")
+        for d in planted[pid][1:]:
+            d.mkdir()
+            (d / "inside").write_text("x")
+    other = tmp_path / "sem.other-1"
+    other.write_bytes(b"")
+    removed = remove_leftovers([tmp_path])
+    assert sorted(removed) == sorted(planted[dead])
+    assert not any(p.exists() for p in planted[dead])
+    assert all(p.exists() for p in planted[live]) and other.exists()

@@ -32,7 +32,7 @@ Multiplicity
 Repetitions K
     A case of a suite of ``n`` cases is judged at ``alpha / n`` (Holm's first step); the exact
     sign-flip test with K pairs attains ``sides * 2^-K`` at the smallest
-    (:func:`faultlab.stats.verdict.min_p_value`), so K is the smallest value with
+    (:func:`faultlab.inference.exact.min_p_value`), so K is the smallest value with
     ``sides * 2^-K <= alpha / n`` (:func:`min_repetitions`).
 
 Cost: every pool case runs once per variant (baseline, faults, mutants) with K repetitions
@@ -65,7 +65,7 @@ from scipy.optimize import brentq
 from scipy.stats import binom
 
 from faultlab.errors import ConfigError
-from faultlab.stats.verdict import min_p_value
+from faultlab.inference.exact import min_p_value
 
 __all__ = ["file_scale", "STUDY_KINDS", "StudyScale", "StudyPlan", "min_repetitions", "detection_power", "detectable_detection",
            "pool_for_detection", "mcnemar_power", "detectable_score", "mutants_for_score", "study_executions",

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from statsmodels.stats.multitest import multipletests
 
-from faultlab.stats.multiplicity import holm
+from faultlab.inference.multiplicity import holm
 
 p_values = st.lists(st.floats(0.0, 1.0), min_size=0, max_size=40)
 
@@ -53,7 +53,7 @@ def test_no_full_collection_runs_and_gc_collect_is_restored(monkeypatch):
 
 
 def test_gc_collect_is_restored_after_an_error_and_after_concurrent_calls(monkeypatch):
-    import faultlab.stats.multiplicity as multiplicity
+    import faultlab.inference.multiplicity as multiplicity
 
     original = gc.collect
 

@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 from numpy.testing import assert_array_equal
 from scipy.stats import permutation_test
 
-from faultlab.stats import signflip
-from faultlab.stats.signflip import reference_batch, split_pvalues
-from faultlab.stats.verdict import ALTERNATIVES, sign_flip_pvalues
+from faultlab.inference import signflip
+from faultlab.inference.signflip import reference_batch, split_pvalues
+from faultlab.inference.exact import ALTERNATIVES, sign_flip_pvalues
 
 
 def scipy_p(d, alternative, batch=None):

@@ -14,7 +14,7 @@ from statsmodels.stats.contingency_tables import mcnemar
 
 from faultlab.errors import ConfigError
 from faultlab.seeds import study_seed_sequence
-from faultlab.stats.planning import (detectable_detection, detectable_score, detection_power, mcnemar_power,
+from faultlab.inference.planning import (detectable_detection, detectable_score, detection_power, mcnemar_power,
                                      min_repetitions, mutants_for_score, plan_study, pool_for_detection,
                                      study_executions)
 
@@ -186,7 +186,7 @@ def test_plan_refuses_what_it_cannot_plan():
 def test_a_files_scale_counts_every_pool_and_states_the_smallest_pools_power():
     from statsmodels.stats.power import NormalIndPower
 
-    from faultlab.stats.planning import file_scale, plan_study
+    from faultlab.inference.planning import file_scale, plan_study
 
     plan = plan_study("strategies", strategies=5, faults=17, max_suite=22, seconds_per_execution=0.5)
     scale = file_scale(plan, pools=[16, 16, 20, 22, 16], mutants=10, repetitions=10, largest_suite=22)
@@ -205,7 +205,7 @@ def test_a_files_scale_counts_every_pool_and_states_the_smallest_pools_power():
 
 
 def test_the_split_design_runs_faults_on_the_needed_pools_and_mutants_on_the_smallest():
-    from faultlab.stats.planning import plan_study
+    from faultlab.inference.planning import plan_study
 
     plan = plan_study("strategies", strategies=5, faults=17, max_suite=22, seconds_per_execution=0.02)
     need = plan.needed
