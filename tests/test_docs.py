@@ -113,3 +113,17 @@ def test_site_settings_keep_the_pages_readable_and_link_nothing_unchecked():
     assert options and max(map(len, options)) <= int(faultlab_docs.CLI_COLUMNS)
     assert faultlab_docs.SECTION_TITLES["api"] == "API"
     assert (DOCS / "index.md").read_text().startswith("---\ntitle: Overview\n---\n")
+
+
+def test_every_test_the_integrity_page_cites_exists():
+    text = (DOCS / "explanation" / "integrity.md").read_text()
+    cited = 0
+    for row in (line for line in text.splitlines() if line.startswith("| ") and "`tests/" in line):
+        path = None
+        for ref in re.findall(r"`(tests/[^`]*|::[^`]*)`", row):
+            file, _, name = ref.partition("::") if ref.startswith("tests/") else (None, None, ref[2:])
+            path = ROOT / file if file else path
+            assert path is not None and path.exists(), ref
+            assert re.search(rf"^def {re.escape(name)}\(", path.read_text(), re.M), ref
+            cited += 1
+    assert cited >= 25

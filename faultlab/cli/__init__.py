@@ -39,6 +39,7 @@ COMMAND_MODULES = (
     "faultlab.cli.study",  # study plan, study run, study report
     "faultlab.cli.adapter",  # adapter check
     "faultlab.cli.export",  # export
+    "faultlab.cli.check",  # check
 )
 
 
@@ -138,7 +139,8 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
         print(f"faultlab: error: {exc}", file=sys.stderr)
         return 1
     except OSError as exc:  # the file system refused (disk full, permission, read-only): no traceback
-        where = f" ({exc.filename})" if exc.filename else ""
+        target = exc.filename or next((getattr(args, a) for a in ("reports", "out") if getattr(args, a, None)), None)
+        where = f" ({target if exc.filename else f'writing under {target}'})" if target else ""
         what = "the disk is full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
         print(f"faultlab: error: {what}{where}", file=sys.stderr)
         return 1

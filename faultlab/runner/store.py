@@ -94,6 +94,9 @@ METRICS_KEY = "metrics"
 #: File in a mutation campaign's output directory recording its mutant selection and level
 #: (written by :func:`faultlab.campaigns.mutation.run_mutation`).
 MUTATION_FILE = "mutation.json"
+#: File in a mutation campaign on user code: the target module's source and every mutant's place,
+#: diff and screening (written by :func:`faultlab.campaigns.mutation.run_mutation`).
+MUTANTS_FILE = "mutants.json"
 #: File in a study's output directory recording its settings and sessions
 #: (written by :func:`faultlab.campaigns.study.run_study`).
 STUDY_FILE = "study.json"
@@ -400,6 +403,17 @@ def _schema_sql() -> list[str]:
     ]
 
 
+#: Metadata key of the checksum of every other metadata entry (absent: a store written before it existed).
+META_CHECKSUM_KEY = "meta_checksum"
+
+
+def meta_checksum(meta: Mapping) -> str:
+    """Hex BLAKE2b-16 digest of the metadata entries other than :data:`META_CHECKSUM_KEY` (canonical JSON)."""
+    body = {k: v for k, v in meta.items() if k != META_CHECKSUM_KEY}
+    return hashlib.blake2b(json.dumps(body, sort_keys=True, separators=(",", ":")).encode(),
+                           digest_size=16).hexdigest()
+
+
 def _read_meta(conn: sqlite3.Connection, path: Path) -> dict:
     try:
         rows = conn.execute("SELECT key, value FROM meta").fetchall()
@@ -410,7 +424,20 @@ def _read_meta(conn: sqlite3.Connection, path: Path) -> dict:
         raise ResultsError(f"{path} is damaged: its metadata cannot be read ({exc})") from exc
     if meta.get("format") != FORMAT_VERSION:
         raise ResultsError(f"{path} is not a faultlab results store (format {meta.get('format')!r})")
+    if META_CHECKSUM_KEY in meta and meta[META_CHECKSUM_KEY] != meta_checksum(meta):
+        raise ResultsError(f"{path} is damaged: its metadata (experiment, hash, root seed, rule, ...) does not "
+                           f"match its checksum. The store cannot be trusted; restore it from a copy or rerun the "
+                           f"campaign into a new directory")
     return meta
+
+
+def _is_checked(meta: Mapping) -> bool:
+    """Whether every row of the store must carry a valid checksum (it was created with row checksums).
+
+    The entry that says so is covered by the metadata checksum: removing it to read the store as
+    one from before checksums breaks that checksum (no silent downgrade).
+    """
+    return _CHECKSUM_KEY in meta
 
 
 def _has_checksum_column(conn: sqlite3.Connection) -> bool:
@@ -580,6 +607,8 @@ class ResultStore:
             "created": _now(),
             _CHECKSUM_KEY: _CHECKSUM_NAME,
         }
+        meta = json.loads(json.dumps(meta))  # as it reads back
+        meta[META_CHECKSUM_KEY] = meta_checksum(meta)
         try:
             conn.execute("BEGIN")
             for stmt in _schema_sql():
@@ -628,10 +657,13 @@ class ResultStore:
             raise _database_error(self.path, exc, doing) from exc
 
     def set_meta(self, key: str, value) -> None:
-        """Set one metadata entry (JSON-serialisable ``value``; committed at once, replacing an older one)."""
+        """Set one metadata entry (JSON-serialisable ``value``; committed at once, replacing an older one,
+        together with the metadata checksum)."""
+        meta = {**self.meta, key: json.loads(json.dumps(value))}
+        meta[META_CHECKSUM_KEY] = meta_checksum(meta)
         self._execute(f"setting {key!r}", [("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
-                                           (key, json.dumps(value)))])
-        self.meta[key] = value
+                                           (k, json.dumps(meta[k]))) for k in (key, META_CHECKSUM_KEY)])
+        self.meta = meta
 
     # ------------------------------------------------------------ sessions
     def _close_stale_sessions(self) -> int:
@@ -663,11 +695,17 @@ class ResultStore:
 
     # ------------------------------------------------------------ rows
     def done_keys(self) -> set[tuple]:
-        """Identities (run, suite, case, variant, rep) of the rows already stored."""
+        """Identities (run, suite, case, variant, rep) of the rows already stored, each verified against its
+        checksum first (a resumed campaign never counts a damaged row as done)."""
         try:
-            return set(self.conn.execute('SELECT run, suite, "case", variant, rep FROM results').fetchall())
+            missing = set(_missing_columns(self.conn))
+            cols = ", ".join("NULL" if c in missing else _q(c) for c in RESULT_COLUMNS)
+            checksum = "checksum" if _has_checksum_column(self.conn) else "NULL"
+            rows = self.conn.execute(f"SELECT {cols}, rowid, {checksum} FROM results").fetchall()
         except sqlite3.Error as exc:
             raise _database_error(self.path, exc, "reading the stored jobs") from exc
+        _verify(self.path, rows, checked=_is_checked(self.meta))
+        return {tuple(r[:len(ID_COLUMNS)]) for r in rows}
 
     def status_counts(self) -> dict[str, int]:
         try:
@@ -906,7 +944,7 @@ def load_results(out: str | Path) -> pd.DataFrame:
         raise _database_error(path, exc, "reading its rows") from exc
     finally:
         conn.close()
-    _verify(path, rows, checked=_CHECKSUM_KEY in meta)
+    _verify(path, rows, checked=_is_checked(meta))
     n = len(RESULT_COLUMNS)
     df = pd.DataFrame.from_records([r[:n] for r in rows], columns=list(RESULT_COLUMNS))
     try:

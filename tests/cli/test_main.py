@@ -210,3 +210,16 @@ def test_a_command_help_still_names_the_defaults_and_choices_it_reads_lazily(cap
     with pytest.raises(SystemExit):
         main(["generate", "--suite", "no-such-kind", "--out", "x"])
     assert "invalid choice: 'no-such-kind'" in capsys.readouterr().err
+
+
+def test_disk_full_while_writing_a_report_is_one_line_naming_where_and_leaves_no_partial_file(finished, tmpfs,
+                                                                                              capsys):
+    _, out = finished
+    fs = tmpfs("1m")
+    with open(fs / "filler", "wb", buffering=0) as f:  # room for the tables, not for the figures and the PDF
+        f.write(bytes(2**20 - 96 * 2**10))
+    reports = fs / "reports"
+    assert main(["report", str(out), "--reports", str(reports)]) == 1
+    err = capsys.readouterr().err
+    _one_error(err, "the disk is full", str(reports))
+    assert not list(reports.rglob("*.partial"))

@@ -320,7 +320,7 @@ def test_store_from_before_checksums_reads_with_a_warning_and_resumes_checked(tm
     path = _finished_store(tmp_path, exp)
     conn = sqlite3.connect(path)  # as written before checksums: no column, no meta entry
     conn.execute("ALTER TABLE results DROP COLUMN checksum")
-    conn.execute("DELETE FROM meta WHERE key = 'row_checksum'")
+    conn.execute("DELETE FROM meta WHERE key IN ('row_checksum', 'meta_checksum')")
     conn.commit()
     conn.close()
     with pytest.warns(UnverifiedStoreWarning, match="3 of 3 rows"):
@@ -532,3 +532,44 @@ def test_write_many_stores_the_rows_write_stores_one_at_a_time_in_one_transactio
     one, many = load_results(tmp_path / "one"), load_results(tmp_path / "many")  # checksums verified
     pd.testing.assert_frame_equal(one, many)
     assert len(many) == 4 and many.status.tolist() == ["ok", "ok", "crash", "ok"]
+
+
+def _sql(path, *statements):
+    conn = sqlite3.connect(path)
+    for st in statements:
+        conn.execute(st)
+    conn.commit()
+    conn.close()
+
+
+@pytest.mark.parametrize("key, value", [("root_seed", "12"), ("experiment_hash", '"0123"'),
+                                        ("detection", '{"rule": "none"}')])
+def test_changed_metadata_is_refused_by_every_reader_and_the_writer(tmp_path, exp, key, value):
+    path = _finished_store(tmp_path, exp)
+    _sql(path, f"UPDATE meta SET value = '{value}' WHERE key = '{key}'")
+    for read in (load_results, load_metadata, lambda d: ResultStore.open(d, exp)):
+        with pytest.raises(ResultsError, match="its metadata .* does not match its checksum"):
+            read(tmp_path)
+
+
+def test_a_checked_store_cannot_be_downgraded_to_unverified_by_removing_its_checksums(tmp_path, exp):
+    path = _finished_store(tmp_path, exp)
+    _sql(path, "UPDATE results SET checksum = NULL, rms_mm = 1.0", "DELETE FROM meta WHERE key = 'row_checksum'")
+    with pytest.raises(ResultsError, match="metadata .* does not match its checksum"):
+        load_results(tmp_path)
+
+
+def test_resuming_verifies_the_rows_it_counts_as_done(tmp_path, exp):
+    path = _finished_store(tmp_path, exp)
+    _sql(path, "UPDATE results SET rms_mm = rms_mm + 1 WHERE \"case\" = 2")
+    with ResultStore.open(tmp_path, exp) as store:
+        with pytest.raises(ResultsError, match=r"case 2.*column rms_mm does not match its checksum"):
+            store.done_keys()
+
+
+def test_metadata_set_while_resuming_keeps_the_checksum_valid(tmp_path, exp):
+    _finished_store(tmp_path, exp)
+    with ResultStore.open(tmp_path, exp) as store:
+        store.set_meta("skipped_variants", [{"fault": "x", "reason": "y"}])
+    assert load_metadata(tmp_path)["skipped_variants"] == [{"fault": "x", "reason": "y"}]
+    assert len(load_results(tmp_path)) == 3
