@@ -144,6 +144,21 @@ def test_report_without_the_pdf_writes_the_same_tables_and_no_pdf(quick, tmp_pat
     for name in ("table2.csv", "table2.md", "table2.tex", "detection_rates.csv", "detection_rates.md",
                  "comparison.md", "fidelity.csv", "fidelity.md"):
         assert (tmp_path / "tables" / name).read_text() == (base / "results" / "report" / name).read_text(), name
+    assert not (tmp_path / "tables" / "html").exists()  # the HTML report only when asked for
+
+
+@pytest.mark.slow
+def test_report_html_writes_the_same_site_as_reproduce(quick, tmp_path):
+    base, code, _, err, _ = quick
+    assert code == 0, err
+    code, out, err = _run(["report", str(base / "results"), "--reports", str(tmp_path / "r"), "--no-pdf", "--html"])
+    assert code == 0, err
+    again, first = tmp_path / "r" / "html", base / "results" / "report" / "html"
+    pages = sorted(p.relative_to(first) for p in first.rglob("*.html"))
+    assert pages == sorted(p.relative_to(again) for p in again.rglob("*.html")) and len(pages) == 9 + 4
+    # the same overview, but for the ids Bokeh gives its models afresh on every rendering
+    assert (again / "index.html").read_text().count("<li>") == (first / "index.html").read_text().count("<li>")
+
 
 def test_report_without_results_is_a_clear_error(tmp_path):
     code, out, err = _run(["report", str(tmp_path / "none"), "--reports", str(tmp_path / "r")])

@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from faultlab.analysis import Analysis
@@ -18,7 +19,7 @@ from faultlab.runner.store import case_path
 from faultlab.scenario.model import save_scenario
 from faultlab.scenario.suite import draw_suite, generate_case
 from faultlab.space import table1_space
-from tests.report.conftest import make_results
+from tests.report.conftest import REPO, make_results
 
 #: The one (run, suite, case, fault) where a fault is planted, and the campaign's size.
 PLANTED = (1, "random", 2, "missing_angle_wrap")
@@ -65,3 +66,25 @@ def planted_site(planted, tmp_path_factory):
 def seen_landmarks(scenario) -> int:
     """Landmarks observed at least once, counted from the scenario's observations."""
     return int(np.isin(scenario.landmark_ids, np.unique(scenario.obs_ids)).sum())
+
+
+#: The committed mutation campaign's store (read only).
+MUTATION_STORE = REPO / "reports" / "mutation" / "store"
+
+
+def pick(outcomes: pd.DataFrame, outcome: str) -> str:
+    return str(outcomes.loc[outcomes["outcome"] == outcome, "mutant"].iloc[0])
+
+
+@pytest.fixture(scope="package")
+def mutation_site(tmp_path_factory):
+    """The site of three mutants of the committed campaign: one killed, one survived, one stillborn."""
+    from faultlab.analysis.mutation import MutationAnalysis, analyse_mutation
+    from faultlab.report.html.mutation import write_mutation_html
+
+    full = analyse_mutation(MUTATION_STORE)
+    chosen = [pick(full.outcomes, o) for o in ("killed", "survived", "stillborn")]
+    analysis = MutationAnalysis(outcomes=full.outcomes[full.outcomes["mutant"].isin(chosen)].reset_index(drop=True),
+                                scores=full.scores, mcnemar=full.mcnemar, meta=full.meta)
+    site = write_mutation_html(analysis, MUTATION_STORE, tmp_path_factory.mktemp("mutation") / "html")
+    return site, analysis, chosen
