@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import count_expected_jobs, judged_metric, read_rule
+from faultlab.stats.metadata import count_expected_jobs, judged_metric, read_rule
 from faultlab.analysis.result import Analysis
 from faultlab.analysis.schema import ALL_VARIANTS, TableSchema
 from faultlab.errors import ConfigError, ResultsError

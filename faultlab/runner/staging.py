@@ -21,20 +21,16 @@ from __future__ import annotations
 
 from typing import Iterable, Mapping
 
-import numpy as np
 import pandas as pd
 
 from faultlab.inference.sequential import StagedDesign, interim_look
-from faultlab.vocabulary import BASELINE, JobStatus
+from faultlab.runner.store import usable_rows
+from faultlab.vocabulary import BASELINE
 
 __all__ = ["STOPS_KEY", "stage_jobs", "look_at_pairs", "look_before_stage", "record_stops"]
 
 #: Store metadata key of the stopped pairs.
 STOPS_KEY = "adaptive_stops"
-
-
-def _usable(frame: pd.DataFrame, col: str) -> np.ndarray:
-    return ((frame["status"] == JobStatus.OK.value) & np.isfinite(frame[col].to_numpy(float))).to_numpy(bool)
 
 
 def look_at_pairs(results: pd.DataFrame, *, design: StagedDesign, upto: int, metric: str) -> dict[tuple, str]:
@@ -58,7 +54,7 @@ def look_at_pairs(results: pd.DataFrame, *, design: StagedDesign, upto: int, met
     """
     col = f"{metric}_mm"
     df = results[results["rep"].to_numpy() < upto]
-    df = df.assign(_usable=_usable(df, col))
+    df = df.assign(_usable=usable_rows(df, col))
     case_key = ["run", "suite", "case"]
     base_rows = df[df["variant"] == BASELINE]
     base = base_rows.set_index(case_key + ["rep"])

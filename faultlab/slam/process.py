@@ -45,6 +45,7 @@ import math
 import os
 import selectors
 import shlex
+import shutil
 import signal
 import subprocess
 import sys
@@ -588,6 +589,18 @@ class ProcessSlam(SlamAdapter):
             return estimate_from_reply(reply, where=self.name, n_steps=self._t)
         except SlamProcessError as exc:
             raise self._fail(exc) from None
+
+    def check_startable(self, *, where: str) -> None:
+        """ConfigError unless the command's program is an executable file (a path, or found on ``PATH``).
+
+        Called before a campaign, so that a program that cannot start is refused once instead of
+        failing every job; ``where`` names the setting for the message.
+        """
+        program = self._config.command[0]
+        path = {**os.environ, **dict(self._config.env)}.get("PATH", os.defpath)
+        if shutil.which(program, path=path) is None:
+            what = "no executable file" if os.sep in program else "not found on PATH (or not executable)"
+            raise ConfigError(f"{where}: the program {program!r} cannot be started: {what}")
 
     def close(self, *, timeout_s: float = 1.0) -> int | None:
         """Send ``bye`` to the running program and wait for it to exit; its return code (None if none ran

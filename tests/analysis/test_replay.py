@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from faultlab.analysis import analyse
-from faultlab.analysis.metadata import count_expected_jobs
+from faultlab.stats.metadata import count_expected_jobs
 from faultlab.analysis.replay import AdaptiveReplay, replay_adaptive, replay_rows
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import load_experiment, load_metadata, load_results, run_experiment

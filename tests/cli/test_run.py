@@ -186,3 +186,80 @@ def test_a_toml_file_that_is_not_utf8_is_one_error_line_naming_it(tmp_path, caps
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"faultlab: error: {bad}") and "not UTF-8" in err[0], err
     assert not out.exists()
+
+
+def test_a_saved_case_with_a_nan_landmark_stops_run_and_export_with_one_line_naming_it(tmp_path, capsys):
+    import dataclasses
+
+    import numpy as np
+
+    from faultlab.scenario import load_scenario, save_scenario
+
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    case = sorted((out / "cases").rglob("*.npz"))[0]
+    sc = load_scenario(case)
+    landmarks = sc.landmarks.copy()
+    landmarks[0, 1] = np.nan
+    save_scenario(dataclasses.replace(sc, landmarks=landmarks), case)  # checksums valid, content not
+    rows = load_results(out)
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(case) in err[0] and "landmarks holds 1 non-finite value(s)" in err[0], err
+    pd.testing.assert_frame_equal(load_results(out), rows)
+    assert main(["export", "--format", "tum", "--out", str(tmp_path / "exported"), str(case)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(case) in err[0] and "non-finite" in err[0], err
+    assert not (tmp_path / "exported").exists()
+
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("faultlab: error: "), err
+    return err[0]
+
+
+@pytest.mark.parametrize("slam, expected", [
+    ({"name": "process", "command": ["/no/such/slam-program", "--fast"]},
+     "[slam] command: the program '/no/such/slam-program' cannot be started: no executable file"),
+    ({"name": "process", "command": ["no-such-slam-program-on-path"]},
+     "the program 'no-such-slam-program-on-path' cannot be started: not found on PATH"),
+    ({"name": "fastslam", "particles": 10 ** 12}, "[slam] particles = 1000000000000 needs at least"),
+])
+def test_a_slam_that_cannot_start_or_fit_in_memory_is_refused_before_the_campaign_writing_nothing(
+        tmp_path, capsys, slam, expected):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1, slam=slam)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    line = _one_error_line(capsys)
+    assert str(exp) in line and expected in line, line
+    assert not out.exists()
+
+
+def test_a_zero_byte_store_next_to_saved_cases_is_refused_and_left_as_it_is(tmp_path, capsys):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    (out / "results.sqlite").write_bytes(b"")  # truncated: every row lost
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    line = _one_error_line(capsys)
+    assert f"{out / 'results.sqlite'} is empty (0 bytes)" in line and "--force-new" in line
+    assert (out / "results.sqlite").stat().st_size == 0
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress", "--force-new"]) == 0
+    assert len(load_results(out)) == 2
+
+
+def test_a_run_refused_for_another_experiments_store_does_not_create_the_lock_file(tmp_path, capsys):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    (out / ".lock").unlink()
+    before = sorted(p.relative_to(out) for p in out.rglob("*"))
+    write_experiment(exp, runs=1, suites={"random": 1}, repetitions=1, seed=99)
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    assert "different experiment" in _one_error_line(capsys)
+    assert sorted(p.relative_to(out) for p in out.rglob("*")) == before
