@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 from statsmodels.stats.proportion import proportion_confint
 
-from faultlab.analysis.metadata import read_rule
+from faultlab.stats.metadata import read_rule
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results
 from faultlab.seeds import study_seed_sequence

@@ -5,7 +5,7 @@ Repetition ``r`` of a case runs with the same SLAM seed whatever the design
 an adaptive campaign (``[adaptive]``, :mod:`faultlab.runner.staging`) stores are exactly the
 fixed-K campaign's rows of the repetitions it ran.  Its decisions depend on those rows alone, so
 :func:`replay_adaptive` reaches them from a complete fixed-K store without running a SLAM: stage
-by stage it calls the runner's own look (:func:`faultlab.runner.staging.look_before_stage` with
+by stage it calls the runner's own look (:func:`faultlab.runner.staging.look_before_stage`, the rule of
 :func:`faultlab.inference.sequential.interim_look`), stop records
 (:func:`~faultlab.runner.staging.record_stops`) and job selection
 (:func:`~faultlab.runner.staging.stage_jobs`) on the rows the adaptive campaign would hold at
@@ -38,14 +38,14 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import count_expected_jobs, judged_metric, read_rule
+from faultlab.stats.metadata import count_expected_jobs, judged_metric, read_rule
 from faultlab.analysis.result import Analysis
 from faultlab.analysis.schema import ALL_VARIANTS, TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.jobs import JobKey
-from faultlab.runner.staging import STOPS_KEY, StagedDesign, look_before_stage, record_stops, stage_jobs
+from faultlab.inference.sequential import StagedDesign
+from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY, load_metadata, load_results
-from faultlab.inference.sequential import interim_look
 from faultlab.stats.detection import DetectionRule
 from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict
@@ -183,8 +183,7 @@ class _StoredJob:
     key: JobKey
 
 
-def replay_rows(results: pd.DataFrame, *, design: StagedDesign, metric: str,
-                look=interim_look) -> tuple[pd.DataFrame, list[dict]]:
+def replay_rows(results: pd.DataFrame, *, design: StagedDesign, metric: str) -> tuple[pd.DataFrame, list[dict]]:
     """The rows an adaptive campaign with ``design`` would store, and its stop records.
 
     Parameters
@@ -195,8 +194,6 @@ def replay_rows(results: pd.DataFrame, *, design: StagedDesign, metric: str,
     design : StagedDesign
     metric : {"rms", "emd"}
         The metric the looks judge (the experiment's ``metric``, as the runner uses).
-    look : callable
-        The stopping rule (the runner's default, :func:`~faultlab.inference.sequential.interim_look`).
 
     Returns
     -------
@@ -213,7 +210,7 @@ def replay_rows(results: pd.DataFrame, *, design: StagedDesign, metric: str,
     for stage in range(len(design.stages)):
         if stage > 0:
             held = results[kept]  # what the adaptive store holds at this look
-            decisions, running = look_before_stage(held, design=design, stage=stage, metric=metric, look=look,
+            decisions, running = look_before_stage(held, design=design, stage=stage, metric=metric,
                                                    running=running)
             stops = record_stops(decisions, design=design, stage=stage, previous=stops)
         for spec in stage_jobs(specs, design=design, stage=stage, running=running):

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import count_expected_jobs, judged_metric, read_rule
+from faultlab.stats.metadata import count_expected_jobs, judged_metric, read_rule
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions

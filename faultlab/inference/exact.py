@@ -19,7 +19,6 @@ import numbers
 from functools import lru_cache
 
 import numpy as np
-from statsmodels.stats.power import TTestPower
 
 from faultlab.errors import ConfigError
 from faultlab.inference.signflip import reference_pvalues, split_pvalues
@@ -175,6 +174,8 @@ def _shift_factor(k: int, alpha: float, power: float) -> float:
     if m < 1:
         return math.inf
     if k > _MDE_SIMULATED_UP_TO:
+        from statsmodels.stats.power import TTestPower  # loaded on first use: the CLI starts without statsmodels
+
         return float(TTestPower().solve_power(nobs=k, alpha=alpha, power=power, alternative="larger"))
     # subset-mean matrix: row F holds 1/|F| at the members of the non-empty subset F
     members = ((np.arange(1, 2 ** k)[:, None] >> np.arange(k)) & 1).astype(float)

@@ -76,15 +76,89 @@ from __future__ import annotations
 
 import math
 import numbers
+from dataclasses import dataclass
 from enum import StrEnum
+from typing import Mapping
 
 import numpy as np
 
 from faultlab.errors import ConfigError
-from faultlab.runner.staging import ALTERNATIVES, StagedDesign
-from faultlab.inference.exact import MAX_EXACT_PAIRS, sign_flip_pvalues
+from faultlab.inference.exact import ALTERNATIVES, MAX_EXACT_PAIRS, check_alternative, min_p_value, sign_flip_pvalues
+from faultlab.vocabulary import DEFAULT_ALPHA
 
-__all__ = ["Look", "interim_p", "smallest_final_p", "interim_look"]
+__all__ = ["StagedDesign", "Look", "interim_p", "smallest_final_p", "interim_look"]
+
+
+@dataclass(frozen=True)
+class StagedDesign:
+    """Stages, level, sidedness and futility bound of adaptive repetitions (``[adaptive]`` table).
+
+    Attributes
+    ----------
+    stages : tuple of int
+        Cumulative repetitions after each stage, strictly increasing, ``>= 1``; the last is the
+        experiment's ``repetitions`` (``K``).
+    level : float
+        Level of each per-case test, in (0, 1).  Under Holm's procedure over a family of ``n``
+        cases a case can be rejected at any threshold from ``alpha / n`` (first step) to
+        ``alpha`` (last), so ``level = alpha`` keeps curtailment exact for every step;
+        ``alpha / n`` curtails more but may stop a case a later Holm step would have rejected.
+    alternative : {"greater", "less", "two-sided"}
+        Sidedness of the per-case test.
+    futility : float
+        Non-binding futility bound in [level, 1]; 1 stops only pairs whose fixed-K test can no
+        longer reject (:mod:`faultlab.inference.sequential` states the rule and its level).
+    """
+
+    stages: tuple[int, ...]
+    level: float = DEFAULT_ALPHA
+    alternative: str = "two-sided"
+    futility: float = 0.5
+
+    def __post_init__(self):
+        stages = tuple(self.stages)
+        if (not stages or any(isinstance(k, bool) or not isinstance(k, numbers.Integral) for k in stages)
+                or stages[0] < 1 or any(b <= a for a, b in zip(stages, stages[1:]))):
+            raise ConfigError(f"stages must be strictly increasing integers >= 1, got {list(self.stages)!r}")
+        object.__setattr__(self, "stages", tuple(int(k) for k in stages))
+        if isinstance(self.level, bool) or not isinstance(self.level, numbers.Real) or not 0 < self.level < 1:
+            raise ConfigError(f"level must lie in (0, 1), got {self.level!r}")
+        check_alternative(self.alternative, "adaptive")
+        if (isinstance(self.futility, bool) or not isinstance(self.futility, numbers.Real)
+                or not self.level <= self.futility <= 1):
+            raise ConfigError(f"futility must lie in [level, 1] = [{self.level:g}, 1], got {self.futility!r}")
+
+    @property
+    def total(self) -> int:
+        """``K``: the repetitions of a pair that never stops."""
+        return self.stages[-1]
+
+    def to_dict(self) -> dict:
+        return {"stages": list(self.stages), "level": self.level, "alternative": self.alternative,
+                "futility": self.futility}
+
+    @classmethod
+    def from_mapping(cls, table: Mapping, *, where: str) -> "StagedDesign":
+        unknown = sorted(set(table) - {"stages", "level", "alternative", "futility"})
+        if unknown:
+            raise ConfigError(f"{where}: unknown key {unknown[0]!r} (keys: stages, level, alternative, futility)")
+        if "stages" not in table or not isinstance(table["stages"], (list, tuple)):
+            raise ConfigError(f"{where}: stages must be a list of cumulative repetitions, e.g. [5, 10]")
+        try:
+            design = cls(stages=tuple(table["stages"]), level=table.get("level", DEFAULT_ALPHA),
+                         alternative=table.get("alternative", "two-sided"), futility=table.get("futility", 0.5))
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+        first = design.stages[0]
+        if len(design.stages) > 1 and min_p_value(first, alternative=design.alternative) > design.futility:
+            # a valid rule (it only loses power), but one that can detect nothing: a configuration mistake
+            raise ConfigError(
+                f"{where}: stages: a first stage of {first} repetitions stops every pair at the first look "
+                f"whatever its data: the smallest {design.alternative} sign-flip p value of {first} pairs, "
+                f"{min_p_value(first, alternative=design.alternative):g}, exceeds futility = {design.futility:g}; start with more "
+                f"repetitions or raise futility")
+        return design
+
 
 class Look(StrEnum):
     """What an interim look decides for one (case, variant)."""
@@ -163,7 +237,7 @@ def interim_look(differences, *, design: StagedDesign, baseline_failed: bool = F
     ----------
     differences : array_like, shape (k,)
         Usable paired differences so far, ``k < design.total``.
-    design : faultlab.runner.staging.StagedDesign
+    design : StagedDesign
         Stages, per-case level, sidedness and futility bound.
     baseline_failed : bool
         The baseline failed in a repetition looked at (the verdict is ``cannot_judge``).

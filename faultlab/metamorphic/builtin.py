@@ -264,6 +264,7 @@ class BearingTurn(MetamorphicRelation):
 
 def true_measurements(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     """Noise-free range and bearing (wrapped to [-pi, pi)) of every observation, each shape (M,)."""
+    scenario.require_truth("the noise-free measurements")
     ids = np.asarray(scenario.landmark_ids, dtype=np.int64)
     order = np.argsort(ids)
     obs_ids = np.asarray(scenario.obs_ids, dtype=np.int64)

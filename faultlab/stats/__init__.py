@@ -33,6 +33,7 @@ _EXPORTS = {
                   "pair_with_baseline"],
     "effects": ["EFFECT_COLUMNS", "NUMERIC_PARAMETERS", "fit_effects", "format_effects", "parameter_effects",
                 "validate_parameters"],
+    "metadata": ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary", "judged_metric"],
     "oracle": ["oracle_detections"],
     "paper": ["PAPER_BY_SUITE_COLUMNS", "PAPER_RATE_COLUMNS", "PRINTED_BY_SUITE", "RAW_CSV", "REPORTED_CSV",
               "PaperTable", "load_paper_raw", "load_paper_reported", "paper_table", "percent",

@@ -122,6 +122,7 @@ from faultlab.errors import ConfigError, ResultsError
 from faultlab.inference.exact import (MAX_EXACT_PAIRS, alternative_of, check_alpha, check_count,
                                       detectable_shift_factor, min_p_value, min_pairs, sign_flip_pvalues)
 from faultlab.inference.intervals import median_interval
+from faultlab.runner.store import usable_rows
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, METRICS, Change, JobStatus
 
 __all__ = ["Verdict", "TOO_FEW_PAIRS", "EQUIVALENCE_MARGIN_REL", "EQUIVALENCE_MARGIN_MM", "case_verdicts"]
@@ -148,11 +149,6 @@ class Verdict(StrEnum):
     NOT_DETECTED = "not_detected"
     CRASH_DETECTED = "crash_detected"
     CANNOT_JUDGE = "cannot_judge"
-
-
-def _usable(frame: pd.DataFrame, col: str) -> np.ndarray:
-    return (frame["status"].astype(str).to_numpy() == JobStatus.OK.value) & np.isfinite(
-        frame[col].to_numpy(dtype=float))
 
 
 def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric: str = "rms", power: float = 0.8,
@@ -253,7 +249,7 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
         raise ResultsError(f"case_verdicts: job run={row['run']}, suite={row['suite']}, case={row['case']}, "
                            f"rep={row['rep']}, variant={row['variant']} appears more than once")
     case_key = ["suite", "run", "case"]
-    df["usable"] = _usable(df, col)
+    df["usable"] = usable_rows(df, col)
     is_base = (df["variant"] == BASELINE).to_numpy()
     base = df.loc[is_base, case_key + ["rep", col, "usable"]]
     faulty = df.loc[~is_base].rename(columns={"variant": "fault"})

@@ -6,8 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from faultlab.errors import ConfigError
-from faultlab.runner.staging import StagedDesign
-from faultlab.inference.sequential import Look, interim_look, interim_p, smallest_final_p
+from faultlab.inference.sequential import Look, StagedDesign, interim_look, interim_p, smallest_final_p
 from faultlab.inference.exact import sign_flip_pvalues
 
 ALTS = ("greater", "less", "two-sided")
@@ -123,14 +122,14 @@ def test_curtailment_acts_at_low_levels():
     # best the last two can do is 1/8 > 0.0025: stop.  At level 0.05 the same look continues
     # (futility disabled), since 1/8 is not above 0.05 ... only once p_ge * 2^-f exceeds it.
     d = np.array([1.0, -1.0, 1.0, -1.0, 0.5, -0.5, 0.2, -0.3])
-    low = StagedDesign((8, 10), level=0.0025, futility=1.0)
+    low = StagedDesign((8, 10), level=0.0025, alternative="greater", futility=1.0)
     assert interim_look(d, design=low) is Look.CURTAILED
     assert smallest_final_p(d, total=10) > 0.05
-    assert interim_look(d, design=StagedDesign((8, 10), level=0.2, futility=1.0)) is Look.CONTINUE
+    assert interim_look(d, design=StagedDesign((8, 10), level=0.2, alternative="greater", futility=1.0)) is Look.CONTINUE
 
 
 def test_failures_decide_or_continue():
-    design = StagedDesign((5, 10))
+    design = StagedDesign((5, 10), alternative="greater")
     worse = np.full(5, -1.0)  # would be futile
     assert interim_look(worse, design=design, baseline_failed=True) is Look.BASELINE_FAILED
     assert interim_look(worse, design=design, variant_failed=True) is Look.CONTINUE

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from faultlab.analysis.responses import case_responses, rep_values
+from faultlab.stats.responses import case_responses, rep_values
 from faultlab.errors import ResultsError
 from faultlab.metrics.detection import DetectionRule
 

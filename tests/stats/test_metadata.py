@@ -2,7 +2,7 @@
 
 import pytest
 
-from faultlab.analysis.metadata import count_expected_jobs, read_rule, read_space
+from faultlab.stats.metadata import count_expected_jobs, read_rule, read_space
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.space import table1_space
 from faultlab.stats import DetectionRule
@@ -50,7 +50,7 @@ def test_expected_jobs_and_summary_of_adaptive_repetitions():
     # 1 run, 2 cases, baseline + a + b, K = 4 in stages 2 + 2.  Case 1: a stops after 2, b runs
     # on, so the baseline runs 4: 2 + 4 + 4 = 10 jobs.  Case 2: a and b stop after 2, so does the
     # baseline: 6 jobs.  16 of the fixed design's 24.
-    from faultlab.analysis.metadata import adaptive_summary
+    from faultlab.stats.metadata import adaptive_summary
 
     exp = {"runs": 1, "suites": [["fixed", 2]], "variants": ["baseline", "a", "b"], "repetitions": 4,
            "adaptive": {"stages": [2, 4], "level": 0.05, "alternative": "greater", "futility": 0.5}}
@@ -67,7 +67,7 @@ def test_expected_jobs_and_summary_of_adaptive_repetitions():
 
 
 def test_judged_metric_is_the_stored_one_and_must_have_been_recorded():
-    from faultlab.analysis.metadata import judged_metric, metrics_note
+    from faultlab.stats.metadata import judged_metric, metrics_note
     from faultlab.errors import ConfigError, ResultsError
 
     old = {"metric": "rms"}  # a store from before the metrics option recorded both
@@ -84,7 +84,7 @@ def test_judged_metric_is_the_stored_one_and_must_have_been_recorded():
 
 
 def test_the_ate_is_judged_only_where_recorded_and_its_absence_is_no_note():
-    from faultlab.analysis.metadata import judged_metric, metrics_note
+    from faultlab.stats.metadata import judged_metric, metrics_note
     from faultlab.errors import ResultsError
 
     new = {"metric": "rms", "metrics": ["rms", "emd", "ate"]}
