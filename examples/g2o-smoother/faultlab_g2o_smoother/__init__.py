@@ -49,15 +49,26 @@ class G2oSmoother(SlamAdapter):
         The noise assumed (faultlab's names and units; defaults: the paper's setup).
     iterations : int
         Levenberg-Marquardt iterations at most.
+    initial : Estimate, optional
+        The initial guess (its ``trajectory`` and landmarks, e.g. a filter's estimate of the same run)
+        instead of dead reckoning with landmarks at their first sighting; landmarks it lacks start at
+        their first sighting from its trajectory.
+
+    Attributes
+    ----------
+    chi2 : float
+        The weighted squared error of the graph at the solution (after :meth:`estimate`).
     """
 
     name = "g2o"
 
     def __init__(self, *, std_v: float = 0.1, std_omega_deg: float = 20.0, std_range: float = 0.3,
-                 std_bearing_deg: float = 10.0, iterations: int = 50):
+                 std_bearing_deg: float = 10.0, iterations: int = 50, initial: Estimate | None = None):
         self.std_v, self.std_omega = std_v, math.radians(std_omega_deg)
         self.std_range, self.std_bearing = std_range, math.radians(std_bearing_deg)
         self.iterations = int(iterations)
+        self.initial = initial
+        self.chi2 = float("nan")
 
     def reset(self, pose, *, rng):
         self._start = np.asarray(pose, dtype=float).copy()
@@ -82,6 +93,11 @@ class G2oSmoother(SlamAdapter):
 
         poses0 = self._dead_reckoning()
         T = len(self._controls)
+        given = {}
+        if self.initial is not None and self.initial.trajectory is not None and len(self.initial.trajectory) == T:
+            poses0 = np.vstack([poses0[:1], np.asarray(self.initial.trajectory, dtype=float)])
+            given = {int(i): np.asarray(xy, dtype=float) for i, xy in zip(self.initial.landmark_ids,
+                                                                         self.initial.landmarks)}
         if not self._obs and T == 0:
             return Estimate(self._start.copy(), np.empty(0, np.int64), np.empty((0, 2)), np.empty((0, 3)))
         opt = g2o.SparseOptimizer()
@@ -118,7 +134,7 @@ class G2oSmoother(SlamAdapter):
                 if vertex is None:
                     vertex = g2o.VertexPointXY()
                     vertex.set_id(T + 1 + len(landmarks))
-                    vertex.set_estimate(world[k])
+                    vertex.set_estimate(given.get(i, world[k]))
                     opt.add_vertex(vertex)
                     landmarks[i] = vertex
                 e = g2o.EdgeSE2PointXY()
@@ -129,6 +145,7 @@ class G2oSmoother(SlamAdapter):
                 opt.add_edge(e)
         opt.initialize_optimization()
         opt.optimize(self.iterations)
+        self.chi2 = float(opt.chi2())
         traj = np.array([p.estimate().to_vector() for p in poses], dtype=float)
         ids = np.fromiter(landmarks.keys(), dtype=np.int64, count=len(landmarks))
         lm = np.array([landmarks[int(i)].estimate() for i in ids], dtype=float).reshape(-1, 2)
