@@ -40,13 +40,18 @@ def read_toml(path: str | Path, *, what: str) -> tuple[dict, str]:
     Raises
     ------
     ConfigError
-        ``"<path>: <what> cannot be read (...)"`` or ``"<path>: <what> is not valid TOML (...)"``.
+        ``"<path>: <what> cannot be read (...)"`` or ``"<path>: <what> is not valid TOML (...)"`` (which
+        includes a file that is not UTF-8).
     """
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise ConfigError(f"{p}: {what} cannot be read ({exc.strerror or exc})") from exc
+    except UnicodeDecodeError as exc:  # TOML is UTF-8 by definition
+        line = exc.object[:exc.start].count(b"\n") + 1
+        raise ConfigError(f"{p}: {what} is not valid TOML (not UTF-8 text: byte 0x{exc.object[exc.start]:02x} "
+                          f"at line {line})") from None
     try:
         return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as exc:

@@ -11,6 +11,8 @@ __all__ = [
     "FaultlabError",
     "ConfigError",
     "ScenarioError",
+    "NoGroundTruthError",
+    "InvalidCaseError",
     "SlamInputError",
     "SlamOutputError",
     "SlamProcessError",
@@ -33,6 +35,14 @@ class ConfigError(FaultlabError, ValueError):
 
 class ScenarioError(FaultlabError, ValueError):
     """A test case cannot be generated, saved or loaded."""
+
+
+class NoGroundTruthError(ScenarioError):
+    """A metric or oracle that needs the ground truth was asked about a scenario without one (a real data set)."""
+
+
+class InvalidCaseError(ScenarioError):
+    """A saved test case whose files are intact (checksums match) but whose content is not a valid case."""
 
 
 class SlamInputError(FaultlabError, ValueError):

@@ -29,3 +29,11 @@ def test_merge_tables_replaces_a_table_key_by_key_and_copies():
     assert merged == {"n_steps": 60, "slam": {"name": "fastslam", "particles": 20}, "variants": ["a", "b"]}
     merged["slam"]["name"] = "ekf"
     assert data["slam"] == {"name": "fastslam", "particles": 200}  # the input is never aliased
+
+
+def test_a_file_that_is_not_utf8_is_invalid_toml_naming_file_byte_and_line(tmp_path):
+    bad = tmp_path / "latin1.toml"
+    bad.write_bytes('seed = 1\nname = "caf\u00e9"\n'.encode("latin-1"))
+    with pytest.raises(ConfigError) as info:
+        read_toml(bad, what="test file")
+    assert str(info.value) == f"{bad}: test file is not valid TOML (not UTF-8 text: byte 0xe9 at line 2)"

@@ -1,6 +1,7 @@
 """The README's promises: short, its Quick start is what CI runs, its example runs, its figures are the reports'."""
 
 import re
+import subprocess
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -21,8 +22,13 @@ def test_quick_start_has_exactly_two_commands_and_ci_runs_the_test_one():
     assert len(commands) == 2
     assert "faultlab reproduce" in commands[0]
     assert "pytest" in commands[1] and "-n auto" in commands[1]  # pytest-xdist: every core
-    ci = (ROOT / ".ci" / "run").read_text().splitlines()
-    assert commands[1] in ci
+    assert all("-c requirements/test.lock" in c for c in commands)  # both install what CI tested
+    # CI reads the test command out of the README and runs it verbatim in a fresh virtual environment
+    ci = subprocess.run(["bash", str(ROOT / ".ci" / "run"), "--print-test-command"], capture_output=True,
+                        text=True, check=True)
+    assert ci.stdout == commands[1] + "\n"
+    script = (ROOT / ".ci" / "run").read_text()
+    assert 'eval "$test_command"' in script and "-m venv" in script
 
 
 def test_example_runs_and_the_paper_rule_detects_the_faulty_rotation(capsys):

@@ -18,7 +18,6 @@ from faultlab.lazy import lazy_exports
 _EXPORTS = {
     "result": ["Analysis", "Note", "analyse", "BEYOND_THE_PAPER", "FORMAT_VERSION", "JSON_FILE"],
     "schema": ["TableSchema", "TABLES", "THIS_RUN", "PAPER", "ALL_VARIANTS"],
-    "metadata": ["read_rule", "read_space", "count_expected_jobs", "adaptive_summary"],
     "replay": ["AdaptiveReplay", "replay_adaptive"],
 }
 

@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 from statsmodels.stats.proportion import proportion_confint
 
-from faultlab.analysis.metadata import read_rule
+from faultlab.stats.metadata import read_rule
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results
 from faultlab.seeds import study_seed_sequence
@@ -47,7 +47,7 @@ from faultlab.stats.killmatrix import (detection_probability, draw_suites, exact
                                        strong_cases)
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.metrics.detection import DetectionRule
-from faultlab.stats.verdict import MAX_EXACT_PAIRS, alternative_of, min_p_value
+from faultlab.inference.exact import MAX_EXACT_PAIRS, alternative_of, min_p_value
 from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["ALLOCATION_COLUMNS", "allocations", "suite_pooled_pvalues", "allocation_study", "allocation_summary",

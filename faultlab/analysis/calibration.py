@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from faultlab.analysis.metadata import read_rule
+from faultlab.stats.metadata import read_rule
 from faultlab.analysis.result import Analysis, analyse
 from faultlab.errors import ResultsError
 from faultlab.metrics.detection import DetectionRule

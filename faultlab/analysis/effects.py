@@ -1,16 +1,16 @@
 """An effects study's analysis: responses per case, Morris screening, Sobol indices, regression view.
 
 Reads the stores of :func:`faultlab.campaigns.effects.run_effects` (runs nothing).  For every
-response (:mod:`faultlab.analysis.responses`: the baseline's difficulty, each fault's effect size,
+response (:mod:`faultlab.stats.responses`: the baseline's difficulty, each fault's effect size,
 each fault's detection probability) and stage, the design's response vector (one value per case,
-in design order) goes to SALib's estimators (:mod:`faultlab.analysis.sensitivity`):
+in design order) goes to SALib's estimators (:mod:`faultlab.inference.screening`):
 
 * ``morris``: ``mu*`` (bootstrap interval over trajectories), ``sigma``, ``mu`` for every factor;
-  screening (:func:`screen_store`) keeps the ``keep`` largest ``mu*`` of the difficulty and of every
+  screening (:func:`faultlab.stats.screening.screen_store`) keeps the ``keep`` largest ``mu*`` of the difficulty and of every
   effect response (detection, a coarse 0-1 share, is reported but does not steer screening);
 * ``sobol``: ``S1`` and ``ST`` with bootstrap intervals over the kept factors, corrected for the
   repetitions' noise (``noise_var`` = mean squared per-case standard error,
-  :func:`~faultlab.analysis.sensitivity.sobol_indices`);
+  :func:`~faultlab.inference.screening.sobol_indices`);
 * ``regression``: the cluster-robust OLS view over the cases of both stages.
 
 A response that some case lacks (every repetition failed) or that does not vary is not estimated;
@@ -20,7 +20,6 @@ a Sobol stage not run) says what size it needs.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
@@ -28,119 +27,17 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from faultlab.analysis.metadata import read_rule
-from faultlab.analysis.responses import CASE_KEY, DIFFICULTY, case_responses, rep_values
-from faultlab.analysis.sensitivity import (MORRIS_COLUMNS, REGRESSION_COLUMNS, SOBOL_COLUMNS, morris_indices,
-                                           noise_floor, partial_dependence, regression_view, screen, sobol_indices)
+from faultlab.analysis.sensitivity import REGRESSION_COLUMNS, partial_dependence, regression_view
 from faultlab.errors import FaultlabError, ResultsError
-from faultlab.runner.store import load_metadata, load_results, load_sessions, results_path
-from faultlab.seeds import stable_code
+from faultlab.inference.screening import MORRIS_COLUMNS, SOBOL_COLUMNS, morris_indices, noise_floor, sobol_indices
+from faultlab.runner.store import load_results, results_path
 from faultlab.space.case import VALUE_KEYS
-from faultlab.space.design import Design, study_design
-from faultlab.space.parameters import space_from_mapping, table1_space
-from faultlab.vocabulary import EFFECTS_FILE, EFFECTS_STAGES
+from faultlab.space.parameters import space_from_mapping
+from faultlab.stats.responses import CASE_KEY, case_responses, rep_values
+from faultlab.stats.screening import check_design, read_effects_json, response_seed, saved_design, stage_responses
+from faultlab.vocabulary import EFFECTS_STAGES
 
-__all__ = ["EffectsAnalysis", "analyse_effects", "screen_store", "read_effects_json", "saved_design",
-           "stage_responses", "screening_responses",
-           "study_weights", "campaign_effects", "CAMPAIGN_EFFECT_COLUMNS", "CASES_PER_COEFFICIENT"]
-
-
-def screening_responses(responses: Sequence[str]) -> list[str]:
-    """The responses that steer screening: the difficulty and the effect sizes."""
-    return [r for r in responses if r == DIFFICULTY or r.startswith("effect:")]
-
-
-def stage_responses(store: str | Path) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, dict]:
-    """Case responses (wide: one column per response, std errors ``se:<response>``), repetition values,
-    the cases' parameter values and the store metadata of one stage."""
-    meta = load_metadata(store)
-    results = load_results(store)
-    rule, _ = read_rule(meta)
-    metric = str(meta.get("metric", "rms"))
-    long = case_responses(results, metric=metric, rule=rule)
-    key = list(CASE_KEY)
-    wide = long.pivot_table(index=key, columns="response", values="value", sort=False, dropna=False)
-    se = long.pivot_table(index=key, columns="response", values="std_err", sort=False, dropna=False)
-    se.columns = [f"se:{c}" for c in se.columns]
-    order = list(dict.fromkeys(long["response"]))
-    wide = wide[order].join(se).reset_index().sort_values("case", kind="mergesort").reset_index(drop=True)
-    cols = key + [c for c in results.columns if c in VALUE_KEYS or c.startswith("class_") or c == "n_landmarks"]
-    cases = results.drop_duplicates(key).sort_values("case", kind="mergesort")[cols].reset_index(drop=True)
-    return wide, rep_values(results, metric=metric), cases, meta
-
-
-def read_effects_json(out: str | Path) -> dict:
-    """``OUT/effects.json``, written by :func:`faultlab.campaigns.effects.run_effects` (ResultsError if
-    missing or damaged)."""
-    path = Path(out) / EFFECTS_FILE
-    try:
-        saved = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ResultsError(f"{out}: not an effects study output (no {EFFECTS_FILE}); run `faultlab effects run`"
-                           ) from None
-    except (OSError, ValueError) as exc:
-        raise ResultsError(f"{path}: cannot be read ({exc})") from exc
-    if not isinstance(saved, dict) or not isinstance(saved.get("effects"), dict):
-        raise ResultsError(f"{path}: not an effects study record (no 'effects' settings)")
-    return saved
-
-
-def saved_design(saved: dict, stage: str) -> Design:
-    """The design of ``stage`` rebuilt from the study's record (the same call the campaign made)."""
-    s = saved["effects"]
-    try:
-        space = space_from_mapping(saved["space"], source=f"{EFFECTS_FILE} [space]") if saved.get("space") \
-            else table1_space()
-        factors = s["factors"] if stage == "morris" else saved.get("kept")
-        return study_design(space, stage, seed=int(s["seed"]), trajectories=int(s["trajectories"]),
-                            levels=int(s["levels"]), base=int(s["sobol_base"]), factors=factors)
-    except (KeyError, TypeError, ValueError, FaultlabError) as exc:
-        raise ResultsError(f"{EFFECTS_FILE}: cannot rebuild the {stage} design from the study's record ({exc})"
-                           ) from exc
-
-
-def _check_design(store: Path, design: Design) -> None:
-    """The store holds every case of the design, and its last run ended: every job of every case is in it.
-
-    Counting cases is not enough: a run killed after each case had one of its jobs stored holds
-    every case, but not every variant and repetition of them.
-    """
-    sessions = load_sessions(store)
-    if not sessions or sessions[-1]["state"] != "complete":
-        state = sessions[-1]["state"] if sessions else "never run"
-        raise ResultsError(f"{store}: its last run is {state} (the run is unfinished: rerun "
-                           "`faultlab effects run` to resume)")
-    results = load_results(store)
-    got = results.drop_duplicates(list(CASE_KEY)).sort_values("case", kind="mergesort")
-    if len(got) != design.n_points:
-        raise ResultsError(f"{store}: {len(got)} cases stored, the {design.method} design has {design.n_points} "
-                           f"(the run is unfinished: rerun `faultlab effects run` to resume)")
-
-
-def screen_store(out: str | Path) -> tuple[str, ...]:
-    """The factors screening keeps from a study's finished Morris store (module docstring)."""
-    out = Path(out)
-    saved = read_effects_json(out)
-    design = saved_design(saved, "morris")
-    store = out / "morris"
-    _check_design(store, design)
-    wide, _, _, _ = stage_responses(store)
-    spec = saved["effects"]
-    tables = []
-    for r in screening_responses([c for c in wide.columns if not c.startswith("se:") and c not in CASE_KEY]):
-        y = wide[r].to_numpy(dtype=float)
-        if not np.isfinite(y).all() or not np.ptp(y) > 0:
-            continue
-        tables.append(morris_indices(design.unit, y, factors=design.factors, levels=design.levels,
-                                     seed=_seed(spec, "morris", r), resamples=int(spec["resamples"])))
-    if not tables:
-        raise ResultsError(f"{store}: no response varies over the Morris design; nothing to screen")
-    return screen(tables, keep=int(spec["keep"]))
-
-
-def _seed(spec: dict, stage: str, response: str) -> int:
-    return int(np.random.SeedSequence(int(spec["seed"]), spawn_key=(stable_code(stage), stable_code(response)))
-               .generate_state(1, np.uint32)[0])
+__all__ = ["EffectsAnalysis", "analyse_effects", "study_weights", "campaign_effects", "CAMPAIGN_EFFECT_COLUMNS", "CASES_PER_COEFFICIENT"]
 
 
 @dataclass(frozen=True)
@@ -151,7 +48,7 @@ class EffectsAnalysis:
     ----------
     responses : tuple of str
     morris, sobol, regression : DataFrame
-        Long tables with a ``response`` column (:data:`~faultlab.analysis.sensitivity.MORRIS_COLUMNS`, ...).
+        Long tables with a ``response`` column (:data:`~faultlab.inference.screening.MORRIS_COLUMNS`, ...).
     cases : DataFrame
         One row per (stage, case): parameter values and every response with its standard error.
     partial : DataFrame
@@ -211,7 +108,7 @@ def analyse_effects(out: str | Path) -> EffectsAnalysis:
                              f"factors; run `faultlab effects run` to finish it")
             continue
         design = saved_design(saved, stage)
-        _check_design(store, design)
+        check_design(store, design)
         wide, reps, cases, meta = stage_responses(store)
         stored = load_results(store)
         info["stages"][stage] = {"cases": design.n_points, "factors": list(design.factors),
@@ -236,11 +133,11 @@ def analyse_effects(out: str | Path) -> EffectsAnalysis:
             try:
                 if stage == "morris":
                     t = morris_indices(design.unit, y, factors=design.factors, levels=design.levels,
-                                       seed=_seed(spec, stage, r), resamples=int(spec["resamples"]))
+                                       seed=response_seed(spec, stage, r), resamples=int(spec["resamples"]))
                     morris_rows.append(t.assign(response=r))
                 else:
                     nv = float(np.nanmean(wide[f"se:{r}"].to_numpy(dtype=float) ** 2))
-                    t = sobol_indices(y, factors=design.factors, seed=_seed(spec, stage, r),
+                    t = sobol_indices(y, factors=design.factors, seed=response_seed(spec, stage, r),
                                       resamples=int(spec["resamples"]), noise_var=nv if np.isfinite(nv) else None)
                     sobol_rows.append(t.assign(response=r, noise_floor=noise_floor(y, wide[f"se:{r}"])))
             except FaultlabError as exc:
@@ -378,12 +275,12 @@ CAMPAIGN_EFFECT_COLUMNS: tuple[str, ...] = ("response", "term", "n_cases", "esti
 def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, alpha: float = 0.05) -> pd.DataFrame:
     """The continuous effect analysis of an ordinary campaign (suites drawn for coverage, not a design).
 
-    Per response (difficulty, each fault's effect size; :mod:`faultlab.analysis.responses`):
+    Per response (difficulty, each fault's effect size; :mod:`faultlab.stats.responses`):
 
     * ``(mean over cases)``: the mean of the per-case values with its t interval over cases (the
       cases are the independent units);
     * one row per parameter: the cluster-robust regression coefficient per standard deviation
-      (:func:`~faultlab.analysis.sensitivity.regression_view`) when the campaign has at least
+      (:func:`~faultlab.inference.screening.regression_view`) when the campaign has at least
       :data:`CASES_PER_COEFFICIENT` cases per coefficient; otherwise one ``(size)`` row saying how
       many cases it would need, and that a designed study (``faultlab effects run``) is the way to
       rank parameters (with fewer cases the cluster-robust errors are far too small to trust).

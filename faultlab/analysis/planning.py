@@ -1,4 +1,4 @@
-"""The measured cost of one SLAM execution, read from a committed store (for :mod:`faultlab.stats.planning`)."""
+"""The measured cost of one SLAM execution, read from a committed store (for :mod:`faultlab.inference.planning`)."""
 
 from __future__ import annotations
 

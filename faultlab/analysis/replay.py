@@ -5,8 +5,8 @@ Repetition ``r`` of a case runs with the same SLAM seed whatever the design
 an adaptive campaign (``[adaptive]``, :mod:`faultlab.runner.staging`) stores are exactly the
 fixed-K campaign's rows of the repetitions it ran.  Its decisions depend on those rows alone, so
 :func:`replay_adaptive` reaches them from a complete fixed-K store without running a SLAM: stage
-by stage it calls the runner's own look (:func:`faultlab.runner.staging.look_before_stage` with
-:func:`faultlab.stats.sequential.interim_look`), stop records
+by stage it calls the runner's own look (:func:`faultlab.runner.staging.look_before_stage`, the rule of
+:func:`faultlab.inference.sequential.interim_look`), stop records
 (:func:`~faultlab.runner.staging.record_stops`) and job selection
 (:func:`~faultlab.runner.staging.stage_jobs`) on the rows the adaptive campaign would hold at
 that look.
@@ -17,12 +17,12 @@ alpha and Holm family) and compares the per-case verdicts.  A verdict can change
 ways, and each changed row says which:
 
 * the pair stopped for futility and the remaining repetitions would have brought the fixed-K
-  test to rejection (a power loss of the futility bound; :mod:`faultlab.stats.sequential`);
+  test to rejection (a power loss of the futility bound; :mod:`faultlab.inference.sequential`);
 * the pair stopped and a later repetition holds a failure: of the baseline (the fixed-K verdict
   is ``cannot_judge``) or of the faulty variant alone (``crash_detected``);
 * the pair ran all ``K`` repetitions but its Holm-adjusted p value moved, because other cases of
   its Holm family stopped early with other p values, or left the family: a pair stopped with
-  fewer usable pairs than the exact test needs to reach alpha (:func:`faultlab.stats.verdict.min_pairs`)
+  fewer usable pairs than the exact test needs to reach alpha (:func:`faultlab.inference.exact.min_pairs`)
   is ``cannot_judge`` (``too_few_pairs``), and a smaller family makes Holm's steps less strict
   for the cases left.  A design whose first stage is at least ``min_pairs`` avoids both the
   ``cannot_judge`` verdicts and this shrinking family (a note says so).
@@ -38,16 +38,17 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import count_expected_jobs, judged_metric, read_rule
+from faultlab.stats.metadata import count_expected_jobs, judged_metric, read_rule
 from faultlab.analysis.result import Analysis
 from faultlab.analysis.schema import ALL_VARIANTS, TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.jobs import JobKey
-from faultlab.runner.staging import STOPS_KEY, StagedDesign, look_before_stage, record_stops, stage_jobs
+from faultlab.inference.sequential import StagedDesign
+from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY, load_metadata, load_results
-from faultlab.stats.sequential import interim_look
 from faultlab.stats.detection import DetectionRule
-from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, alternative_of, min_pairs
+from faultlab.inference.exact import alternative_of, min_pairs
+from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict
 from faultlab.vocabulary import BASELINE, JobStatus
 
 __all__ = ["AdaptiveReplay", "REPLAY_TABLES", "REPLAY_SUMMARY", "REPLAY_PAIRS", "REPLAY_VERDICTS", "COMPLETED",
@@ -92,7 +93,7 @@ class AdaptiveReplay(TableBundle):
         the share saved, the pairs stopped and the verdicts changed.
     pairs : DataFrame
         :data:`REPLAY_PAIRS`: per (run, suite, case, variant) the repetitions used, the stages run
-        and the stop reason (a :class:`~faultlab.stats.sequential.Look` value, ``"completed"``,
+        and the stop reason (a :class:`~faultlab.inference.sequential.Look` value, ``"completed"``,
         or ``"follows_variants"`` for a baseline).
     verdicts : DataFrame
         :data:`REPLAY_VERDICTS`: per (case, fault) both verdicts, p values, Holm-adjusted p values,
@@ -182,8 +183,7 @@ class _StoredJob:
     key: JobKey
 
 
-def replay_rows(results: pd.DataFrame, *, design: StagedDesign, metric: str,
-                look=interim_look) -> tuple[pd.DataFrame, list[dict]]:
+def replay_rows(results: pd.DataFrame, *, design: StagedDesign, metric: str) -> tuple[pd.DataFrame, list[dict]]:
     """The rows an adaptive campaign with ``design`` would store, and its stop records.
 
     Parameters
@@ -194,8 +194,6 @@ def replay_rows(results: pd.DataFrame, *, design: StagedDesign, metric: str,
     design : StagedDesign
     metric : {"rms", "emd"}
         The metric the looks judge (the experiment's ``metric``, as the runner uses).
-    look : callable
-        The stopping rule (the runner's default, :func:`~faultlab.stats.sequential.interim_look`).
 
     Returns
     -------
@@ -212,7 +210,7 @@ def replay_rows(results: pd.DataFrame, *, design: StagedDesign, metric: str,
     for stage in range(len(design.stages)):
         if stage > 0:
             held = results[kept]  # what the adaptive store holds at this look
-            decisions, running = look_before_stage(held, design=design, stage=stage, metric=metric, look=look,
+            decisions, running = look_before_stage(held, design=design, stage=stage, metric=metric,
                                                    running=running)
             stops = record_stops(decisions, design=design, stage=stage, previous=stops)
         for spec in stage_jobs(specs, design=design, stage=stage, running=running):

@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.effects import campaign_effects
-from faultlab.analysis.metadata import (adaptive_summary, count_expected_jobs, judged_metric, metrics_note,
+from faultlab.stats.metadata import (adaptive_summary, count_expected_jobs, judged_metric, metrics_note,
                                         read_rule, read_space)
 from faultlab.analysis.schema import (
     BY_SUITE,
@@ -209,7 +209,7 @@ class Analysis:
             Predictors of the parameter effects (:func:`faultlab.stats.fit_effects`); default all.
         metric : {"rms", "emd", "ate"}, optional
             The metric of the per-case verdicts; default the experiment's
-            (:func:`faultlab.analysis.metadata.judged_metric`).
+            (:func:`faultlab.stats.metadata.judged_metric`).
 
         Raises
         ------

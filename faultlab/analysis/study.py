@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.bundle import TableBundle
-from faultlab.analysis.metadata import count_expected_jobs, judged_metric, read_rule
+from faultlab.stats.metadata import count_expected_jobs, judged_metric, read_rule
 from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
@@ -32,7 +32,7 @@ from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, MEAN_DETECT
                                        compare_scores, detection_table,
                                        evaluate_suites, kill_matrix, score_table, study_spec, whole_suite_table,
                                        whole_suites)
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
 __all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]

@@ -11,8 +11,7 @@ numbers, any backend) in two stages, each its own store:
 1. ``OUT/morris``: the Morris design (:func:`faultlab.space.design.morris_design`) over the file's
    factors, one test case per design point (suite ``morris``, case = point number);
 2. ``OUT/sobol``: the Sobol/Saltelli design (:func:`faultlab.space.design.sobol_design`) over the
-   factors that screening keeps (a ``screen`` callable: the analysis layer's
-   :func:`faultlab.analysis.effects.screen_store`, passed in by the command line), suite ``sobol``.
+   factors that screening keeps (:func:`faultlab.stats.screening.screen_store`), suite ``sobol``.
 
 Every design is drawn from the file's seed (:func:`faultlab.seeds.design_seed_sequence`), every
 case generated from its own seed (:func:`faultlab.seeds.case_seed` with run 1 and the stage as the
@@ -29,7 +28,7 @@ import time
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
+from typing import Mapping, Sequence
 
 
 from faultlab.config import Table, merge_tables, read_toml
@@ -37,13 +36,15 @@ from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
+from faultlab.runner.store import results_path
 from faultlab.scenario.suite import SuiteCase
 from faultlab.seeds import case_seed
 from faultlab.space.design import Design, check_factors, design_size, study_design
+from faultlab.stats.screening import read_effects_json, screen_store
 from faultlab.vocabulary import BASELINE, EFFECTS_FILE, EFFECTS_STAGES
 
 __all__ = ["EFFECTS_FILE", "STAGES", "EffectsSpec", "EffectsExperiment", "load_effects_experiment", "parse_effects",
-           "effects_spec", "stage_design", "design_cases", "run_effects", "effects_plan", "read_effects_json"]
+           "effects_spec", "stage_design", "design_cases", "run_effects", "effects_plan"]
 
 #: The two stages, in running order (:data:`faultlab.vocabulary.EFFECTS_STAGES`).
 STAGES: tuple[str, ...] = EFFECTS_STAGES
@@ -209,18 +210,6 @@ def effects_plan(eexp: EffectsExperiment) -> dict:
             "executions_morris": morris * per_case, "executions_sobol_max": sobol * per_case}
 
 
-def read_effects_json(out: str | Path) -> dict:
-    """``OUT/effects.json`` (ResultsError if missing or damaged)."""
-    path = Path(out) / EFFECTS_FILE
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ResultsError(f"{out}: not an effects study output (no {EFFECTS_FILE}); run `faultlab effects run`"
-                           ) from None
-    except (OSError, ValueError) as exc:
-        raise ResultsError(f"{path}: cannot be read ({exc})") from exc
-
-
 def _check_resume(out: Path, eexp: EffectsExperiment) -> dict:
     path = out / EFFECTS_FILE
     if not path.exists():
@@ -237,8 +226,7 @@ def _check_resume(out: Path, eexp: EffectsExperiment) -> dict:
     return saved
 
 
-def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[Path], Sequence[str]],
-                jobs: int = 2, backend: str = "loky", force_new: bool = False, progress: bool = True,
+def run_effects(eexp: EffectsExperiment, out: str | Path, *, jobs: int = 2, backend: str = "loky", force_new: bool = False, progress: bool = True,
                 batch_size: int | None = None) -> dict[str, RunSummary]:
     """Run (or resume) both stages (module docstring).
 
@@ -247,9 +235,6 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
     eexp : EffectsExperiment
     out : path
         Output directory: ``effects.json``, ``morris/`` and ``sobol/`` (each an ordinary store).
-    screen : callable
-        ``screen(out) -> factors`` kept for the Sobol stage, from the finished Morris store and
-        ``out/effects.json`` (the analysis layer's :func:`faultlab.analysis.effects.screen_store`).
     jobs, backend, force_new, progress, batch_size
         As for :func:`faultlab.runner.run_experiment`.
 
@@ -264,6 +249,9 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
         ``out`` holds a study with other settings (without ``force_new``), or a stage's store is in use.
     """
     out = Path(out)
+    if results_path(out).exists():  # another campaign's store: effects.json and the stages would sit beside it
+        raise ResultsError(f"{out} holds the store of another campaign ({results_path(out)}), not an effects "
+                           f"study; use another --out (--force-new moves only an effects study's stores aside)")
     saved = {} if force_new else _check_resume(out, eexp)
     session = {"started": time.time(), "load_start": os.getloadavg()[0], "jobs": jobs, "backend": backend,
                "cpus": os.cpu_count()}
@@ -276,7 +264,7 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, screen: Callable[[P
                                          force_new=force_new, progress=progress, batch_size=batch_size,
                                          cases=design_cases(eexp, morris), on_start=lambda: _write_json(out, record))
     if eexp.spec.sobol_base:
-        kept = tuple(screen(out))
+        kept = screen_store(out)
         if saved.get("kept") is not None and tuple(saved["kept"]) != kept:
             raise ResultsError(f"{out}: screening now keeps {', '.join(kept)}, the Sobol stage already run kept "
                                f"{', '.join(saved['kept'])} (the Morris results changed); use --force-new")

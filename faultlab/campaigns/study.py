@@ -43,7 +43,7 @@ from faultlab.runner import Experiment, RunSummary, parse_experiment, run_experi
 from faultlab.runner.store import STUDY_FILE, check_store, load_sessions, settle_sessions
 from faultlab.space import read_class_weights, space_from_mapping
 from faultlab.stats.killmatrix import StudySpec, study_spec
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.exact import alternative_of, min_pairs
 
 __all__ = ["STUDY_FILE", "StudyExperiment", "load_study_experiment", "run_study", "sampled_load",
            "study_class_weights"]

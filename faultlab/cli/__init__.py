@@ -11,14 +11,15 @@ import argparse
 import errno
 import importlib
 import os
+import signal
 import sqlite3
 import sys
+import threading
 import warnings
 
 from faultlab import __version__
 from faultlab.cli.options import epilog
 from faultlab.errors import FaultlabError
-from faultlab.runner.store import UnverifiedStoreWarning
 
 __all__ = ["main", "build_parser"]
 
@@ -79,12 +80,25 @@ def _silence_stdout() -> None:
 
 def _format_warning(message, category, filename, lineno, line=None) -> str:
     """A note about a store read without checksums is one line for a user, not a source location."""
-    if issubclass(category, UnverifiedStoreWarning):
+    store = sys.modules.get("faultlab.runner.store")  # not loaded: no store was read, so no such warning
+    if store is not None and issubclass(category, store.UnverifiedStoreWarning):
         return f"faultlab: note: {message}\n"
     return _python_format_warning(message, category, filename, lineno, line)
 
 
 _python_format_warning = warnings.formatwarning
+
+
+class Terminated(KeyboardInterrupt):
+    """Raised in the main thread when the process receives SIGTERM (Slurm, systemd, ``timeout``, ``kill``).
+
+    A KeyboardInterrupt, so that a campaign stops exactly as on Ctrl-C: finished rows stay committed
+    and its session is marked ``interrupted``.
+    """
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated()
 
 
 def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
@@ -94,18 +108,30 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
 
     A reader that closes the pipe early (``faultlab mutate list | head``) ends the command quietly
     with exit code 141, as a process killed by SIGPIPE (the shell's convention); the command stops
-    at its next write, so a campaign keeps the rows it committed.
+    at its next write, so a campaign keeps the rows it committed.  SIGTERM is handled like Ctrl-C
+    (:class:`Terminated`): the command stops, keeps what it finished, and exits with 143 (128 + 15;
+    Ctrl-C: 130).
     """
     warnings.formatwarning = _format_warning
+    if (sys.argv[1:] if argv is None else argv) == ["--version"]:  # without importing any command
+        print(f"{prog} {__version__}")
+        return 0
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         code = int(args.func(args) or 0)
         sys.stdout.flush()
         return code
+    except Terminated:
+        print("faultlab: terminated (SIGTERM); finished results are saved: rerun the same command to resume",
+              file=sys.stderr)
+        return 128 + signal.SIGTERM
     except BrokenPipeError:
         _silence_stdout()
         return 128 + 13  # SIGPIPE
@@ -113,7 +139,8 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
         print(f"faultlab: error: {exc}", file=sys.stderr)
         return 1
     except OSError as exc:  # the file system refused (disk full, permission, read-only): no traceback
-        where = f" ({exc.filename})" if exc.filename else ""
+        target = exc.filename or next((getattr(args, a) for a in ("reports", "out") if getattr(args, a, None)), None)
+        where = f" ({target if exc.filename else f'writing under {target}'})" if target else ""
         what = "the disk is full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
         print(f"faultlab: error: {what}{where}", file=sys.stderr)
         return 1
@@ -123,3 +150,6 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     except KeyboardInterrupt:
         print("faultlab: interrupted; finished results are saved", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from faultlab.cli.options import add_examples, add_execution_options, epilog, positive_int, print_paths
 
-__all__ = ["register", "VERBS"]
+__all__ = ["register", "VERBS", "verb_parsers"]
 
 #: The study's verbs; any other first argument is a results directory (the logistic regression).
 VERBS: tuple[str, ...] = ("design", "run", "report")
@@ -38,7 +38,12 @@ def register(subparsers) -> None:
     p.add_argument("--parameters", default=None, metavar="A,B,...",
                    help="with RESULTS: comma-separated predictors (default: every scenario parameter)")
     p.add_argument("argv", nargs=argparse.REMAINDER, metavar="VERB|RESULTS ...")
-    p.set_defaults(func=_dispatch, effects_parser=p)
+    p.set_defaults(func=_dispatch, effects_parser=p, verb_parsers=verb_parsers)
+
+
+def verb_parsers(parent: str = "faultlab effects") -> dict[str, argparse.ArgumentParser]:
+    """The parser of each verb (its own, since ``effects RESULTS`` shares the command): for the docs."""
+    return {verb: _verb_parser(verb, parent) for verb in VERBS}
 
 
 def _verb_parser(verb: str, parent: str = "faultlab effects") -> argparse.ArgumentParser:
@@ -49,7 +54,10 @@ def _verb_parser(verb: str, parent: str = "faultlab effects") -> argparse.Argume
                                     "morris.png, sobol.png and partial.png.")
         v.add_argument("results", help="output directory of `faultlab effects run`")
         v.add_argument("--reports", default=None, help="where to write (default: RESULTS/report)")
-        return add_examples(v, ["faultlab effects report results/effects-quick",
+        v.add_argument("--html", action="store_true",
+                       help="also write the HTML report of the files written to REPORTS/html (tables sortable and "
+                            "filterable, figures with their data; opens offline)")
+        return add_examples(v, ["faultlab effects report results/effects-quick --html",
                                 "faultlab effects report results/effects-quick --reports reports/effects"])
     v = argparse.ArgumentParser(prog=prog, description=(
         "Print the designs' sizes and the SLAM executions they cost." if verb == "design" else
@@ -124,12 +132,11 @@ def _design(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from faultlab.analysis.effects import screen_store
     from faultlab.campaigns.effects import load_effects_experiment, run_effects
 
     eexp = load_effects_experiment(args.experiment, quick=args.quick)
     out = _out(args)
-    summaries = run_effects(eexp, out, screen=screen_store, jobs=args.jobs, backend=args.backend,
+    summaries = run_effects(eexp, out, jobs=args.jobs, backend=args.backend,
                             force_new=args.force_new, progress=not args.no_progress, batch_size=args.batch_size)
     for stage, s in summaries.items():
         print(f"{stage}: {s}")
@@ -141,7 +148,13 @@ def _report(args: argparse.Namespace) -> int:
     from faultlab.report.effects import write_effects_report
 
     reports = args.reports if args.reports is not None else Path(args.results) / "report"
-    return print_paths(write_effects_report(args.results, reports))
+    files = write_effects_report(args.results, reports)
+    print_paths(files)
+    if args.html:
+        from faultlab.report.html.bundle import write_files_html
+
+        print(write_files_html(files, Path(reports) / "html", title="faultlab effect study"))
+    return 0
 
 
 def _logistic(results: str, parameters: str | None) -> int:

@@ -17,7 +17,8 @@ def register(subparsers) -> None:
                     "experiments/paper.toml) through the runner, resuming if its results exist, then "
                     "write Table II beside the paper's "
                     "(CSV, Markdown, LaTeX), detection rates with confidence intervals, the comparison "
-                    "with the paper and report.pdf to the reports directory (default: OUT/report). Everything "
+                    "with the paper, report.pdf and the HTML report (html/index.html, opens offline) to the reports "
+                    "directory (default: OUT/report). Everything "
                     "it writes is under OUT unless --reports names another directory.",
         **epilog(["faultlab reproduce --quick --out results/quick",
                   "nice -n 10 faultlab reproduce --out results/paper --reports reports",
@@ -57,10 +58,15 @@ def register(subparsers) -> None:
         "report", help="rebuild the report from saved results (runs nothing)",
         description="Write Table II, detection rates, the comparison with the paper, the map errors against the "
                     "paper's raw data (fidelity.csv/.md) and report.pdf "
-                    "from a results directory written by 'run' or 'reproduce'. Nothing is rerun.",
-        **epilog(["faultlab report results/quick", "faultlab report reports/store --reports reports"]))
+                    "from a results directory written by 'run' or 'reproduce', and with --html the HTML report. "
+                    "Nothing is rerun.",
+        **epilog(["faultlab report results/quick --html", "faultlab report reports/store --reports reports"]))
     r.add_argument("results", help="results directory (or its results.sqlite)")
     r.add_argument("--reports", default=None, help="report directory (default: RESULTS/report)")
+    r.add_argument("--html", action="store_true",
+                   help="also write the HTML report to REPORTS/html (index.html: overview, sortable and filterable "
+                        "tables of cases and verdicts, a page per case, the figures; opens from the file system, "
+                        "works offline)")
     r.add_argument("--no-pdf", action="store_true",
                    help="write the tables, the comparison and fidelity only, without report.pdf (seconds instead of "
                         "tens of seconds)")
@@ -78,6 +84,7 @@ def reproduce_handler(args: argparse.Namespace) -> int:
     from faultlab.analysis.ablation import ablation
     from faultlab.campaigns.reproduce import DEFAULT_EXPERIMENT, reproduce
     from faultlab.report.ablation import write_ablation
+    from faultlab.report.html.campaign import build_campaign_html
     from faultlab.report.reproduce import rebuild_report
 
     experiment = DEFAULT_EXPERIMENT if args.experiment is None else args.experiment
@@ -91,6 +98,7 @@ def reproduce_handler(args: argparse.Namespace) -> int:
     print(rebuild_report(run.out, run.reports, ablation=effects))
     if effects is not None:
         print(write_ablation(effects, run.reports))
+    print(build_campaign_html(run.out, run.reports))
     print(f"reproduce took {run.wall_time_s:.1f} s (campaign)")
     return 0
 
@@ -104,4 +112,8 @@ def report_handler(args: argparse.Namespace) -> int:
 
     reports = args.reports if args.reports is not None else default_reports(results_path(args.results).parent)
     print(rebuild_report(args.results, reports, pdf=not args.no_pdf))
+    if args.html:
+        from faultlab.report.html.campaign import build_campaign_html
+
+        print(build_campaign_html(args.results, reports))
     return 0

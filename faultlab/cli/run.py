@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 
 from faultlab.cli.options import add_examples, add_execution_options, shipped_experiments
-from faultlab.runner import run_experiment
 
 __all__ = ["register", "handler"]
 
@@ -37,8 +36,7 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     from faultlab.errors import ConfigError
-    from faultlab.runner import load_experiment
-    from faultlab.stats.sequential import interim_look
+    from faultlab.runner import load_experiment, run_experiment
 
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
     experiment = load_experiment(args.experiment)
@@ -52,7 +50,7 @@ def handler(args: argparse.Namespace) -> int:
     if args.metrics is not None:
         experiment = experiment.replace(metrics=[m.strip() for m in args.metrics.split(",")])
     summary = run_experiment(experiment, out, jobs=args.jobs, backend=args.backend,
-                             force_new=args.force_new, progress=not args.no_progress, look=interim_look)
+                             force_new=args.force_new, progress=not args.no_progress)
     print(f"results: {summary.results}")
     print(summary)
     return 0

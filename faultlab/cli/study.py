@@ -39,7 +39,10 @@ def register(subparsers) -> None:
                                      "detection_vs_size.png.")
     rep.add_argument("results", help="output directory of `faultlab study run`")
     rep.add_argument("--reports", default=None, help="where to write (default: RESULTS/report)")
-    add_examples(rep, ["faultlab study report results/study", "faultlab study report reports/study/store --reports reports/study"])
+    rep.add_argument("--html", action="store_true",
+                     help="also write the HTML report of the files written to REPORTS/html (tables sortable and "
+                          "filterable, figures with their data; opens offline)")
+    add_examples(rep, ["faultlab study report results/study --html", "faultlab study report reports/study/store --reports reports/study"])
     rep.set_defaults(func=_report)
 
     alloc = sub.add_parser("k-report", help="repetitions K against cases n at a fixed budget (one pool, runs nothing)",
@@ -100,7 +103,13 @@ def _report(args: argparse.Namespace) -> int:
     from faultlab.report.study import write_study_report
 
     reports = args.reports if args.reports is not None else Path(args.results) / "report"
-    return print_paths(write_study_report(args.results, reports))
+    files = write_study_report(args.results, reports)
+    print_paths(files)
+    if args.html:
+        from faultlab.report.html.bundle import write_files_html
+
+        print(write_files_html(files, Path(reports) / "html", title="faultlab strategies study"))
+    return 0
 
 
 def _k_report(args: argparse.Namespace) -> int:
@@ -112,7 +121,7 @@ def _k_report(args: argparse.Namespace) -> int:
 
 def _sides(exp) -> int:
     """Sides of the per-case sign-flip test of ``exp``'s detection rule (its declared direction)."""
-    from faultlab.stats.verdict import alternative_of
+    from faultlab.inference.exact import alternative_of
 
     return 2 if alternative_of(exp.detection.direction) == "two-sided" else 1
 
@@ -124,7 +133,7 @@ def _plan(args: argparse.Namespace) -> int:
     from faultlab.errors import ConfigError
     from faultlab.report.planning import PLAN_FILE, plan_markdown
     from faultlab.mutation.variants import is_mutant_variant
-    from faultlab.stats.planning import file_scale, plan_study
+    from faultlab.inference.planning import file_scale, plan_study
     from faultlab.vocabulary import BASELINE
 
     data, _ = read_toml(resolve_experiment(args.study, what="study file"), what="study file")

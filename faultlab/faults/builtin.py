@@ -271,7 +271,7 @@ def _landmark_jacobian(poses, mu):
     dy = mu[..., 1] - poses[:, 1:2]
     q = dx * dx + dy * dy
     d = np.sqrt(q)
-    H = np.empty(dx.shape + (2, 2))
+    H = np.zeros(dx.shape + (2, 2))
     H[..., 0, 0], H[..., 0, 1] = dx / d, dy / d
     H[..., 1, 0], H[..., 1, 1] = -dy / q, dx / q
     return H

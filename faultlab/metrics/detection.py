@@ -137,7 +137,7 @@ class DetectionRule:
         so an experiment of the paper's rule keeps the hash (and resumable store) it always had;
         the statistical rule always records its ``direction`` (a stored rule without one was run
         one-sided, before the two-sided default, and is read back so:
-        :func:`faultlab.analysis.metadata.read_rule`).
+        :func:`faultlab.stats.metadata.read_rule`).
         """
         out = {"abs_mm": self.abs_mm, "rel": self.rel}
         for name in ("rule", "alpha", "family", "direction"):

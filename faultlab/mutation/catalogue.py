@@ -7,9 +7,9 @@ everything they depend on: the faultlab, Python, numpy and libcst versions, the 
 module of the faultlab package and of the SLAM's unit modules, and the id and digest of every
 mutant.  Any edit invalidates the cache; a stale entry is never used.
 
-The cache lives in ``$FAULTLAB_CACHE_DIR`` if set (set it to an empty string to disable
-caching), else ``$XDG_CACHE_HOME/faultlab``, else ``~/.cache/faultlab``.  An unwritable cache
-directory only disables caching.
+The cache lives in :func:`faultlab.cache.cache_dir` (``$FAULTLAB_CACHE_DIR`` if set, an empty
+string disabling it, else ``$XDG_CACHE_HOME/faultlab``, else ``~/.cache/faultlab``).  An unwritable
+cache directory only disables caching.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 import faultlab
+from faultlab.cache import cache_dir
 from faultlab.errors import FaultError
 from faultlab.mutation.examples import unit_examples
 from faultlab.mutation.mutant import Mutant, MutantSet, generate_mutants
@@ -39,7 +40,7 @@ from faultlab.slam.registry import build_slam
 
 __all__ = ["Catalogue", "CLASS_NOTES", "mutant_catalogue", "cache_dir", "list_mutants", "show_mutant", "class_counts"]
 
-_CACHE_FORMAT = "faultlab-mutant-screening-1"
+_CACHE_FORMAT = "faultlab-mutant-screening-2"
 
 #: What each class means, for the count lines of the listing.
 CLASS_NOTES = {
@@ -47,6 +48,7 @@ CLASS_NOTES = {
     "stillborn": "does not compile, or raises on every unit example",
     "equivalent": "identical bytecode, or bit-identical unit outputs on every unit example",
     "duplicate": "bit-identical unit outputs to an earlier mutant, which runs instead",
+    "nondeterministic": "unit outputs depend on what unwritten (np.empty) memory held: reported, never run",
 }
 
 
@@ -73,15 +75,6 @@ class Catalogue:
     @property
     def mutants(self) -> MutantSet:
         return self.report.mutants
-
-
-def cache_dir() -> Path | None:
-    """The cache directory (see the module docstring); None if caching is disabled."""
-    env = os.environ.get("FAULTLAB_CACHE_DIR")
-    if env is not None:
-        return Path(env) if env.strip() else None
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "faultlab"
 
 
 def _source_files(mutants: MutantSet, slam) -> list[Path]:

@@ -11,6 +11,10 @@ mutant on every test case, each mutant's unit is called on the unit examples
   ``2 * 2`` folds to the same constant), or its outputs *and* its arguments after the call (a
   unit must not modify its inputs; a random generator's state shows how many numbers it drew)
   are bit-identical to the original's on every example, under the same random draws;
+* **nondeterministic** -- the outputs differ when the buffers the unit takes from ``np.empty``
+  start with a different fill (NaN, then :data:`~faultlab.mutation.source.ALTERNATE_POISON`) on
+  some example: in a campaign they would depend on whatever the memory held, so such a mutant is
+  reported and never run (or scored);
 * **duplicate** -- bit-identical outputs and arguments to an earlier mutant of the same unit on
   every example (including raising the same exception type on the same examples): the mutants
   are grouped and only the first (in generation order) runs.
@@ -22,7 +26,8 @@ which is why the examples are recorded from real runs.  "Bit-identical" treats `
 
 Units are built with :data:`~faultlab.mutation.source.POISONED_NUMPY`: arrays from ``np.empty``
 start as NaN, so a mutant that leaves part of an output unwritten is classified the same way on
-every run instead of by whatever the memory held.
+every run instead of by whatever the memory held; each mutant then runs once more against
+:data:`~faultlab.mutation.source.ALTERNATE_POISONED_NUMPY` to find the nondeterministic ones.
 """
 
 from __future__ import annotations
@@ -61,7 +66,7 @@ class Screening:
     mutant : str
         The mutant id.
     outcome : MutantOutcome or None
-        STILLBORN, EQUIVALENT or DUPLICATE; None for a live mutant (it runs in a campaign).
+        STILLBORN, EQUIVALENT, DUPLICATE or NONDETERMINISTIC; None for a live mutant (it runs in a campaign).
     reason : str
         One line: why (the compile error, the exception, "identical bytecode", the examples
         on which it differs...).
@@ -108,7 +113,7 @@ class ScreeningReport:
         return self.results[self.mutants.get(mutant_id).id]
 
     def live(self) -> tuple[Mutant, ...]:
-        """The mutants that go to a campaign (neither stillborn, equivalent nor duplicate)."""
+        """The mutants that go to a campaign (not screened out)."""
         return tuple(m for m in self.mutants if self.results[m.id].live)
 
     def members(self, mutant_id: str) -> tuple[str, ...]:
@@ -116,7 +121,7 @@ class ScreeningReport:
         return tuple(s.mutant for s in self.results.values() if s.duplicate_of == mutant_id)
 
     def counts(self, mutants: Iterable[Mutant] | None = None) -> dict[str, int]:
-        """``live``, ``stillborn``, ``equivalent``, ``duplicate`` -> number of mutants (of ``mutants``)."""
+        """``live`` and each screened-out class -> number of mutants (of ``mutants``)."""
         chosen = self.mutants if mutants is None else mutants
         c = Counter(self.results[m.id].label for m in chosen)
         return {label: c.get(label, 0) for label in ("live", *map(str, SCREENED_OUT))}
@@ -225,17 +230,28 @@ def _call(unit: Callable, example: UnitExample, time_limit: float | None) -> tup
     return unit_fingerprint(out, args, kwargs), None
 
 
+def _unsteady(unit: Callable, examples: tuple[UnitExample, ...], fingerprints: tuple[str, ...],
+              time_limit: float | None) -> list[int]:
+    """The examples on which ``unit`` (built with the alternate poison) differs from ``fingerprints``."""
+    return [i for i, (ex, fp) in enumerate(zip(examples, fingerprints)) if _call(unit, ex, time_limit)[0] != fp]
+
+
 # --------------------------------------------------------------------------- screening
 
 def _screen_unit(source: UnitSource, mutants: list[Mutant], examples: tuple[UnitExample, ...],
                  time_limit: float) -> dict[str, Screening]:
     reference = source.build(poison=True)
+    alternate = source.build(poison="alternate")
     expected = []
     for i, ex in enumerate(examples):
         fp, error = _call(reference, ex, time_limit)
         if error is not None:
             raise FaultError(f"unit {source.unit!r}: the original unit raises on example {i} "
                              f"({ex.note or 'no note'}): {error}; the examples are broken")
+        if _call(alternate, ex, time_limit)[0] != fp:
+            raise FaultError(f"unit {source.unit!r}: the original unit's output on example {i} "
+                             f"({ex.note or 'no note'}) depends on memory it never wrote (np.empty); "
+                             "fill its buffers (np.zeros) before mutating it")
         expected.append(fp)
     expected_t = tuple(expected)
     groups: dict[tuple, str] = {}
@@ -266,6 +282,12 @@ def _screen_unit(source: UnitSource, mutants: list[Mutant], examples: tuple[Unit
         if all(e is not None for e in errors):
             out[m.id] = Screening(m.id, MutantOutcome.STILLBORN,
                                   f"raises on every unit example ({len(examples)}): {errors[0]}")
+            continue
+        unsteady = _unsteady(source.build({m.function: code}, poison="alternate"), examples, key, time_limit)
+        if unsteady:
+            out[m.id] = Screening(m.id, MutantOutcome.NONDETERMINISTIC,
+                                  f"outputs on unit examples {', '.join(map(str, unsteady))} of {len(examples)} "
+                                  "depend on the initial contents of np.empty buffers")
         elif key == expected_t:
             out[m.id] = Screening(m.id, MutantOutcome.EQUIVALENT,
                                   f"bit-identical outputs on all {len(examples)} unit examples")

@@ -31,7 +31,7 @@ import numpy as np
 from faultlab.errors import FaultError
 
 __all__ = ["FunctionSource", "UnitSource", "unit_sources", "unit_source", "unit_functions", "code_identical",
-           "POISONED_NUMPY"]
+           "POISONED_NUMPY", "ALTERNATE_POISONED_NUMPY", "ALTERNATE_POISON"]
 
 
 @dataclass(frozen=True)
@@ -126,7 +126,7 @@ class UnitSource:
         return {f.name: self.compile(f.name) for f in self.functions}
 
     def build(self, changed: Mapping[str, str | types.CodeType] | None = None, *, filename: str | None = None,
-              poison: bool = False) -> Callable:
+              poison: bool | str = False) -> Callable:
         """The unit function compiled from source, with the functions in ``changed`` replaced.
 
         Parameters
@@ -137,11 +137,12 @@ class UnitSource:
         filename : str, optional
             File name for the changed functions' code (tracebacks); their source is registered
             with :mod:`linecache` under that name so tracebacks show the mutated lines.
-        poison : bool
+        poison : bool or "alternate"
             Build against :data:`POISONED_NUMPY`: arrays from ``np.empty``/``np.empty_like`` are
             filled with NaN (and integer arrays with their minimum), so a unit that leaves part of
             an output unwritten gives the same, visible result on every run instead of whatever
-            the memory held.
+            the memory held; ``"alternate"`` builds against :data:`ALTERNATE_POISONED_NUMPY`
+            (a different fill), to tell whether the output depends on the fill at all.
 
         Returns
         -------
@@ -154,9 +155,10 @@ class UnitSource:
             raise FaultError(f"unit {self.unit!r}: cannot change {sorted(unknown)}; not the unit or its helpers")
         ns = dict(self.namespace)
         if poison:
+            stand_in = ALTERNATE_POISONED_NUMPY if poison == "alternate" else POISONED_NUMPY
             for key, value in list(ns.items()):
                 if value is np:
-                    ns[key] = POISONED_NUMPY
+                    ns[key] = stand_in
         for f in self.functions:
             code = changed.get(f.name, self._original_code[f.name])
             if isinstance(code, str):
@@ -311,34 +313,45 @@ def code_identical(a: types.CodeType, b: types.CodeType) -> bool:
 
 # --------------------------------------------------------------------------- poisoned numpy
 
-def _poison(arr: np.ndarray) -> np.ndarray:
+def _poison(arr: np.ndarray, alternate: bool = False) -> np.ndarray:
     kind = arr.dtype.kind
     if kind in "fc":
-        arr.fill(np.nan)
+        arr.fill(ALTERNATE_POISON if alternate else np.nan)
     elif kind in "iu":
-        arr.fill(np.iinfo(arr.dtype).min)
+        arr.fill(np.iinfo(arr.dtype).max if alternate else np.iinfo(arr.dtype).min)
     elif kind == "b":
-        arr.fill(True)
+        arr.fill(not alternate)
     return arr
 
 
-class _PoisonedNumpy(types.ModuleType):
-    """numpy, except that ``empty`` and ``empty_like`` return poisoned (NaN-filled) arrays."""
+#: The finite fill of :data:`ALTERNATE_POISONED_NUMPY`'s float arrays (any value a unit would not
+#: write by chance).
+ALTERNATE_POISON = -7.25e3
 
-    def __init__(self) -> None:
-        super().__init__("numpy", "numpy with NaN-filled np.empty (faultlab mutant screening)")
+
+class _PoisonedNumpy(types.ModuleType):
+    """numpy, except that ``empty`` and ``empty_like`` return poisoned arrays.
+
+    The default poison is NaN (integer arrays: their minimum; booleans: True); the alternate
+    poison is :data:`ALTERNATE_POISON` (integers: their maximum; booleans: False).  A unit whose
+    output differs between the two reads memory it never wrote.
+    """
+
+    def __init__(self, alternate: bool = False) -> None:
+        super().__init__("numpy", "numpy with poisoned np.empty (faultlab mutant screening)")
+        self._alternate = alternate
 
     def __getattr__(self, name: str):
         return getattr(np, name)
 
-    @staticmethod
-    def empty(*args, **kwargs) -> np.ndarray:
-        return _poison(np.empty(*args, **kwargs))
+    def empty(self, *args, **kwargs) -> np.ndarray:
+        return _poison(np.empty(*args, **kwargs), self._alternate)
 
-    @staticmethod
-    def empty_like(*args, **kwargs) -> np.ndarray:
-        return _poison(np.empty_like(*args, **kwargs))
+    def empty_like(self, *args, **kwargs) -> np.ndarray:
+        return _poison(np.empty_like(*args, **kwargs), self._alternate)
 
 
 #: Stands in for numpy in the namespace of units built with ``poison=True``.
 POISONED_NUMPY = _PoisonedNumpy()
+#: The same with the alternate poison (``poison="alternate"``).
+ALTERNATE_POISONED_NUMPY = _PoisonedNumpy(alternate=True)

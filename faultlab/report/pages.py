@@ -42,7 +42,7 @@ from faultlab.runner.store import case_path
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
 from faultlab.stats.class_effects import MIN_EPV
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import JobStatus
 
 __all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "EFFECT_PAGE_TITLE", "CLASS_EFFECT_PAGE_TITLE", "summary_pages",
@@ -93,6 +93,17 @@ def _frame_text(frame: pd.DataFrame, digits: int = 3) -> pd.DataFrame:
         return str(v)
 
     return frame.apply(lambda col: col.map(fmt)).astype(str)
+
+
+def _without_empty_columns(frame: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
+    """``frame`` (cells as text) without its columns that are empty in every row, and their names."""
+    empty = [c for c in frame.columns if len(frame) and (frame[c].astype(str).str.strip() == "").all()]
+    return frame.drop(columns=empty), empty
+
+
+def _left_out(columns: list[str]) -> str:
+    return "" if not columns else (f" Left out, empty for every case of this campaign: "
+                                   f"{', '.join(columns)}.")
 
 
 def _g3(value: float) -> str:
@@ -336,17 +347,17 @@ def figure_pages(analysis: Analysis) -> list[Figure]:
 
 
 def _load_run_cases(store_dir: Path, analysis: Analysis, run: int) -> tuple[list[tuple[str, list]], list, int]:
-    """Rows of panels ``(suite, [(case, Scenario)])`` of one run, seed rows, unreadable files."""
+    """Rows of panels ``(suite, [(case, Scenario)])`` of one run, seed rows, why each unreadable file is."""
     cases = analysis.cases[analysis.cases["run"] == run]
     rows: list[tuple[str, list[tuple[int, Scenario]]]] = []
-    seeds, missing = [], 0
+    seeds, missing = [], []
     for suite in order_suites(cases["suite"]):
         loaded = []
         for c in sorted(int(c) for c in cases.loc[cases["suite"] == suite, "case"]):
             try:
                 loaded.append((c, load_scenario(case_path(store_dir, run, suite, c))))
-            except (FaultlabError, OSError):
-                missing += 1
+            except (FaultlabError, OSError) as exc:
+                missing.append(str(exc))
         seeds += [(run, suite, c, sc.seed, sc.landmarks.shape[0], sc.n_steps) for c, sc in loaded]
         rows += [(suite, loaded[i:i + _PANELS_PER_ROW]) for i in range(0, len(loaded), _PANELS_PER_ROW)]
     return rows, seeds, missing
@@ -383,7 +394,7 @@ def case_pages(store_dir: Path, analysis: Analysis) -> tuple[list[Figure], list,
     are left out and counted in a note.
     """
     runs = sorted(int(r) for r in analysis.cases["run"].unique())
-    pages, seeds, notes, missing = [], [], [], 0
+    pages, seeds, notes, missing = [], [], [], []
     for run in runs[:MAX_PICTURED_RUNS]:
         rows, run_seeds, run_missing = _load_run_cases(store_dir, analysis, run)
         seeds += run_seeds
@@ -391,8 +402,9 @@ def case_pages(store_dir: Path, analysis: Analysis) -> tuple[list[Figure], list,
         for start in range(0, len(rows), _ROWS_PER_PAGE):
             pages.append(_case_page(run, rows[start:start + _ROWS_PER_PAGE], continued=start > 0))
     if missing:
-        notes.append(f"{missing} saved test case file(s) under {store_dir}/cases could not be "
-                     "read; their pictures are left out.")
+        notes.append(f"{len(missing)} saved test case file(s) under {store_dir}/cases could not be "
+                     f"read; their pictures are left out: {'; '.join(missing[:3])}"
+                     + (f"; and {len(missing) - 3} more" if len(missing) > 3 else "") + ".")
     if len(runs) > MAX_PICTURED_RUNS:
         notes.append(f"test cases are pictured for evaluation runs 1-{MAX_PICTURED_RUNS} of {len(runs)}.")
     return pages, seeds, notes
@@ -484,7 +496,8 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
         "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
     })
     cannot = int((v["verdict"] == "cannot_judge").sum())
-    return table_pages(f"Per-case verdicts ({analysis.rule.rule} rule)", _frame_text(show), fontsize=7,
+    show, empty = _without_empty_columns(_frame_text(show))
+    return table_pages(f"Per-case verdicts ({analysis.rule.rule} rule)", show, fontsize=7,
                        max_rows=34,
                        note=f"{_verdict_test(analysis)} A crash or timeout of the faulty variant alone counts "
                             f"as detected. {cannot} case(s) cannot be judged (baseline failed or too few "
@@ -493,7 +506,7 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
                             f"mean paired difference; effect: median difference (mm) and median ratio faulty / "
                             f"baseline with order-statistic intervals (coverage >= 1 - alpha where K allows). MDE: "
                             f"smallest shift of the paired differences the decision's test (its sidedness, Holm's "
-                            f"first step alpha / m over the family) detects with 80 % power.")
+                            f"first step alpha / m over the family) detects with 80 % power.{_left_out(empty)}")
 
 
 def _effect(mid: float, lo: float, hi: float, fmt: str) -> str:
@@ -605,10 +618,13 @@ def _oracle_pages(analysis: Analysis) -> list[Figure]:
     })
     return table_pages("Beyond the paper: a statistical oracle over the SLAM repetitions", _frame_text(show),
                        note="Per case, a one-sided Mann-Whitney U test of the faulty against "
-                            "the baseline RMS errors over the K repetitions, Holm-corrected "
-                            "over all (suite, run, case, fault) tests. With K repetitions the "
-                            "smallest attainable p is 1/C(2K, K): with few repetitions the "
-                            "oracle cannot reject anything after the correction.")
+                            "the baseline RMS errors over the K repetitions (unpaired: it ignores the "
+                            "common SLAM seeds), Holm-corrected over all (suite, run, case, fault) tests. "
+                            "With K repetitions the smallest attainable p is 1/C(2K, K): with few "
+                            "repetitions the oracle cannot reject anything after the correction. This "
+                            "oracle is a second view; the report's verdicts are not its result but "
+                            "that of the test on the per-case verdict pages: "
+                            + _verdict_test(analysis))
 
 
 def _suite_comparison_pages(analysis: Analysis) -> list[Figure]:
@@ -641,6 +657,8 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
     if unavailable:
         return text_pages(EFFECT_PAGE_TITLE, [n.text for n in unavailable])
     eff = analysis.campaign_effects
+    notes = sorted({n for n in eff["note"] if n.startswith("not fitted") or "too few cases" in n})
+    eff = eff[eff["term"] != "(size)"]  # nothing estimated: what the size would need is in the notes
     log_scale = eff["response"] != "difficulty"
     show = pd.DataFrame({
         "response": eff["response"].map(response_label),
@@ -652,15 +670,15 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
                     for ls, t, e in zip(log_scale, eff["term"], eff["estimate"])],
         "p": [_g3(p) for p in eff["p"]],
     })
-    notes = sorted({n for n in eff["note"] if n.startswith("not fitted") or "too few cases" in n})
     notes += _class_effect_notes(analysis)
-    pages = table_pages(EFFECT_PAGE_TITLE, show,
-                        fontsize=7.5, max_rows=34,
-                        note="Continuous responses per case over its K repetitions: the baseline's difficulty "
-                             "(mean log map error) and each fault's effect size (mean log of faulty / baseline "
-                             "error, paired by SLAM seed); 'x error' is the geometric-mean factor. Mean over "
-                             "cases with its t interval; parameter rows: OLS per standard deviation, "
-                             "cluster-robust by case.")
+    show, empty = _without_empty_columns(show.astype(str))
+    pages = [] if not len(show) else table_pages(
+        EFFECT_PAGE_TITLE, show, fontsize=7.5, max_rows=34,
+        note="Continuous responses per case over its K repetitions: the baseline's difficulty "
+             "(mean log map error) and each fault's effect size (mean log of faulty / baseline "
+             "error, paired by SLAM seed); 'x error' is the geometric-mean factor. Mean over "
+             "cases with its t interval; parameter rows: OLS per standard deviation, "
+             "cluster-robust by case." + _left_out(empty))
     if notes:
         pages += text_pages("Parameter effects: what this campaign's size allows",
                             [n[0].upper() + n[1:] + "." for n in notes]

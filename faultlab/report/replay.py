@@ -33,7 +33,7 @@ def replay_markdown(replay: AdaptiveReplay) -> str:
     lines = [f"# Adaptive repetitions replayed on `{m['store']}`", "",
              f"The store's K = {m['K']} repetitions of every (case, variant), cut to those an adaptive campaign "
              f"would have run: stages {d['stages']}, per-case level {d['level']:g}, {d['alternative']}, futility "
-             f"bound {d['futility']:g} (the rule of `faultlab.stats.sequential`: a pair stops only without "
+             f"bound {d['futility']:g} (the rule of `faultlab.inference.sequential`: a pair stops only without "
              "rejecting, so the per-case level stays at most the fixed-K test's). Repetition r runs with the same "
              "SLAM seed in both designs, so the replay reaches the adaptive campaign's own decisions from the "
              "stored rows by the runner's own look; no SLAM was run.", "",

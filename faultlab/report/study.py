@@ -20,7 +20,7 @@ from faultlab.analysis.study import STUDY_TABLES, StudyAnalysis, analyse_study
 from faultlab.report.figures import PAGE_SIZE, suite_palette
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
-from faultlab.stats.verdict import min_p_value
+from faultlab.inference.exact import min_p_value
 from faultlab.vocabulary import SUITE_ORDER, ordered
 
 __all__ = ["FIGURE_FILE", "REPORT_FILE", "detection_figure", "study_markdown", "write_study_report"]

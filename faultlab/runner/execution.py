@@ -6,7 +6,10 @@ recorded as ``crash`` (with ``"Type: message"``), a SLAM past ``timeout_s`` is s
 as ``timeout``.  The limit is enforced with ``SIGALRM`` (``signal.setitimer``) when the job runs in
 a process's main thread (loky workers, ``jobs=1``), which also stops a SLAM stuck in a Python loop
 or a sleep; elsewhere (threads, dask workers) a cooperative deadline check between SLAM steps is
-the fallback.
+the fallback.  Neither stops a SLAM that spins in compiled code holding the GIL (the SIGALRM handler
+runs only between bytecodes): for that the worker announces each call's deadline in a file the
+parent watches (:func:`init_worker`), and the parent kills a worker still busy past the deadline
+plus a grace (:mod:`faultlab.runner.backends`).
 
 Batched repetitions: when the SLAM under test runs repetitions in a batch (``supports_batch``,
 e.g. the reference FastSLAM), the repetitions of one (case, variant) still missing from the store
@@ -39,6 +42,8 @@ import contextlib
 import copy
 import ctypes
 import dataclasses
+import faulthandler
+import json
 import math
 import os
 import platform
@@ -62,7 +67,8 @@ from faultlab.slam.protocol import Estimate, SlamAdapter, association_of, run_sl
 from faultlab.slam.twins import warm_up
 from faultlab.vocabulary import JobStatus
 
-__all__ = ["JobResult", "execute_job", "execute_batch", "load_case", "tune_allocator", "worker_died", "watch_parent"]
+__all__ = ["JobResult", "execute_job", "execute_batch", "load_case", "tune_allocator", "worker_died",
+           "worker_killed", "watch_parent", "init_worker"]
 
 
 @dataclass(frozen=True)
@@ -126,6 +132,48 @@ class _Guarded(SlamAdapter):
     def estimates(self) -> list:
         self._check()
         return self.inner.estimates()
+
+
+#: The directory in which this worker announces its deadlines (set by :func:`init_worker`), or None.
+_deadline_dir: Path | None = None
+
+
+def init_worker(parent_pid: int, deadline_dir: str | None = None) -> None:
+    """The initializer of the executors' worker processes: :func:`watch_parent`, and announce deadlines.
+
+    With ``deadline_dir``, every job or batch call writes ``PID.json`` there while it runs:
+    ``{"deadline": time.monotonic() at the limit, "limit": seconds, "keys": [job keys]}``, so that the
+    parent can kill a worker stuck past the limit in code no signal handler interrupts.  A worker
+    that dies of a signal prints nothing (no thread dump that reads like faultlab's traceback) unless
+    ``PYTHONFAULTHANDLER`` asks for it.
+    """
+    global _deadline_dir
+    _deadline_dir = Path(deadline_dir) if deadline_dir else None
+    if "PYTHONFAULTHANDLER" not in os.environ:  # loky would print every thread's stack when a SUT segfaults:
+        faulthandler.enable(file=open(os.devnull, "w"))  # the job's crash row says the worker died
+    watch_parent(parent_pid)
+
+
+@contextlib.contextmanager
+def _announced(seconds: float, keys: tuple[JobKey, ...]) -> Iterator[None]:
+    """Announce the deadline of the call inside (see :func:`init_worker`); nothing without a directory."""
+    if _deadline_dir is None:
+        yield
+        return
+    path = _deadline_dir / f"{os.getpid()}.json"
+    tmp = _deadline_dir / f"{os.getpid()}.tmp"
+    record = {"deadline": time.monotonic() + float(seconds), "limit": float(seconds),
+              "keys": [k.astuple() for k in keys]}
+    try:
+        tmp.write_text(json.dumps(record))
+        os.replace(tmp, path)
+    except OSError:  # the parent removed its directory: nothing watches this call
+        yield
+        return
+    try:
+        yield
+    finally:
+        path.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager
@@ -278,6 +326,8 @@ def _describe(exc: BaseException) -> str:
 def _build(spec: JobSpec) -> SlamAdapter:
     """The SLAM under test of ``spec`` with its variant's fault applied (a hardware limit sets its option)."""
     fault = resolve_variant(spec.key.variant)
+    if callable(getattr(fault, "build_slam", None)):  # a mutant of user source: the SLAM built from it
+        return fault.build_slam(spec.slam)
     if isinstance(fault, SensorFault):
         options = fault.configure_options(dict(spec.slam.options))
         return dataclasses.replace(spec.slam, options=tuple(options.items())).build()
@@ -328,7 +378,7 @@ def execute_job(spec: JobSpec) -> JobResult:
     t0 = time.perf_counter()
     try:
         try:
-            with _alarm(spec.timeout_s):
+            with _announced(spec.timeout_s, (spec.key,)), _alarm(spec.timeout_s):
                 deadline = time.monotonic() + spec.timeout_s
                 slam = _build(spec)
                 fed = _fed(spec, scenario)
@@ -365,7 +415,7 @@ def execute_batch(batch: JobBatch) -> list[JobResult]:
     t0 = time.perf_counter()
     try:
         try:
-            with _alarm(batch.timeout_s):
+            with _announced(batch.timeout_s, batch.keys), _alarm(batch.timeout_s):
                 deadline = time.monotonic() + batch.timeout_s
                 slam = _build(specs[0])
                 if not getattr(slam, "supports_batch", False):
@@ -391,6 +441,13 @@ def execute_batch(batch: JobBatch) -> list[JobResult]:
             if isinstance(out, BaseException) else _score(s, scenario, out, share, association=association)
             for s, out in zip(specs, outcomes)]
 
+
+
+def worker_killed(key: JobKey, limit_s: float, grace_s: float) -> JobResult:
+    """The ``timeout`` result of a job whose worker the parent killed past its deadline."""
+    return JobResult(key, JobStatus.TIMEOUT, runtime_s=limit_s + grace_s,
+                     error=f"timeout: wall-clock limit of {limit_s:g} s exceeded; the worker was still busy "
+                           f"{grace_s:g} s later (e.g. a loop in compiled code) and was killed")
 
 
 def worker_died(spec: JobSpec, exc: BaseException) -> JobResult:

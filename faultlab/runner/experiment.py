@@ -46,7 +46,7 @@ from faultlab.config import Table, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.metrics.detection import FAMILIES, RULES, DetectionRule
-from faultlab.runner.staging import StagedDesign
+from faultlab.inference.sequential import StagedDesign
 from faultlab.runner.variants import resolve_variant
 from faultlab.scenario.config import DEFAULT_MIN_DISTANCE, DEFAULT_N_STEPS, DEFAULT_SENSOR_RANGE
 from faultlab.slam.fastslam import FastSlamConfig

@@ -14,13 +14,14 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import os
 import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator, Mapping, Sequence
 
-from faultlab.errors import ConfigError, FaultlabError, ResultsError, ScenarioError
+from faultlab.errors import ConfigError, FaultlabError, InvalidCaseError, ResultsError, ScenarioError
 from faultlab.faults import FaultNotApplicableWarning, NotApplicable, not_applicable, slam_units
 from faultlab.runner.variants import resolve_variant
 from faultlab.runner.backends import check_backend, stream_batches
@@ -30,10 +31,11 @@ from faultlab.runner.jobs import batch_jobs, expand_jobs
 from faultlab.runner.progress import format_duration
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
-from faultlab.runner.store import (ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, job_metrics,
-                                   load_results, store_lock)
+from faultlab.runner.store import (ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, check_store,
+                                   job_metrics, load_results, store_lock)
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
+from faultlab.slam.process import ProcessSlam
 from faultlab.slam.protocol import SlamAdapter, association_of
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.vocabulary import UNKNOWN_ASSOCIATION, JobStatus
@@ -136,6 +138,8 @@ def _saved_case(path: Path, case: SuiteCase, experiment: Experiment) -> Scenario
         return None
     try:
         scenario = load_scenario(path)
+    except InvalidCaseError:
+        raise  # intact files with invalid content: never silently replaced
     except ScenarioError:
         return None  # half-written by a killed run: regenerate
     if scenario.seed != case.seed or dict(scenario.case.values) != dict(case.spec.values):
@@ -155,6 +159,30 @@ def _case_info(case: SuiteCase, path: Path, scenario: Scenario) -> CaseInfo:
     return CaseInfo(run=case.run, suite=case.suite, case=case.case, path=path, values=dict(case.spec.values),
                     classes={p: int(case.spec.classes.get(p, -1)) for p in PARAMETER_NAMES},
                     n_landmarks=n_lm, cost=cost)
+
+
+#: Bytes a particle needs at the least: pose (3), weight (1), one landmark's mean (2) and covariance (4), float64.
+MIN_BYTES_PER_PARTICLE = 8 * (3 + 1 + 2 + 4)
+
+
+def _physical_memory() -> int | None:
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _check_memory(experiment: Experiment) -> None:
+    """ConfigError if one execution's particles cannot fit in this machine's memory, even with one landmark."""
+    particles = dict(experiment.slam.options).get("particles")
+    memory = _physical_memory()
+    if isinstance(particles, bool) or not isinstance(particles, int) or memory is None:
+        return
+    need = particles * MIN_BYTES_PER_PARTICLE
+    if need > memory:
+        raise ConfigError(f"{experiment.source}: [slam] particles = {particles} needs at least {need / 2 ** 30:.3g} "
+                          f"GiB for one execution ({MIN_BYTES_PER_PARTICLE} bytes a particle with a single "
+                          f"landmark), more than this machine's {memory / 2 ** 30:.3g} GiB of memory")
 
 
 def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable, ...]]:
@@ -177,6 +205,9 @@ def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable
     if not isinstance(slam, SlamAdapter):
         raise ConfigError(f"{experiment.source}: [slam] {experiment.slam.name!r} built a "
                           f"{type(slam).__name__}, not a SlamAdapter")
+    _check_memory(experiment)
+    if isinstance(slam, ProcessSlam):
+        slam.check_startable(where=f"{experiment.source}: [slam] command")
     if association_of(slam) == UNKNOWN_ASSOCIATION and experiment.metric != "emd":
         raise ConfigError(f"{experiment.source}: metric = {experiment.metric!r}, but [slam] {experiment.slam.name!r} "
                           f"associates landmarks itself (no ids, no RMS): use metric = \"emd\"")
@@ -184,7 +215,7 @@ def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable
     skipped: list[NotApplicable] = []
     for i, variant in enumerate(experiment.variants):
         fault = resolve_variant(variant)  # known: parse_experiment checked every name
-        if fault is None:
+        if fault is None or callable(getattr(fault, "build_slam", None)):  # a mutant of user source: screened
             continue
         reason = not_applicable(fault, experiment.slam.name, units=units, options=dict(experiment.slam.options))
         if reason is not None:
@@ -241,7 +272,7 @@ def store_session(store: ResultStore, session: int, *, t0: float) -> Iterator[di
 
 def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
-                   batch_size: int | None = None, look=None,
+                   batch_size: int | None = None,
                    on_start: Callable[[], None] | None = None,
                    cases: Sequence[SuiteCase] | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
@@ -273,11 +304,6 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         repetitions of a (case, variant) per job (default: all that are missing from the store;
         1: one repetition per job).  The results are the same whatever the batch size, except
         ``runtime_s``.
-    look : callable, optional
-        The stopping rule of an experiment with ``[adaptive]`` repetitions
-        (:func:`faultlab.stats.sequential.interim_look`; required then, ignored otherwise).  The
-        repetitions run in stages (:mod:`faultlab.runner.staging`): a stage's jobs only for the
-        pairs still running, each stage in its own session.
     on_start : callable, optional
         Called once every check passed and the store is open, before the first write to ``out``
         (a driver writing files of its own next to the store writes them there, so that a refused
@@ -305,12 +331,10 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     if batch_size is not None and (isinstance(batch_size, bool) or not isinstance(batch_size, int)
                                    or batch_size < 1):
         raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")
-    if experiment.adaptive is not None and look is None:
-        raise ConfigError(f"{experiment.source}: [adaptive] repetitions need the stopping rule: pass "
-                          f"look=faultlab.stats.sequential.interim_look (the CLI does)")
     t0 = time.perf_counter()
     out = Path(out)
     sut, skipped = _preflight(experiment)
+    check_store(out, experiment, force_new=force_new)  # a refusal writes nothing, not even the lock file
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
         if on_start is not None:
             on_start()
@@ -331,7 +355,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
             else:
                 if stage > 0:
                     decisions, running = look_before_stage(load_results(out), design=design, stage=stage,
-                                                           metric=experiment.metric, look=look, running=running)
+                                                           metric=experiment.metric, running=running)
                     store.set_meta(STOPS_KEY, record_stops(decisions, design=design, stage=stage,
                                                            previous=store.meta.get(STOPS_KEY, [])))
                 todo_specs = stage_jobs(specs, design=design, stage=stage, running=running)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from faultlab.errors import ScenarioError
+from faultlab.errors import InvalidCaseError, NoGroundTruthError, ScenarioError
 from faultlab.space.case import CaseSpec
 
 __all__ = ["Scenario", "save_scenario", "load_scenario"]
@@ -83,6 +83,24 @@ class Scenario:
         return bool(self.meta.get("config", {}).get("fov_bug", False))
 
     @property
+    def has_truth(self) -> bool:
+        """Whether the ground truth (landmark positions, poses after the start) is known.
+
+        False for a real data set (``meta["ground_truth"] = False``): its ``landmarks`` are NaN (the
+        observed ids are known, their positions are not) and ``true_poses`` is NaN after the known start
+        pose.  Metrics and oracles that need the truth raise :class:`~faultlab.errors.NoGroundTruthError`
+        (:meth:`require_truth`) instead of computing NaN.
+        """
+        return bool(self.meta.get("ground_truth", True))
+
+    def require_truth(self, what: str) -> None:
+        """Raise :class:`~faultlab.errors.NoGroundTruthError` naming ``what`` unless the truth is known."""
+        if not self.has_truth:
+            name = self.meta.get("dataset", "this scenario")
+            raise NoGroundTruthError(f"{what} needs the ground truth, and {name} has none (a real data set: "
+                                     f"judge it by the oracles that need no truth)")
+
+    @property
     def start_pose(self) -> np.ndarray:
         """The known initial pose, shape (3,)."""
         return self.true_poses[0].copy()
@@ -111,6 +129,13 @@ class Scenario:
             (self.obs_range.shape == (M,) and self.obs_bearing.shape == (M,) and self.obs_ids.shape == (M,),
              "obs_range, obs_bearing and obs_ids must have shape (obs_offsets[-1],)"),
         ]
+        if not self.has_truth and T + 1 == self.true_poses.shape[0]:
+            checks += [
+                (bool(np.all(np.isfinite(self.true_poses[0]))), "a scenario without ground truth still has a "
+                                                                 "finite start pose"),
+                (bool(np.all(np.isnan(self.true_poses[1:]))) and bool(np.all(np.isnan(self.landmarks))),
+                 "a scenario without ground truth has NaN landmarks and NaN poses after the start"),
+            ]
         for ok, msg in checks:
             if not ok:
                 raise ScenarioError(msg)
@@ -183,7 +208,9 @@ def load_scenario(path: str | Path) -> Scenario:
     Raises
     ------
     ScenarioError
-        A file is missing, truncated, damaged (checksum mismatch) or not a test case.
+        A file is missing, truncated, damaged (checksum mismatch) or not a test case;
+        :class:`~faultlab.errors.InvalidCaseError` if its files are intact but its content is not a
+        valid case (inconsistent shapes, NaN or infinite values).
     """
     base = Path(path)
     if base.suffix in (".npz", ".json"):
@@ -212,5 +239,26 @@ def load_scenario(path: str | Path) -> Scenario:
                       **arrays)
     except (KeyError, TypeError, ValueError) as exc:
         raise ScenarioError(f"test case {js}: unreadable ({type(exc).__name__}: {exc})") from exc
-    sc.validate()
+    try:
+        sc.validate()
+        _check_finite(sc)
+    except ScenarioError as exc:
+        raise InvalidCaseError(f"test case {npz}: {exc} (its checksums match: it was saved so; "
+                               f"regenerate it, e.g. with --force-new)") from None
     return sc
+
+
+def _check_finite(sc: Scenario) -> None:
+    """ScenarioError naming the first array of a saved case that holds a NaN or an infinity.
+
+    A case without ground truth has NaN landmarks and poses after the start by design (:meth:`Scenario.validate`
+    checks that pattern); its start pose and measurements must still be finite.
+    """
+    truth = ("landmarks", "true_poses") if sc.has_truth else ()
+    for name in (*truth, "controls", "obs_range", "obs_bearing"):
+        values = getattr(sc, name)
+        bad = ~np.isfinite(values)
+        if bad.any():
+            first = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise ScenarioError(f"{name} holds {int(bad.sum())} non-finite value(s), the first "
+                                f"{values[first]} at index {first if len(first) > 1 else first[0]}")

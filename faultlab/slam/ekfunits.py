@@ -76,14 +76,14 @@ __all__ = [
 
 
 def _component_major(shape: tuple[int, ...], tail: tuple[int, ...]) -> np.ndarray:
-    """An uninitialised array of shape ``shape + tail`` stored as ``tail + shape[::-1]``.
+    """A zero-filled array of shape ``shape + tail`` stored as ``tail + shape[::-1]``.
 
     The layout of the FastSLAM 1.0 units' outputs (see :mod:`faultlab.slam.units`): for
     ``shape = (N, k)`` each matrix entry is one contiguous (k, N) block, so elementwise formulas
     over entries run over contiguous memory.
     """
     nd, nt = len(shape), len(tail)
-    buf = np.empty(tuple(tail) + tuple(shape)[::-1])
+    buf = np.zeros(tuple(tail) + tuple(shape)[::-1])
     return buf.transpose(tuple(range(nt + nd - 1, nt - 1, -1)) + tuple(range(nt)))
 
 
@@ -320,7 +320,7 @@ def augment_state(mu: np.ndarray, Sigma: np.ndarray, lm: np.ndarray,
     blocks = new.reshape(k, 2, k, 2)
     d = np.arange(k)
     blocks[d, :, d, :] += P
-    out = np.empty((D + 2 * k, D + 2 * k))
+    out = np.zeros((D + 2 * k, D + 2 * k))
     out[:D, :D] = Sigma
     out[D:, :D] = cross
     out[:D, D:] = cross.T
@@ -378,11 +378,11 @@ def proposal_information(Hx: np.ndarray, V: np.ndarray, Z: np.ndarray, nu: np.nd
     def total(x):
         return np.where(known, x, 0.0).sum(axis=1)
 
-    lam = np.empty(Hx.shape[:1] + (2, 2))
+    lam = np.zeros(Hx.shape[:1] + (2, 2))
     lam[:, 0, 0] = total(h00 * a00 + h10 * a10)
     lam[:, 0, 1] = lam[:, 1, 0] = total(h00 * a01 + h10 * a11)
     lam[:, 1, 1] = total(h01 * a01 + h11 * a11)
-    eta = np.empty(Hx.shape[:1] + (2,))
+    eta = np.zeros(Hx.shape[:1] + (2,))
     eta[:, 0] = total(a00 * n0 + a10 * n1)
     eta[:, 1] = total(a01 * n0 + a11 * n1)
     return lam, eta
@@ -418,7 +418,7 @@ def proposal(Lam: np.ndarray, eta: np.ndarray, M: np.ndarray) -> tuple[np.ndarra
     inv_det = 1.0 / (a00 * a11 - a01 * a10)
     # A^-1 M with A^-1 = [[a11, -a01], [-a10, a00]] / det; the two off-diagonal entries agree
     # mathematically and are averaged so that cov is exactly symmetric
-    cov = np.empty_like(A)
+    cov = np.zeros_like(A)
     cov[:, 0, 0] = (a11 * M[0, 0] - a01 * M[1, 0]) * inv_det
     cov[:, 1, 1] = (a00 * M[1, 1] - a10 * M[0, 1]) * inv_det
     c01 = (a11 * M[0, 1] - a01 * M[1, 1]) * inv_det
@@ -452,7 +452,7 @@ def sample_proposal(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator)
     l00 = np.sqrt(np.maximum(c00, 0.0))
     l10 = np.divide(c01, l00, out=np.zeros_like(c01), where=l00 > 0)
     l11 = np.sqrt(np.maximum(c11 - l10 * l10, 0.0))
-    du = np.empty_like(mean)
+    du = np.zeros_like(mean)
     du[:, 0] = mean[:, 0] + l00 * eps[:, 0]
     du[:, 1] = mean[:, 1] + l10 * eps[:, 0] + l11 * eps[:, 1]
     return du

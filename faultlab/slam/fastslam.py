@@ -312,6 +312,11 @@ _PARTICLE_ARGS: dict[str, tuple[int, ...]] = {
 _FAILED = object()  # a per-filter call that raised (the filter is dropped at the end of the step)
 
 
+def _is_f64(a, shape: tuple[int, ...]) -> bool:
+    """Whether ``a`` is a float64 ndarray of ``shape`` (what the reference step's kernels read)."""
+    return type(a) is np.ndarray and a.dtype == np.float64 and a.shape == shape
+
+
 def _looped(unit: Callable, positions: tuple[int, ...], n: int) -> Callable:
     """``unit`` called once per filter on its ``n`` particles, outputs stacked along the particle axis."""
 
@@ -382,7 +387,14 @@ class FastSlam(UnitSlam):
                                                ("effective_sample_size", "resample", "apply_resample"))
         # every unit the reference: a whole step in a few compiled passes (:meth:`_update_reference`)
         self._ref_step = self._jit and type(self._steps) is FastSlamSteps and not self._steps.replaced()
-        self._q_entries = _twins.noise_entries(self._Q) if self._ref_step else None
+        # a partial reference step: the stages whose units are all references run as in the reference
+        # step, the others call their units (:meth:`update`)
+        self._ref_predict = self._jit and all(getattr(self._steps, name) is getattr(ref, name) for name in
+                                              ("sample_controls", "motion_model", "wrap_heading"))
+        self._ref_correct = self._fused and self._ref_classify  # then combine_weights is called if replaced
+        self._ref_combine = self._steps.combine_weights is ref.combine_weights
+        self._ref_apply = self._jit and self._steps.apply_resample is ref.apply_resample
+        self._q_entries = _twins.noise_entries(self._Q) if self._jit else None
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
@@ -425,7 +437,10 @@ class FastSlam(UnitSlam):
         steps, cfg, n = self._units(slots), self._config, self._n
         u, k, empty = step_kind(control, observations)
         # prediction (Table 13.1, line 4); an empty update adds no control noise
-        if empty:
+        ref_predict = self._ref_predict and _is_f64(self._poses, (slots * n, 3))
+        if ref_predict:
+            poses = self._predict_reference(u, empty)
+        elif empty:
             u_i = np.broadcast_to(u, (slots * n, 2))
         elif slots == 1:
             u_i = self._call(0, steps.sample_controls, u, n, self._streams[0]["sample_controls"], cfg)
@@ -441,10 +456,16 @@ class FastSlam(UnitSlam):
                                            f"expected ({n}, 2); run the repetitions one at a time")
                 parts.append(part)
             u_i = np.concatenate(parts)
-        poses = steps.motion_model(self._poses, u_i, wrap=steps.wrap_heading)
+        if not ref_predict:
+            poses = steps.motion_model(self._poses, u_i, wrap=steps.wrap_heading)
         if k:
             cols, seen = self._columns(observations.ids)
-            logw = self._correct(steps, poses, cols, seen, observations)
+            logw = None
+            if (self._ref_correct and _is_f64(poses, (slots * n, 3)) and _is_f64(self._logw, (slots * n,))
+                    and all(o is self._ident or np.array_equal(o, self._ident) for o in self._owner)):
+                logw = self._correct_reference(steps, poses, cols, seen, observations)
+            if logw is None:
+                logw = self._correct(steps, poses, cols, seen, observations)
         else:
             logw = self._logw
         self._poses, self._logw = poses, logw
@@ -685,12 +706,46 @@ class FastSlam(UnitSlam):
             self._resample_reference(j, empty)
             return
         steps = self._units(1)  # per-filter units: never looped
+        if self._ref_apply:  # the decision by the units, the reference apply_resample's work directly
+            sl = self._slice(j)
+            w = np.exp(self._logw[sl])
+            idx = steps.resample(w, steps.effective_sample_size(w), empty, self._streams[j]["resample"],
+                                 self._config)
+            if idx is None:
+                return
+            idx = np.asarray(idx)
+            if idx.shape == (self._n,) and idx.dtype.kind in "iu":
+                self._apply_indices(j, idx)
+                return
+            given = self._filter_state(j)
+            self._store(j, given, steps.apply_resample(given, idx))
+            self._n_resampled[self._reps[j]] += 1
+            return
         given = self._filter_state(j)
         st, resampled = resample_tail(steps, given, empty, self._streams[j]["resample"], self._config,
                                       apply=steps.apply_resample)
         if resampled:
             self._store(j, given, st)
             self._n_resampled[self._reps[j]] += 1
+
+    def _apply_indices(self, j: int, idx: np.ndarray) -> None:
+        """What the reference ``apply_resample`` does to slot ``j`` with the indices ``idx`` (N,) of
+        integers, by the same indexing, written into the batch's arrays."""
+        n = self._n
+        sl = self._slice(j)
+        if len(self._reps) == 1:
+            poses = self._poses[idx]
+            self._lineage[j] = self._lineage[j][idx]
+            self._poses = poses
+            self._logw = np.full(n, -math.log(n))
+        else:
+            poses = self._poses[sl][idx]
+            self._lineage[j] = self._lineage[j][idx]
+            if not self._poses.flags.writeable:
+                self._poses = self._poses.copy()
+            self._poses[sl] = poses
+            self._logw[sl] = np.full(n, -math.log(n))
+        self._n_resampled[self._reps[j]] += 1
 
     def _update_reference(self, control: np.ndarray, observations: Observations) -> None:
         """:meth:`update` when every unit is the reference: the same operations on the same values,
@@ -701,8 +756,18 @@ class FastSlam(UnitSlam):
         weights' sum and dot product) are called once per step on all particles, and the random
         draws are the units' own, from their streams.
         """
-        slots, n, cfg = len(self._reps), self._n, self._config
         u, k, empty = step_kind(control, observations)
+        poses = self._predict_reference(u, empty)
+        logw = self._correct_reference(self._steps, poses, *self._columns(observations.ids),
+                                       observations) if k else self._logw
+        self._poses, self._logw = poses, logw
+        self._end_step(self._resample_reference, empty)
+
+    def _predict_reference(self, u: np.ndarray, empty: bool) -> np.ndarray:
+        """The prediction when ``sample_controls``, ``motion_model`` and ``wrap_heading`` are the
+        references: each filter's draw from its ``sample_controls`` stream, then one kernel
+        (:func:`~faultlab.slam.twins.predict_poses`).  Returns the predicted poses."""
+        slots, n = len(self._reps), self._n
         if empty:
             eps = None
         elif slots == 1:
@@ -711,29 +776,46 @@ class FastSlam(UnitSlam):
             eps = np.empty((slots * n, 2))
             for j in range(slots):
                 eps[j * n:(j + 1) * n] = self._streams[j]["sample_controls"].standard_normal((n, 2))
-        poses = _twins.predict_poses(self._poses, u, eps, cfg)
-        if k:
-            cols, seen = self._columns(observations.ids)
-            self._materialise()
-            z = np.empty((k, 2))
-            z[:, 0] = observations.ranges
-            z[:, 1] = observations.bearings
-            init = None
-            if not np.logical_and.reduce(seen):
-                steps = self._steps
-                init = steps.init_landmarks(poses, z[np.flatnonzero(~seen)], self._Q, wrap=steps.wrap_bearing)
-            logw, tops = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, self._logw, n,
-                                                 self._mu, self._P, self._anc)
-            for j in range(slots):
-                lw = logw[j * n:(j + 1) * n]
-                if math.isfinite(tops[j]):
-                    lw -= math.log(np.add.reduce(np.exp(lw)))  # ``np.exp(lw).sum()``
-                elif self._call(j, self._normalise, lw.copy()) is _FAILED:  # raises for one filter
-                    lw[...] = self._logw[j * n:(j + 1) * n]
-        else:
-            logw = self._logw
-        self._poses, self._logw = poses, logw
-        self._end_step(self._resample_reference, empty)
+        return _twins.predict_poses(self._poses, u, eps, self._config)
+
+    def _correct_reference(self, steps: FastSlamSteps, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                           observations: Observations) -> np.ndarray | None:
+        """The correction when the correction units and ``classify_new`` are the references and every
+        particle owns its storage row: the kernels of :func:`~faultlab.slam.twins.correct_observed`
+        around ``init_landmarks`` (the unit of ``steps``, called once on all particles as by
+        :meth:`_correct_rows`) and, if it is not the reference, ``combine_weights`` (filter by filter,
+        as by :meth:`_combine`).  Returns the
+        normalised log weights, or None (nothing written) when ``init_landmarks`` returned arrays
+        of other shapes, which :meth:`_correct` then handles as the unit-by-unit path does."""
+        slots, n = len(self._reps), self._n
+        k = cols.size
+        self._materialise()
+        z = np.empty((k, 2))
+        z[:, 0] = observations.ranges
+        z[:, 1] = observations.bearings
+        init = None
+        if not np.logical_and.reduce(seen):
+            init = steps.init_landmarks(poses, z[np.flatnonzero(~seen)], self._Q, wrap=steps.wrap_bearing)
+            k_new = int(np.count_nonzero(~seen))
+            if not (np.shape(init[0]) == (slots * n, k_new, 2) and np.shape(init[1]) == (slots * n, k_new, 2, 2)):
+                return None
+        if not self._ref_combine:  # the log likelihoods by the kernels, combine_weights by its unit
+            loglik, _ = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, None, n,
+                                                self._mu, self._P, self._anc)
+            known = np.empty(loglik.shape, dtype=bool)
+            known[...] = seen
+            logw = np.array(self._logw)
+            self._combine(0, slots, 0, loglik, known, logw)
+            return logw
+        logw, tops = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, self._logw, n,
+                                             self._mu, self._P, self._anc)
+        for j in range(slots):
+            lw = logw[j * n:(j + 1) * n]
+            if math.isfinite(tops[j]):
+                lw -= math.log(np.add.reduce(np.exp(lw)))  # ``np.exp(lw).sum()``
+            elif self._call(j, self._normalise, lw.copy()) is _FAILED:  # raises for one filter
+                lw[...] = self._logw[j * n:(j + 1) * n]
+        return logw
 
     def _end_step(self, resample: Callable[[int, bool], None], empty: bool) -> None:
         """The end of a step: ``resample`` each filter, remove those that failed in the step, record
@@ -1050,8 +1132,9 @@ class FastSlam(UnitSlam):
         k = cols.size
         mb, pb = self._gather(j, j + 1, cols)
         owner = np.asarray(self._owner[j])
-        lw, mu_new, P_new = correct_in_sharer_order(self._units(1), self._logw[sl], owner, poses[sl], z, seen,
-                                                    mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
+        correct = _twins.correct_in_sharer_order if self._jit else correct_in_sharer_order
+        lw, mu_new, P_new = correct(self._units(1), self._logw[sl], owner, poses[sl], z, seen,
+                                    mb.transpose(2, 1, 0), pb.transpose(3, 2, 0, 1), self._Q)
         logw[sl] = self._normalise(np.asarray(lw, dtype=float))
         wflat = owner[None, :] + self._base(j, j + 1, cols)  # sharers write equal values to their common row
         mu_store.reshape(2, cap * bn)[:, wflat] = np.asarray(mu_new).transpose(2, 1, 0)

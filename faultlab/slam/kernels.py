@@ -12,21 +12,31 @@ model (a division by zero gives ``inf``/``nan`` as in numpy, never an exception)
 
 Arrays of (particle, observation) values are passed *component by component* as 2-D arrays of
 shape (k, M): observation-major, particle-fastest, the storage order of the filter (so the loops
-read contiguous memory).  Compilation is cached on disk (``cache=True``): next to this file when
-its ``__pycache__`` is writable, else in numba's per-user cache directory (``NUMBA_CACHE_DIR``
-overrides both).
+read contiguous memory).  Compilation is cached on disk (``cache=True``) in the user's cache
+directory (:func:`faultlab.cache.numba_cache_dir`; ``NUMBA_CACHE_DIR`` overrides it), never next
+to the source: set in the environment before numba is imported (worker processes inherit it) and
+in numba's configuration if numba was imported first.
 """
 
 from __future__ import annotations
 
 import math
+import os
 
-import numpy as np
-from numba import njit
+from faultlab.cache import numba_cache_dir
+
+os.environ.setdefault("NUMBA_CACHE_DIR", str(numba_cache_dir()))
+
+import numba  # noqa: E402  (after its cache directory is chosen)
+import numpy as np  # noqa: E402
+from numba import njit  # noqa: E402
+
+if not numba.config.CACHE_DIR:  # numba was imported before the variable was set
+    numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
 
 __all__ = ["noisy_controls", "motion", "offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
            "ekf_correction", "fused_correction", "gather_pairs", "scatter_pairs",
-           "take_rows", "systematic_indices"]
+           "take_rows", "systematic_indices", "sharer_rank"]
 
 _TWO_PI = 2.0 * math.pi
 _INV_TWO_PI = 1.0 / _TWO_PI
@@ -688,3 +698,79 @@ def combine_observed(t, log_det, seen, logw, n, out, tops):
         if math.isfinite(top):
             for i in range(f * n, (f + 1) * n):
                 out[i] = out[i] - top
+
+
+# ---------------------------------------------------------------------------------------------
+# the sharer-order correction: particles that share storage rows update them one after another
+# ---------------------------------------------------------------------------------------------
+
+#: Rows of :func:`sharer_rank`'s per-group landmark buffer ``g`` (6, k, G): mean and covariance.
+_G_MU0, _G_MU1, _G_P00, _G_P01, _G_P10, _G_P11 = range(6)
+
+
+@_jit
+def sharer_rank(t, ints, consts, g, work, out):
+    """Rank ``t`` of :func:`faultlab.slam.sharing.correct_in_sharer_order` with the reference units,
+    then the offsets of rank ``t + 1``.
+
+    ``work`` (3, N, k) and ``out`` (2, N, k) give the sizes.  ``ints`` packs ``bounds`` (R + 1),
+    ``by_rank`` (N), ``group`` (N) and ``seen`` (k, 0 or 1), ``consts`` the poses ``x`` (N, 3),
+    the observations ``z`` (k, 2) and ``(Q[0, 0], Q[0, 1], Q[1, 1], Q[0, 1] != 0)``, each flattened
+    (few arguments: this kernel is called once per rank).  The members of rank ``t`` are
+    ``by_rank[bounds[t]:bounds[t + 1]]`` (one per group, ``group`` of each particle); ``g``
+    (6, k, G) holds every group's current landmarks (the shared rows).  ``work`` holds the
+    ``p``-th member's offsets ``dx``, ``dy`` and numpy's ``arctan2(dy, dx)`` in row ``p``.  For
+    every member ``i`` and observation ``j`` the pair goes through ``predict_measurement`` (after
+    ``arctan2``), ``innovation``, ``innovation_covariance`` and the quadratic form of
+    ``log_likelihood`` (:func:`_pair_terms`), writing ``out[0, i, j]`` (the form) and
+    ``out[1, i, j]`` (``det S``), and, where the pair is known (``seen[j]`` or ``t > 0``: the first
+    sharer has initialised every new landmark), through ``ekf_update``, whose result replaces the
+    group's landmark (the next sharer's starting point); a new pair leaves the group's landmark (its
+    initial value) as it is.  ``t < 0`` computes only the offsets of rank 0.
+    """
+    n = work.shape[1]
+    k = work.shape[2]
+    nb = ints.shape[0] - 2 * n - k
+    bounds = ints[:nb]
+    by_rank = ints[nb:nb + n]
+    group = ints[nb + n:nb + 2 * n]
+    seen = ints[nb + 2 * n:]
+    x = consts[:3 * n]
+    z = consts[3 * n:3 * n + 2 * k]
+    q = consts[3 * n + 2 * k:]
+    q00 = q[0]
+    q01 = q[1]
+    q11 = q[2]
+    add_q01 = q[3] != 0.0
+    if t >= 0:
+        lo = bounds[t]
+        for p in range(bounds[t + 1] - lo):
+            i = by_rank[lo + p]
+            c = group[i]
+            theta = x[3 * i + 2]
+            for j in range(k):
+                p00 = g[_G_P00, j, c]
+                p01 = g[_G_P01, j, c]
+                p11 = g[_G_P11, j, c]
+                h00, h01, h10, h11, n0, n1, s00, s01, s11, tq, dd = _pair_terms(
+                    work[0, p, j], work[1, p, j], work[2, p, j], theta, z[2 * j], z[2 * j + 1], p00, p01, p11,
+                    q00, q01, q11, add_q01)
+                out[0, i, j] = tq
+                out[1, i, j] = dd
+                if t > 0 or seen[j] != 0:
+                    a, bb, cc, e, f = _ekf_pair(g[_G_MU0, j, c], g[_G_MU1, j, c], p00, p01, p11,
+                                                h00, h01, h10, h11, s00, s01, s11, n0, n1)
+                    g[_G_MU0, j, c] = a
+                    g[_G_MU1, j, c] = bb
+                    g[_G_P00, j, c] = cc
+                    g[_G_P01, j, c] = e
+                    g[_G_P10, j, c] = e
+                    g[_G_P11, j, c] = f
+    if t + 2 < nb:
+        lo = bounds[t + 1]
+        for p in range(bounds[t + 2] - lo):
+            i = by_rank[lo + p]
+            c = group[i]
+            for j in range(k):
+                work[0, p, j] = g[_G_MU0, j, c] - x[3 * i]
+                work[1, p, j] = g[_G_MU1, j, c] - x[3 * i + 1]

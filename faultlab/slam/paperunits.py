@@ -117,7 +117,7 @@ def combine_weights_linear(logw: np.ndarray, loglik: np.ndarray, known: np.ndarr
     factors = np.where(np.asarray(known, dtype=bool), np.exp(np.asarray(loglik) + math.log(length_unit)), 1.0)
     # rows: the weights, then one row per observation; a reduction over axis 0 multiplies the rows
     # elementwise in order, i.e. ((w * l_1) * l_2) * ... for every particle
-    rows = np.empty((factors.shape[1] + 1, logw.shape[0]))
+    rows = np.zeros((factors.shape[1] + 1, logw.shape[0]))
     rows[0] = np.exp(logw)
     rows[1:] = factors.T
     w = np.multiply.reduce(rows, axis=0)

@@ -28,6 +28,14 @@ waits at most ``reply_timeout_s`` for each reply and at most ``execution_timeout
 and turns every failure -- a reply that breaks the protocol, an ``error`` reply, a timeout, the
 process's death -- into a :class:`~faultlab.errors.SlamProcessError` whose message holds the exit
 status and the tail of the program's stderr (which the runner records in the job's ``crash`` row).
+
+Every program runs in a session and process group of its own, and faultlab stops the whole group
+(SIGKILL) when an execution fails, times out or ends: a program behind a wrapper (``sh -c``, ``env``,
+``conda run``) leaves no descendant behind.  A process that runs programs also starts one small
+*reaper* (:func:`watched`): a Python process in its own session that holds the read end of a pipe
+from it and the list of its live program groups; when the pipe closes -- whatever ended the
+process, SIGKILL and the OOM killer included -- the reaper kills those groups.  (A program that
+starts a session of its own, such as a daemon, leaves faultlab's reach.)
 """
 
 from __future__ import annotations
@@ -37,9 +45,12 @@ import math
 import os
 import selectors
 import shlex
+import shutil
 import signal
 import subprocess
+import sys
 import tempfile
+import threading
 import time
 import weakref
 from collections.abc import Mapping
@@ -54,7 +65,7 @@ from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_start
 
 __all__ = ["PROTOCOL_VERSION", "RULES", "ProcessSlamConfig", "ProcessSlam", "Program", "ReplyRule", "transcript",
            "draw_seed", "reset_message", "step_message", "estimate_from_reply", "encode", "parse_reply",
-           "describe_status",
+           "describe_status", "watched", "kill_group",
            "STDERR_TAIL"]
 
 #: Version of the protocol spoken by :class:`ProcessSlam`, sent in every ``reset``.
@@ -275,6 +286,69 @@ def _expect_type(reply: dict, kind: str, *, where: str) -> None:
                       where=where)
 
 
+# ------------------------------------------------------------------ the reaper
+_REAPER = r"""
+import os, signal, sys
+for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+    signal.signal(s, signal.SIG_IGN)
+groups = set()
+for line in sys.stdin.buffer:
+    if line[:1] == b"+":
+        groups.add(int(line[1:]))
+    elif line[:1] == b"-":
+        groups.discard(int(line[1:]))
+for g in groups:
+    try:
+        os.killpg(g, signal.SIGKILL)
+    except OSError:
+        pass
+"""
+
+
+class _Reaper:
+    """This process's reaper (module docstring): told of every program group started and stopped."""
+
+    def __init__(self) -> None:
+        self.owner = os.getpid()
+        self.proc = subprocess.Popen([sys.executable, "-I", "-S", "-c", _REAPER], stdin=subprocess.PIPE,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                     start_new_session=True, bufsize=0)
+        self.lock = threading.Lock()
+
+    def tell(self, line: str) -> None:
+        with self.lock:
+            try:
+                self.proc.stdin.write(line.encode())
+            except (OSError, ValueError):  # the reaper is gone: the groups are still killed by close()
+                pass
+
+
+_reaper: _Reaper | None = None
+_reaper_lock = threading.Lock()
+
+
+def watched(pgid: int, *, live: bool = True) -> None:
+    """Tell this process's reaper (started on first use) that group ``pgid`` is live (or gone)."""
+    global _reaper
+    with _reaper_lock:
+        if _reaper is None or _reaper.owner != os.getpid() or _reaper.proc.poll() is not None:
+            _reaper = _Reaper()
+        reaper = _reaper
+    reaper.tell(f"{'+' if live else '-'}{pgid}\n")
+
+
+def kill_group(proc: subprocess.Popen) -> None:
+    """SIGKILL the process group led by ``proc`` (its own, see :class:`Program`), then reap ``proc``."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except OSError:  # the group is gone
+        pass
+    if proc.poll() is None:
+        proc.kill()
+    proc.wait()
+    watched(proc.pid, live=False)
+
+
 # ------------------------------------------------------------------ the child process
 def describe_status(code: int | None) -> str:
     """``"exit status 3"``, ``"killed by SIGKILL"`` or ``"still running (...)"`` for a Popen return code."""
@@ -300,10 +374,11 @@ class Program:
         env = {**os.environ, **dict(config.env)}
         try:
             self.proc = subprocess.Popen(list(config.command), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=self.stderr, env=env, bufsize=0)
+                                         stderr=self.stderr, env=env, bufsize=0, start_new_session=True)
         except OSError as exc:
             self.stderr.close()
             raise SlamProcessError(f"process SLAM {self.label}: cannot start it ({exc.strerror or exc})") from None
+        watched(self.proc.pid)
         os.set_blocking(self.proc.stdin.fileno(), False)
         self.buffer = bytearray()
         self._finalizer = weakref.finalize(self, _stop, self.proc, self.stderr)
@@ -358,7 +433,12 @@ class Program:
                     raise self.failure(f"no reply to {what} in time", rule=rule, wait_s=0)
                 chunk = os.read(fd, 1 << 16)
                 if not chunk:
-                    raise self.failure(f"died while answering {what}", rule="stays-alive")
+                    try:
+                        self.proc.wait(timeout=1.0)
+                    except subprocess.TimeoutExpired:
+                        pass
+                    ended = "died" if self.proc.poll() is not None else "closed its output"
+                    raise self.failure(f"{ended} while answering {what}", rule="stays-alive", wait_s=0)
                 self.buffer += chunk
         i = self.buffer.index(b"\n")
         line = bytes(self.buffer[:i]).decode("utf-8", "replace")
@@ -387,9 +467,10 @@ class Program:
 
 
 def _kill(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.kill()
-        proc.wait()
+    """Stop the program's whole group (a wrapper's descendants too), even if the program itself has exited."""
+    if proc.returncode is None or not getattr(proc, "_group_killed", False):
+        kill_group(proc)
+        proc._group_killed = True
 
 
 def _close_pipes(proc: subprocess.Popen) -> None:
@@ -409,7 +490,8 @@ def _stop(proc: subprocess.Popen, stderr) -> None:
     try:
         proc.wait(timeout=0.5)
     except subprocess.TimeoutExpired:
-        _kill(proc)
+        pass
+    _kill(proc)
     _close_pipes(proc)
     stderr.close()
 
@@ -507,6 +589,18 @@ class ProcessSlam(SlamAdapter):
             return estimate_from_reply(reply, where=self.name, n_steps=self._t)
         except SlamProcessError as exc:
             raise self._fail(exc) from None
+
+    def check_startable(self, *, where: str) -> None:
+        """ConfigError unless the command's program is an executable file (a path, or found on ``PATH``).
+
+        Called before a campaign, so that a program that cannot start is refused once instead of
+        failing every job; ``where`` names the setting for the message.
+        """
+        program = self._config.command[0]
+        path = {**os.environ, **dict(self._config.env)}.get("PATH", os.defpath)
+        if shutil.which(program, path=path) is None:
+            what = "no executable file" if os.sep in program else "not found on PATH (or not executable)"
+            raise ConfigError(f"{where}: the program {program!r} cannot be started: {what}")
 
     def close(self, *, timeout_s: float = 1.0) -> int | None:
         """Send ``bye`` to the running program and wait for it to exit; its return code (None if none ran

@@ -15,14 +15,13 @@ sharers of all groups and all observations at once, calling the units on those p
 number of iterations is the size of the largest group (up to N once every particle shares one map,
 which the shallow copies lead to: on fixed-suite cases all 200 particles share one map after a few
 dozen steps, in the replication package's own code as here); the reference path (no sharing) never
-comes here.  The chains are inherently sequential, so the cost is N iterations of the units on tiny
-arrays per observed step: a 1000-step fixed-suite case takes about 40 times as long as on the
-reference path (47 s against 1.2 s, measured side by side).  Profiled (cProfile, a 150-step fixed-suite
-case), one rank iteration costs about 0.5 ms, spread over the unit calls on arrays of k ~ 30 observations
-(``innovation_covariance`` and ``ekf_update`` about a fifth each, ``predict_measurement`` a seventh, this
-loop's own indexing a sixth): there is no hot spot to vectorise, and taking several ranks at once would
-change the result, since every sharer starts from the previous sharer's update through the nonlinear
-measurement model.
+comes here.  The chains are inherently sequential, so the cost is N iterations per observed step;
+taking several ranks at once would change the result, since every sharer starts from the previous
+sharer's update through the nonlinear measurement model.  Here each iteration calls the units on
+tiny arrays (about 0.5 ms of Python per rank at k ~ 30 observations); when the correction units are
+the references, the filter runs the compiled twin of this function instead
+(:func:`faultlab.slam.twins.correct_in_sharer_order`: one kernel call and one numpy ``arctan2`` per
+rank, bit for bit the same).
 """
 
 from __future__ import annotations

@@ -33,18 +33,20 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
 
 from faultlab.slam import paperunits as _paperunits
 from faultlab.slam import particles as _particles
+from faultlab.slam import sharing as _sharing
 from faultlab.slam import units as _units
 from faultlab.slam.units import _mat22, _vec2
 
 __all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "predict_poses",
            "correct_observed", "noise_entries", "gather_rows",
-           "scatter_rows", "take_rows", "warm_up",
+           "scatter_rows", "take_rows", "correct_in_sharer_order", "warm_up",
            "sample_controls", "motion_model", "predict_measurement", "innovation", "innovation_covariance",
            "log_likelihood", "ekf_update",
            "predict_measurement_wrapped", "log_likelihood_wrapped", "resample"]
@@ -377,8 +379,8 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
         landmark was seen).
     q : tuple
         ``noise_entries(Q)`` of the measurement noise ``Q`` (2, 2).
-    logw : ndarray, shape (M,)
-        Normalised log weights before the step.
+    logw : ndarray, shape (M,), or None
+        Normalised log weights before the step; None returns the log likelihoods instead.
     n : int
         Particles per filter.
     mu_store, P_store, anc : ndarray
@@ -392,6 +394,9 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
         maximum is not finite).
     tops : ndarray, shape (M // n,)
         The maximum of each filter.
+
+    With ``logw`` None: ``(loglik, None)``, ``loglik`` (M, k) the ``log_likelihood`` of every pair
+    (the transpose of a (k, M) array, the layout of :func:`correct_pairs`' result).
     """
     kn = _k()
     k, m = z.shape[0], poses.shape[0]
@@ -414,10 +419,69 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
     kn.correct_observed(poses, z, seen, mb, rows, pi, dx, dy, bearing, q00, q01, q11, add, cols, n,
                         mu_store, P_store, anc, t, det)
     np.log(det, out=det)
+    if logw is None:  # the log likelihoods themselves, for a replaced combine_weights
+        kn.finish_log_likelihood(t, det)
+        return t.T, None
     shifted = np.empty(m)
     tops = np.empty(m // n)
     kn.combine_observed(t, det, seen, logw, n, shifted, tops)
     return shifted, tops
+
+
+def correct_in_sharer_order(steps, logw: np.ndarray, owner: np.ndarray, poses: np.ndarray, z: np.ndarray,
+                            seen: np.ndarray, mu: np.ndarray, P: np.ndarray,
+                            Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Twin of :func:`faultlab.slam.sharing.correct_in_sharer_order` for a table whose correction units
+    (:data:`FUSED_UNITS`) and ``classify_new`` are the references; any other table runs the numpy one.
+
+    The same loop over the sharers' ranks, each rank one call of :func:`faultlab.slam.kernels.sharer_rank`
+    after numpy's ``arctan2`` of its pairs: the chain from one sharer to the next goes through the
+    bearing, so ``arctan2`` is called once per rank, on that rank's pairs.  The ``log`` of
+    ``log_likelihood`` does not feed the chain and is called once, on all pairs, after the loop;
+    ``init_landmarks`` (called once, for the first sharers, as by the numpy loop) and
+    ``combine_weights`` are the table's own units.  Returns the numpy function's outputs bit for bit.
+    """
+    if not (fused(steps) and steps.classify_new is _units.classify_new and _pairs(mu, ndim=3)
+            and _pairs(P, ndim=4) and type(poses) is np.ndarray and poses.dtype == _F64
+            and type(z) is np.ndarray and z.dtype == _F64 and mu.shape[2:] == (2,) and P.shape[2:] == (2, 2)):
+        return _sharing.correct_in_sharer_order(steps, logw, owner, poses, z, seen, mu, P, Q)
+    kn = _k()
+    n, k = mu.shape[:2]
+    group, rank, order = _sharing.sharer_ranks(owner)
+    by_rank = order[np.argsort(rank[order], kind="stable")]
+    bounds = np.searchsorted(rank[by_rank], np.arange(int(rank.max()) + 2))
+    first = by_rank[:bounds[1]]  # the first sharer of every group, by group
+    g = np.empty((6, k, first.size))  # every group's landmarks, component-major
+    g[0:2] = mu[first].transpose(2, 1, 0)
+    g[2:6] = P[first].transpose(2, 3, 1, 0).reshape(4, k, first.size)
+    seen = np.asarray(seen, dtype=bool)
+    if not seen.all():  # the first sharers initialise the never-seen landmarks
+        c = np.flatnonzero(~seen)
+        mu0, P0 = steps.init_landmarks(poses[first], z[c], Q, wrap=steps.wrap_bearing)
+        g[0:2, c] = np.asarray(mu0, dtype=float).transpose(2, 1, 0)
+        g[2:6, c] = np.asarray(P0, dtype=float).transpose(2, 3, 1, 0).reshape(4, c.size, first.size)
+    q00, q01, q11, add = noise_entries(Q)
+    ints = np.concatenate([bounds, by_rank, group, seen]).astype(np.intp, copy=False)
+    consts = np.concatenate([np.asarray(poses, dtype=float).ravel(), z.ravel(), [q00, q01, q11, 1.0 if add else 0.0]])
+    work = np.empty((3, n, k))
+    out = np.empty((2, n, k))
+    step = kn.sharer_rank
+    step(-1, ints, consts, g, work, out)
+    arctan2 = np.arctan2
+    views = {}  # rank size -> the views of (dx, dy, bearing) that numpy's arctan2 reads and writes
+    for t, size in enumerate(np.diff(bounds).tolist()):
+        v = views.get(size)
+        if v is None:
+            v = views[size] = (work[1, :size], work[0, :size], work[2, :size])
+        arctan2(v[0], v[1], out=v[2])
+        step(t, ints, consts, g, work, out)
+    loglik, det = out
+    kn.finish_log_likelihood(loglik, np.log(det, out=det))
+    known = np.ones((n, k), dtype=bool)
+    known[first] = seen
+    logw = np.asarray(steps.combine_weights(logw, loglik, known), dtype=float)
+    gm = g[:, :, group]  # (6, k, N): every particle's row after the step
+    return logw, gm[0:2].transpose(2, 1, 0), gm[2:6].reshape(2, 2, k, n).transpose(3, 2, 0, 1)
 
 
 def gather_rows(mu_store: np.ndarray, P_store: np.ndarray, anc: np.ndarray, cols: np.ndarray, p0: int, n: int,
@@ -490,5 +554,8 @@ def warm_up() -> float:
                      noise_entries(Q), logw, n, store_mu, store_P, anc)
     correct_observed(x, z, cols, np.ones(k, dtype=bool), None, noise_entries(Q), logw, n, store_mu, store_P, anc)
     _k().systematic_indices(np.full(n, 1.0 / n), 0.1, np.empty(n, dtype=np.intp))
+    reference = SimpleNamespace(**{name: getattr(_units, name) for name in FUSED_UNITS + (
+        "classify_new", "init_landmarks", "combine_weights")})
+    correct_in_sharer_order(reference, logw, np.zeros(n, dtype=np.intp), x, z, seen, mu, P0, Q)
     _warmed = True
     return time.perf_counter() - t0

@@ -60,34 +60,38 @@ _LOG_TWO_PI = math.log(_TWO_PI)
 
 
 def _vec2(shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """An uninitialised ``shape + (2,)`` array stored component-major, other axes reversed.
+    """A zero-filled ``shape + (2,)`` array stored component-major, other axes reversed.
 
     Returns ``(buf, view)``: ``buf`` has shape ``(2,) + shape[::-1]`` (for
     ``shape = (N, k)`` each component is a contiguous (k, N) block: all
     particles of one observation side by side, matching the landmark
     storage) and ``view`` is the same memory with the documented shape
     ``shape + (2,)``.
+
+    Every scratch array of the units is zero-filled, not ``np.empty``: a mutant or fault that
+    leaves an entry unwritten then gives the same result on every run, never whatever an
+    earlier computation left in that memory.
     """
     nd = len(shape)
-    buf = np.empty((2,) + tuple(shape)[::-1])
+    buf = np.zeros((2,) + tuple(shape)[::-1])
     return buf, buf.transpose(tuple(range(nd, 0, -1)) + (0,))
 
 
 def _mat22(shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """An uninitialised ``shape + (2, 2)`` array, stored as ``(2, 2) + shape[::-1]``: ``(buf, view)``."""
+    """A zero-filled ``shape + (2, 2)`` array, stored as ``(2, 2) + shape[::-1]``: ``(buf, view)``."""
     nd = len(shape)
-    buf = np.empty((2, 2) + tuple(shape)[::-1])
+    buf = np.zeros((2, 2) + tuple(shape)[::-1])
     return buf, buf.transpose(tuple(range(nd + 1, 1, -1)) + (0, 1))
 
 
 def _scratch(shape: tuple[int, ...], m: int) -> list[np.ndarray]:
-    """``m`` uninitialised work arrays of ``shape``, in the same (reversed) order as :func:`_vec2`.
+    """``m`` zero-filled work arrays of ``shape``, in the same (reversed) order as :func:`_vec2`.
 
     One allocation for all of them; the formulas below write every intermediate
     into these with ``out=`` instead of allocating a temporary per operation.
     """
     nd = len(shape)
-    return list(np.empty((m,) + tuple(shape)[::-1]).transpose((0,) + tuple(range(nd, 0, -1))))
+    return list(np.zeros((m,) + tuple(shape)[::-1]).transpose((0,) + tuple(range(nd, 0, -1))))
 
 
 def _common_shape(*xs) -> tuple[int, ...]:
@@ -150,7 +154,7 @@ def motion_model(poses: np.ndarray, u: np.ndarray, *, wrap) -> np.ndarray:
     """
     th = poses[:, 2]
     v = u[:, 0]
-    out = np.empty_like(poses)
+    out = np.zeros_like(poses)
     out[:, 0] = poses[:, 0] + v * np.cos(th)
     out[:, 1] = poses[:, 1] + v * np.sin(th)
     out[:, 2] = wrap(th + u[:, 1])

@@ -46,9 +46,9 @@ from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError
 from faultlab.metrics.detection import DetectionRule
-from faultlab.stats.multiplicity import holm
-from faultlab.stats.verdict import (MAX_EXACT_PAIRS, Verdict, alternative_of, case_verdicts,
-                                    detectable_shift_factor)
+from faultlab.inference.multiplicity import holm
+from faultlab.inference.exact import MAX_EXACT_PAIRS, alternative_of, detectable_shift_factor
+from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import DEFAULT_ALPHA, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["CASE_VERDICT_COLUMNS", "CASE_RATE_COLUMNS", "CASE_COMPARISON_COLUMNS", "BOOTSTRAP_SEED",
@@ -95,7 +95,7 @@ def holm_within(p, families) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n,)
-        statsmodels' Holm adjustment (:func:`faultlab.stats.multiplicity.holm`) within each family; NaN where p is NaN.
+        statsmodels' Holm adjustment (:func:`faultlab.inference.multiplicity.holm`) within each family; NaN where p is NaN.
     """
     p = np.asarray(p, dtype=float)
     fam = pd.Series(np.asarray(families)).reset_index(drop=True)
@@ -480,7 +480,7 @@ def replica_false_alarms(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: De
     The replica is the unmodified SLAM with SLAM seeds independent of the baseline's, so every
     "detection" of it is a false alarm.  ``paper``: one trial per repetition whose baseline is
     usable (a crash of the replica alone is flagged, as a fault's would be); trials of one case
-    are correlated, so the interval is clustered by case (:func:`faultlab.stats.verdict.clustered_rate`).
+    are correlated, so the interval is clustered by case (:func:`faultlab.inference.intervals.clustered_rate`).
     ``statistical``: one trial per judged case (the exact paired test at ``rule.alpha``; the
     replica is its own Holm family, so the per-case level is ``alpha`` under ``family = "fault"``).
 
@@ -490,7 +490,7 @@ def replica_false_alarms(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: De
         :data:`REPLICA_FALSE_ALARM_COLUMNS`: per rule, one row per suite and ``"all"``; empty
         without replica jobs.
     """
-    from faultlab.stats.verdict import clustered_rate
+    from faultlab.inference.intervals import clustered_rate
     from faultlab.vocabulary import BASELINE, REPLICA
 
     rows = []

@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import chi2
 
-from faultlab.stats.multiplicity import holm
+from faultlab.inference.multiplicity import holm
 from faultlab.stats.verdict import Verdict
 
 __all__ = ["CLASS_EFFECT_COLUMNS", "MIN_EPV", "SIGNED_DISCRETE", "class_design", "fit_class_effects"]

@@ -25,7 +25,7 @@ from scipy.stats import fisher_exact, norm
 from statsmodels.stats.proportion import confint_proportions_2indep
 
 from faultlab.stats.detection import DetectionRule, _check_columns
-from faultlab.stats.multiplicity import holm
+from faultlab.inference.multiplicity import holm
 from faultlab.stats.rates import detection_rates
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, ordered
 

@@ -96,8 +96,9 @@ from faultlab.seeds import study_seed_sequence
 from faultlab.stats.cases import detectable_difference, holm_within, rule_verdicts
 from faultlab.stats.detection import outcomes
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
-from faultlab.stats.sequential import Look
-from faultlab.stats.verdict import MAX_EXACT_PAIRS, TOO_FEW_PAIRS, Verdict, case_verdicts
+from faultlab.inference.sequential import Look
+from faultlab.inference.exact import MAX_EXACT_PAIRS
+from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, case_verdicts
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, SUITE_ORDER, JobStatus, ordered
 
 __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects", "combined_detects",
@@ -208,7 +209,7 @@ def kill_matrix(results: pd.DataFrame, *, rule: DetectionRule = DetectionRule(),
         Its ``abs_mm``/``rel`` thresholds give the paper flag; its ``direction`` the sidedness of
         the p values (two-sided by default, ``"worse"`` the paper's one-sided notion); its
         ``alpha`` only gates which cases have enough usable pairs to be tested
-        (:func:`~faultlab.stats.verdict.min_pairs`).
+        (:func:`~faultlab.inference.exact.min_pairs`).
     metric : {"rms", "emd"}
     """
     stat = case_verdicts(results, alpha=rule.alpha, metric=metric, direction=rule.direction)
@@ -806,7 +807,7 @@ def suite_kills(results: pd.DataFrame, *, case_alpha: float, metric: str = "rms"
 
     The kill is the test on the stored rows whatever the number of repetitions.  A pair stopped
     for futility or curtailment cannot be killed by them (its p value exceeds the level: the rule
-    of :mod:`faultlab.stats.sequential`; it stopped with no mutant failure), so it is "not
+    of :mod:`faultlab.inference.sequential`; it stopped with no mutant failure), so it is "not
     killed" on the case: its verdict is ``not_detected`` with the stop as ``reason`` where too
     few pairs would otherwise make it ``cannot_judge``.  A pair stopped because the baseline
     failed stays ``cannot_judge``.  ``n_pairs`` and ``mde_mm`` are those of the repetitions it used.

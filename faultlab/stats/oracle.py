@@ -63,7 +63,7 @@ from scipy.stats import PermutationMethod, mannwhitneyu, rankdata
 from faultlab.errors import ConfigError
 from faultlab.seeds import stable_code
 from faultlab.stats.detection import _check_columns
-from faultlab.stats.multiplicity import holm
+from faultlab.inference.multiplicity import holm
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA
 from faultlab.stats.rates import _sort
 from faultlab.vocabulary import PAPER_FAULTS, SUITE_ORDER

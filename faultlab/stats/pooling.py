@@ -41,8 +41,8 @@ from scipy.stats import permutation_test
 
 from faultlab.errors import ConfigError
 from faultlab.seeds import study_seed_sequence
-from faultlab.stats.verdict import (MAX_EXACT_PAIRS, Verdict, alternative_of, case_verdicts, min_pairs,
-                                    sign_flip_pvalues)
+from faultlab.inference.exact import MAX_EXACT_PAIRS, alternative_of, min_pairs, sign_flip_pvalues
+from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_DIRECTION
 
 __all__ = ["COMBINATIONS", "DEFAULT_COMBINATION", "MONTE_CARLO_RESAMPLES", "SUITE_VERDICT_COLUMNS",

@@ -29,7 +29,7 @@ from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError
 from faultlab.stats.detection import DetectionRule, _check_columns, detects, outcomes, pair_with_baseline
-from faultlab.stats.verdict import clustered_rate
+from faultlab.inference.intervals import clustered_rate
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["proportion_ci", "detection_rates", "tabulate_rates", "by_suite", "tabulate_by_suite",
@@ -320,7 +320,7 @@ def false_alarm_rate(results: pd.DataFrame, *, rule: DetectionRule = DetectionRu
     "faulty", rep k' the baseline.  The share flagged by ``rule`` estimates the
     rule's false-alarm rate (seed noise alone).  Ordered pairs of one case are
     not independent, so the interval is clustered by case
-    (:func:`faultlab.stats.verdict.clustered_rate`: Clopper-Pearson on the
+    (:func:`faultlab.inference.intervals.clustered_rate`: Clopper-Pearson on the
     effective size from a cluster-robust variance).
 
     Parameters

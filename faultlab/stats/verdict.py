@@ -21,7 +21,7 @@ error distribution of a repetition, so each ``d_r`` is symmetric about 0 and, gi
 ``|d_r|``, every one of the ``2^K`` sign patterns is equally likely.  The exact p value is the
 share of the ``2^K`` sign patterns whose mean is at least the observed one, computed by
 :func:`scipy.stats.permutation_test` (``permutation_type="samples"`` with one sample flips signs,
-``n_resamples=np.inf`` enumerates all patterns), whose values :mod:`faultlab.stats.signflip`
+``n_resamples=np.inf`` enumerates all patterns), whose values :mod:`faultlab.inference.signflip`
 reproduces bit for bit from two halves of the pairs without enumerating them.  Why this test rather than the Wilcoxon
 signed-rank test: both have the same smallest attainable p value, but with *zero differences*
 (a fault that does not change a repetition's output is bit-identical to the baseline under common
@@ -113,53 +113,22 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass
 from enum import StrEnum
-from functools import lru_cache
 
 import numpy as np
 import pandas as pd
-from scipy.stats import binom, norm, t
-from statsmodels.regression.linear_model import OLS
-from statsmodels.stats.power import TTestPower
-from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.stats.signflip import reference_pvalues, split_pvalues
-from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS, METRICS, Change, JobStatus
+from faultlab.inference.exact import (MAX_EXACT_PAIRS, alternative_of, check_alpha, check_count,
+                                      detectable_shift_factor, min_p_value, min_pairs, sign_flip_pvalues)
+from faultlab.inference.intervals import median_interval
+from faultlab.runner.store import usable_rows
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, METRICS, Change, JobStatus
 
-__all__ = [
-    "Verdict",
-    "TOO_FEW_PAIRS",
-    "MAX_EXACT_PAIRS",
-    "MDE_SEED",
-    "min_p_value",
-    "min_pairs",
-    "sign_flip_pvalues",
-    "ALTERNATIVES",
-    "EQUIVALENCE_MARGIN_REL",
-    "EQUIVALENCE_MARGIN_MM",
-    "alternative_of",
-    "median_interval",
-    "detectable_shift_factor",
-    "case_verdicts",
-    "ClusteredRate",
-    "clustered_rate",
-]
+__all__ = ["Verdict", "TOO_FEW_PAIRS", "EQUIVALENCE_MARGIN_REL", "EQUIVALENCE_MARGIN_MM", "case_verdicts"]
 
 #: ``reason`` of a ``cannot_judge`` verdict whose usable pairs are fewer than :func:`min_pairs`.
 TOO_FEW_PAIRS = "too_few_pairs"
-
-#: Largest number of pairs the exact test enumerates (2^20 sign patterns).
-MAX_EXACT_PAIRS = 20
-
-#: Entropy of the generator of the smallest-detectable-shift simulation.
-MDE_SEED = 20240501
-
-_MDE_DRAWS = 4000
-_MDE_SIMULATED_UP_TO = 12
-#: Float budget of one vectorised batch of the detectable-shift simulation (subsets x draws).
-_BATCH_BUDGET = 2 ** 22
 
 _COLUMNS = ["suite", "run", "case", "fault", "verdict", "reason", "detected", "alternative", "direction", "n_reps",
             "n_failed", "n_pairs", "mean_diff_mm", "mean_log_ratio", "median_diff_mm", "median_low_mm",
@@ -173,11 +142,6 @@ EQUIVALENCE_MARGIN_REL = 0.10
 #: Default absolute equivalence margin, mm (none: the relative margin alone).
 EQUIVALENCE_MARGIN_MM = 0.0
 
-#: The alternatives of :func:`sign_flip_pvalues` (SciPy's names): ``"greater"`` (the faulty error is
-#: larger), ``"less"``, ``"two-sided"``.
-ALTERNATIVES: tuple[str, ...] = ("greater", "less", "two-sided")
-
-
 class Verdict(StrEnum):
     """Outcome of one fault on one case over K repetitions (see the module docstring)."""
 
@@ -185,226 +149,6 @@ class Verdict(StrEnum):
     NOT_DETECTED = "not_detected"
     CRASH_DETECTED = "crash_detected"
     CANNOT_JUDGE = "cannot_judge"
-
-
-def _check_alpha(alpha, where: str) -> float:
-    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0 < alpha < 1:
-        raise ConfigError(f"{where}: alpha must lie in (0, 1), got {alpha!r}")
-    return float(alpha)
-
-
-def _check_count(k, where: str, name: str = "K") -> int:
-    if isinstance(k, bool) or not isinstance(k, (numbers.Integral, np.integer)) or k < 0:
-        raise ConfigError(f"{where}: {name} must be an integer >= 0, got {k!r}")
-    return int(k)
-
-
-def _check_alternative(alternative, where: str) -> str:
-    if alternative not in ALTERNATIVES:
-        raise ConfigError(f"{where}: alternative must be one of {', '.join(map(repr, ALTERNATIVES))}, "
-                          f"got {alternative!r}")
-    return alternative
-
-
-def alternative_of(direction: str) -> str:
-    """The sign-flip test's alternative for a declared direction: ``"either"`` -> ``"two-sided"``,
-    ``"worse"`` (the paper's one-sided notion) -> ``"greater"``."""
-    if direction not in DIRECTIONS:
-        raise ConfigError(f"direction must be one of {', '.join(map(repr, DIRECTIONS))}, got {direction!r}")
-    return "two-sided" if direction == "either" else "greater"
-
-
-def min_p_value(k, *, alternative: str = "greater"):
-    """Smallest attainable p value of the exact sign-flip test with ``k`` pairs.
-
-    One-sided ``2^-k`` (all differences of one sign); two-sided ``min(1, 2 * 2^-k)`` (the
-    all-positive and the all-negative pattern).
-
-    Parameters
-    ----------
-    k : int or array_like of int
-        Number of (non-zero) paired differences, >= 0.
-    alternative : {"greater", "less", "two-sided"}
-
-    Returns
-    -------
-    float or ndarray
-        ``2.0 ** -k`` one-sided, ``min(1, 2.0 ** (1 - k))`` two-sided (1 for k = 0).
-    """
-    _check_alternative(alternative, "min_p_value")
-    factor = 2.0 if alternative == "two-sided" else 1.0
-    arr = np.asarray(k)
-    if arr.ndim == 0:
-        return min(1.0, factor * 2.0 ** -_check_count(k, "min_p_value"))
-    if not np.issubdtype(arr.dtype, np.integer) or np.any(arr < 0):
-        raise ConfigError(f"min_p_value: k must be integers >= 0, got {arr!r}")
-    return np.minimum(1.0, factor * np.ldexp(1.0, -arr.astype(np.int64)))
-
-
-def min_pairs(alpha: float, *, alternative: str = "greater") -> int:
-    """The fewest pairs with which the sign-flip test can reject at ``alpha``: smallest K with
-    :func:`min_p_value` ``(K) <= alpha``.
-
-    Parameters
-    ----------
-    alpha : float
-        In (0, 1).
-    alternative : {"greater", "less", "two-sided"}
-
-    Returns
-    -------
-    int
-        One-sided ``ceil(log2(1 / alpha))`` (5 for alpha = 0.05, 7 for 0.01); two-sided one more
-        (6 for 0.05, 8 for 0.01).
-    """
-    alpha = _check_alpha(alpha, "min_pairs")
-    _check_alternative(alternative, "min_pairs")
-    k = max(0, math.ceil(-math.log2(alpha)))
-    while 2.0 ** -k > alpha:  # guard the float log against rounding
-        k += 1
-    while k > 0 and 2.0 ** -(k - 1) <= alpha:
-        k -= 1
-    return k + 1 if alternative == "two-sided" else k
-
-
-def median_interval(values, *, level: float = 1 - DEFAULT_ALPHA) -> tuple[np.ndarray, np.ndarray, float]:
-    """Distribution-free interval of the median from order statistics (the sign test's interval).
-
-    For ``K`` i.i.d. continuous values, ``[x_(j), x_(K+1-j)]`` covers the median with probability
-    ``1 - 2 P(B <= j - 1)``, ``B ~ Binomial(K, 1/2)``, whatever the distribution.  ``j`` is the
-    largest index whose coverage is at least ``level``; when even ``[min, max]`` (``j = 1``,
-    coverage ``1 - 2^(1-K)``) falls short of ``level`` (``K <= 5`` at 95 %), that widest interval is
-    returned with its smaller coverage.
-
-    Parameters
-    ----------
-    values : array_like, shape (m, K)
-        One sample per row, finite.
-    level : float
-        Required coverage, in (0, 1).
-
-    Returns
-    -------
-    low, high : ndarray, shape (m,)
-    coverage : float
-        The interval's exact coverage.
-    """
-    x = np.sort(np.atleast_2d(np.asarray(values, dtype=float)), axis=1)
-    k = x.shape[1]
-    if k == 0:
-        return np.full(x.shape[0], np.nan), np.full(x.shape[0], np.nan), math.nan
-    js = np.arange(1, (k + 1) // 2 + 1)
-    cover = 1.0 - 2.0 * binom.cdf(js - 1, k, 0.5)
-    ok = np.flatnonzero(cover >= level)
-    j = int(js[ok[-1]]) if ok.size else 1
-    return x[:, j - 1], x[:, k - j], float(1.0 - 2.0 * binom.cdf(j - 1, k, 0.5))
-
-
-def sign_flip_pvalues(differences, *, alternative: str = "greater", reference: bool = False) -> np.ndarray:
-    """Exact sign-flip p values, one per row (one-sided "greater" unless told otherwise).
-
-    Parameters
-    ----------
-    differences : array_like, shape (m, K) or (K,)
-        Paired differences (faulty - baseline), finite; ``1 <= K <= MAX_EXACT_PAIRS``.
-    alternative : {"greater", "less", "two-sided"}
-        ``"greater"``: share of the ``2^K`` sign patterns whose mean is at least the row's mean;
-        ``"less"``: at most; ``"two-sided"``: twice the smaller of the two, at most 1 (SciPy's
-        definition).
-    reference : bool
-        Enumerate the patterns with :func:`scipy.stats.permutation_test`
-        (:func:`faultlab.stats.signflip.reference_pvalues`, about 1.4 s a row at ``K = 20``)
-        instead of computing the same values from two halves of the pairs
-        (:func:`faultlab.stats.signflip.split_pvalues`, milliseconds a row).
-
-    Returns
-    -------
-    ndarray, shape (m,) (0-d for 1-d input)
-        :func:`scipy.stats.permutation_test`'s p values with all patterns enumerated, bit for bit.
-    """
-    _check_alternative(alternative, "sign_flip_pvalues")
-    d = np.asarray(differences, dtype=float)
-    one = d.ndim == 1
-    d = np.atleast_2d(d)
-    if d.ndim != 2:
-        raise ConfigError(f"sign_flip_pvalues: differences must have shape (m, K), got {d.shape}")
-    m, k = d.shape
-    if not 1 <= k <= MAX_EXACT_PAIRS:
-        raise ConfigError(f"sign_flip_pvalues: the exact test needs 1 <= K <= {MAX_EXACT_PAIRS} pairs "
-                          f"(2^K sign patterns), got K = {k}")
-    if not np.all(np.isfinite(d)):
-        raise ConfigError("sign_flip_pvalues: differences must be finite")
-    if m == 0:
-        return np.zeros(0)
-    if d.shape[1] == 1:
-        # scipy needs two observations; a zero difference leaves the p value unchanged (it doubles
-        # both the patterns at least as extreme and the total)
-        d = np.concatenate([d, np.zeros((m, 1))], axis=1)
-    p = (reference_pvalues if reference else split_pvalues)(d, alternative)
-    return p[0] if one else p
-
-
-@lru_cache(maxsize=None)
-def _shift_factor(k: int, alpha: float, power: float) -> float:
-    m = math.floor(alpha * 2 ** k)
-    if m < 1:
-        return math.inf
-    if k > _MDE_SIMULATED_UP_TO:
-        return float(TTestPower().solve_power(nobs=k, alpha=alpha, power=power, alternative="larger"))
-    # subset-mean matrix: row F holds 1/|F| at the members of the non-empty subset F
-    members = ((np.arange(1, 2 ** k)[:, None] >> np.arange(k)) & 1).astype(float)
-    means = members / members.sum(axis=1, keepdims=True)
-    e = np.random.default_rng(np.random.SeedSequence(MDE_SEED)).standard_normal((_MDE_DRAWS, k))
-    chunk = max(1, _BATCH_BUDGET // means.shape[0])
-    thresholds = []
-    for start in range(0, _MDE_DRAWS, chunk):
-        v = means @ e[start:start + chunk].T  # mean(e_F), (2^K - 1, chunk)
-        # m-th largest of -mean(e_F) = -(m-th smallest of mean(e_F))
-        thresholds.append(-np.partition(v, m - 1, axis=0)[m - 1])
-    return float(np.quantile(np.concatenate(thresholds), power))
-
-
-def detectable_shift_factor(k: int, *, alpha: float = DEFAULT_ALPHA, power: float = 0.8,
-                            alternative: str = "greater") -> float:
-    """Smallest shift, in units of the differences' standard deviation, detected with ``power``.
-
-    See "Smallest detectable shift" in the module docstring for the model and the method
-    (simulation with a fixed generator for ``k <= 12``, the paired t test's power beyond).  The
-    two-sided test at ``alpha`` rejects a positive shift when the "greater" p value is at most
-    ``alpha / 2`` (or, rarely, the "less" one is), so its factor is the one-sided factor at
-    ``alpha / 2`` (conservative by the wrong-sign rejections, negligible at 80 % power).
-
-    Parameters
-    ----------
-    k : int
-        Number of pairs, ``1 <= k <= MAX_EXACT_PAIRS``.
-    alpha : float
-        Level of the test, in (0, 1): the level the decision uses (e.g. Holm's first step
-        ``alpha / n`` over a family of ``n`` cases).
-    power : float
-        Required probability of rejecting, in (0, 1).
-    alternative : {"greater", "less", "two-sided"}
-        Sidedness of the decision's test (a one-sided factor is the same for both signs).
-
-    Returns
-    -------
-    float
-        ``c(k)``; ``inf`` when ``2^-k > alpha``.
-    """
-    k = _check_count(k, "detectable_shift_factor", "k")
-    if not 1 <= k <= MAX_EXACT_PAIRS:
-        raise ConfigError(f"detectable_shift_factor: k must lie in [1, {MAX_EXACT_PAIRS}], got {k}")
-    alpha = _check_alpha(alpha, "detectable_shift_factor")
-    if isinstance(power, bool) or not isinstance(power, numbers.Real) or not 0 < power < 1:
-        raise ConfigError(f"detectable_shift_factor: power must lie in (0, 1), got {power!r}")
-    if _check_alternative(alternative, "detectable_shift_factor") == "two-sided":
-        alpha = alpha / 2
-    return _shift_factor(k, alpha, float(power))
-
-
-def _usable(frame: pd.DataFrame, col: str) -> np.ndarray:
-    return (frame["status"].astype(str).to_numpy() == JobStatus.OK.value) & np.isfinite(
-        frame[col].to_numpy(dtype=float))
 
 
 def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric: str = "rms", power: float = 0.8,
@@ -475,19 +219,19 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
         Bad ``alpha``, ``metric``, ``power`` or ``min_pairs_required``, or more than
         :data:`MAX_EXACT_PAIRS` usable pairs in a case.
     """
-    alpha = _check_alpha(alpha, "case_verdicts")
+    alpha = check_alpha(alpha, "case_verdicts")
     alternative = alternative_of(direction)
     for name, value in (("margin_rel", margin_rel), ("margin_mm", margin_mm)):
         if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 <= value < math.inf:
             raise ConfigError(f"case_verdicts: {name} must be a finite number >= 0, got {value!r}")
-    mde_alpha = alpha if mde_alpha is None else _check_alpha(mde_alpha, "case_verdicts")
+    mde_alpha = alpha if mde_alpha is None else check_alpha(mde_alpha, "case_verdicts")
     if metric not in METRICS:
         raise ConfigError(f"case_verdicts: metric must be one of {list(METRICS)}, got {metric!r}")
     if isinstance(power, bool) or not isinstance(power, numbers.Real) or not 0 < power < 1:
         raise ConfigError(f"case_verdicts: power must lie in (0, 1), got {power!r}")
     gate = min_pairs(alpha, alternative=alternative)
     if min_pairs_required is not None:
-        gate = max(gate, _check_count(min_pairs_required, "case_verdicts", "min_pairs_required"))
+        gate = max(gate, check_count(min_pairs_required, "case_verdicts", "min_pairs_required"))
     col = f"{metric}_mm"
     if not isinstance(results, pd.DataFrame):
         raise ResultsError(f"case_verdicts: results must be a pandas DataFrame, got {type(results).__name__}")
@@ -505,7 +249,7 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
         raise ResultsError(f"case_verdicts: job run={row['run']}, suite={row['suite']}, case={row['case']}, "
                            f"rep={row['rep']}, variant={row['variant']} appears more than once")
     case_key = ["suite", "run", "case"]
-    df["usable"] = _usable(df, col)
+    df["usable"] = usable_rows(df, col)
     is_base = (df["variant"] == BASELINE).to_numpy()
     base = df.loc[is_base, case_key + ["rep", col, "usable"]]
     faulty = df.loc[~is_base].rename(columns={"variant": "fault"})
@@ -624,110 +368,3 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
                         & (table["max_abs_diff"].to_numpy(float) == 0))
     out["margin_mm"] = np.where(base_ok, margin, np.nan)
     return out[_COLUMNS].reset_index(drop=True)
-
-
-# --------------------------------------------------------------------------- clustered rates
-
-
-@dataclass(frozen=True)
-class ClusteredRate:
-    """A rate over correlated Bernoulli trials with a cluster-aware confidence interval.
-
-    Attributes
-    ----------
-    rate : float
-        Share of flagged trials (NaN without trials).
-    low, high : float
-        Two-sided ``1 - alpha`` interval.
-    n : int
-        Trials.
-    flagged : int
-        Flagged trials.
-    n_clusters : int
-        Distinct clusters.
-    design_effect : float
-        Cluster-robust variance of the rate divided by the binomial variance (NaN when the rate
-        is 0 or 1: no variance to estimate).
-    n_effective : float
-        Effective number of independent trials the interval uses.
-    """
-
-    rate: float
-    low: float
-    high: float
-    n: int
-    flagged: int
-    n_clusters: int
-    design_effect: float
-    n_effective: float
-
-
-def clustered_rate(flags, clusters, *, alpha: float = DEFAULT_ALPHA) -> ClusteredRate:
-    """Rate of flagged trials with a confidence interval that accounts for clustering.
-
-    Method: the Korn & Graubard (1998) interval for a proportion from clustered data -- a
-    Clopper-Pearson interval on an *effective* sample size.
-
-    1. The variance of the rate is estimated cluster-robustly: statsmodels OLS of the indicators
-       on a constant with ``cov_type="cluster"`` (the CR1 sandwich: ``G / (G - 1)`` times the sum
-       over the G clusters of the squared summed residuals, divided by ``n^2``).
-    2. Design effect ``deff = var_cluster / (rate (1 - rate) / n)``; effective size
-       ``n_eff = n / max(deff, 1)``.  When the rate is 0 or 1 there is no variance to estimate
-       and the conservative ``n_eff = G`` is used (the design effect of perfectly correlated
-       clusters of equal size); so it is with a single cluster, whose variance cannot be estimated.
-    3. Degrees of freedom: ``n_eff`` is multiplied by ``(z_{1-alpha/2} / t_{1-alpha/2, G-1})^2``
-       (the cluster-robust variance has about G - 1 degrees of freedom).
-    4. Clopper-Pearson interval (statsmodels ``proportion_confint(method="beta")``) with
-       ``rate * n_eff`` successes in ``n_eff`` trials.
-
-    Why this and not the alternatives: a Wald interval from GEE/sandwich errors on the logit
-    scale is undefined at a rate of 0 (common for false alarms) and a cluster bootstrap gives a
-    degenerate [0, 0] there and under-covers with few clusters; the Clopper-Pearson interval on
-    the effective size stays inside [0, 1] and keeps its coverage near the boundary (simulated
-    with beta-binomial clusters, 15-60 clusters, intra-cluster correlation 0.2-0.5, rates
-    0.05-0.2: coverage 93-97 % of the nominal 95 %, conservative (99 %) at a rate of 0.02, where
-    the binomial interval on all n trials covers 71-90 %).
-
-    Parameters
-    ----------
-    flags : array_like of bool or {0, 1}, shape (n,)
-        One indicator per trial (e.g. per ordered pair of baseline repetitions: flagged as a
-        detection by the rule).
-    clusters : array_like, shape (n,)
-        Cluster id of each trial (e.g. the case: ``(run, suite, case)`` encoded as one value).
-    alpha : float
-        1 - confidence level, in (0, 1).
-
-    Returns
-    -------
-    ClusteredRate
-        NaN rate and bounds without trials.
-    """
-    alpha = _check_alpha(alpha, "clustered_rate")
-    y = np.asarray(flags)
-    c = np.asarray(clusters)
-    if y.ndim != 1 or c.shape != y.shape:
-        raise ConfigError(f"clustered_rate: flags and clusters must be 1-d of equal length, got shapes "
-                          f"{y.shape} and {c.shape}")
-    if y.dtype != bool:
-        if not np.issubdtype(y.dtype, np.number) or not np.all((y == 0) | (y == 1)):
-            raise ConfigError("clustered_rate: flags must be booleans or 0/1")
-        y = y == 1
-    n = int(y.size)
-    if n == 0:
-        return ClusteredRate(math.nan, math.nan, math.nan, 0, 0, 0, math.nan, math.nan)
-    codes = pd.factorize(pd.Series(c), use_na_sentinel=False)[0]
-    g = int(codes.max()) + 1
-    k = int(y.sum())
-    rate = k / n
-    deff = math.nan
-    n_eff = float(g)
-    if 0 < k < n and g > 1:  # one cluster: no between-cluster variance to estimate, n_eff = G = 1
-        fit = OLS(y.astype(float), np.ones((n, 1))).fit(cov_type="cluster", cov_kwds={"groups": codes})
-        deff = float(fit.bse[0] ** 2 / (rate * (1.0 - rate) / n))
-        n_eff = n / max(deff, 1.0)
-    if g > 1:
-        n_eff *= (norm.ppf(1 - alpha / 2) / t.ppf(1 - alpha / 2, g - 1)) ** 2
-    low, high = proportion_confint(rate * n_eff, n_eff, alpha=alpha, method="beta")
-    return ClusteredRate(rate=rate, low=float(low), high=float(high), n=n, flagged=k, n_clusters=g,
-                         design_effect=deff, n_effective=float(n_eff))

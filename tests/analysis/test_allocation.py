@@ -7,7 +7,7 @@ from scipy.stats import binomtest, hypergeom
 
 from faultlab.analysis.allocation import allocation_study, allocation_summary, allocations, suite_pooled_pvalues
 from faultlab.errors import ConfigError
-from faultlab.stats.verdict import sign_flip_pvalues
+from faultlab.inference.exact import sign_flip_pvalues
 
 POOL, K, AFFECTED = 18, 12, 4
 

@@ -6,7 +6,7 @@ import pytest
 
 from faultlab.analysis import analyse
 from faultlab.runner import load_experiment, run_experiment
-from faultlab.stats.verdict import alternative_of, min_pairs
+from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import REPLICA
 
 

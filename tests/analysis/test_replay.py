@@ -8,13 +8,13 @@ import pandas as pd
 import pytest
 
 from faultlab.analysis import analyse
-from faultlab.analysis.metadata import count_expected_jobs
+from faultlab.stats.metadata import count_expected_jobs
 from faultlab.analysis.replay import AdaptiveReplay, replay_adaptive, replay_rows
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import load_experiment, load_metadata, load_results, run_experiment
 from faultlab.runner.experiment import parse_experiment
-from faultlab.runner.staging import STOPS_KEY, StagedDesign
-from faultlab.stats.sequential import interim_look
+from faultlab.inference.sequential import StagedDesign
+from faultlab.runner.staging import STOPS_KEY
 from faultlab.vocabulary import BASELINE, REPLICA
 from tests.runner.suts import SMALL_SPACE
 
@@ -48,7 +48,7 @@ def fixed_store(tmp_path_factory):
 @pytest.fixture(scope="module")
 def adaptive_store(tmp_path_factory):
     out = tmp_path_factory.mktemp("adaptive")
-    summary = run_experiment(_experiment(True), out, jobs=1, progress=False, look=interim_look)
+    summary = run_experiment(_experiment(True), out, jobs=1, progress=False)
     return out, summary
 
 

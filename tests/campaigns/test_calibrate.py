@@ -10,7 +10,7 @@ from faultlab.cli import build_parser
 from faultlab.analysis.calibration import assess_calibration, check_saved
 from faultlab.campaigns.calibrate import calibrate
 from faultlab.stats.calibration import check_calibration
-from faultlab.stats.verdict import clustered_rate
+from faultlab.inference.intervals import clustered_rate
 from faultlab.vocabulary import BASELINE, REPLICA
 
 TINY = {"n_steps": 25, "suites": {"systematic": "auto", "random": 1, "fixed": 1}, "slam": {"particles": 8}}

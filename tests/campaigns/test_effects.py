@@ -159,7 +159,7 @@ def test_a_study_killed_after_every_case_had_one_job_is_still_unfinished(tmp_pat
 
     tiny.write_text(TINY.replace("sobol_base = 4", "sobol_base = 0"))
     out = tmp_path / "out"
-    run_effects(load_effects_experiment(tiny), out, jobs=1, progress=False, screen=lambda *_: ())
+    run_effects(load_effects_experiment(tiny), out, jobs=1, progress=False)
     write_effects_report(out, tmp_path / "rep-done")  # the finished study renders
     with sqlite3.connect(out / "morris" / "results.sqlite") as conn:  # what a SIGKILL mid-resume leaves
         n_cases = conn.execute("SELECT COUNT(DISTINCT \"case\") FROM results").fetchone()[0]
@@ -179,7 +179,7 @@ def test_resume_with_other_settings_is_refused_before_writing(tmp_path, tiny):
     (out / "effects.json").write_text('{"effects": {}, "quick": false, "experiment_hash": "x"}')
     before = (out / "effects.json").read_text()
     with pytest.raises(ResultsError, match="other settings"):
-        run_effects(eexp, out, screen=lambda *_: ("map_size", "step_size"), progress=False)
+        run_effects(eexp, out, progress=False)
     assert (out / "effects.json").read_text() == before and sorted(os.listdir(out)) == ["effects.json"]
 
 
@@ -187,13 +187,13 @@ def test_a_directory_with_stores_but_no_study_record_is_refused(tmp_path, tiny):
     out = tmp_path / "out"
     (out / "morris").mkdir(parents=True)
     with pytest.raises(ResultsError, match="not an effects study"):
-        run_effects(load_effects_experiment(tiny), out, screen=lambda *_: (), progress=False)
+        run_effects(load_effects_experiment(tiny), out, progress=False)
     assert not (out / "effects.json").exists()
 
 
 def test_the_analysis_rebuilds_the_campaigns_designs_from_the_study_record(tmp_path, tiny):
     """effects.json keeps the space's class order, so the designs and class indices are the campaign's."""
-    from faultlab.analysis.effects import read_effects_json, saved_design
+    from faultlab.stats.screening import read_effects_json, saved_design
     from faultlab.campaigns.effects import _write_json
 
     eexp = load_effects_experiment(tiny)

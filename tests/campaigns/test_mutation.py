@@ -7,7 +7,7 @@ from faultlab.analysis.mutation import analyse_mutation
 from faultlab.campaigns.mutation import load_mutation_experiment, run_mutation
 from faultlab.errors import ConfigError
 from faultlab.runner.store import load_results
-from faultlab.stats.verdict import min_pairs
+from faultlab.inference.exact import min_pairs
 
 SIGN_FLIP = "motion_model:arithmetic:9"  # turns the wrong way: the map is ruined
 EQUIVALENT = "motion_model:index:3"      # screened equivalent: never runs
@@ -110,7 +110,6 @@ def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_re
 
     from faultlab.runner.store import load_metadata, results_path
     from faultlab.runner.staging import STOPS_KEY
-    from faultlab.stats.sequential import interim_look
 
     fixed_f, staged_f = tmp_path / "fixed.toml", tmp_path / "staged.toml"
     fixed_f.write_text(ADAPTIVE.split("[adaptive]")[0].format(kill=SIGN_FLIP, eq=IDENTICAL))
@@ -146,8 +145,32 @@ def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_re
         con.execute("DELETE FROM meta WHERE key = ?", (STOPS_KEY,))
     lost = int(((df_s["case"] == 1) & (df_s["rep"] >= 5)).sum())
     assert lost > 0
-    again = run_mutation(staged_f, tmp_path / "staged", jobs=1, backend="threading", progress=False, look=interim_look)
+    again = run_mutation(staged_f, tmp_path / "staged", jobs=1, backend="threading", progress=False)
     assert again.n_new == lost
     pd.testing.assert_frame_equal(load_results(tmp_path / "staged")[cols].sort_values(cols[:4]).reset_index(drop=True),
                                   df_s[cols].sort_values(cols[:4]).reset_index(drop=True))
     assert load_metadata(tmp_path / "staged")[STOPS_KEY] == stops
+
+
+@pytest.mark.slow
+def test_mutants_that_leave_a_matrix_entry_unwritten_give_the_same_store_in_two_runs(tmp_path):
+    """Both write one entry of a scratch matrix twice and another never: zero-filled, never old memory."""
+    f = tmp_path / "m.toml"
+    f.write_text(TINY.replace('ids = ["{kill}", "{eq}"]',
+                              'ids = ["predict_measurement:index:18", "innovation_covariance._sandwich_sym:index:12"]'))
+    mexp = load_mutation_experiment(f)
+    assert set(mexp.selection.run) == {"predict_measurement:index:18",
+                                       "innovation_covariance._sandwich_sym:index:12"}
+    stores = []
+    for name in ("first", "second"):
+        run_mutation(mexp, tmp_path / name, jobs=2, progress=False)
+        stores.append(load_results(tmp_path / name).drop(columns=["runtime_s"]))
+    assert len(stores[0]) > 0
+    pd.testing.assert_frame_equal(stores[0], stores[1], check_exact=True)
+
+
+def test_a_sample_of_zero_mutants_is_refused_naming_the_file(tmp_path):
+    f = tmp_path / "m.toml"
+    f.write_text(TINY.replace('ids = ["{kill}", "{eq}"]', "sample = 0"))
+    with pytest.raises(ConfigError, match=rf"^{f}: \[mutation\] sample must be >= 1, got 0$"):
+        load_mutation_experiment(f)

@@ -13,7 +13,7 @@ from faultlab.campaigns.study import load_study_experiment, sampled_load
 from faultlab.errors import ConfigError
 from faultlab.space import read_class_weights
 from faultlab.mutation.variants import is_mutant_variant
-from faultlab.stats.verdict import min_pairs
+from faultlab.inference.exact import min_pairs
 from faultlab.vocabulary import PAPER_FAULTS
 
 BASE = """

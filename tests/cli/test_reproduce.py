@@ -58,6 +58,10 @@ def test_reproduce_quick_succeeds_and_says_where(quick):
     assert str(base / "results" / "report" / "report.pdf") in out
     assert "36 jobs:" in out and "36 run now" in out  # (systematic 5 + random 2 + fixed 2 cases) x 4
     assert "comparable statements agree with the paper" in out
+    # the HTML report: an overview and a page per case (9 cases)
+    html = base / "results" / "report" / "html"
+    assert f"HTML report: {html / 'index.html'}" in out
+    assert (html / "index.html").is_file() and len(list((html / "cases").glob("*.html"))) == 9
 
 
 @pytest.mark.slow
@@ -140,6 +144,21 @@ def test_report_without_the_pdf_writes_the_same_tables_and_no_pdf(quick, tmp_pat
     for name in ("table2.csv", "table2.md", "table2.tex", "detection_rates.csv", "detection_rates.md",
                  "comparison.md", "fidelity.csv", "fidelity.md"):
         assert (tmp_path / "tables" / name).read_text() == (base / "results" / "report" / name).read_text(), name
+    assert not (tmp_path / "tables" / "html").exists()  # the HTML report only when asked for
+
+
+@pytest.mark.slow
+def test_report_html_writes_the_same_site_as_reproduce(quick, tmp_path):
+    base, code, _, err, _ = quick
+    assert code == 0, err
+    code, out, err = _run(["report", str(base / "results"), "--reports", str(tmp_path / "r"), "--no-pdf", "--html"])
+    assert code == 0, err
+    again, first = tmp_path / "r" / "html", base / "results" / "report" / "html"
+    pages = sorted(p.relative_to(first) for p in first.rglob("*.html"))
+    assert pages == sorted(p.relative_to(again) for p in again.rglob("*.html")) and len(pages) == 9 + 4
+    # the same overview, but for the ids Bokeh gives its models afresh on every rendering
+    assert (again / "index.html").read_text().count("<li>") == (first / "index.html").read_text().count("<li>")
+
 
 def test_report_without_results_is_a_clear_error(tmp_path):
     code, out, err = _run(["report", str(tmp_path / "none"), "--reports", str(tmp_path / "r")])
@@ -186,3 +205,23 @@ def test_reproduce_quick_writes_only_under_out(quick):
     for name in OUTPUTS:
         assert (out / "report" / name).is_file(), name
     assert str(out / "report" / "report.pdf") in printed
+
+
+@pytest.mark.slow
+def test_reproduce_runs_an_adaptive_experiment(tmp_path):
+    """An ``[adaptive]`` experiment runs from the command line with no extra option: the stopping rule is
+    the runner's own, and the pairs it stopped are recorded with the repetitions they used."""
+    from faultlab.runner.staging import STOPS_KEY
+    from tests.runner.suts import write_experiment
+
+    toml = write_experiment(tmp_path / "adaptive.toml", runs=1, repetitions=4,
+                            adaptive={"stages": [2, 4], "level": 0.1, "alternative": "greater", "futility": 0.5})
+    code, _, err = _run(["reproduce", "--experiment", str(toml), "--out", str(tmp_path / "o"),
+                         "--reports", str(tmp_path / "r"), "--no-progress"])
+    assert code == 0, err
+    results = load_results(tmp_path / "o")
+    stops = load_metadata(tmp_path / "o")[STOPS_KEY]
+    used = results.groupby(["run", "suite", "case", "variant"]).size()
+    assert set(used) <= {2, 4}
+    for e in stops:  # a stopped pair has exactly the first stage's repetitions
+        assert e["repetitions"] == 2 and used[(e["run"], e["suite"], e["case"], e["variant"])] == 2

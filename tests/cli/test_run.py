@@ -140,3 +140,126 @@ def test_run_metrics_option_records_only_those(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "metrics unknown metric 'mae'" in err and "Traceback" not in err
     assert not (tmp_path / "bad").exists()  # a refused command writes nothing
+
+
+@pytest.mark.slow
+def test_sigterm_stops_like_ctrl_c_marks_the_session_and_the_run_resumes_to_the_uninterrupted_table(tmp_path):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, repetitions=3, n_steps=40,
+                           slam={"name": f"{SUTS}:make_tiny", "options": {"noise": 0.02, "delay": 0.005}})
+    out = tmp_path / "out"
+    total = 3 * 2 * 3
+    proc = subprocess.Popen([sys.executable, "-m", "faultlab", "run", str(exp), "--out", str(out), "--jobs", "2",
+                             "--no-progress"], cwd=ROOT, start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while _count_rows(out / "results.sqlite") < 2 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGTERM)  # the command alone, as timeout(1) or kill(1) send it
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    err = proc.stderr.read().decode()
+    assert proc.returncode == 143, err
+    assert err.strip().splitlines() == ["faultlab: terminated (SIGTERM); finished results are saved: rerun the same "
+                                        "command to resume"]
+    before = load_results(out)
+    assert 2 <= len(before) < total
+    assert load_metadata(out)["sessions"][0]["state"] == "interrupted"
+    run_experiment(exp, out, jobs=2, progress=False)
+    run_experiment(exp, tmp_path / "clean", jobs=2, progress=False)
+    keys = ["run", "suite", "case", "variant", "rep"]
+    resumed, clean = (load_results(p).sort_values(keys).reset_index(drop=True).drop(columns=["runtime_s"])
+                      for p in (out, tmp_path / "clean"))
+    pd.testing.assert_frame_equal(resumed, clean, check_exact=True)
+
+
+@pytest.mark.parametrize("command", [["run", "{f}", "--out", "{o}"], ["generate", "--space", "{f}", "--out", "{o}"],
+                                     ["study", "run", "{f}", "--out", "{o}"], ["effects", "run", "{f}", "--out", "{o}"]])
+def test_a_toml_file_that_is_not_utf8_is_one_error_line_naming_it(tmp_path, capsys, command):
+    bad = tmp_path / "bad.toml"
+    bad.write_bytes(b"seed = 1\n# \xff\xfe not UTF-8\n")
+    out = tmp_path / "out"
+    argv = [a.format(f=bad, o=out) for a in command]
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"faultlab: error: {bad}") and "not UTF-8" in err[0], err
+    assert not out.exists()
+
+
+def test_a_saved_case_with_a_nan_landmark_stops_run_and_export_with_one_line_naming_it(tmp_path, capsys):
+    import dataclasses
+
+    import numpy as np
+
+    from faultlab.scenario import load_scenario, save_scenario
+
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    case = sorted((out / "cases").rglob("*.npz"))[0]
+    sc = load_scenario(case)
+    landmarks = sc.landmarks.copy()
+    landmarks[0, 1] = np.nan
+    save_scenario(dataclasses.replace(sc, landmarks=landmarks), case)  # checksums valid, content not
+    rows = load_results(out)
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(case) in err[0] and "landmarks holds 1 non-finite value(s)" in err[0], err
+    pd.testing.assert_frame_equal(load_results(out), rows)
+    assert main(["export", "--format", "tum", "--out", str(tmp_path / "exported"), str(case)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(case) in err[0] and "non-finite" in err[0], err
+    assert not (tmp_path / "exported").exists()
+
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("faultlab: error: "), err
+    return err[0]
+
+
+@pytest.mark.parametrize("slam, expected", [
+    ({"name": "process", "command": ["/no/such/slam-program", "--fast"]},
+     "[slam] command: the program '/no/such/slam-program' cannot be started: no executable file"),
+    ({"name": "process", "command": ["no-such-slam-program-on-path"]},
+     "the program 'no-such-slam-program-on-path' cannot be started: not found on PATH"),
+    ({"name": "fastslam", "particles": 10 ** 12}, "[slam] particles = 1000000000000 needs at least"),
+])
+def test_a_slam_that_cannot_start_or_fit_in_memory_is_refused_before_the_campaign_writing_nothing(
+        tmp_path, capsys, slam, expected):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1, slam=slam)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    line = _one_error_line(capsys)
+    assert str(exp) in line and expected in line, line
+    assert not out.exists()
+
+
+def test_a_zero_byte_store_next_to_saved_cases_is_refused_and_left_as_it_is(tmp_path, capsys):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    (out / "results.sqlite").write_bytes(b"")  # truncated: every row lost
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    line = _one_error_line(capsys)
+    assert f"{out / 'results.sqlite'} is empty (0 bytes)" in line and "--force-new" in line
+    assert (out / "results.sqlite").stat().st_size == 0
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress", "--force-new"]) == 0
+    assert len(load_results(out)) == 2
+
+
+def test_a_run_refused_for_another_experiments_store_does_not_create_the_lock_file(tmp_path, capsys):
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    assert not (out / ".lock").exists()  # a clean exit removes it
+    before = sorted(p.relative_to(out) for p in out.rglob("*"))
+    write_experiment(exp, runs=1, suites={"random": 1}, repetitions=1, seed=99)
+    capsys.readouterr()
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    assert "different experiment" in _one_error_line(capsys)
+    assert sorted(p.relative_to(out) for p in out.rglob("*")) == before

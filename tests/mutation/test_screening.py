@@ -100,7 +100,53 @@ def test_helper_mutants_are_screened_as_their_unit(toy_report):
 def test_counts_add_up(toy_report):
     counts = toy_report.counts()
     assert sum(counts.values()) == len(toy_report.mutants)
-    assert counts["live"] == len(toy_report.live()) and all(counts.values())
+    assert counts["live"] == len(toy_report.live())
+    assert all(n for label, n in counts.items() if label != "nondeterministic")  # the toy writes what it reads
+
+
+def _depends_on_memory(unit_source, m, examples, fills=(-3.0, 11.0)) -> bool:
+    """Brute force: the mutant's outputs with ``numpy.empty`` itself returning arrays full of each of ``fills``."""
+    unit = unit_source.build({m.function: m.mutated_source})
+    runs = []
+    for fill in fills:
+        with pytest.MonkeyPatch.context() as mp, np.errstate(all="ignore"):
+            mp.setattr(np, "empty", lambda shape, dtype=float, **k: np.full(shape, fill, dtype=dtype))
+            mp.setattr(np, "empty_like", lambda a, dtype=None, **k: np.full_like(a, fill, dtype=dtype))
+            seen = []
+            for ex in examples:
+                args, kwargs = ex.make_args()
+                try:
+                    seen.append(unit_fingerprint(unit(*args, **kwargs), args, kwargs))
+                except Exception as exc:
+                    seen.append(type(exc).__name__)
+            runs.append(seen)
+    return runs[0] != runs[1]
+
+
+def test_a_mutant_that_leaves_scratch_memory_unwritten_is_nondeterministic_and_never_runs():
+    from tests.mutation import leaky
+
+    mutants = generate_mutants(leaky.LeakySteps)
+    report = screen_mutants(mutants, leaky.EXAMPLES)
+    source = mutants.sources["rotation"]
+    leaking = {m.id for m in mutants if _depends_on_memory(source, m, leaky.EXAMPLES["rotation"])}
+    assert leaking  # e.g. out[:, 1, 0] -> out[:, 0, 0]: entry (1, 0) keeps whatever the memory held
+    nondeterministic = {m.id for m in mutants if report[m.id].outcome is MutantOutcome.NONDETERMINISTIC}
+    assert nondeterministic == leaking
+    assert not nondeterministic & {m.id for m in report.live()}
+    assert all("np.empty" in report[i].reason for i in nondeterministic)
+    assert report.counts()["nondeterministic"] == len(leaking)
+
+
+def test_no_mutant_of_the_reference_units_reads_memory_it_never_wrote():
+    """The units' scratch arrays are zero-filled: the two mutants that leave an entry unwritten are ordinary."""
+    mutants = generate_mutants(REFERENCE_STEPS, units=("predict_measurement", "innovation_covariance"))
+    examples = unit_examples()
+    report = screen_mutants(mutants, examples)
+    assert report.counts()["nondeterministic"] == 0
+    for mid in ("predict_measurement:index:18", "innovation_covariance._sandwich_sym:index:12"):
+        m = mutants.get(mid)
+        assert not _depends_on_memory(mutants.sources[m.unit], m, examples[m.unit]), mid
 
 
 def test_a_mutant_that_writes_into_its_input_is_not_equivalent(toy_report):
@@ -163,7 +209,8 @@ def test_the_reference_has_at_least_150_live_mutants_and_screening_is_determinis
     mutants = generate_mutants(REFERENCE_STEPS, plugins=False)
     first = screen_mutants(mutants, unit_examples())
     counts = first.counts()
-    assert counts["live"] >= 150 and all(counts.values())
+    assert counts["live"] >= 150 and counts["nondeterministic"] == 0
+    assert all(n for label, n in counts.items() if label != "nondeterministic")
     again = screen_mutants(generate_mutants(REFERENCE_STEPS, plugins=False), unit_examples())
     assert {k: (v.outcome, v.duplicate_of) for k, v in first.results.items()} == {
         k: (v.outcome, v.duplicate_of) for k, v in again.results.items()}

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from faultlab.errors import FaultError
-from faultlab.mutation.source import POISONED_NUMPY, code_identical, unit_source, unit_sources
+from faultlab.mutation.source import ALTERNATE_POISON, POISONED_NUMPY, code_identical, unit_source, unit_sources
 from faultlab.slam import REFERENCE_STEPS, FastSlamSteps
 from faultlab.slam import units as U
 from tests.mutation import toy
@@ -132,4 +132,13 @@ def test_poisoned_numpy_fills_empty_arrays_and_is_numpy_otherwise():
     lazy = s.function("motion_model").source.replace("    out[:, 2] = wrap(th + u[:, 1])\n", "")
     poses, u = np.zeros((3, 3)), np.ones((3, 2))
     out = s.build({"motion_model": lazy}, poison=True)(poses, u, wrap=U.wrap_heading)
-    assert np.isnan(out[:, 2]).all() and np.isfinite(out[:, :2]).all()
+    assert (out[:, 2] == 0.0).all() and np.isfinite(out[:, :2]).all()  # the units' buffers are zero-filled
+    from tests.mutation import leaky
+
+    sources, _ = unit_sources(leaky.LeakySteps)
+    s = sources["rotation"]
+    lazy = s.function("rotation").source.replace("    out[:, 1, 0] = s\n", "")
+    theta = np.array([0.5, 1.0])
+    assert np.isnan(s.build({"rotation": lazy}, poison=True)(theta)[:, 1, 0]).all()
+    assert (s.build({"rotation": lazy}, poison="alternate")(theta)[:, 1, 0] == ALTERNATE_POISON).all()
+    assert np.array_equal(s.build({"rotation": lazy}, poison="alternate")(theta)[:, 0], leaky.rotation(theta)[:, 0])

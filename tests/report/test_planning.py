@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from faultlab.report.planning import plan_markdown
-from faultlab.stats.planning import plan_study
+from faultlab.inference.planning import plan_study
 
 
 def _table(text: str, heading: str) -> dict[str, list[str]]:

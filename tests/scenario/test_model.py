@@ -1,3 +1,4 @@
+import dataclasses
 import json
 
 import numpy as np
@@ -107,3 +108,21 @@ def test_disk_full_while_saving_is_one_error_and_leaves_no_partial_file(small_tm
     with pytest.raises(ScenarioError, match="cannot be written \\(the disk is full\\)"):
         save_scenario(scenario, small_tmpfs / "case1")
     assert sorted(p.name for p in small_tmpfs.iterdir()) == ["filler"]
+
+
+@pytest.mark.parametrize("array, index", [("landmarks", (2, 1)), ("true_poses", (5, 0)), ("controls", (3, 1)),
+                                          ("obs_range", (0,)), ("obs_bearing", (1,))])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_case_saved_with_a_non_finite_value_is_refused_on_load_naming_file_array_and_index(
+        tmp_path, scenario, array, index, bad):
+    from faultlab.errors import InvalidCaseError
+
+    values = getattr(scenario, array).copy()
+    values[index] = bad
+    tampered = dataclasses.replace(scenario, **{array: values})
+    path = save_scenario(tampered, tmp_path / "case")  # valid checksums: the content is what was saved
+    with pytest.raises(InvalidCaseError) as info:
+        load_scenario(path)
+    shown = index if len(index) > 1 else index[0]
+    assert str(info.value).startswith(f"test case {tmp_path / 'case.npz'}: {array} holds 1 non-finite value(s), "
+                                      f"the first {bad} at index {shown}")

@@ -1,6 +1,7 @@
 """The process adapter: the example C SLAM through faultlab equals the program run standalone; failures
 (death, timeouts, malformed replies) become SlamProcessErrors carrying the status and stderr."""
 
+import contextlib
 import json
 import os
 import signal
@@ -8,6 +9,7 @@ import subprocess
 import sys
 import time
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -292,3 +294,107 @@ def test_the_example_equals_python_dead_reckoning_on_any_input(example_slam, dat
     np.testing.assert_allclose(ours.pose, ref.pose, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(ours.landmark_ids, ref.landmark_ids)
     np.testing.assert_allclose(ours.landmarks, ref.landmarks, rtol=0, atol=1e-9)
+
+
+# ------------------------------------------------------------------ no descendant survives
+#: A SLAM program that answers the reset, then ignores every request, EOF, SIGTERM and SIGHUP (gone after 5 min).
+HANGER = """
+import json, os, signal, sys, time
+for s in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
+    signal.signal(s, signal.SIG_IGN)
+open(os.path.join(sys.argv[1], str(os.getpid())), "w").close()
+sys.stdin.readline()
+print(json.dumps({"type": "ready", "protocol": 1}), flush=True)
+end = time.monotonic() + 300
+while time.monotonic() < end:
+    time.sleep(0.2)
+"""
+
+
+def _behind_a_wrapper(tmp_path) -> tuple[list[str], "os.PathLike"]:
+    """``sh -c "python hanger.py PIDS; echo"``: sh forks the program (no exec) and waits for it."""
+    script = tmp_path / "hanger.py"
+    script.write_text(HANGER)
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    return ["sh", "-c", f'"{sys.executable}" "{script}" "{pids}"; echo wrapper-done'], pids
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def _survivors(pids, wait_s: float = 15.0) -> set[int]:
+    """The programs (pids written to ``pids``) still alive after up to ``wait_s`` seconds; kills them."""
+    started = {int(p.name) for p in pids.iterdir()}
+    assert started, "no program was started"
+    end = time.monotonic() + wait_s
+    while {p for p in started if _alive(p)} and time.monotonic() < end:
+        time.sleep(0.1)
+    alive = {p for p in started if _alive(p)}
+    for p in alive:
+        with contextlib.suppress(OSError):
+            os.kill(p, signal.SIGKILL)
+    return alive
+
+
+linux_only = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="lists processes through /proc")
+
+
+@linux_only
+def test_a_hanging_program_behind_a_wrapper_leaves_no_process_after_a_campaign(tmp_path):
+    command, pids = _behind_a_wrapper(tmp_path)
+    exp = _smoke({"name": "process", "command": command, "reply_timeout_s": 1.0}, suites={"fixed": 1})
+    run_experiment(exp, tmp_path / "res", jobs=2, progress=False)
+    rows = load_results(tmp_path / "res")
+    assert (rows.status == "crash").all() and rows.error.str.contains("reply-timeout").all()
+    assert not _survivors(pids)
+
+
+@linux_only
+def test_a_hanging_program_behind_a_wrapper_leaves_no_process_after_adapter_check(tmp_path):
+    from faultlab.slam.conformance import check_program
+
+    command, pids = _behind_a_wrapper(tmp_path)
+    report = check_program(command, reply_timeout_s=1.0, execution_timeout_s=5.0)
+    assert not any(r.passed for r in report.results if r.name != "eof")
+    assert not _survivors(pids)
+
+
+@pytest.mark.slow
+@linux_only
+def test_a_program_that_ignores_eof_ends_when_the_campaign_alone_is_killed(tmp_path):
+    from tests.runner.suts import write_experiment
+
+    command, pids = _behind_a_wrapper(tmp_path)
+    exp = write_experiment(tmp_path / "e.toml", runs=1, repetitions=1, suites={"random": 2}, variants=["baseline"],
+                           slam={"name": "process", "command": command, "reply_timeout_s": 100.0})
+    root = Path(__file__).resolve().parents[2]
+    proc = subprocess.Popen([sys.executable, "-m", "faultlab", "run", str(exp), "--out", str(tmp_path / "out"),
+                             "--jobs", "2", "--no-progress"], cwd=root, env=dict(os.environ, PYTHONPATH=str(root)),
+                            start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        end = time.monotonic() + 120
+        while proc.poll() is None and len(list(pids.iterdir())) < 2 and time.monotonic() < end:
+            time.sleep(0.1)
+        assert proc.poll() is None and len(list(pids.iterdir())) == 2, "the programs never started"
+        proc.send_signal(signal.SIGKILL)  # the campaign alone: its workers and programs get no signal
+        proc.wait(timeout=30)
+        assert not _survivors(pids, wait_s=20.0)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+
+
+def test_a_program_that_closes_its_output_but_runs_on_is_not_said_to_have_died():
+    closes = "import os, sys, time\nsys.stdin.readline()\nos.close(1)\ntime.sleep(30)\n"
+    slam = ProcessSlam(ProcessSlamConfig(command=(sys.executable, "-c", closes), reply_timeout_s=20.0))
+    with pytest.raises(SlamProcessError) as info:
+        slam.reset(np.zeros(3), rng=np.random.default_rng(1))
+    text = str(info.value)
+    assert "closed its output while answering" in text and "died" not in text
+    assert "still running (then stopped by faultlab)" in text

@@ -29,6 +29,7 @@ from faultlab.slam import (REFERENCE_STEPS, EkfSlam, FastSlam, FastSlam2, FastSl
                            run_slam_batch)
 from faultlab.slam import twins
 from faultlab.slam import paperunits as PU
+from faultlab.slam import sharing
 from faultlab.slam import units as U
 from faultlab.slam.fastslam import FastSlamSteps
 from faultlab.slam.profiles import get_profile
@@ -134,6 +135,46 @@ def test_the_fused_correction_is_the_units_in_sequence(problem):
     assert same_bits(ll, t_ll)
     assert same_bits(m1, t_mb.transpose(2, 1, 0))
     assert same_bits(P1, t_pb.transpose(3, 2, 0, 1))
+
+
+@settings(max_examples=150, deadline=None)
+@given(problems(), st.data())
+def test_the_sharer_order_correction_is_the_numpy_loop(problem, data):
+    """The compiled sharer-order correction against faultlab.slam.sharing's loop over the numpy
+    units: shared rows (any owners), new and known landmarks, extreme values."""
+    poses, mu, P, z, Q = problem
+    n, k = mu.shape[:2]
+    owner = np.array(data.draw(st.lists(st.integers(0, max(0, n - 1)), min_size=n, max_size=n)), dtype=np.intp)
+    seen = np.array(data.draw(st.lists(st.booleans(), min_size=k, max_size=k)), dtype=bool)
+    logw = np.array(data.draw(st.lists(st.floats(-50.0, 0.0), min_size=n, max_size=n)))
+    with quiet():
+        want = sharing.correct_in_sharer_order(REFERENCE_STEPS, logw, owner, poses, z, seen, mu, P, Q)
+        got = twins.correct_in_sharer_order(twins.twinned(REFERENCE_STEPS), logw, owner, poses, z, seen, mu, P, Q)
+    for g, w in zip(got, want):
+        assert same_bits(g, w)
+
+
+def test_the_sharer_order_twin_runs_the_numpy_loop_for_other_units():
+    """With a replaced correction unit the twin is the numpy loop with that unit (called per rank)."""
+    calls = []
+
+    def counting(H, P, Q):
+        calls.append(H.shape[0])
+        return U.innovation_covariance(H, P, Q)
+
+    steps = dataclasses.replace(REFERENCE_STEPS, innovation_covariance=counting)
+    rng = np.random.default_rng(4)
+    n, k = 5, 3
+    poses = rng.normal(size=(n, 3))
+    mu = rng.normal(size=(n, k, 2)) + 3.0
+    P = np.broadcast_to(np.eye(2) * 0.1, (n, k, 2, 2)).copy()
+    z = np.column_stack([rng.uniform(1, 2, k), rng.uniform(-1, 1, k)])
+    owner = np.array([0, 0, 0, 3, 3])
+    args = (np.full(n, -np.log(n)), owner, poses, z, np.ones(k, dtype=bool), mu, P, np.diag([0.1, 0.01]))
+    got = twins.correct_in_sharer_order(steps, *args)
+    assert calls == [2, 2, 1]  # one call per rank: two groups, then two, then the larger group's third
+    for g, w in zip(got, sharing.correct_in_sharer_order(steps, *args)):
+        assert same_bits(g, w)
 
 
 def test_twins_hand_other_inputs_to_the_numpy_unit():
@@ -464,3 +505,75 @@ def test_non_finite_weights_end_the_compiled_step_as_the_numpy_one(monkeypatch):
     assert messages[0] == messages[1]
     got, want = run(FastSlam(cfg), True), run(numpy_filter(monkeypatch, lambda: FastSlam(cfg)), True)
     assert got == want and all("not finite" in m for m in got)
+
+
+# --------------------------------------------------------------------------- the partial reference step
+
+
+def _odd_resample(w, n_eff, empty, rng, config):
+    """Indices as floats: the reference apply_resample's indexing raises (IndexError)."""
+    idx = U.resample(w, n_eff, empty, rng, config)
+    return None if idx is None else idx.astype(float)
+
+
+def _short_resample(w, n_eff, empty, rng, config):
+    """One index too few: the state apply_resample returns has the wrong shape."""
+    idx = U.resample(w, n_eff, empty, rng, config)
+    return None if idx is None else idx[:-1]
+
+
+def _mean_init(poses, z, Q, *, wrap):
+    """init_landmarks returning one row for all particles (broadcast by the unit-by-unit path)."""
+    mu, P = U.init_landmarks(poses, z, Q, wrap=wrap)
+    return mu.mean(axis=0, keepdims=True), P[:1]
+
+
+def _flat_weights(logw, loglik, known):
+    """combine_weights that ignores which pairs are known."""
+    return logw + np.nan_to_num(loglik).sum(axis=1) * 0.5
+
+
+def _every_step_resample(w, n_eff, empty, rng, config):
+    return U.low_variance_indices(w, rng)
+
+
+@pytest.mark.parametrize("name, unit", [("resample", _odd_resample), ("resample", _short_resample),
+                                        ("resample", _every_step_resample), ("init_landmarks", _mean_init),
+                                        ("combine_weights", _flat_weights)],
+                         ids=["float-indices", "short-indices", "every-step", "broadcast-init", "flat-weights"])
+def test_the_partial_reference_step_equals_numpy_on_odd_replacements(monkeypatch, scenario, name, unit):
+    """Replacements with outputs the reference stages do not expect (other types, other shapes)
+    end or run the filter exactly as the numpy path does, single and batched."""
+    steps = dataclasses.replace(REFERENCE_STEPS, **{name: unit})
+    compiled = FastSlam(CFG, steps=steps)
+    assert not compiled._ref_step and compiled._ref_predict
+    plain = numpy_filter(monkeypatch, lambda: FastSlam(CFG, steps=steps))
+    assert_same_run(final(compiled, scenario, 6), final(plain, scenario, 6), name)
+    seeds = (3, 8)
+
+    def batch(slam):
+        with quiet():
+            try:
+                return run_slam_batch(slam, scenario, rngs=[np.random.default_rng(s) for s in seeds])
+            except Exception as exc:
+                return [repr(exc)] * len(seeds)
+
+    for got, want in zip(batch(FastSlam(CFG, steps=steps)), batch(numpy_filter(monkeypatch,
+                                                                            lambda: FastSlam(CFG, steps=steps)))):
+        assert (estimates_identical(got, want) if not isinstance(got, (str, BaseException))
+                else repr(got) == repr(want))
+
+
+def test_sampled_mutants_outside_the_correction_equal_numpy(monkeypatch, scenario):
+    """Live mutants of the units outside the correction (the partial reference step's other stages)."""
+    units = ["sample_controls", "motion_model", "combine_weights", "init_landmarks", "effective_sample_size",
+             "resample", "apply_resample"]
+    mutants = generate_mutants(REFERENCE_STEPS, units=units, plugins=False)
+    report = screen_mutants(mutants, unit_examples())
+    chosen = [next(i for i, r in report.results.items() if r.live and i.startswith(f"{u}:")) for u in units]
+    for mutant_id in chosen:
+        fault = mutant_fault(mutants.get(mutant_id), FastSlamSteps)
+        compiled = fault.apply(FastSlam(CFG))
+        assert compiled._ref_predict or compiled._ref_correct
+        assert_same_run(final(compiled, scenario, 2),
+                        final(numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG))), scenario, 2), mutant_id)

@@ -11,7 +11,7 @@ from scipy.stats import boschloo_exact, norm
 from statsmodels.stats.multitest import multipletests
 
 from faultlab.metrics.detection import DetectionRule
-from faultlab.stats.verdict import detectable_shift_factor
+from faultlab.inference.exact import detectable_shift_factor
 from faultlab.stats.cases import (
     AGREEMENT_MARGIN,
     case_rates,

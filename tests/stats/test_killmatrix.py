@@ -23,7 +23,7 @@ from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, KillMatrix,
                                        combined_detects, judge_suite, kill_matrix, score_table, strong_cases,
                                        study_spec,
                                        suite_detects, suite_kills, suite_rejections)
-from faultlab.stats.verdict import min_pairs
+from faultlab.inference.exact import min_pairs
 from tests.stats.synthetic import paired_frame
 
 ALPHA = 0.05
@@ -473,7 +473,7 @@ def test_a_whole_suite_of_more_cases_than_the_exact_pooled_test_enumerates_is_ju
     from statsmodels.stats.multitest import multipletests
 
     from faultlab.stats.killmatrix import whole_suites
-    from faultlab.stats.verdict import MAX_EXACT_PAIRS
+    from faultlab.inference.exact import MAX_EXACT_PAIRS
 
     n = MAX_EXACT_PAIRS + 2                     # a whole base-choice suite of Table I: 22 cases
     rng = np.random.default_rng(5)

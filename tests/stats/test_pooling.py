@@ -9,7 +9,7 @@ import pytest
 
 from faultlab.errors import ConfigError
 from faultlab.stats.pooling import case_log_ratio_means, pooled_pvalues, pooling_power, suite_decisions
-from faultlab.stats.verdict import sign_flip_pvalues
+from faultlab.inference.exact import sign_flip_pvalues
 
 
 def _brute_two_sided(x) -> float:

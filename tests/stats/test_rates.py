@@ -160,7 +160,7 @@ def test_false_alarm_rate_uses_ordered_rep_pairs():
     assert table.loc["fixed", "n_pairs"] == 0 and np.isnan(table.loc["fixed", "rate"])
     assert table.loc["all", "flagged"] == 3
     # ordered pairs of one case are correlated: the interval is clustered by case
-    from faultlab.stats.verdict import clustered_rate
+    from faultlab.inference.intervals import clustered_rate
 
     flags = [a - b > 250 and a - b >= 0.25 * b for vals in (reps[("random", 1)], reps[("random", 2)])
              for a, b in itertools.permutations(vals, 2)]

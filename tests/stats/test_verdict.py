@@ -15,17 +15,10 @@ from scipy.stats import norm, t
 from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.stats.verdict import (
-    MAX_EXACT_PAIRS,
-    Verdict,
-    case_verdicts,
-    clustered_rate,
-    detectable_shift_factor,
-    median_interval,
-    min_p_value,
-    min_pairs,
-    sign_flip_pvalues,
-)
+from faultlab.inference.exact import (MAX_EXACT_PAIRS, detectable_shift_factor, min_p_value, min_pairs,
+                                      sign_flip_pvalues)
+from faultlab.inference.intervals import clustered_rate, median_interval
+from faultlab.stats.verdict import Verdict, case_verdicts
 from tests.stats.synthetic import frame, job
 
 
