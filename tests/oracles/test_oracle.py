@@ -91,3 +91,16 @@ def test_the_catalogue_serves_the_builtins_by_name():
     assert get_oracle("floor") is BUILTIN_ORACLES[2]
     with pytest.raises(ConfigError, match="did you mean 'floor'"):
         get_oracle("flor")
+
+
+class _ShiftedIds(DeadReckoning):
+    """Maps every landmark under its id + 1 (an off-by-one a user might write)."""
+
+    def estimate(self):
+        est = super().estimate()
+        return Estimate(est.pose, est.landmark_ids + 1, est.landmarks)
+
+
+def test_metamorphic_oracle_flags_ids_the_case_does_not_have_instead_of_raising():
+    res = _judge(_ShiftedIds)
+    assert res["metamorphic"].failed and "id_permutation" in res["metamorphic"].details["violated"]
