@@ -15,6 +15,7 @@ from faultlab.errors import ConfigError, FaultlabError
 from faultlab.oracles import DEFAULT_OPTIONS
 from faultlab.report.check import write_check_reports
 from faultlab.scenario.model import load_scenario
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["register"]
 
@@ -45,8 +46,8 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=1, help="seed of the suite and the repetitions (default 1)")
     p.add_argument("--repetitions", "-K", type=int, default=8, metavar="K",
                    help="runs per case, >= 2; a deterministic SLAM is run twice (default 8)")
-    p.add_argument("--alpha", type=float, default=0.05,
-                   help="chance that a correct stochastic SLAM fails a case (default 0.05)")
+    p.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
+                   help=f"chance that a correct stochastic SLAM fails a case (default {DEFAULT_ALPHA:g})")
     p.add_argument("--oracles", nargs="+", default=list(DEFAULT_ORACLES), metavar="ORACLE",
                    help=f"oracles to apply (default: {' '.join(DEFAULT_ORACLES)}; plugins by name)")
     p.add_argument("--relations", nargs="+", default=None, metavar="RELATION",
