@@ -8,6 +8,7 @@ import sys
 
 from faultlab.cli.options import LazyText, add_examples, positive_int
 from faultlab.errors import ConfigError, FaultlabError
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["register"]
 
@@ -46,8 +47,8 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=1, help="seed of the suite and the repetitions (default 1)")
     p.add_argument("--repetitions", "-K", type=int, default=8, metavar="K",
                    help="runs per case, >= 2; a deterministic SLAM is run twice (default 8)")
-    p.add_argument("--alpha", type=float, default=0.05,
-                   help="chance that a correct stochastic SLAM fails a case (default 0.05)")
+    p.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
+                   help=f"chance that a correct stochastic SLAM fails a case (default {DEFAULT_ALPHA:g})")
     p.add_argument("--oracles", nargs="+", default=None, metavar="ORACLE",
                    help=LazyText(lambda: f"oracles to apply (default: {' '.join(_defaults()[1])}; plugins by name)"))
     p.add_argument("--relations", nargs="+", default=None, metavar="RELATION",
