@@ -115,8 +115,9 @@ def slam_factory(spec: CheckSpec):
     if spec.command:
         return functools.partial(build_slam, "process", normalise_options(
             "process", {"command": list(spec.command)}, where="--command"))
-    kind = get_slam_kind(spec.slam, where="SLAM")
-    options = normalise_options(spec.slam, dict(spec.slam_options), where="SLAM") if kind else dict(spec.slam_options)
+    get_slam_kind(spec.slam, where="SLAM")
+    # validates a built-in's options; imports an import path's factory (a wrong path is a usage error)
+    options = normalise_options(spec.slam, dict(spec.slam_options), where="SLAM")
     return functools.partial(build_slam, spec.slam, options)
 
 
