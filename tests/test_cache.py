@@ -11,6 +11,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_cache_dir_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)  # set by faultlab.slam.kernels once imported
     monkeypatch.setenv("FAULTLAB_CACHE_DIR", str(tmp_path / "mine"))
     assert cache_dir() == tmp_path / "mine" and numba_cache_dir() == tmp_path / "mine" / "numba"
     monkeypatch.setenv("FAULTLAB_CACHE_DIR", "")

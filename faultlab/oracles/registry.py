@@ -16,14 +16,10 @@ from dataclasses import dataclass
 from faultlab.errors import ConfigError
 from faultlab.oracles.builtin import BUILTIN_ORACLES
 from faultlab.oracles.oracle import Oracle
-from faultlab.plugins import PluginCatalogue, PluginLoad
+from faultlab.plugins import ORACLE_ENTRY_POINT_GROUP, PluginCatalogue, PluginLoad
 
 __all__ = ["ORACLE_ENTRY_POINT_GROUP", "OraclePluginWarning", "OraclePlugins", "load_oracle_plugins",
            "all_oracles", "get_oracle"]
-
-#: Entry-point group of third-party oracles.
-ORACLE_ENTRY_POINT_GROUP = "faultlab.oracles"
-
 
 class OraclePluginWarning(UserWarning):
     """Issued when an oracle plugin fails to load."""
