@@ -105,29 +105,24 @@ def mutation_pages(analysis: MutationAnalysis, results: Path) -> list[Page]:
     rows = _paired_rows(results)
     for mutant in mutants:
         pages.append(_mutant_page(mutant, oc[oc["mutant"] == mutant], diffs.get(mutant), diff_note,
-                                  rows.get(_fault_name(mutant))))
+                                  rows.get(mutant)))
     return pages
 
 
 def _paired_rows(results: Path) -> dict[str, pd.DataFrame]:
-    """Per mutant (by id): its jobs beside the baseline's job of the same run, suite, case and repetition."""
-    from faultlab.mutation.mutant import FAULT_PROVIDER
+    """Per mutant id: its jobs beside the baseline's job of the same run, suite, case and repetition."""
+    from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 
     jobs = load_results(results)
     keys = ["run", "suite", "case", "rep"]
     base = jobs[jobs["variant"] == BASELINE][keys + ["rms_mm", "status"]].rename(
         columns={"rms_mm": "baseline RMS mm", "status": "baseline status"})
-    mutated = jobs[jobs["variant"].str.startswith(f"{FAULT_PROVIDER}/")]
+    mutated = jobs[jobs["variant"].map(is_mutant_variant)]
     paired = mutated[keys + ["variant", "rms_mm", "status"]].merge(base, on=keys, how="left").rename(
         columns={"rms_mm": "mutant RMS mm", "status": "mutant status"})
     paired["difference mm"] = paired["mutant RMS mm"] - paired["baseline RMS mm"]
-    return {v: g.drop(columns="variant").sort_values(keys).reset_index(drop=True) for v, g in paired.groupby("variant")}
-
-
-def _fault_name(mutant: str) -> str:
-    from faultlab.mutation.mutant import FAULT_PROVIDER
-
-    return f"{FAULT_PROVIDER}/" + mutant.replace(":", ".").replace("/", "-").lower()
+    return {mutant_id_of(v): g.drop(columns="variant").sort_values(keys).reset_index(drop=True)
+            for v, g in paired.groupby("variant")}
 
 
 def _mutant_page(mutant: str, outcomes: pd.DataFrame, diff: str | None, diff_note: str,
