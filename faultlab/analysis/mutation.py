@@ -31,6 +31,7 @@ from faultlab.mutation.variants import mutant_variant
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.runner.staging import STOPS_KEY
 from faultlab.runner.store import MUTATION_FILE, load_metadata, load_results
+from faultlab.stats.exactkill import exact_kills
 from faultlab.stats.killmatrix import suite_kills
 from faultlab.inference.multiplicity import holm
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_DIRECTION
@@ -106,10 +107,12 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
         ncases = {k: int(suites.get(k[1], n)) for k, n in ncases.items()}
     rows = []
     per_suite = {}
+    exact = sel.get("kill") == EXACT_KILL
     for (run, suite), n in ncases.items():
         part = results[(results["run"] == run) & (results["suite"] == suite)]
-        per_suite[(run, suite)] = suite_kills(part, case_alpha=alpha / n, metric=metric, direction=direction,
-                                          stopped=stopped)
+        per_suite[(run, suite)] = (exact_kills(part, metric=metric) if exact else
+                                   suite_kills(part, case_alpha=float(sel.get("case_alpha") or alpha / n),
+                                               metric=metric, direction=direction, stopped=stopped))
     for mid in sel["run"]:
         variant = mutant_variant(mid)
         mine = {rs: v[v["fault"] == variant].sort_values("case") for rs, v in per_suite.items()}
@@ -141,6 +144,11 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
             elif (mv["verdict"] == "cannot_judge").all():
                 rows.append(base | dict(outcome="cannot_judge", killing_case=0,
                                         note="; ".join(sorted(set(mv["reason"].astype(str))))))
+            elif exact:
+                rows.append(base | dict(outcome=MutantOutcome.SURVIVED.value, killing_case=0, survival=SURVIVED_EXACT,
+                                        median_diff_mm=0.0,
+                                        note=f"map error identical to the baseline's on all {n} cases (deterministic "
+                                             f"SLAM, judged exactly)"))
             elif observed_equivalent:
                 rows.append(base | dict(outcome=OBSERVED_EQUIVALENT, killing_case=0,
                                         note="maps bit-identical to the baseline's in every paired run"))
@@ -171,6 +179,10 @@ OBSERVED_EQUIVALENT = "equivalent_observed"
 #: How a survivor survived: shown equivalent within the margin on every case (TOST), or not.
 SURVIVED_EQUIVALENT = "equivalent"
 SURVIVED_INCONCLUSIVE = "inconclusive"
+#: A survivor of an exact (deterministic) campaign: its map error equals the baseline's on every case.
+SURVIVED_EXACT = "exact"
+#: ``kill`` of a campaign on a target judged exactly (repetitions = 1: a deterministic SLAM).
+EXACT_KILL = "exact"
 KILL_CLASSES = (MutantOutcome.KILLED.value, MutantOutcome.CRASH.value, MutantOutcome.TIMEOUT.value)
 
 
@@ -191,7 +203,7 @@ def adaptive_savings(results: pd.DataFrame, experiment: dict, stops) -> dict | N
                 executions_saved=fixed - len(results))
 
 
-def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
+def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, trivial=()) -> pd.DataFrame:
     """Mutation score per suite kind, per (suite kind, operator) and per (suite kind, unit).
 
     Score = killed / (killed + survived + incomplete) over the (mutant, run) rows that ran
@@ -201,24 +213,32 @@ def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> 
     split into ``equivalent`` (TOST on every case) and ``inconclusive``; mutants observed
     equivalent (bit-identical maps) leave the denominator and are counted in
     ``equivalent_observed``.
+
+    ``trivial`` (the mutants screening declared trivially killed: they fail on every probe) adds
+    the *informative* score per suite kind (``by = "informative"``): the same over the mutants
+    not in ``trivial``.
     """
     judged = outcomes[outcomes["outcome"].isin((*KILL_CLASSES, MutantOutcome.SURVIVED.value, INCOMPLETE))]
     observed = outcomes[outcomes["outcome"] == OBSERVED_EQUIVALENT]
     rows = []
-    for by in (None, "operator", "unit"):
-        keys = ["suite"] + ([by] if by else [])
+    trivial = set(trivial)
+    for by in (None, "operator", "unit", *(["informative"] if trivial else [])):
+        informative = by == "informative"
+        keys = ["suite"] + ([by] if by and not informative else [])
+        frame = judged[~judged["mutant"].isin(trivial)] if informative else judged
         n_observed = observed.groupby(keys).size().to_dict() if len(observed) else {}
-        for key, g in judged.groupby(keys, sort=True):
+        for key, g in frame.groupby(keys, sort=True):
             key = key if isinstance(key, tuple) else (key,)
             k = int(g["outcome"].isin(KILL_CLASSES).sum())
             n = len(g)
             lo, hi = clopper_pearson(k, n, alpha)
-            rows.append(dict(suite=key[0], by=by or "all", group=key[1] if by else "all", killed=k, judged=n,
+            rows.append(dict(suite=key[0], by=by or "all", group=key[1] if by and not informative else "all",
+                             killed=k, judged=n,
                              crash=int((g["outcome"] == "crash").sum()), timeout=int((g["outcome"] == "timeout").sum()),
                              incomplete=int((g["outcome"] == INCOMPLETE).sum()),
                              survived_equivalent=int((g["survival"] == SURVIVED_EQUIVALENT).sum()),
                              survived_inconclusive=int((g["survival"] == SURVIVED_INCONCLUSIVE).sum()),
-                             equivalent_observed=int(n_observed.get(key if by else key[0], 0)),
+                             equivalent_observed=int(n_observed.get(key if by and not informative else key[0], 0)),
                              score=k / n, ci_low=lo, ci_high=hi))
     return pd.DataFrame(rows, columns=["suite", "by", "group", "killed", "judged", "crash", "timeout", "incomplete",
                                        "survived_equivalent", "survived_inconclusive", "equivalent_observed",
@@ -273,6 +293,21 @@ def _difference_interval(a_only: int, b_only: int, n: int, *, level: float) -> t
     return a_lo - b_hi, a_hi - b_lo
 
 
+def _reused_outcomes(reused: dict, *, alpha: float) -> pd.DataFrame:
+    """The outcome rows of reused mutants, from the campaigns they ran in, marked in ``note``."""
+    parts = []
+    for prev in sorted(set(reused.values())):
+        ids = [i for i, d in reused.items() if d == prev]
+        try:
+            old = analyse_mutation(prev, alpha=alpha).outcomes
+        except (ResultsError, OSError) as exc:
+            raise ResultsError(f"the verdicts this campaign reuses are gone: {prev}: {exc}") from exc
+        rows = old[old["mutant"].isin(ids)].copy()
+        rows["note"] = [f"verdict reused from {prev} (function unchanged); {n}".rstrip("; ") for n in rows["note"]]
+        parts.append(rows)
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=OUTCOME_COLUMNS)
+
+
 def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> MutationAnalysis:
     """The :class:`MutationAnalysis` of the campaign saved in ``out`` (runs nothing)."""
     out = Path(out)
@@ -288,6 +323,9 @@ def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> Mutati
     pairs = spec.items() if isinstance(spec, dict) else (tuple(p) for p in spec)  # stored as [[kind, n], ...]
     stops = meta.get(STOPS_KEY) or []
     outcomes = mutant_outcomes(results, sel, metric, {k: v for k, v in pairs if isinstance(v, int)}, stops=stops)
+    reused = dict(sel.get("reused") or {})
+    if reused:
+        outcomes = pd.concat([outcomes, _reused_outcomes(reused, alpha=alpha)], ignore_index=True)
     suites = list(dict.fromkeys(results["suite"]))
     info = dict(alpha=sel["alpha"], direction=stored_direction(sel), n_mutants_run=len(sel["run"]), n_screened=len(sel["screened"]),
                 n_jobs=len(results), runtime_s_sum=float(results["runtime_s"].sum()),
@@ -296,5 +334,10 @@ def analyse_mutation(out: str | Path, *, alpha: float = DEFAULT_ALPHA) -> Mutati
                 outcome_counts={f"{s}:{o}": int(n) for (s, o), n in
                                 outcomes.groupby(["suite", "outcome"]).size().items()},
                 adaptive=adaptive_savings(results, exp, stops))
-    return MutationAnalysis(outcomes=outcomes, scores=mutation_scores(outcomes, alpha=alpha),
+    if "target" in sel:  # a campaign on user code
+        info |= dict(target=sel["target"], kill=sel.get("kill"), case_alpha=sel.get("case_alpha"),
+                     trivial=list(sel.get("trivial") or []), n_trivial=len(sel.get("trivial") or []),
+                     reused=reused, n_reused=len(reused))
+    return MutationAnalysis(outcomes=outcomes,
+                            scores=mutation_scores(outcomes, alpha=alpha, trivial=sel.get("trivial") or ()),
                             mcnemar=compare_suites(outcomes, suites, alpha=alpha), meta=info)

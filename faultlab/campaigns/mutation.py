@@ -71,22 +71,37 @@ import pandas as pd
 
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
-from faultlab.errors import ConfigError, ResultsError
+from faultlab.errors import ConfigError, FaultError, ResultsError
+from faultlab.mutation.sourceselect import mutant_records, screen_target, select_source_mutants
+from faultlab.mutation.target import generate_source_mutants, parse_target
 from faultlab.mutation.variants import MutantSelection, mutant_variant, select_mutants
 from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, load_results, parse_experiment,
                              prepare_cases, result_row, store_session, stream_results)
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
-from faultlab.runner.store import MUTATION_FILE, check_store, job_metrics, results_path, store_lock
+from faultlab.runner.store import (MUTANTS_FILE, MUTATION_FILE, check_store, job_metrics, load_metadata, results_path,
+                                   store_lock)
+from faultlab.scenario.suite import draw_suite, generate_case
+from faultlab.seeds import slam_seed
+from faultlab.stats.exactkill import exact_kills
 from faultlab.stats.killmatrix import suite_kills
 from faultlab.inference.sequential import StagedDesign
 from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DIRECTIONS
 
-__all__ = ["MUTATION_FILE", "MutationExperiment", "MutationRun", "load_mutation_experiment", "parse_selector",
+__all__ = ["MUTATION_FILE", "MUTANTS_FILE", "MutationExperiment", "MutationRun", "load_mutation_experiment", "parse_selector",
            "selection_from_table", "run_mutation"]
 
-_MUTATION_KEYS = ("units", "operators", "ids", "sample", "seed", "alpha", "direction")
+_MUTATION_KEYS = ("units", "operators", "ids", "sample", "seed", "alpha", "direction", "target", "functions", "lines",
+                  "probes", "reuse")
+#: Keys of a ``[mutation]`` table that only a campaign on faultlab's own units takes / only one on a target.
+_UNIT_KEYS = ("units", "ids")
+_TARGET_KEYS = ("functions", "lines", "probes", "reuse")
+#: Probe scenarios a target's mutants are screened on, by default.
+DEFAULT_PROBES = 3
+#: Kill criteria: the exact paired sign-flip test over K repetitions, or exact comparison (K = 1).
+KILL_SIGN_FLIP = "sign_flip"
+KILL_EXACT = "exact"
 
 
 @dataclass(frozen=True)
@@ -97,9 +112,15 @@ class MutationExperiment:
     selection: MutantSelection
     alpha: float = DEFAULT_ALPHA
     direction: str = DEFAULT_DIRECTION
+    kill: str = KILL_SIGN_FLIP
+    fixed_case_alpha: float | None = None
+    records: dict | None = None
 
     def case_alpha(self, n_cases: int) -> float:
-        return self.alpha / n_cases
+        """The level a case is judged at: ``alpha / n_cases`` (Bonferroni over the suite) for faultlab's
+        units; for a target, one level for every case, ``alpha`` over the largest suite, so a suite's
+        kill never depends on its size (adding a case never un-kills)."""
+        return self.fixed_case_alpha if self.fixed_case_alpha is not None else self.alpha / n_cases
 
     def case_design(self, n_cases: int) -> StagedDesign | None:
         """The staged design of a suite of ``n_cases`` cases (None without ``[adaptive]``): the
@@ -132,12 +153,16 @@ def parse_selector(text: str) -> dict:
     return out
 
 
-def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
-                             repetitions: int | None = None) -> MutationExperiment:
+def load_mutation_experiment(path: str | Path, *, mutants: str | None = None, repetitions: int | None = None,
+                             target: str | None = None, slam: str | None = None, reuse: str | Path | None = None,
+                             jobs: int = 1) -> MutationExperiment:
     """Read a mutation experiment file (or a shipped one by name, e.g. ``mutation``).
 
     ``mutants`` (a :func:`parse_selector` text) replaces the file's selection; ``repetitions``
-    its K.  ConfigError naming the file and key for anything malformed.
+    its K; ``target`` the ``[mutation]`` target (user code, :func:`~faultlab.mutation.target.parse_target`);
+    ``slam`` the ``[slam]`` name (the factory that runs the target); ``reuse`` the ``[mutation]``
+    reuse directory.  A campaign on a target screens its mutants here (``jobs`` processes; cached).
+    ConfigError naming the file and key for anything malformed.
     """
     file = resolve_experiment(path, what="mutation experiment file")
     data, text = read_toml(file, what="mutation experiment file")
@@ -147,9 +172,21 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
     if unknown:
         raise ConfigError(f"{path}: [mutation]: unknown key(s) {sorted(unknown)}; known: {', '.join(_MUTATION_KEYS)}")
     if mutants is not None:
-        table = {k: v for k, v in table.items() if k in ("seed", "alpha", "direction")} | parse_selector(mutants)
+        table = {k: v for k, v in table.items() if k in ("seed", "alpha", "direction", *_TARGET_KEYS[:3], "target",
+                                                         "reuse")} | parse_selector(mutants)
+    if target is not None:
+        table["target"] = target
+    if reuse is not None:
+        table["reuse"] = str(reuse)
+    if slam is not None:
+        data["slam"] = dict(data.get("slam") or {}) | {"name": slam}
     if repetitions is not None:
         data["repetitions"] = repetitions
+    if "target" in table:
+        return _load_target_experiment(path, data, text, table, jobs=jobs)
+    extra = sorted(set(table) & set(_TARGET_KEYS))
+    if extra:
+        raise ConfigError(f"{path}: [mutation]: {', '.join(extra)} need a target (user code to mutate)")
     alpha = float(table.get("alpha", DEFAULT_ALPHA))
     if not 0 < alpha < 1:
         raise ConfigError(f"{path}: [mutation].alpha must lie in (0, 1), got {alpha}")
@@ -176,6 +213,100 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None,
                               f"{min_pairs(alpha / n, alternative=alternative)}")
         if n is not None:
             mexp.case_design(n)  # the futility bound must lie in [level, 1] at every suite's level
+    return mexp
+
+
+def _probes(exp: Experiment, n: int) -> tuple[list, list[int], str]:
+    """``n`` probe scenarios drawn like a random suite in run 0 (no evaluation run uses it), their
+    SLAM seeds, and a key naming them."""
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ConfigError(f"{exp.source}: [mutation].probes must be an integer >= 1, got {n!r}")
+    cases = draw_suite("random", exp.parameter_space(), root_seed=exp.seed, run=0, n_cases=n)
+    scenarios = [generate_case(c, n_steps=exp.n_steps, sensor_range=exp.sensor_range, min_distance=exp.min_distance,
+                               fov_bug=exp.fov_bug) for c in cases]
+    seeds = [slam_seed(exp.seed, 0, "probe", c.case, 0) for c in cases]
+    key = json.dumps([exp.seed, n, exp.n_steps, exp.sensor_range, exp.min_distance, exp.fov_bug, exp.space],
+                     sort_keys=True, default=str)
+    return scenarios, seeds, key
+
+
+def _comparable(experiment: dict) -> dict:
+    """An experiment as its store records it (canonical form), less what a rerun may change."""
+    return {k: v for k, v in experiment.items() if k not in ("description", "variants")}
+
+
+def _reuse_map(exp: Experiment, reuse, *, where: str) -> dict:
+    """Mutant id -> the earlier campaign directory whose verdict it can reuse (same experiment otherwise)."""
+    if not reuse:
+        return {}
+    prev = Path(reuse)
+    try:
+        sel = json.loads((prev / MUTATION_FILE).read_text())
+        meta = load_metadata(prev)
+    except (OSError, ValueError, ResultsError) as exc:
+        raise ConfigError(f"{where}: reuse = {str(prev)!r} is not a finished mutation campaign ({exc})") from None
+    old = _comparable(dict(meta.get("experiment") or {}))
+    new = _comparable(json.loads(exp.canonical_json()))
+    differ = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+    if differ:
+        raise ConfigError(f"{where}: reuse = {str(prev)!r} ran another experiment (differs in {', '.join(differ)}); "
+                          f"its verdicts cannot be reused")
+    out = {i: str(prev) for i in sel.get("run", [])}
+    out.update({i: d for i, d in (sel.get("reused") or {}).items()})
+    return out
+
+
+def _load_target_experiment(path, data: dict, text: str, table: dict, *, jobs: int) -> MutationExperiment:
+    """A mutation experiment on user code (``[mutation].target``): mutants generated from the target's
+    source, screened on probes, sampled, reused; exact kills for K = 1 (a deterministic SLAM)."""
+    where = f"{path}: [mutation]"
+    extra = sorted(set(table) & set(_UNIT_KEYS))
+    if extra:
+        raise ConfigError(f"{where}: {', '.join(extra)} select faultlab's own units; with a target use functions "
+                          f"and lines")
+    if "variants" in data:
+        raise ConfigError(f"{path}: variants: a mutation experiment's variants come from [mutation]")
+    alpha = float(table.get("alpha", DEFAULT_ALPHA))
+    if not 0 < alpha < 1:
+        raise ConfigError(f"{where}.alpha must lie in (0, 1), got {alpha}")
+    direction = table.get("direction", DEFAULT_DIRECTION)
+    if direction not in DIRECTIONS:
+        raise ConfigError(f"{where}.direction must be one of {', '.join(map(repr, DIRECTIONS))}, got {direction!r}")
+    if data.get("adaptive") is not None:
+        raise ConfigError(f"{path}: [adaptive] is not supported for a campaign on a target")
+    exp0 = parse_experiment(dict(data) | {"variants": [BASELINE]}, source=str(path), text=text)
+    if ":" not in exp0.slam.name:
+        raise ConfigError(f"{path}: [slam].name = {exp0.slam.name!r}: a campaign on a target needs the factory that "
+                          f"runs it, as package.module:factory")
+    kill = KILL_EXACT if exp0.repetitions == 1 else KILL_SIGN_FLIP
+    n_max = max((s.n_cases for s in exp0.suites if s.n_cases is not None), default=1)
+    alternative = alternative_of(direction)
+    if kill == KILL_SIGN_FLIP and exp0.repetitions < min_pairs(alpha / n_max, alternative=alternative):
+        raise ConfigError(f"{path}: repetitions = {exp0.repetitions} is too few: a case is judged at alpha / "
+                          f"{n_max} = {alpha / n_max:.4g}, which the exact {alternative} sign-flip test reaches only "
+                          f"from K = {min_pairs(alpha / n_max, alternative=alternative)}; a deterministic SLAM "
+                          f"runs with repetitions = 1 and is judged exactly")
+    target = parse_target(table["target"], functions=table.get("functions", ()), lines=table.get("lines", ()),
+                          where=f"{where}.target")
+    operators = table.get("operators")
+    try:
+        mutants = generate_source_mutants(target, operators=operators)
+    except FaultError as exc:
+        raise ConfigError(f"{where}.operators: {exc}") from None
+    if not len(mutants):
+        raise ConfigError(f"{where}: target {target} has no mutation point (functions skipped: "
+                          f"{mutants.skipped or 'none'})")
+    reuse = _reuse_map(exp0, table.get("reuse"), where=where)
+    scenarios, seeds, probe_key = _probes(exp0, table.get("probes", DEFAULT_PROBES))
+    screening = screen_target(mutants, exp0.slam, scenarios, seeds, probe_key=probe_key, jobs=jobs)
+    selection = select_source_mutants(mutants, screening, sample=table.get("sample"), seed=int(table.get("seed", 0)),
+                                      reuse=reuse)
+    if not selection.run and not selection.reused:
+        raise ConfigError(f"{where} selects no live mutant of {target}")
+    exp = parse_experiment(dict(data) | {"variants": [BASELINE, *map(mutant_variant, selection.run)]},
+                           source=str(path), text=text)
+    mexp = MutationExperiment(experiment=exp, selection=selection, alpha=alpha, direction=direction, kill=kill,
+                              fixed_case_alpha=alpha / n_max, records=mutant_records(mutants, screening))
     return mexp
 
 
@@ -276,6 +407,8 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
     check_store(out, exp, force_new=force_new)  # a refusal writes nothing, not even the lock file
     with store_lock(out), ResultStore.open(out, exp, force_new=force_new) as store:
         (out / MUTATION_FILE).write_text(json.dumps(_selection_json(mexp), indent=1))
+        if mexp.records is not None:
+            (out / MUTANTS_FILE).write_text(json.dumps(mexp.records, indent=1))
         cases = prepare_cases(exp, out)
         info = {(c.run, c.suite, c.case): c for c in cases}
         n_cases = _n_cases(cases)
@@ -292,7 +425,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
         for r in range(1, max(n_cases.values()) + 1):
             round_specs = []
             for (run, suite), n in n_cases.items():
-                if r > n or len(killed[(run, suite)]) == len(mexp.selection.run):
+                if r > n or (mexp.selection.run and len(killed[(run, suite)]) == len(mexp.selection.run)):
                     continue  # no case left, or every mutant killed: the baseline is not needed either
                 for s in by_case[(run, suite, r)]:
                     if s.key.variant in killed[(run, suite)]:
@@ -317,8 +450,9 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
                 part = df[(df["run"] == run) & (df["suite"] == suite)]
                 if part.empty:
                     continue
-                k = suite_kills(part, case_alpha=mexp.case_alpha(n), metric=exp.metric, direction=mexp.direction,
-                                stopped=stopped)
+                k = (exact_kills(part, metric=exp.metric) if mexp.kill == KILL_EXACT else
+                     suite_kills(part, case_alpha=mexp.case_alpha(n), metric=exp.metric, direction=mexp.direction,
+                                 stopped=stopped))
                 killed[(run, suite)].update(k.loc[k["kill"] != "", "fault"])
     return MutationRun(out=out, n_mutants=len(mexp.selection.run), n_jobs_max=len(specs), n_jobs_run=n_needed,
                        n_new=n_new, n_skipped_early=len(specs) - n_full, wall_time_s=time.perf_counter() - t0,
@@ -387,5 +521,9 @@ def _check_level(out: Path, mexp: MutationExperiment, *, force_new: bool) -> Non
 
 def _selection_json(mexp: MutationExperiment) -> dict:
     s = mexp.selection
-    return {"alpha": mexp.alpha, "direction": mexp.direction, "run": list(s.run), "screened": s.screened, "represented_by": s.represented_by,
-            "unit": s.unit, "operator": s.operator}
+    out = {"alpha": mexp.alpha, "direction": mexp.direction, "run": list(s.run), "screened": s.screened, "represented_by": s.represented_by,
+           "unit": s.unit, "operator": s.operator}
+    if mexp.records is not None:  # a campaign on a target
+        out |= {"kill": mexp.kill, "case_alpha": mexp.fixed_case_alpha, "trivial": list(s.trivial),
+                "reused": s.reused, "target": s.info}
+    return out

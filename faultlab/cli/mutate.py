@@ -29,7 +29,11 @@ def register(subparsers) -> None:
     ls.add_argument("--operator", default=None, metavar="O", help="only the mutants of this operator")
     ls.add_argument("--all", action="store_true", dest="all_mutants",
                     help="list every mutant with its class, not only the live ones")
-    add_examples(ls, ["faultlab mutate list", "faultlab mutate list --all --operator arithmetic"])
+    ls.add_argument("--target", default=None, metavar="TARGET",
+                    help="list the mutants of user code instead (package.module[:function] or file.py[:lines]; "
+                         "not screened: `mutate run` screens them on probe scenarios)")
+    add_examples(ls, ["faultlab mutate list", "faultlab mutate list --all --operator arithmetic",
+                      "faultlab mutate list --target odometry_mapper.mapper:OdometryMapper.update"])
     ls.set_defaults(func=_list)
 
     show = sub.add_parser("show", help="show one mutant: its unified diff and its class",
@@ -56,9 +60,17 @@ def register(subparsers) -> None:
     run.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default: 2)")
     run.add_argument("--mutants", default=None, metavar="SELECTOR",
                      help="replace the file's selection: 'all' or comma-separated unit=U, operator=O, "
-                          "sample=N and mutant ids")
+                          "sample=N and mutant ids (with a target: operator=O and sample=N)")
     run.add_argument("--repetitions", type=positive_int, default=None, metavar="K",
                      help="repetitions per case (default: the file's)")
+    run.add_argument("--target", default=None, metavar="TARGET",
+                     help="mutate user code instead of faultlab's units: package.module, package.module:function "
+                          "(Class.method) or path/file.py[:10-40,55-60] (replaces [mutation].target)")
+    run.add_argument("--slam", default=None, metavar="FACTORY",
+                     help="the SLAM factory, package.module:factory, that runs the target (replaces [slam].name)")
+    run.add_argument("--reuse", default=None, metavar="DIR",
+                     help="incremental rerun: reuse the verdicts of mutants whose function is unchanged from the "
+                          "campaign in DIR (replaces [mutation].reuse)")
     add_execution_options(run)
     add_examples(run, ["nice -n 10 faultlab mutate run mutation --out results/mutation",
                        "faultlab mutate run mutation --mutants unit=motion_model,sample=5 --repetitions 6 --out results/m5"])
@@ -89,6 +101,11 @@ def _list(args: argparse.Namespace) -> int:
     # imported when the command runs: libcst and the scenario generator take a second to import
     from faultlab.mutation import list_mutants
 
+    if args.target is not None:
+        from faultlab.mutation.target import list_source_mutants
+
+        print(list_source_mutants(args.target, operator=args.operator))
+        return 0
     print(list_mutants(args.slam, unit=args.unit, operator=args.operator, all_mutants=args.all_mutants,
                        cache=not args.no_cache))
     return 0
@@ -104,7 +121,8 @@ def _show(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from faultlab.campaigns.mutation import load_mutation_experiment, run_mutation
 
-    mexp = load_mutation_experiment(args.experiment, mutants=args.mutants, repetitions=args.repetitions)
+    mexp = load_mutation_experiment(args.experiment, mutants=args.mutants, repetitions=args.repetitions,
+                                    target=args.target, slam=args.slam, reuse=args.reuse, jobs=args.jobs)
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
     print(run_mutation(mexp, out, jobs=args.jobs, backend=args.backend, force_new=args.force_new,
                        progress=not args.no_progress))

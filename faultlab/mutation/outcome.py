@@ -23,6 +23,7 @@ class MutantOutcome(StrEnum):
     STILLBORN = "stillborn"  # does not compile, or raises on every unit example
     DUPLICATE = "duplicate"  # bit-identical unit outputs to an earlier mutant of the same unit, which runs
     NONDETERMINISTIC = "nondeterministic"  # unit outputs depend on the initial contents of np.empty buffers
+    INVALID = "invalid"  # a mutant of user source that cannot be imported or built: neither killed nor survived
 
 
 #: The outcomes screening assigns; a mutant with none of them is live.

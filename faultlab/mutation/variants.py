@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from faultlab.faults.fault import Fault
 from faultlab.mutation.mutant import _operator_mutants, _parse_id, mutant_fault
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.mutation.source import unit_source
+from faultlab.mutation.target import is_source_mutant_id, source_mutant_fault
 from faultlab.vocabulary import MUTANT_PREFIX
 
 __all__ = ["MUTANT_PREFIX", "MutantSelection", "is_mutant_variant", "mutant_variant", "mutant_id_of",
@@ -67,10 +68,16 @@ def _steps():
 def resolve_mutant_variant(variant: str) -> Fault:
     """The :class:`Fault` of variant ``"mutant:<id>"`` (FaultError naming close ids if unknown).
 
+    A mutant of user source (:mod:`faultlab.mutation.target`) resolves to a
+    :class:`~faultlab.mutation.target.SourceMutantFault`, which builds the whole SLAM from the
+    mutated module instead of replacing a unit.
+
     Only the named operator's points in the named function are generated (milliseconds), so a
     worker process resolves a mutant without generating or screening the whole catalogue.
     """
     mutant_id = mutant_id_of(variant)
+    if is_source_mutant_id(mutant_id):
+        return source_mutant_fault(variant, mutant_id)
     steps = _steps()
     try:
         unit, helper, operator, index = _parse_id(mutant_id)
@@ -102,7 +109,16 @@ class MutantSelection:
     represented_by : dict
         Id of a selected duplicate -> id of the live mutant whose outcome it shares.
     unit, operator : dict
-        Id -> unit / operator, for every selected mutant.
+        Id -> unit / operator, for every selected mutant (for a mutant of user source, the unit is
+        its function).
+    trivial : tuple of str
+        Ids of running mutants declared trivially killed by screening (they fail on every probe;
+        mutants of user source only): the informative score leaves them out.
+    reused : dict
+        Id -> the earlier campaign's directory whose verdict the mutant reuses (an incremental
+        rerun: its function is unchanged); such a mutant does not run.
+    info : dict
+        What the selection was made from (target, counts before sampling, probes), for the record.
     """
 
     run: tuple[str, ...]
@@ -110,6 +126,9 @@ class MutantSelection:
     represented_by: dict
     unit: dict
     operator: dict
+    trivial: tuple[str, ...] = ()
+    reused: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
 
 
 def select_mutants(*, units: Iterable[str] | None = None, operators: Iterable[str] | None = None,

@@ -3,6 +3,7 @@ matrix figure and a PDF, rendered from one :class:`~faultlab.analysis.mutation.M
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -12,13 +13,17 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from faultlab.analysis.mutation import MutationAnalysis, analyse_mutation
+from faultlab.report.stryker import stryker_report
+from faultlab.runner.store import MUTANTS_FILE
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.pdf import table_pages, text_pages, write_pdf
 from faultlab.stats.verdict import EQUIVALENCE_MARGIN_REL
 from faultlab.vocabulary import PAPER_DIRECTION, SUITE_ORDER, ordered
 
-__all__ = ["MATRIX_CLASSES", "markdown_table", "score_table", "matrix_figure", "write_mutation_report"]
+__all__ = ["STRYKER_FILE", "MATRIX_CLASSES", "markdown_table", "score_table", "matrix_figure", "write_mutation_report"]
 
+#: The campaign on user code in the mutation-testing-report-schema (:mod:`faultlab.report.stryker`).
+STRYKER_FILE = "mutation-report.json"
 #: Outcome classes of the matrix, in legend order, with their colours.
 MATRIX_CLASSES = {"killed": "#2b8cbe", "crash": "#e34a33", "timeout": "#fdbb84", "survived": "#f0f0f0",
                   "cannot_judge": "#bdbdbd", "incomplete": "#ffffb2", "equivalent_observed": "#a1d99b"}
@@ -134,6 +139,68 @@ def _adaptive_text(adaptive: dict | None) -> str:
             f"detectable shift is computed from them.")
 
 
+def _effect(rows: pd.DataFrame, kill: str) -> str:
+    """A survivor's effect over the cases that ran it."""
+    n = int(rows["n_cases_run"].sum())
+    if kill == "exact":
+        return f"none: map error identical to the original's on all {n} cases (judged exactly)"
+    mde = pd.to_numeric(rows["min_mde_mm"], errors="coerce")
+    return (f"no difference shown on {n} cases; smallest detectable mean shift {mde.min():.0f} mm (80 % power)"
+            if mde.notna().any() else f"no difference shown on {n} cases")
+
+
+def _target_markdown(analysis: MutationAnalysis, records: dict, all_scores: pd.DataFrame, counts) -> list[str]:
+    meta = analysis.meta
+    t = meta["target"]
+    o = analysis.outcomes
+    cls = t["classes"]
+    inf = score_table(analysis, "informative")
+    exact = meta.get("kill") == "exact"
+    rule = ("A case kills a mutant when its map error differs from the original's at all, or the mutant alone "
+            "fails (crash, non-finite map, timeout): the SLAM is deterministic, so each case runs once and is "
+            "judged exactly, no test." if exact else
+            f"A case kills a mutant when the {_test_text(meta)} over K = {meta['repetitions']} repetitions rejects "
+            f"at the per-case level {meta['case_alpha']:.4g} (alpha = {meta['alpha']} over the largest suite), or "
+            f"the mutant alone fails.")
+    sampled = (f" A budget of {t['sample']} mutants was drawn uniformly (seeded) from the {t['n_live']} live ones: "
+               f"each score estimates the score of all live mutants, and its exact Clopper-Pearson interval covers "
+               f"the sampled fraction." if t.get("sample") and t["n_sampled"] < t["n_live"] else "")
+    reused = meta.get("reused") or {}
+    md = ["# Mutation analysis of user code", "",
+          f"Target `{t['target']}` ({t['path']}, module digest {t['module_digest']}): {t['n_mutants']} mutants "
+          f"generated; screened on probe scenarios before the campaign: {cls['live']} live, {cls['invalid']} invalid "
+          f"(cannot be imported or built: neither killed nor survived), {cls['equivalent']} equivalent and "
+          f"{cls['duplicate']} duplicate (estimates bit-identical to the original's, or to an earlier mutant's, on "
+          f"every probe under common random numbers). Functions not mutated: "
+          + (", ".join(f"{k} ({v})" for k, v in t["skipped_functions"].items()) or "none") + "." + sampled, "",
+          f"{rule} A suite kills a mutant when one of its cases does; the kill on a case does not depend on the "
+          f"other cases, so adding a case never un-kills a mutant. {meta['n_mutants_run']} mutants ran, "
+          f"{meta.get('n_reused', 0)} verdicts reused from an earlier campaign (function unchanged), "
+          f"{meta['n_jobs']} SLAM executions.", "",
+          "## Mutation score per suite (95 % Clopper-Pearson)", "", markdown_table(all_scores.drop(columns="group")),
+          "## Informative score per suite", "",
+          f"Leaves out the {meta.get('n_trivial', 0)} mutants that screening declared, before the campaign, "
+          f"trivially killed: they fail on every probe, so every case kills them.", "",
+          markdown_table(inf.drop(columns="group")) if len(inf) else "No trivial mutant: the same as above.\n",
+          "## Outcomes per suite", "", markdown_table(counts),
+          "## Suites compared on the same mutants (exact McNemar)", "", markdown_table(_mcnemar_table(analysis))]
+    if reused:
+        md += ["## Reused verdicts", "", "These mutants did not run: their function is unchanged since the campaign "
+               "named, whose verdict they keep.", "",
+               markdown_table(pd.DataFrame({"mutant": list(reused), "from": list(reused.values())}))]
+    surv = o[o["outcome"] == "survived"]
+    md += ["## Survived mutants", ""]
+    if not len(surv):
+        md.append("None: every live mutant was killed by every suite.\n")
+    for mid, g in surv.groupby("mutant", sort=False):
+        rec = records["mutants"].get(mid, {})
+        suites = ", ".join(f"{s} ({int(n)} cases)" for s, n in zip(g["suite"], g["n_cases_run"]))
+        md += [f"### `{mid}`", "", f"{rec.get('function', '')}, line {rec.get('line', '')}: {rec.get('description', '')}",
+               "", f"Survived: {suites}. Effect: {_effect(g, meta.get('kill'))}.", "", "```diff",
+               rec.get("diff", "").rstrip("\n"), "```", ""]
+    return md
+
+
 def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path]:
     """Analyse the campaign in ``results`` and write tables, Markdown and ``mutation.pdf`` to ``reports``."""
     analysis = analyse_mutation(results)
@@ -180,6 +247,11 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
           "survivor is a change below that size or one the suite's cases do not exercise, not shown equivalent.",
           "", markdown_table(survivors)]
     paths = [out / f"{n}.csv" for n in ("outcomes", "scores", "mcnemar")]
+    if "target" in meta:  # a campaign on user code: its own account, the schema JSON and the survivors' diffs
+        records = json.loads((Path(results) / MUTANTS_FILE).read_text())
+        md = _target_markdown(analysis, records, all_scores, counts)
+        (out / STRYKER_FILE).write_text(json.dumps(stryker_report(analysis.outcomes, records, meta=meta), indent=1))
+        paths.append(out / STRYKER_FILE)
     (out / "mutation.md").write_text("\n".join(md))
     paths.append(out / "mutation.md")
     pages = text_pages("Mutation analysis", [md[2]])

@@ -326,6 +326,8 @@ def _describe(exc: BaseException) -> str:
 def _build(spec: JobSpec) -> SlamAdapter:
     """The SLAM under test of ``spec`` with its variant's fault applied (a hardware limit sets its option)."""
     fault = resolve_variant(spec.key.variant)
+    if callable(getattr(fault, "build_slam", None)):  # a mutant of user source: the SLAM built from it
+        return fault.build_slam(spec.slam)
     if isinstance(fault, SensorFault):
         options = fault.configure_options(dict(spec.slam.options))
         return dataclasses.replace(spec.slam, options=tuple(options.items())).build()

@@ -215,7 +215,7 @@ def _preflight(experiment: Experiment) -> tuple[SlamAdapter, tuple[NotApplicable
     skipped: list[NotApplicable] = []
     for i, variant in enumerate(experiment.variants):
         fault = resolve_variant(variant)  # known: parse_experiment checked every name
-        if fault is None:
+        if fault is None or callable(getattr(fault, "build_slam", None)):  # a mutant of user source: screened
             continue
         reason = not_applicable(fault, experiment.slam.name, units=units, options=dict(experiment.slam.options))
         if reason is not None:

@@ -94,6 +94,9 @@ METRICS_KEY = "metrics"
 #: File in a mutation campaign's output directory recording its mutant selection and level
 #: (written by :func:`faultlab.campaigns.mutation.run_mutation`).
 MUTATION_FILE = "mutation.json"
+#: File in a mutation campaign on user code: the target module's source and every mutant's place,
+#: diff and screening (written by :func:`faultlab.campaigns.mutation.run_mutation`).
+MUTANTS_FILE = "mutants.json"
 #: File in a study's output directory recording its settings and sessions
 #: (written by :func:`faultlab.campaigns.study.run_study`).
 STUDY_FILE = "study.json"
@@ -277,8 +280,11 @@ _held_guard = threading.Lock()
 def store_lock(out: str | Path) -> Iterator[None]:
     """Hold an exclusive lock on ``out`` so two campaigns never write the same store.
 
-    The operating system releases it when the process dies, even by SIGKILL.  Re-entrant within a
-    process (a driver holds it around a call that takes it again).
+    The operating system releases it when the process dies, even by SIGKILL (which leaves the lock
+    file ``.lock`` behind, unlocked); a clean exit removes the file while still holding the lock.
+    A writer that locked a file just removed by the previous holder takes the new one instead, so two
+    writers never hold locks on different files of the same name.  Re-entrant within a process (a
+    driver holds it around a call that takes it again).
     """
     out = ensure_out_dir(out)
     try:
@@ -291,15 +297,19 @@ def store_lock(out: str | Path) -> Iterator[None]:
         if key in _held_locks:
             _held_locks[key][1] += 1
         else:
-            try:
-                fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
-            except OSError as exc:
-                raise ResultsError(f"{out}: cannot create the lock file ({exc.strerror or exc})") from exc
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError as exc:
-                os.close(fd)
-                raise ResultsError(f"{out} is in use by another faultlab run (lock {out / '.lock'})") from exc
+            while True:
+                try:
+                    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+                except OSError as exc:
+                    raise ResultsError(f"{out}: cannot create the lock file ({exc.strerror or exc})") from exc
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except OSError as exc:
+                    os.close(fd)
+                    raise ResultsError(f"{out} is in use by another faultlab run (lock {out / '.lock'})") from exc
+                if _same_file(fd, out / ".lock"):
+                    break
+                os.close(fd)  # the previous holder removed it after we opened it: lock the current one
             _held_locks[key] = [fd, 1]
     try:
         yield
@@ -309,7 +319,18 @@ def store_lock(out: str | Path) -> Iterator[None]:
             held[1] -= 1
             if held[1] == 0:
                 del _held_locks[key]
+                with contextlib.suppress(OSError):
+                    os.unlink(out / ".lock")  # removed while held: a writer that opened it retries
                 os.close(held[0])
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    """Whether ``path`` still names the file open as ``fd``."""
+    try:
+        here, there = os.fstat(fd), os.stat(path)
+    except OSError:
+        return False
+    return (here.st_dev, here.st_ino) == (there.st_dev, there.st_ino)
 
 
 def _is_written(path: Path) -> bool:

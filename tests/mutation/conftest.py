@@ -2,3 +2,5 @@
 DeprecationWarning (mypy_extensions.TypedDict) for the whole session."""
 
 import faultlab.mutation  # noqa: F401
+
+from tests.mutation.usercode import user_package  # noqa: E402,F401  (fixture)

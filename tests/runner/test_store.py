@@ -189,8 +189,8 @@ def test_lock_excludes_a_second_writer(tmp_path):
         with store_lock(tmp_path):  # re-entrant within the process holding it
             assert _other_process_holds(tmp_path / ".lock")
         assert _other_process_holds(tmp_path / ".lock")  # the inner exit keeps it
-    assert not _other_process_holds(tmp_path / ".lock")  # released
-    fd = os.open(tmp_path / ".lock", os.O_RDWR)  # another writer holds it
+    assert not (tmp_path / ".lock").exists()  # released: a clean exit leaves no lock file
+    fd = os.open(tmp_path / ".lock", os.O_RDWR | os.O_CREAT)  # another writer holds it
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         with pytest.raises(ResultsError, match="in use"):
@@ -200,6 +200,34 @@ def test_lock_excludes_a_second_writer(tmp_path):
         os.close(fd)
     with store_lock(tmp_path):
         pass
+    assert not (tmp_path / ".lock").exists()
+
+
+def test_a_lock_file_removed_by_its_previous_holder_is_not_taken(tmp_path, monkeypatch):
+    import fcntl
+    import os
+    # A stale lock file (left by a killed run) is taken, then removed on a clean exit.
+    (tmp_path / ".lock").touch()
+    with store_lock(tmp_path):
+        assert _other_process_holds(tmp_path / ".lock")
+    assert not (tmp_path / ".lock").exists()
+    # The race: this writer opens .lock, the previous holder removes it and exits before the flock.
+    real_flock = fcntl.flock
+    removed = []
+
+    def flock_after_the_holder_left(fd, op):
+        if not removed:
+            removed.append(True)
+            os.unlink(tmp_path / ".lock")
+        return real_flock(fd, op)
+
+    (tmp_path / ".lock").touch()
+    monkeypatch.setattr(fcntl, "flock", flock_after_the_holder_left)
+    with store_lock(tmp_path):
+        monkeypatch.setattr(fcntl, "flock", real_flock)
+        # it holds the file that now carries the name, so another writer is refused
+        assert _other_process_holds(tmp_path / ".lock")
+    assert removed == [True]
 
 
 def test_case_path_layout(tmp_path):
