@@ -63,7 +63,8 @@ def make(jit: bool, whole_step: bool = True) -> FastSlam:
         slam = FastSlam()
     finally:
         twins.JIT_ENABLED = saved
-    slam._ref_step = slam._ref_step and whole_step
+    if not whole_step:  # every stage calls its units (the twins), not the reference step's kernels
+        slam._ref_step = slam._ref_predict = slam._ref_correct = False
     return slam
 
 

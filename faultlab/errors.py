@@ -11,6 +11,7 @@ __all__ = [
     "FaultlabError",
     "ConfigError",
     "ScenarioError",
+    "NoGroundTruthError",
     "InvalidCaseError",
     "SlamInputError",
     "SlamOutputError",
@@ -34,6 +35,10 @@ class ConfigError(FaultlabError, ValueError):
 
 class ScenarioError(FaultlabError, ValueError):
     """A test case cannot be generated, saved or loaded."""
+
+
+class NoGroundTruthError(ScenarioError):
+    """A metric or oracle that needs the ground truth was asked about a scenario without one (a real data set)."""
 
 
 class InvalidCaseError(ScenarioError):

@@ -80,6 +80,10 @@ def test_cli_reference_covers_every_command_and_subcommand():
     for name, command in sub.choices.items():
         assert f"\n## {name}\n" in text
         assert command.format_usage().split()[1] in text
+    from faultlab.cli.effects import VERBS
+
+    for verb in VERBS:  # parsed by `effects` itself, not argparse subparsers: listed all the same
+        assert f"\n## effects {verb}\n" in text and f"usage: faultlab effects {verb}" in text
 
 
 def test_paper_fidelity_table_is_the_paper_profiles_rows():
@@ -90,3 +94,36 @@ def test_paper_fidelity_table_is_the_paper_profiles_rows():
     assert len(rows) == len(expected) - 1  # the separator row does not start with "| "
     for row, want in zip(rows, [expected[0]] + expected[2:]):
         assert row.startswith(want.rstrip(" |") + " | ")
+
+
+def test_site_settings_keep_the_pages_readable_and_link_nothing_unchecked():
+    import yaml
+
+    config = yaml.safe_load((ROOT / "mkdocs.yml").read_text())
+    assert "repo_url" not in config  # no repository address that nobody checked
+    css = (DOCS / config["extra_css"][0]).read_text()
+    assert "white-space: pre-wrap" in css  # code blocks wrap rather than hide text behind a scrollbar
+    sys.path.insert(0, str(DOCS / "hooks"))
+    try:
+        import faultlab_docs
+    finally:
+        sys.path.remove(str(DOCS / "hooks"))
+    # argparse wraps the options' help of the command-line reference to the narrower width
+    options = [line for line in faultlab_docs.cli_markdown().splitlines() if line.startswith("  -")]
+    assert options and max(map(len, options)) <= int(faultlab_docs.CLI_COLUMNS)
+    assert faultlab_docs.SECTION_TITLES["api"] == "API"
+    assert (DOCS / "index.md").read_text().startswith("---\ntitle: Overview\n---\n")
+
+
+def test_every_test_the_integrity_page_cites_exists():
+    text = (DOCS / "explanation" / "integrity.md").read_text()
+    cited = 0
+    for row in (line for line in text.splitlines() if line.startswith("| ") and "`tests/" in line):
+        path = None
+        for ref in re.findall(r"`(tests/[^`]*|::[^`]*)`", row):
+            file, _, name = ref.partition("::") if ref.startswith("tests/") else (None, None, ref[2:])
+            path = ROOT / file if file else path
+            assert path is not None and path.exists(), ref
+            assert re.search(rf"^def {re.escape(name)}\(", path.read_text(), re.M), ref
+            cited += 1
+    assert cited >= 25

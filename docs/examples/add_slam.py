@@ -1,4 +1,13 @@
-"""A new SLAM registered by name: an odometry-only mapper as a built-in ``[slam] name``.
+"""A new SLAM by name from a distribution of your own: the example plugin's odometry-only mapper.
+
+The SLAM (``examples/faultlab-example-plugin/src/faultlab_example_plugin/slam.py``) is a
+:class:`~faultlab.slam.registry.SlamKind` that the distribution declares in its ``pyproject.toml``::
+
+    [project.entry-points."faultlab.slams"]
+    first_sighting = "faultlab_example_plugin.slam:FIRST_SIGHTING"
+
+Installed (``pip install -e examples/faultlab-example-plugin``), it is a ``[slam] name`` like a built-in
+in every process, the worker processes of ``faultlab run --jobs 2`` included.
 
 Run: ``python docs/examples/add_slam.py``; the docs test runs it too.
 """
@@ -7,41 +16,11 @@ import numpy as np
 
 from faultlab.metrics import map_errors
 from faultlab.scenario import generate_scenario
-from faultlab.slam import Estimate, SlamAdapter, run_slam
-from faultlab.slam.registry import BUILTIN_SLAMS, SlamKind, build_slam
+from faultlab.slam import run_slam
+from faultlab.slam.registry import all_slams, build_slam
 from faultlab.space import FIXED_VALUES, CaseSpec
 
-
-class FirstSighting(SlamAdapter):
-    """Integrates the odometry and puts each landmark where it was first seen."""
-
-    name = "first_sighting"
-
-    def reset(self, pose, *, rng):
-        self.pose = np.array(pose, dtype=float)
-        self.ids = np.empty(0, dtype=np.int64)
-        self.xy = np.empty((0, 2))
-
-    def update(self, control, observations):
-        v, omega = control
-        x, y, th = self.pose
-        x, y = x + v * np.cos(th), y + v * np.sin(th)
-        th = (th + omega + np.pi) % (2 * np.pi) - np.pi
-        self.pose = np.array([x, y, th])
-        ids = np.asarray(observations.ids)
-        new, first = np.unique(ids[~np.isin(ids, self.ids)], return_index=True)
-        r = np.asarray(observations.ranges)[~np.isin(ids, self.ids)][first]
-        b = np.asarray(observations.bearings)[~np.isin(ids, self.ids)][first]
-        xy = np.column_stack([x + r * np.cos(th + b), y + r * np.sin(th + b)])
-        self.ids, self.xy = np.concatenate([self.ids, new]), np.concatenate([self.xy, xy])
-
-    def estimate(self):
-        return Estimate(self.pose.copy(), self.ids.copy(), self.xy.copy())
-
-
-# In faultlab itself this entry goes into BUILTIN_SLAMS in faultlab/slam/registry.py.
-BUILTIN_SLAMS["first_sighting"] = SlamKind("first_sighting", "odometry only, landmarks where first seen",
-                                           FirstSighting)
+assert "first_sighting" in [kind.name for kind in all_slams()]  # found through the entry point
 
 slam = build_slam("first_sighting", {})
 scenario = generate_scenario(CaseSpec(FIXED_VALUES), rng=np.random.default_rng(1), n_steps=100)

@@ -1,4 +1,13 @@
-"""A new suite strategy: random cases, smallest maps first.
+"""A new suite strategy from a distribution of your own: the example plugin's random cases, smallest maps first.
+
+The strategy (``examples/faultlab-example-plugin/src/faultlab_example_plugin/strategy.py``) is a
+:class:`~faultlab.space.registry.SuiteStrategy` that the distribution declares in its ``pyproject.toml``::
+
+    [project.entry-points."faultlab.suite_strategies"]
+    smallest-first = "faultlab_example_plugin.strategy:SMALLEST_FIRST"
+
+Installed (``pip install -e examples/faultlab-example-plugin``), it is a ``[suites]`` key like a built-in
+in every process, the worker processes of ``faultlab run --jobs 2`` included.
 
 Run: ``python docs/examples/add_suite_strategy.py``; the docs test runs it too.
 """
@@ -6,20 +15,7 @@ Run: ``python docs/examples/add_suite_strategy.py``; the docs test runs it too.
 import numpy as np
 
 from faultlab.space import table1_space
-from faultlab.space.registry import STRATEGIES, SuiteStrategy, build_suite, suite_kinds
-from faultlab.space.suites import random_suite
-
-
-def lowest_first_suite(space, *, rng, n_cases=None):
-    """Random cases, sorted by map size (smallest maps first): cheap cases run first."""
-    cases = random_suite(space, rng=rng, n_cases=n_cases)
-    return sorted(cases, key=lambda case: case.values["map_size"])
-
-
-# In faultlab itself the builder goes into a module of faultlab/space/ and this entry into
-# STRATEGIES in faultlab/space/registry.py.
-STRATEGIES["smallest-first"] = SuiteStrategy("smallest-first", "random cases, smallest maps first",
-                                             lowest_first_suite)
+from faultlab.space.registry import build_suite, suite_kinds
 
 suite = build_suite("smallest-first", table1_space(), rng=np.random.default_rng(7), n_cases=6)
 sizes = [case.values["map_size"] for case in suite]

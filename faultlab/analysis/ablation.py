@@ -31,6 +31,7 @@ from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
 from faultlab.slam.profiles import ABLATIONS, Ablation
+from faultlab.inference.intervals import bootstrap_medians
 from faultlab.inference.multiplicity import holm
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, JobStatus
 
@@ -125,8 +126,7 @@ def paired_effect(paper, alternative, *, n_boot: int = 4000, alpha: float = DEFA
     d = a - b
     nonzero = d[d != 0.0]
     p = 1.0 if nonzero.size == 0 else float(wilcoxon(nonzero, alternative="two-sided").pvalue)
-    idx = rng.integers(0, d.size, size=(n_boot, d.size))
-    lo, hi = np.percentile(np.median(d[idx], axis=1), [100 * alpha / 2, 100 * (1 - alpha / 2)])
+    lo, hi = np.percentile(bootstrap_medians(d, replicates=n_boot, rng=rng), [100 * alpha / 2, 100 * (1 - alpha / 2)])
     return {"n": int(d.size), "n_zero": int(d.size - nonzero.size), "paper_median_mm": float(np.median(a)),
             "alternative_median_mm": float(np.median(b)), "diff_median_mm": float(np.median(d)),
             "diff_low_mm": float(lo), "diff_high_mm": float(hi), "ratio_median": float(np.median(a / b)),

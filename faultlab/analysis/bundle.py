@@ -19,6 +19,7 @@ import pandas as pd
 
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ResultsError
+from faultlab.precision import write_csv
 
 __all__ = ["TableBundle"]
 
@@ -54,7 +55,7 @@ class TableBundle:
         for name in self.TABLES:
             schema = self._schema(name)
             if schema is None:
-                self.table(name).to_csv(d / f"{name}.csv", index=False)
+                write_csv(self.table(name), d / f"{name}.csv")
             else:
                 schema.to_csv(self.table(name), d / f"{name}.csv")
         (d / self.META_FILE).write_text(json.dumps(self.saved_meta(), indent=1, sort_keys=True, default=str))

@@ -42,6 +42,7 @@ from faultlab.analysis.bundle import TableBundle
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
+from faultlab.inference.intervals import bootstrap_medians
 from faultlab.inference.multiplicity import holm
 from faultlab.stats.paper import RAW_CSV, load_paper_raw, resolve_data_path
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, PAPER_PROTOCOL, SUITE_ORDER, JobStatus
@@ -135,12 +136,6 @@ def _check(alpha: float, factor: float, n_boot: int, min_n: int) -> None:
         raise ConfigError(f"n_boot must be an integer >= 100, got {n_boot!r}")
 
 
-def _bootstrap_medians(x: np.ndarray, n_boot: int, rng: np.random.Generator) -> np.ndarray:
-    """Medians of ``n_boot`` resamples of ``x``, shape (n_boot,)."""
-    idx = rng.integers(0, x.size, size=(n_boot, x.size))
-    return np.median(x[idx], axis=1)
-
-
 def compare_distributions(x, y, *, n_boot: int = DEFAULT_N_BOOT, alpha: float = DEFAULT_ALPHA,
                           rng: np.random.Generator) -> dict:
     """One cell: sample ``x`` (this run) against ``y`` (the paper), without the multiplicity step.
@@ -169,7 +164,7 @@ def compare_distributions(x, y, *, n_boot: int = DEFAULT_N_BOOT, alpha: float = 
     if np.any(~np.isfinite(x)) or np.any(~np.isfinite(y)) or np.any(x <= 0) or np.any(y <= 0):
         raise ResultsError("compare_distributions: map errors must be finite and positive")
     res = mannwhitneyu(x, y, alternative="two-sided")
-    mx, my = _bootstrap_medians(x, n_boot, rng), _bootstrap_medians(y, n_boot, rng)
+    mx, my = bootstrap_medians(x, replicates=n_boot, rng=rng), bootstrap_medians(y, replicates=n_boot, rng=rng)
     q = [100 * alpha / 2, 100 * (1 - alpha / 2)]
     lo, hi = np.percentile(mx, q)
     rlo, rhi = np.percentile(mx / my, q)

@@ -13,8 +13,9 @@ name.  ``source`` is :data:`THIS_RUN` or :data:`PAPER`.
 Kinds: ``int`` (int64), ``Int`` (nullable Int64: empty where a value is missing), ``float``
 (float64, NaN where undefined), ``str`` (text without carriage returns; empty rather than
 missing) and ``bool``.
-CSV files hold floats in their shortest round-trip form, so :meth:`TableSchema.read_csv`
-gives back exactly the frame :meth:`TableSchema.to_csv` wrote.
+CSV files hold floats to :data:`faultlab.precision.SIGNIFICANT_DIGITS` significant digits (so that a
+library release moving the last bits does not change a written table); :meth:`TableSchema.read_csv`
+gives back exactly the values :meth:`TableSchema.to_csv` wrote.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import pandas as pd
 
 from faultlab.analysis.effects import CAMPAIGN_EFFECT_COLUMNS
 from faultlab.errors import ResultsError
+from faultlab.precision import write_csv
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 from faultlab.stats.class_effects import CLASS_EFFECT_COLUMNS
 from faultlab.stats.cases import (CASE_COMPARISON_COLUMNS, CASE_RATE_COLUMNS, CASE_VERDICT_COLUMNS,
@@ -145,10 +147,8 @@ class TableSchema:
         return pd.DataFrame(out, columns=list(self.columns))
 
     def to_csv(self, frame: pd.DataFrame, path: str | Path) -> Path:
-        """Write ``frame`` (conformed first) as CSV: header, then one line per row."""
-        path = Path(path)
-        self.conform(frame).to_csv(path, index=False)
-        return path
+        """Write ``frame`` (conformed first) as CSV: header, then one line per row (:func:`write_csv`)."""
+        return write_csv(self.conform(frame), path)
 
     def read_csv(self, path: str | Path) -> pd.DataFrame:
         """Read a CSV written by :meth:`to_csv` back into exactly the frame that was written.

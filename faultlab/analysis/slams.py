@@ -31,6 +31,7 @@ import pandas as pd
 
 from faultlab.stats.metadata import judged_metric
 from faultlab.analysis.result import analyse
+from faultlab.precision import write_csv
 from faultlab.runner.store import load_results
 from faultlab.stats.accuracy import ACCURACY_COLUMNS, case_mean_accuracy
 from faultlab.stats.cases import case_rates
@@ -78,7 +79,7 @@ class SlamComparison:
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         for name in ("accuracy", "sensitivity", "not_judged"):
-            getattr(self, name).to_csv(out / f"{name}.csv", index=False)
+            write_csv(getattr(self, name), out / f"{name}.csv")
         (out / "protocol.json").write_text(json.dumps({"alpha": self.alpha, "slams": self.protocol}, indent=2,
                                                       sort_keys=True) + "\n")
 

@@ -36,6 +36,7 @@ from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import RunSummary, run_experiment
 from faultlab.runner.experiment import Experiment, parse_experiment
+from faultlab.runner.store import results_path
 from faultlab.scenario.suite import SuiteCase
 from faultlab.seeds import case_seed
 from faultlab.space.design import Design, check_factors, design_size, study_design
@@ -248,6 +249,9 @@ def run_effects(eexp: EffectsExperiment, out: str | Path, *, jobs: int = 2, back
         ``out`` holds a study with other settings (without ``force_new``), or a stage's store is in use.
     """
     out = Path(out)
+    if results_path(out).exists():  # another campaign's store: effects.json and the stages would sit beside it
+        raise ResultsError(f"{out} holds the store of another campaign ({results_path(out)}), not an effects "
+                           f"study; use another --out (--force-new moves only an effects study's stores aside)")
     saved = {} if force_new else _check_resume(out, eexp)
     session = {"started": time.time(), "load_start": os.getloadavg()[0], "jobs": jobs, "backend": backend,
                "cpus": os.cpu_count()}

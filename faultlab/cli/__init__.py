@@ -20,7 +20,6 @@ import warnings
 from faultlab import __version__
 from faultlab.cli.options import epilog
 from faultlab.errors import FaultlabError
-from faultlab.runner.store import UnverifiedStoreWarning
 
 __all__ = ["main", "build_parser"]
 
@@ -40,6 +39,7 @@ COMMAND_MODULES = (
     "faultlab.cli.study",  # study plan, study run, study report
     "faultlab.cli.adapter",  # adapter check
     "faultlab.cli.export",  # export
+    "faultlab.cli.check",  # check
 )
 
 
@@ -80,7 +80,8 @@ def _silence_stdout() -> None:
 
 def _format_warning(message, category, filename, lineno, line=None) -> str:
     """A note about a store read without checksums is one line for a user, not a source location."""
-    if issubclass(category, UnverifiedStoreWarning):
+    store = sys.modules.get("faultlab.runner.store")  # not loaded: no store was read, so no such warning
+    if store is not None and issubclass(category, store.UnverifiedStoreWarning):
         return f"faultlab: note: {message}\n"
     return _python_format_warning(message, category, filename, lineno, line)
 
@@ -112,6 +113,9 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     Ctrl-C: 130).
     """
     warnings.formatwarning = _format_warning
+    if (sys.argv[1:] if argv is None else argv) == ["--version"]:  # without importing any command
+        print(f"{prog} {__version__}")
+        return 0
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -135,7 +139,8 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
         print(f"faultlab: error: {exc}", file=sys.stderr)
         return 1
     except OSError as exc:  # the file system refused (disk full, permission, read-only): no traceback
-        where = f" ({exc.filename})" if exc.filename else ""
+        target = exc.filename or next((getattr(args, a) for a in ("reports", "out") if getattr(args, a, None)), None)
+        where = f" ({target if exc.filename else f'writing under {target}'})" if target else ""
         what = "the disk is full" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
         print(f"faultlab: error: {what}{where}", file=sys.stderr)
         return 1

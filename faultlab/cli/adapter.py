@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import add_examples, add_verb_group
+from faultlab.cli.options import LazyText, add_examples, add_verb_group
 from faultlab.errors import ConfigError
-from faultlab.slam.conformance import CHECKS, check_program
 
 __all__ = ["register"]
 
@@ -28,6 +27,15 @@ def _seconds(text: str) -> float:
     return value
 
 
+def _description() -> str:
+    from faultlab.slam.conformance import CHECKS
+
+    return ("Start the program and reset it once (if it cannot, one error and no check), then start it "
+            "once per check and drive it through the protocol's edge cases: " + ", ".join(CHECKS) + ". "
+            "Each is reported as pass or FAIL with what to fix; a check that times out ends the run (the "
+            "rest are reported as not run); the exit status is 1 if any check fails.")
+
+
 def register(subparsers) -> None:
     verbs = add_verb_group(
         subparsers, "adapter", help="check a SLAM program that speaks the process protocol",
@@ -36,9 +44,7 @@ def register(subparsers) -> None:
         examples=["faultlab adapter check ./example_slam"])
     p = verbs.add_parser(
         "check", help="run the protocol's edge cases against a program; exit 1 if any fails",
-        description="Start the program once per check and drive it through the protocol's edge cases: "
-                    + ", ".join(CHECKS) + ". Each is reported as pass or FAIL with what to fix; the exit "
-                    "status is 1 if any check fails.")
+        description=LazyText(_description))
     p.add_argument("--reply-timeout", type=_seconds, default=10.0, metavar="S",
                    help="longest wait for one reply, s (default: 10)")
     p.add_argument("--execution-timeout", type=_seconds, default=60.0, metavar="S",
@@ -53,6 +59,8 @@ def register(subparsers) -> None:
 
 
 def _check(args: argparse.Namespace) -> int:
+    from faultlab.slam.conformance import check_program
+
     command = [args.program, *args.args]
     if not args.program:
         raise ConfigError("adapter check: no program given")

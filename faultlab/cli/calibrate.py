@@ -40,13 +40,14 @@ def handler(args: argparse.Namespace) -> int:
 
     from faultlab.analysis.calibration import EXIT_CODES, assess_calibration, check_saved, format_calibration
     from faultlab.campaigns.calibrate import calibrate
+    from faultlab.precision import write_csv
 
     if args.check is not None:
         rates, check, rule = check_saved(args.check)
         print(format_calibration(rates, check, alpha=rule.alpha))
         if args.reports is not None:
             Path(args.reports).mkdir(parents=True, exist_ok=True)
-            rates.to_csv(Path(args.reports) / "calibration.csv", index=False)
+            write_csv(rates, Path(args.reports) / "calibration.csv")
         return EXIT_CODES[check.status]
     run = calibrate(out=args.out, quick=args.quick, repetitions=args.repetitions, jobs=args.jobs,
                     backend=args.backend, force_new=args.force_new, progress=not args.no_progress)
@@ -54,6 +55,6 @@ def handler(args: argparse.Namespace) -> int:
     result = assess_calibration(run.out)
     if args.reports is not None:
         result.analysis.save(args.reports)
-        result.rates.to_csv(Path(args.reports) / "calibration.csv", index=False)
+        write_csv(result.rates, Path(args.reports) / "calibration.csv")
     print(result)
     return EXIT_CODES[result.check.status]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from faultlab.cli.options import add_examples, add_execution_options, epilog, positive_int, print_paths
 
-__all__ = ["register", "VERBS"]
+__all__ = ["register", "VERBS", "verb_parsers"]
 
 #: The study's verbs; any other first argument is a results directory (the logistic regression).
 VERBS: tuple[str, ...] = ("design", "run", "report")
@@ -38,7 +38,12 @@ def register(subparsers) -> None:
     p.add_argument("--parameters", default=None, metavar="A,B,...",
                    help="with RESULTS: comma-separated predictors (default: every scenario parameter)")
     p.add_argument("argv", nargs=argparse.REMAINDER, metavar="VERB|RESULTS ...")
-    p.set_defaults(func=_dispatch, effects_parser=p)
+    p.set_defaults(func=_dispatch, effects_parser=p, verb_parsers=verb_parsers)
+
+
+def verb_parsers(parent: str = "faultlab effects") -> dict[str, argparse.ArgumentParser]:
+    """The parser of each verb (its own, since ``effects RESULTS`` shares the command): for the docs."""
+    return {verb: _verb_parser(verb, parent) for verb in VERBS}
 
 
 def _verb_parser(verb: str, parent: str = "faultlab effects") -> argparse.ArgumentParser:

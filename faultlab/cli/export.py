@@ -7,10 +7,6 @@ from pathlib import Path
 
 from faultlab.cli.options import add_examples, print_paths
 from faultlab.errors import ConfigError
-from faultlab.scenario.model import load_scenario
-from faultlab.scenario.rosbag import write_bag
-from faultlab.scenario.tum import odometry_poses, step_times, write_tum
-from faultlab.slam.process import transcript
 
 __all__ = ["register", "FORMATS", "targets"]
 
@@ -53,6 +49,11 @@ def targets(case: Path, fmt: str, out: Path) -> list[Path]:
 
 
 def _handler(args: argparse.Namespace) -> int:
+    from faultlab.scenario.model import load_scenario
+    from faultlab.scenario.rosbag import write_bag
+    from faultlab.scenario.tum import odometry_poses, step_times, write_tum
+    from faultlab.slam.process import transcript
+
     if args.seed is not None and args.fmt != "jsonl":
         raise ConfigError(f"export: --seed applies to --format jsonl only, not {args.fmt}")
     seed = 0 if args.seed is None else args.seed

@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 
 from faultlab.cli.options import add_examples
-from faultlab.faults import FaultListing, applicable_faults, check_faults, list_faults, not_applicable
 
 __all__ = ["register"]
 
@@ -41,6 +40,8 @@ def register(subparsers) -> None:
 
 
 def _handler(args: argparse.Namespace) -> int:
+    from faultlab.faults import FaultListing, applicable_faults, check_faults, list_faults, not_applicable
+
     plugins = not args.no_plugins
     if args.check:
         report = check_faults(args.names or None, seed=args.seed, n_seeds=args.repetitions, n_steps=args.steps,

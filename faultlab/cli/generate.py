@@ -4,12 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from faultlab.cli.options import add_examples, positive_int
-from faultlab.report.casefig import save_case_png
-from faultlab.scenario.files import write_suite
-from faultlab.space.registry import suite_criteria, suite_kinds
-from faultlab.space.parameters import load_space, table1_space
-from faultlab.space.settings import read_class_weights
+from faultlab.cli.options import LazyChoices, LazyText, add_examples, positive_int
 
 __all__ = ["register", "handler"]
 
@@ -22,6 +17,12 @@ def _base_item(text: str) -> tuple[str, str]:
     return name.strip(), cls.strip()
 
 
+def _suite_kinds() -> tuple[str, ...]:
+    from faultlab.space.registry import suite_kinds
+
+    return suite_kinds()
+
+
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "generate",
@@ -32,10 +33,11 @@ def register(subparsers) -> None:
                     "the class coverage table and the pairwise coverage (and the base-choice or t-wise "
                     "coverage of those suites).",
     )
-    p.add_argument("--suite", choices=suite_kinds(), default="systematic",
-                   help="suite kind (default: systematic); pairwise and <t>-wise cover every combination of "
-                        "classes of any t parameters, base-choice varies one parameter of a base case at a "
-                        "time, effect-guided chooses classes by weight after covering each once")
+    p.add_argument("--suite", choices=LazyChoices(_suite_kinds), default="systematic", metavar="KIND",
+                   help=LazyText(lambda: f"suite kind: {', '.join(_suite_kinds())} (default: systematic); pairwise and "
+                                "<t>-wise cover every combination of classes of any t parameters, base-choice "
+                                "varies one parameter of a base case at a time, effect-guided chooses classes "
+                                "by weight after covering each once"))
     p.add_argument("--seed", type=int, default=0,
                    help="root seed, as in an experiment file (default: 0)")
     p.add_argument("--run", type=positive_int, default=1, metavar="R",
@@ -65,6 +67,12 @@ def register(subparsers) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
+    from faultlab.report.casefig import save_case_png
+    from faultlab.scenario.files import write_suite
+    from faultlab.space.parameters import load_space, table1_space
+    from faultlab.space.registry import suite_criteria
+    from faultlab.space.settings import read_class_weights
+
     space = load_space(args.space) if args.space else None
     if args.base or args.weights:
         space = space or table1_space()

@@ -5,22 +5,17 @@ from __future__ import annotations
 import argparse
 import functools
 
-import numpy as np
-
-from faultlab.cli.options import add_examples
+from faultlab.cli.options import LazyText, add_examples
 from faultlab.errors import ConfigError
-from faultlab.faults import all_faults, applicable_faults, resolve_fault
-from faultlab.metamorphic import (
-    DEFAULT_ATOL,
-    DEFAULT_FACTOR,
-    all_relations,
-    get_relation,
-    metamorphic_scenario,
-    relation_matrix,
-)
-from faultlab.slam.registry import build_slam, get_slam_kind
 
 __all__ = ["register"]
+
+
+def _defaults() -> tuple[float, float]:
+    """``--factor`` and ``--atol`` when not given (read when needed: the metamorphic package is slow to import)."""
+    from faultlab.metamorphic import DEFAULT_ATOL, DEFAULT_FACTOR
+
+    return DEFAULT_FACTOR, DEFAULT_ATOL
 
 
 def register(subparsers) -> None:
@@ -49,10 +44,10 @@ def register(subparsers) -> None:
     p.add_argument("--particles", type=int, default=50, metavar="N",
                    help="particles, for SLAMs that have them (default 50)")
     p.add_argument("--seed", type=int, default=0, help="seed of the source case and the repetitions (default 0)")
-    p.add_argument("--factor", type=float, default=DEFAULT_FACTOR,
-                   help=f"tolerance factor of the decision rule (default {DEFAULT_FACTOR:g})")
-    p.add_argument("--atol", type=float, default=DEFAULT_ATOL,
-                   help=f"least tolerance, m (default {DEFAULT_ATOL:g})")
+    p.add_argument("--factor", type=float, default=None,
+                   help=LazyText(lambda: f"tolerance factor of the decision rule (default {_defaults()[0]:g})"))
+    p.add_argument("--atol", type=float, default=None,
+                   help=LazyText(lambda: f"least tolerance, m (default {_defaults()[1]:g})"))
     p.add_argument("--no-plugins", action="store_true", help="ignore fault and relation plugins")
     add_examples(p, ["faultlab metamorphic", "faultlab metamorphic --slam ekf --repetitions 3",
                      "faultlab metamorphic --faults naive_resampling --relations rigid_motion"])
@@ -60,6 +55,15 @@ def register(subparsers) -> None:
 
 
 def _handler(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from faultlab.faults import all_faults, applicable_faults, resolve_fault
+    from faultlab.metamorphic import all_relations, get_relation, metamorphic_scenario, relation_matrix
+    from faultlab.slam.registry import build_slam, get_slam_kind
+
+    factor, atol = _defaults()
+    factor = factor if args.factor is None else args.factor
+    atol = atol if args.atol is None else args.atol
     if args.repetitions < 2:
         raise ConfigError(f"--repetitions must be >= 2 (the seed-to-seed spread needs two runs), "
                           f"got {args.repetitions}")
@@ -80,8 +84,8 @@ def _handler(args: argparse.Namespace) -> int:
     rngs = [np.random.default_rng(np.random.SeedSequence([args.seed, 1, k])) for k in range(args.repetitions)]
     description = (f"SLAM {args.slam!r}{f' ({args.particles} particles)' if options else ''}, fixed-suite case "
                    f"on a 4 m x 4 m map ({args.steps} steps, seed {args.seed})")
-    matrix = relation_matrix(factory, relations, fit.applicable, scenario, rngs=rngs, factor=args.factor,
-                             atol=args.atol, description=description,
+    matrix = relation_matrix(factory, relations, fit.applicable, scenario, rngs=rngs, factor=factor,
+                             atol=atol, description=description,
                              skipped=[fit.summary()] if fit.not_applicable else [])
     print(matrix.format())
     return 0 if all(matrix.results[("baseline", r)].holds for r in matrix.relations) else 1

@@ -3,11 +3,59 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable, Iterator
 
 from faultlab.vocabulary import BACKENDS
 
 __all__ = ["BACKENDS", "positive_int", "add_execution_options", "add_verb_group", "print_paths", "epilog", "add_examples",
-           "shipped_experiments"]
+           "shipped_experiments", "LazyChoices", "LazyText"]
+
+
+class LazyText:
+    """A help text or description made when it is shown (it names a default or choices read from a module
+    that is slow to import); the commands' formatter turns it into its text."""
+
+    def __init__(self, make: Callable[[], str]):
+        self._make = make
+
+    def __str__(self) -> str:
+        return self._make()
+
+    def strip(self, *chars: str) -> str:
+        return str(self).strip(*chars)
+
+    def __contains__(self, part: str) -> bool:
+        return part in str(self)
+
+    def __mod__(self, params) -> str:
+        return str(self) % params
+
+
+class LazyChoices:
+    """argparse ``choices`` read from a module on first use (parsing that command or showing its help),
+    so that registering every command for ``faultlab --help`` imports none of the libraries behind them.
+
+    Give the argument a ``metavar`` (argparse lists the choices of one without it when it is added)
+    and name the choices in its help (a :class:`LazyText`).
+    """
+
+    def __init__(self, load: Callable[[], tuple[str, ...]]):
+        self._load = load
+        self._values: tuple[str, ...] | None = None
+
+    def _get(self) -> tuple[str, ...]:
+        if self._values is None:
+            self._values = tuple(self._load())
+        return self._values
+
+    def __contains__(self, value: object) -> bool:
+        return value in self._get()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
 
 
 def positive_int(text: str) -> int:
@@ -54,7 +102,16 @@ def add_examples(parser: argparse.ArgumentParser, examples: list[str]) -> argpar
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
-    """Keeps the epilog's lines; wraps the description like the default formatter."""
+    """Keeps the epilog's lines; wraps the description like the default formatter.
+
+    A help text or description may be a :class:`LazyText`, made when the help is shown.
+    """
+
+    def _get_help_string(self, action):
+        return str(action.help)
+
+    def _format_text(self, text):
+        return super()._format_text(str(text))
 
     def _fill_text(self, text, width, indent):
         if text.startswith("examples:\n"):

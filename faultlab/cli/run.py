@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 
 from faultlab.cli.options import add_examples, add_execution_options, shipped_experiments
-from faultlab.runner import run_experiment
 
 __all__ = ["register", "handler"]
 
@@ -37,7 +36,7 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     from faultlab.errors import ConfigError
-    from faultlab.runner import load_experiment
+    from faultlab.runner import load_experiment, run_experiment
 
     out = Path(args.out) if args.out else Path("results") / Path(args.experiment).stem
     experiment = load_experiment(args.experiment)

@@ -5,15 +5,26 @@ from __future__ import annotations
 import argparse
 
 from faultlab import analysis, stats  # both load their submodules (statsmodels, ...) on first use
-from faultlab.cli.options import add_examples, add_verb_group, epilog, print_paths
+from faultlab.cli.options import LazyChoices, LazyText, add_examples, add_verb_group, epilog, print_paths
 from faultlab.errors import ConfigError, ResultsError
-from faultlab.inference.sequential import ALTERNATIVES, StagedDesign
 
 __all__ = ["register"]
 
 
+def _alternatives() -> tuple[str, ...]:
+    from faultlab.inference.exact import ALTERNATIVES
+
+    return ALTERNATIVES
+
+
+def _design():
+    """The staged design's defaults (read when shown: the inference package is slow to import)."""
+    from faultlab.inference.sequential import StagedDesign
+
+    return StagedDesign
+
+
 def register(subparsers) -> None:
-    d = stats.DetectionRule()
     p = subparsers.add_parser(
         "paper-table", help="recompute Table II from the paper's raw data and compare with the printed one",
         description="Recompute the paper's Table II (detected cells, Detected Faults %, by Suite %) from "
@@ -29,9 +40,11 @@ def register(subparsers) -> None:
     p.add_argument("--reported", default=None, metavar="PATH",
                    help="printed percentages CSV (default: the paper's Table II percentages in paper_repro/)")
     p.add_argument("--abs-mm", type=float, default=None, metavar="MM",
-                   help=f"absolute RMS increase a detection must exceed (default {d.abs_mm:g} mm)")
+                   help=LazyText(lambda: f"absolute RMS increase a detection must exceed "
+                                         f"(default {stats.DetectionRule().abs_mm:g} mm)"))
     p.add_argument("--rel", type=float, default=None,
-                   help=f"relative RMS increase a detection needs at least (default {d.rel:g})")
+                   help=LazyText(lambda: f"relative RMS increase a detection needs at least "
+                                         f"(default {stats.DetectionRule().rel:g})"))
     add_examples(p, ["faultlab paper-table", "faultlab paper-table results/paper", "faultlab paper-table --abs-mm 200"])
     p.set_defaults(func=_paper_table)
 
@@ -57,10 +70,13 @@ def register(subparsers) -> None:
     a.add_argument("--stages", default=None, metavar="K1,K2,...",
                    help="cumulative repetitions after each stage, the last the store's K (default: the stored "
                         "experiment's [adaptive] stages)")
-    a.add_argument("--level", type=float, default=None, help=f"per-case level of the looks (default {StagedDesign.level:g})")
-    a.add_argument("--alternative", default=None, choices=ALTERNATIVES,
-                   help=f"sidedness of the looks (default {StagedDesign.alternative})")
-    a.add_argument("--futility", type=float, default=None, help=f"futility bound in [level, 1] (default {StagedDesign.futility:g})")
+    a.add_argument("--level", type=float, default=None,
+                   help=LazyText(lambda: f"per-case level of the looks (default {_design().level:g})"))
+    a.add_argument("--alternative", default=None, choices=LazyChoices(_alternatives), metavar="SIDE",
+                   help=LazyText(lambda: f"sidedness of the looks: {', '.join(_alternatives())} "
+                                         f"(default {_design().alternative})"))
+    a.add_argument("--futility", type=float, default=None,
+                   help=LazyText(lambda: f"futility bound in [level, 1] (default {_design().futility:g})"))
     a.add_argument("--reports", default=None, metavar="DIR", help="write the tables and the page here")
     a.set_defaults(func=_adaptive)
 

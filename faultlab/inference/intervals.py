@@ -1,6 +1,7 @@
-"""Confidence intervals from samples: the median's order-statistic interval, a rate over clustered trials.
+"""Confidence intervals from samples: the median's order-statistic interval, bootstrap medians, clustered rates.
 
 :func:`median_interval` is the sign test's distribution-free interval of a median;
+:func:`bootstrap_medians` the medians of resamples a percentile bootstrap interval is read from;
 :func:`clustered_rate` is the Korn & Graubard interval of a proportion whose trials come in
 correlated clusters (a Clopper-Pearson interval on an effective sample size).
 """
@@ -20,7 +21,7 @@ from faultlab.errors import ConfigError
 from faultlab.inference.exact import check_alpha
 from faultlab.vocabulary import DEFAULT_ALPHA
 
-__all__ = ["median_interval", "ClusteredRate", "clustered_rate"]
+__all__ = ["median_interval", "bootstrap_medians", "ClusteredRate", "clustered_rate"]
 
 
 def median_interval(values, *, level: float = 1 - DEFAULT_ALPHA) -> tuple[np.ndarray, np.ndarray, float]:
@@ -55,6 +56,27 @@ def median_interval(values, *, level: float = 1 - DEFAULT_ALPHA) -> tuple[np.nda
     j = int(js[ok[-1]]) if ok.size else 1
     return x[:, j - 1], x[:, k - j], float(1.0 - 2.0 * binom.cdf(j - 1, k, 0.5))
 
+
+
+def bootstrap_medians(x, *, replicates: int, rng: np.random.Generator) -> np.ndarray:
+    """Medians of ``replicates`` resamples (with replacement, the size of ``x``) of the sample ``x``.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        The sample, ``n >= 1``.
+    replicates : int
+        Number of resamples.
+    rng : numpy.random.Generator
+        The resampling's only randomness: ``rng.integers(0, n, size=(replicates, n))``.
+
+    Returns
+    -------
+    ndarray, shape (replicates,)
+    """
+    x = np.asarray(x, dtype=float)
+    idx = rng.integers(0, x.size, size=(int(replicates), x.size))
+    return np.median(x[idx], axis=1)
 
 
 @dataclass(frozen=True)

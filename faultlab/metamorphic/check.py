@@ -382,6 +382,8 @@ def check_relation(slam_factory: Callable[[], SlamAdapter], relation: Metamorphi
         A hardware limit, or an exact relation whose transform does not commute with the stream fault.
     """
     _check_options(factor, atol)
+    if relation.uses_truth:
+        scenario.require_truth(f"relation {relation.name!r}")
     checker = _Checker(slam_factory, scenario, rngs)
     _refuse_unjudgeable(checker, [relation], [] if fault is None else [fault])
     return checker.check(relation, fault, factor=factor, atol=atol)
@@ -482,6 +484,9 @@ def relation_matrix(slam_factory: Callable[[], SlamAdapter], relations: Iterable
     _check_options(factor, atol)
     relations = list(relations)
     faults = list(faults)
+    for relation in relations:
+        if relation.uses_truth:
+            scenario.require_truth(f"relation {relation.name!r}")
     checker = _Checker(slam_factory, scenario, rngs)
     _refuse_unjudgeable(checker, relations, faults)
     results: dict[tuple[str, str], RelationResult] = {}

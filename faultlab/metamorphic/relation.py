@@ -182,10 +182,12 @@ def estimate_distance(a: Estimate, b: Estimate) -> float:
 
 def map_error(scenario: Scenario, estimate: Estimate) -> float:
     """Kabsch-aligned RMS map error against the scenario's ground truth, m (NaN if nothing is mapped)."""
+    scenario.require_truth("the map error against the ground truth")
     return kabsch_rms(scenario.landmark_ids, scenario.landmarks, estimate.landmark_ids, estimate.landmarks).rms
 
 
 def truth_estimate(scenario: Scenario) -> Estimate:
     """The ground truth as an estimate: the final true pose and every landmark of the map."""
+    scenario.require_truth("the ground truth as an estimate")
     return Estimate(scenario.true_poses[-1].copy(), np.asarray(scenario.landmark_ids, dtype=np.int64).copy(),
                     np.asarray(scenario.landmarks, dtype=float).copy())

@@ -80,6 +80,8 @@ def map_errors(scenario, estimate, *, emd_alignment: str = "kabsch", metrics: Co
     SlamOutputError
         Malformed or non-finite estimate, or an estimated id unknown to the map.
     """
+    if hasattr(scenario, "require_truth"):
+        scenario.require_truth("the map error (RMS, EMD)")
     if emd_alignment not in ("kabsch", "none"):
         raise ConfigError(f"map_errors: emd_alignment must be 'kabsch' or 'none', got {emd_alignment!r}")
     if association not in ASSOCIATIONS:

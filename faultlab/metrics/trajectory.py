@@ -129,6 +129,8 @@ def trajectory_error_mm(scenario, estimate) -> float:
     SlamOutputError
         The trajectory does not have one pose (x, y, theta) per step of the scenario.
     """
+    if hasattr(scenario, "require_truth"):
+        scenario.require_truth("the absolute trajectory error")
     traj = getattr(estimate, "trajectory", None)
     if traj is None:
         return float("nan")

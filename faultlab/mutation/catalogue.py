@@ -7,9 +7,9 @@ everything they depend on: the faultlab, Python, numpy and libcst versions, the 
 module of the faultlab package and of the SLAM's unit modules, and the id and digest of every
 mutant.  Any edit invalidates the cache; a stale entry is never used.
 
-The cache lives in ``$FAULTLAB_CACHE_DIR`` if set (set it to an empty string to disable
-caching), else ``$XDG_CACHE_HOME/faultlab``, else ``~/.cache/faultlab``.  An unwritable cache
-directory only disables caching.
+The cache lives in :func:`faultlab.cache.cache_dir` (``$FAULTLAB_CACHE_DIR`` if set, an empty
+string disabling it, else ``$XDG_CACHE_HOME/faultlab``, else ``~/.cache/faultlab``).  An unwritable
+cache directory only disables caching.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 import faultlab
+from faultlab.cache import cache_dir
 from faultlab.errors import FaultError
 from faultlab.mutation.examples import unit_examples
 from faultlab.mutation.mutant import Mutant, MutantSet, generate_mutants
@@ -74,15 +75,6 @@ class Catalogue:
     @property
     def mutants(self) -> MutantSet:
         return self.report.mutants
-
-
-def cache_dir() -> Path | None:
-    """The cache directory (see the module docstring); None if caching is disabled."""
-    env = os.environ.get("FAULTLAB_CACHE_DIR")
-    if env is not None:
-        return Path(env) if env.strip() else None
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "faultlab"
 
 
 def _source_files(mutants: MutantSet, slam) -> list[Path]:

@@ -26,10 +26,11 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from faultlab.analysis.effects import EffectsAnalysis, analyse_effects
-from faultlab.stats.responses import DIFFICULTY
+from faultlab.precision import write_csv
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
+from faultlab.stats.responses import DIFFICULTY
 
 __all__ = ["EFFECTS_TABLES", "summary_table", "morris_figure", "sobol_figure", "partial_figure", "effects_markdown",
            "write_effects_report", "response_label"]
@@ -261,13 +262,13 @@ def write_effects_report(results: str | Path, reports: str | Path) -> list[Path]
     paths = []
     for name in EFFECTS_TABLES:
         path = out / f"{name}.csv"
-        getattr(analysis, name).to_csv(path, index=False)
+        write_csv(getattr(analysis, name), path)
         paths.append(path)
     (out / "effects.md").write_text(effects_markdown(analysis))
     paths.append(out / "effects.md")
     for fault, weights in analysis.weights.items():
         path = out / f"weights_{fault}.csv"
-        weights.to_csv(path, index=False)
+        write_csv(weights, path)
         paths.append(path)
     for name, make in (("morris", morris_figure), ("sobol", sobol_figure), ("partial", partial_figure)):
         fig = make(analysis)

@@ -95,6 +95,17 @@ def _frame_text(frame: pd.DataFrame, digits: int = 3) -> pd.DataFrame:
     return frame.apply(lambda col: col.map(fmt)).astype(str)
 
 
+def _without_empty_columns(frame: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
+    """``frame`` (cells as text) without its columns that are empty in every row, and their names."""
+    empty = [c for c in frame.columns if len(frame) and (frame[c].astype(str).str.strip() == "").all()]
+    return frame.drop(columns=empty), empty
+
+
+def _left_out(columns: list[str]) -> str:
+    return "" if not columns else (f" Left out, empty for every case of this campaign: "
+                                   f"{', '.join(columns)}.")
+
+
 def _g3(value: float) -> str:
     return "" if not math.isfinite(value) else f"{value:.3g}"
 
@@ -485,7 +496,8 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
         "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
     })
     cannot = int((v["verdict"] == "cannot_judge").sum())
-    return table_pages(f"Per-case verdicts ({analysis.rule.rule} rule)", _frame_text(show), fontsize=7,
+    show, empty = _without_empty_columns(_frame_text(show))
+    return table_pages(f"Per-case verdicts ({analysis.rule.rule} rule)", show, fontsize=7,
                        max_rows=34,
                        note=f"{_verdict_test(analysis)} A crash or timeout of the faulty variant alone counts "
                             f"as detected. {cannot} case(s) cannot be judged (baseline failed or too few "
@@ -494,7 +506,7 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
                             f"mean paired difference; effect: median difference (mm) and median ratio faulty / "
                             f"baseline with order-statistic intervals (coverage >= 1 - alpha where K allows). MDE: "
                             f"smallest shift of the paired differences the decision's test (its sidedness, Holm's "
-                            f"first step alpha / m over the family) detects with 80 % power.")
+                            f"first step alpha / m over the family) detects with 80 % power.{_left_out(empty)}")
 
 
 def _effect(mid: float, lo: float, hi: float, fmt: str) -> str:
@@ -606,10 +618,13 @@ def _oracle_pages(analysis: Analysis) -> list[Figure]:
     })
     return table_pages("Beyond the paper: a statistical oracle over the SLAM repetitions", _frame_text(show),
                        note="Per case, a one-sided Mann-Whitney U test of the faulty against "
-                            "the baseline RMS errors over the K repetitions, Holm-corrected "
-                            "over all (suite, run, case, fault) tests. With K repetitions the "
-                            "smallest attainable p is 1/C(2K, K): with few repetitions the "
-                            "oracle cannot reject anything after the correction.")
+                            "the baseline RMS errors over the K repetitions (unpaired: it ignores the "
+                            "common SLAM seeds), Holm-corrected over all (suite, run, case, fault) tests. "
+                            "With K repetitions the smallest attainable p is 1/C(2K, K): with few "
+                            "repetitions the oracle cannot reject anything after the correction. This "
+                            "oracle is a second view; the report's verdicts are not its result but "
+                            "that of the test on the per-case verdict pages: "
+                            + _verdict_test(analysis))
 
 
 def _suite_comparison_pages(analysis: Analysis) -> list[Figure]:
@@ -642,6 +657,8 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
     if unavailable:
         return text_pages(EFFECT_PAGE_TITLE, [n.text for n in unavailable])
     eff = analysis.campaign_effects
+    notes = sorted({n for n in eff["note"] if n.startswith("not fitted") or "too few cases" in n})
+    eff = eff[eff["term"] != "(size)"]  # nothing estimated: what the size would need is in the notes
     log_scale = eff["response"] != "difficulty"
     show = pd.DataFrame({
         "response": eff["response"].map(response_label),
@@ -653,15 +670,15 @@ def _effect_pages(analysis: Analysis) -> list[Figure]:
                     for ls, t, e in zip(log_scale, eff["term"], eff["estimate"])],
         "p": [_g3(p) for p in eff["p"]],
     })
-    notes = sorted({n for n in eff["note"] if n.startswith("not fitted") or "too few cases" in n})
     notes += _class_effect_notes(analysis)
-    pages = table_pages(EFFECT_PAGE_TITLE, show,
-                        fontsize=7.5, max_rows=34,
-                        note="Continuous responses per case over its K repetitions: the baseline's difficulty "
-                             "(mean log map error) and each fault's effect size (mean log of faulty / baseline "
-                             "error, paired by SLAM seed); 'x error' is the geometric-mean factor. Mean over "
-                             "cases with its t interval; parameter rows: OLS per standard deviation, "
-                             "cluster-robust by case.")
+    show, empty = _without_empty_columns(show.astype(str))
+    pages = [] if not len(show) else table_pages(
+        EFFECT_PAGE_TITLE, show, fontsize=7.5, max_rows=34,
+        note="Continuous responses per case over its K repetitions: the baseline's difficulty "
+             "(mean log map error) and each fault's effect size (mean log of faulty / baseline "
+             "error, paired by SLAM seed); 'x error' is the geometric-mean factor. Mean over "
+             "cases with its t interval; parameter rows: OLS per standard deviation, "
+             "cluster-robust by case." + _left_out(empty))
     if notes:
         pages += text_pages("Parameter effects: what this campaign's size allows",
                             [n[0].upper() + n[1:] + "." for n in notes]

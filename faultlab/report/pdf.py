@@ -360,16 +360,23 @@ def write_pdf(path: str | Path, pages: Iterable[Figure], *, title: str = "faultl
     titles = tuple(page_title(p) for p in pages)
     keywords = "; ".join(t for t in titles if t)
     tmp = path.with_name(path.name + ".partial")
-    with matplotlib.rc_context({"pdf.fonttype": 42, "font.family": "DejaVu Sans"}):
-        with PdfPages(tmp, metadata={"Title": title, "Subject": subject, "Keywords": keywords,
-                                     "Creator": "faultlab"}) as pdf:
-            for i, fig in enumerate(pages, start=1):
-                fig.text(1 - _MARGIN_IN / fig.get_figwidth(), 0.25 / fig.get_figheight(),
-                         f"{footer}{'  ·  ' if footer else ''}page {i} of {len(pages)}",
-                         fontsize=7.5, color="0.45", ha="right", va="bottom")
-                pdf.savefig(fig)
-                pyplot = sys.modules.get("matplotlib.pyplot")
-                if pyplot is not None and getattr(fig.canvas, "manager", None) is not None:
-                    pyplot.close(fig)  # made with pyplot, which holds on to it until closed
-    tmp.replace(path)  # a reader never sees a half-written report
+    try:
+        with matplotlib.rc_context({"pdf.fonttype": 42, "font.family": "DejaVu Sans"}):
+            with PdfPages(tmp, metadata={"Title": title, "Subject": subject, "Keywords": keywords,
+                                         "Creator": "faultlab"}) as pdf:
+                for i, fig in enumerate(pages, start=1):
+                    fig.text(1 - _MARGIN_IN / fig.get_figwidth(), 0.25 / fig.get_figheight(),
+                             f"{footer}{'  ·  ' if footer else ''}page {i} of {len(pages)}",
+                             fontsize=7.5, color="0.45", ha="right", va="bottom")
+                    pdf.savefig(fig)
+                    pyplot = sys.modules.get("matplotlib.pyplot")
+                    if pyplot is not None and getattr(fig.canvas, "manager", None) is not None:
+                        pyplot.close(fig)  # made with pyplot, which holds on to it until closed
+        tmp.replace(path)  # a reader never sees a half-written report
+    except Exception as exc:  # e.g. the disk is full: no half-written file stays, the error names the report
+        tmp.unlink(missing_ok=True)
+        cause = exc if isinstance(exc, OSError) else exc.__context__  # matplotlib's close after a failed write
+        if isinstance(cause, OSError):                                # raises a zlib.error of its own
+            raise OSError(cause.errno, cause.strerror or str(cause), str(path)) from None
+        raise
     return PdfReport(path=path, n_pages=len(pages), titles=titles)

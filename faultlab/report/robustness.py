@@ -17,6 +17,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from faultlab.analysis.robustness import FLOOR_MM, Robustness
+from faultlab.precision import write_csv
 
 __all__ = ["degradation_figure", "parameter_figure", "robustness_markdown", "write_robustness_report"]
 
@@ -132,9 +133,9 @@ def write_robustness_report(r: Robustness, out: str | Path, *, intro: str = "") 
     """Write the tables, both figures and ``README.md`` (``intro`` above the generated page) to ``out``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    r.degradation.to_csv(out / "degradation.csv", index=False)
-    r.parameters.to_csv(out / "parameters.csv", index=False)
-    r.not_applicable.to_csv(out / "not_applicable.csv", index=False)
+    write_csv(r.degradation, out / "degradation.csv")
+    write_csv(r.parameters, out / "parameters.csv")
+    write_csv(r.not_applicable, out / "not_applicable.csv")
     (out / "protocol.json").write_text(json.dumps(r.protocol, indent=1, sort_keys=True) + "\n")
     degradation_figure(r).savefig(out / "degradation.png", dpi=130)
     parameter_figure(r).savefig(out / "parameters.png", dpi=130)

@@ -22,6 +22,7 @@ import pandas as pd
 
 from faultlab.analysis import Analysis
 from faultlab.analysis.schema import DETECTION_RATES, PAPER, THIS_RUN
+from faultlab.precision import write_csv
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS, SUITE_ORDER, JobStatus, ordered
 
 __all__ = [
@@ -418,7 +419,7 @@ def write_tables(analysis: Analysis, reports_dir: str | Path) -> TableFiles:
         detection_csv=reports_dir / "detection_rates.csv",
         detection_md=reports_dir / "detection_rates.md",
     )
-    table2_csv_frame(analysis).to_csv(files.table2_csv, index=False)
+    write_csv(table2_csv_frame(analysis), files.table2_csv)
     files.table2_md.write_text(table2_markdown(analysis), encoding="utf-8")
     files.table2_tex.write_text(table2_latex(analysis), encoding="utf-8")
     DETECTION_RATES.to_csv(analysis.detection_rates, files.detection_csv)

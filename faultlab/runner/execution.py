@@ -42,6 +42,7 @@ import contextlib
 import copy
 import ctypes
 import dataclasses
+import faulthandler
 import json
 import math
 import os
@@ -142,10 +143,14 @@ def init_worker(parent_pid: int, deadline_dir: str | None = None) -> None:
 
     With ``deadline_dir``, every job or batch call writes ``PID.json`` there while it runs:
     ``{"deadline": time.monotonic() at the limit, "limit": seconds, "keys": [job keys]}``, so that the
-    parent can kill a worker stuck past the limit in code no signal handler interrupts.
+    parent can kill a worker stuck past the limit in code no signal handler interrupts.  A worker
+    that dies of a signal prints nothing (no thread dump that reads like faultlab's traceback) unless
+    ``PYTHONFAULTHANDLER`` asks for it.
     """
     global _deadline_dir
     _deadline_dir = Path(deadline_dir) if deadline_dir else None
+    if "PYTHONFAULTHANDLER" not in os.environ:  # loky would print every thread's stack when a SUT segfaults:
+        faulthandler.enable(file=open(os.devnull, "w"))  # the job's crash row says the worker died
     watch_parent(parent_pid)
 
 

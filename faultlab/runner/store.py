@@ -280,8 +280,11 @@ _held_guard = threading.Lock()
 def store_lock(out: str | Path) -> Iterator[None]:
     """Hold an exclusive lock on ``out`` so two campaigns never write the same store.
 
-    The operating system releases it when the process dies, even by SIGKILL.  Re-entrant within a
-    process (a driver holds it around a call that takes it again).
+    The operating system releases it when the process dies, even by SIGKILL (which leaves the lock
+    file ``.lock`` behind, unlocked); a clean exit removes the file while still holding the lock.
+    A writer that locked a file just removed by the previous holder takes the new one instead, so two
+    writers never hold locks on different files of the same name.  Re-entrant within a process (a
+    driver holds it around a call that takes it again).
     """
     out = ensure_out_dir(out)
     try:
@@ -294,15 +297,19 @@ def store_lock(out: str | Path) -> Iterator[None]:
         if key in _held_locks:
             _held_locks[key][1] += 1
         else:
-            try:
-                fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
-            except OSError as exc:
-                raise ResultsError(f"{out}: cannot create the lock file ({exc.strerror or exc})") from exc
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError as exc:
-                os.close(fd)
-                raise ResultsError(f"{out} is in use by another faultlab run (lock {out / '.lock'})") from exc
+            while True:
+                try:
+                    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+                except OSError as exc:
+                    raise ResultsError(f"{out}: cannot create the lock file ({exc.strerror or exc})") from exc
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except OSError as exc:
+                    os.close(fd)
+                    raise ResultsError(f"{out} is in use by another faultlab run (lock {out / '.lock'})") from exc
+                if _same_file(fd, out / ".lock"):
+                    break
+                os.close(fd)  # the previous holder removed it after we opened it: lock the current one
             _held_locks[key] = [fd, 1]
     try:
         yield
@@ -312,7 +319,18 @@ def store_lock(out: str | Path) -> Iterator[None]:
             held[1] -= 1
             if held[1] == 0:
                 del _held_locks[key]
+                with contextlib.suppress(OSError):
+                    os.unlink(out / ".lock")  # removed while held: a writer that opened it retries
                 os.close(held[0])
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    """Whether ``path`` still names the file open as ``fd``."""
+    try:
+        here, there = os.fstat(fd), os.stat(path)
+    except OSError:
+        return False
+    return (here.st_dev, here.st_ino) == (there.st_dev, there.st_ino)
 
 
 def _is_written(path: Path) -> bool:
@@ -385,6 +403,17 @@ def _schema_sql() -> list[str]:
     ]
 
 
+#: Metadata key of the checksum of every other metadata entry (absent: a store written before it existed).
+META_CHECKSUM_KEY = "meta_checksum"
+
+
+def meta_checksum(meta: Mapping) -> str:
+    """Hex BLAKE2b-16 digest of the metadata entries other than :data:`META_CHECKSUM_KEY` (canonical JSON)."""
+    body = {k: v for k, v in meta.items() if k != META_CHECKSUM_KEY}
+    return hashlib.blake2b(json.dumps(body, sort_keys=True, separators=(",", ":")).encode(),
+                           digest_size=16).hexdigest()
+
+
 def _read_meta(conn: sqlite3.Connection, path: Path) -> dict:
     try:
         rows = conn.execute("SELECT key, value FROM meta").fetchall()
@@ -395,7 +424,20 @@ def _read_meta(conn: sqlite3.Connection, path: Path) -> dict:
         raise ResultsError(f"{path} is damaged: its metadata cannot be read ({exc})") from exc
     if meta.get("format") != FORMAT_VERSION:
         raise ResultsError(f"{path} is not a faultlab results store (format {meta.get('format')!r})")
+    if META_CHECKSUM_KEY in meta and meta[META_CHECKSUM_KEY] != meta_checksum(meta):
+        raise ResultsError(f"{path} is damaged: its metadata (experiment, hash, root seed, rule, ...) does not "
+                           f"match its checksum. The store cannot be trusted; restore it from a copy or rerun the "
+                           f"campaign into a new directory")
     return meta
+
+
+def _is_checked(meta: Mapping) -> bool:
+    """Whether every row of the store must carry a valid checksum (it was created with row checksums).
+
+    The entry that says so is covered by the metadata checksum: removing it to read the store as
+    one from before checksums breaks that checksum (no silent downgrade).
+    """
+    return _CHECKSUM_KEY in meta
 
 
 def _has_checksum_column(conn: sqlite3.Connection) -> bool:
@@ -565,6 +607,8 @@ class ResultStore:
             "created": _now(),
             _CHECKSUM_KEY: _CHECKSUM_NAME,
         }
+        meta = json.loads(json.dumps(meta))  # as it reads back
+        meta[META_CHECKSUM_KEY] = meta_checksum(meta)
         try:
             conn.execute("BEGIN")
             for stmt in _schema_sql():
@@ -613,10 +657,13 @@ class ResultStore:
             raise _database_error(self.path, exc, doing) from exc
 
     def set_meta(self, key: str, value) -> None:
-        """Set one metadata entry (JSON-serialisable ``value``; committed at once, replacing an older one)."""
+        """Set one metadata entry (JSON-serialisable ``value``; committed at once, replacing an older one,
+        together with the metadata checksum)."""
+        meta = {**self.meta, key: json.loads(json.dumps(value))}
+        meta[META_CHECKSUM_KEY] = meta_checksum(meta)
         self._execute(f"setting {key!r}", [("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
-                                           (key, json.dumps(value)))])
-        self.meta[key] = value
+                                           (k, json.dumps(meta[k]))) for k in (key, META_CHECKSUM_KEY)])
+        self.meta = meta
 
     # ------------------------------------------------------------ sessions
     def _close_stale_sessions(self) -> int:
@@ -648,11 +695,17 @@ class ResultStore:
 
     # ------------------------------------------------------------ rows
     def done_keys(self) -> set[tuple]:
-        """Identities (run, suite, case, variant, rep) of the rows already stored."""
+        """Identities (run, suite, case, variant, rep) of the rows already stored, each verified against its
+        checksum first (a resumed campaign never counts a damaged row as done)."""
         try:
-            return set(self.conn.execute('SELECT run, suite, "case", variant, rep FROM results').fetchall())
+            missing = set(_missing_columns(self.conn))
+            cols = ", ".join("NULL" if c in missing else _q(c) for c in RESULT_COLUMNS)
+            checksum = "checksum" if _has_checksum_column(self.conn) else "NULL"
+            rows = self.conn.execute(f"SELECT {cols}, rowid, {checksum} FROM results").fetchall()
         except sqlite3.Error as exc:
             raise _database_error(self.path, exc, "reading the stored jobs") from exc
+        _verify(self.path, rows, checked=_is_checked(self.meta))
+        return {tuple(r[:len(ID_COLUMNS)]) for r in rows}
 
     def status_counts(self) -> dict[str, int]:
         try:
@@ -891,7 +944,7 @@ def load_results(out: str | Path) -> pd.DataFrame:
         raise _database_error(path, exc, "reading its rows") from exc
     finally:
         conn.close()
-    _verify(path, rows, checked=_CHECKSUM_KEY in meta)
+    _verify(path, rows, checked=_is_checked(meta))
     n = len(RESULT_COLUMNS)
     df = pd.DataFrame.from_records([r[:n] for r in rows], columns=list(RESULT_COLUMNS))
     try:

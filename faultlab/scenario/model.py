@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from faultlab.errors import InvalidCaseError, ScenarioError
+from faultlab.errors import InvalidCaseError, NoGroundTruthError, ScenarioError
 from faultlab.space.case import CaseSpec
 
 __all__ = ["Scenario", "save_scenario", "load_scenario"]
@@ -83,6 +83,24 @@ class Scenario:
         return bool(self.meta.get("config", {}).get("fov_bug", False))
 
     @property
+    def has_truth(self) -> bool:
+        """Whether the ground truth (landmark positions, poses after the start) is known.
+
+        False for a real data set (``meta["ground_truth"] = False``): its ``landmarks`` are NaN (the
+        observed ids are known, their positions are not) and ``true_poses`` is NaN after the known start
+        pose.  Metrics and oracles that need the truth raise :class:`~faultlab.errors.NoGroundTruthError`
+        (:meth:`require_truth`) instead of computing NaN.
+        """
+        return bool(self.meta.get("ground_truth", True))
+
+    def require_truth(self, what: str) -> None:
+        """Raise :class:`~faultlab.errors.NoGroundTruthError` naming ``what`` unless the truth is known."""
+        if not self.has_truth:
+            name = self.meta.get("dataset", "this scenario")
+            raise NoGroundTruthError(f"{what} needs the ground truth, and {name} has none (a real data set: "
+                                     f"judge it by the oracles that need no truth)")
+
+    @property
     def start_pose(self) -> np.ndarray:
         """The known initial pose, shape (3,)."""
         return self.true_poses[0].copy()
@@ -111,6 +129,13 @@ class Scenario:
             (self.obs_range.shape == (M,) and self.obs_bearing.shape == (M,) and self.obs_ids.shape == (M,),
              "obs_range, obs_bearing and obs_ids must have shape (obs_offsets[-1],)"),
         ]
+        if not self.has_truth and T + 1 == self.true_poses.shape[0]:
+            checks += [
+                (bool(np.all(np.isfinite(self.true_poses[0]))), "a scenario without ground truth still has a "
+                                                                 "finite start pose"),
+                (bool(np.all(np.isnan(self.true_poses[1:]))) and bool(np.all(np.isnan(self.landmarks))),
+                 "a scenario without ground truth has NaN landmarks and NaN poses after the start"),
+            ]
         for ok, msg in checks:
             if not ok:
                 raise ScenarioError(msg)
@@ -224,8 +249,13 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 def _check_finite(sc: Scenario) -> None:
-    """ScenarioError naming the first array of a saved case that holds a NaN or an infinity."""
-    for name in ("landmarks", "true_poses", "controls", "obs_range", "obs_bearing"):
+    """ScenarioError naming the first array of a saved case that holds a NaN or an infinity.
+
+    A case without ground truth has NaN landmarks and poses after the start by design (:meth:`Scenario.validate`
+    checks that pattern); its start pose and measurements must still be finite.
+    """
+    truth = ("landmarks", "true_poses") if sc.has_truth else ()
+    for name in (*truth, "controls", "obs_range", "obs_bearing"):
         values = getattr(sc, name)
         bad = ~np.isfinite(values)
         if bad.any():

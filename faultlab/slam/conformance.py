@@ -78,18 +78,23 @@ class ConformanceReport:
 
     command: tuple[str, ...]
     results: tuple[CheckResult, ...]
+    #: Checks not run because an earlier one timed out (a program that stops replying is not waited for again).
+    not_run: tuple[str, ...] = ()
 
     @property
     def passed(self) -> bool:
-        return all(r.passed for r in self.results)
+        return all(r.passed for r in self.results) and not self.not_run
 
     def format(self) -> str:
         lines = [f"protocol {PROTOCOL_VERSION} conformance of {shlex.join(self.command)}"]
         for r in self.results:
             lines.append(f"  {'pass' if r.passed else 'FAIL'}  {r.name}" + ("" if r.passed else f": {r.message}"))
+        if self.not_run:
+            lines.append(f"  not run (the program stopped replying in time): {', '.join(self.not_run)}")
         n_fail = sum(not r.passed for r in self.results)
-        lines.append(f"{len(self.results) - n_fail} of {len(self.results)} checks passed"
-                     + ("" if not n_fail else f"; {n_fail} failed"))
+        lines.append(f"{len(self.results) - n_fail} of {len(CHECKS)} checks passed"
+                     + ("" if not n_fail else f"; {n_fail} failed") + (f", {len(self.not_run)} not run"
+                                                                       if self.not_run else ""))
         return "\n".join(lines)
 
 
@@ -336,9 +341,27 @@ CHECKS: dict[str, Callable[[ProcessSlamConfig], None]] = {
 }
 
 
+#: The rules of a program that did not reply in time: the checks after it are not run.
+_TIMEOUT_RULES = ("reply-timeout", "execution-timeout")
+
+
+def _check_start(config: ProcessSlamConfig) -> None:
+    """Start the program and reset it once (the start of every check)."""
+    slam = ProcessSlam(config)
+    try:
+        slam.reset(np.zeros(3), rng=np.random.default_rng(1))
+    finally:
+        slam.close()
+
+
 def check_program(command: Sequence[str], *, env: Sequence[tuple[str, str]] = (), reply_timeout_s: float = 10.0,
                   execution_timeout_s: float = 60.0) -> ConformanceReport:
     """Run every check of :data:`CHECKS` against the program ``command``.
+
+    The program is first started and reset once; if that fails (it does not exist, exits, or does not
+    answer the reset within ``reply_timeout_s``), no check can run and one error says why.  A check
+    that times out ends the run: the checks after it are reported as not run, so the whole check takes
+    at most one start, the checks that answered, and one timeout.
 
     Parameters
     ----------
@@ -352,15 +375,28 @@ def check_program(command: Sequence[str], *, env: Sequence[tuple[str, str]] = ()
     Returns
     -------
     ConformanceReport
+
+    Raises
+    ------
+    SlamProcessError
+        The program cannot be started and reset.
     """
     config = ProcessSlamConfig(command=tuple(command), env=tuple(env), reply_timeout_s=reply_timeout_s,
                                execution_timeout_s=execution_timeout_s)
+    try:
+        _check_start(config)
+    except SlamProcessError as exc:
+        raise SlamProcessError(f"{exc}; no check was run (each starts the program and resets it)",
+                               rule=exc.rule, detail=exc.detail) from None
     results = []
-    for name, check in CHECKS.items():
+    names = list(CHECKS)
+    for i, name in enumerate(names):
         try:
-            check(config)
+            CHECKS[name](config)
         except (SlamProcessError, _Mismatch) as exc:
             results.append(CheckResult(name, False, str(exc)))
+            if getattr(exc, "rule", None) in _TIMEOUT_RULES:
+                return ConformanceReport(tuple(command), tuple(results), not_run=tuple(names[i + 1:]))
         else:
             results.append(CheckResult(name, True))
     return ConformanceReport(tuple(command), tuple(results))

@@ -12,17 +12,27 @@ model (a division by zero gives ``inf``/``nan`` as in numpy, never an exception)
 
 Arrays of (particle, observation) values are passed *component by component* as 2-D arrays of
 shape (k, M): observation-major, particle-fastest, the storage order of the filter (so the loops
-read contiguous memory).  Compilation is cached on disk (``cache=True``): next to this file when
-its ``__pycache__`` is writable, else in numba's per-user cache directory (``NUMBA_CACHE_DIR``
-overrides both).
+read contiguous memory).  Compilation is cached on disk (``cache=True``) in the user's cache
+directory (:func:`faultlab.cache.numba_cache_dir`; ``NUMBA_CACHE_DIR`` overrides it), never next
+to the source: set in the environment before numba is imported (worker processes inherit it) and
+in numba's configuration if numba was imported first.
 """
 
 from __future__ import annotations
 
 import math
+import os
 
-import numpy as np
-from numba import njit
+from faultlab.cache import numba_cache_dir
+
+os.environ.setdefault("NUMBA_CACHE_DIR", str(numba_cache_dir()))
+
+import numba  # noqa: E402  (after its cache directory is chosen)
+import numpy as np  # noqa: E402
+from numba import njit  # noqa: E402
+
+if not numba.config.CACHE_DIR:  # numba was imported before the variable was set
+    numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
 
 __all__ = ["noisy_controls", "motion", "offsets", "measurement", "innovation_pairs", "sandwich", "quadratic_form", "finish_log_likelihood",
            "ekf_correction", "fused_correction", "gather_pairs", "scatter_pairs",

@@ -1,7 +1,8 @@
 """The SLAMs faultlab ships, by the name an experiment file uses, and how each is configured.
 
-An experiment's ``[slam]`` table names a SLAM: a built-in name from :data:`BUILTIN_SLAMS` or an
-import path ``"package.module:factory"`` whose factory is called with the table's ``options`` as
+An experiment's ``[slam]`` table names a SLAM: a built-in name from :data:`BUILTIN_SLAMS`, the name of
+a SLAM a third-party distribution declares in the ``faultlab.slams`` entry-point group (a
+:class:`SlamKind`, or an iterable of them; :func:`all_slams`), or an import path ``"package.module:factory"`` whose factory is called with the table's ``options`` as
 keyword arguments.  A built-in SLAM with settings has a config class with
 ``from_options(mapping, *, where)`` and ``to_options()`` (the file's keys and units), which is
 the one place its keys, defaults and bounds are defined.  A built-in SLAM written as replaceable
@@ -22,11 +23,13 @@ from __future__ import annotations
 
 import importlib.util
 from collections.abc import Callable, Mapping
+from types import MappingProxyType
 from dataclasses import dataclass, fields
 from typing import Any
 
 from faultlab.config import import_object
 from faultlab.errors import ConfigError
+from faultlab.plugins import PluginCatalogue
 from faultlab.slam.association import FastSlam2Unknown, FastSlamUnknown
 from faultlab.slam.deadreckoning import DeadReckoning
 from faultlab.slam.ekf import EkfSlam, EkfSlamConfig, EkfSlamSteps
@@ -38,12 +41,13 @@ from faultlab.slam.profiles import DEFAULT_PROFILE, get_profile
 from faultlab.slam.protocol import SlamAdapter
 from faultlab.vocabulary import KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION
 
-__all__ = ["SlamKind", "BUILTIN_SLAMS", "get_slam_kind", "build_slam", "normalise_options"]
+__all__ = ["SlamKind", "BUILTIN_SLAMS", "SLAM_ENTRY_POINT_GROUP", "SlamPluginWarning", "load_slam_plugins", "all_slams",
+           "get_slam_kind", "build_slam", "normalise_options"]
 
 
 @dataclass(frozen=True)
 class SlamKind:
-    """A built-in SLAM.
+    """A SLAM by name: built-in, or declared by a third-party distribution (``faultlab.slams``).
 
     Attributes
     ----------
@@ -148,8 +152,8 @@ class SlamKind:
         return self.adapter(self.config.from_options(rest), steps=profile.steps)
 
 
-#: Built-in SLAMs by name.
-BUILTIN_SLAMS: dict[str, SlamKind] = {
+#: Built-in SLAMs by name (read-only: a new SLAM is declared in the ``faultlab.slams`` entry-point group).
+BUILTIN_SLAMS: Mapping[str, SlamKind] = MappingProxyType({
     k.name: k for k in (
         SlamKind("fastslam", "the reference FastSLAM 1.0 (known correspondences)", FastSlam, FastSlamConfig,
                  FastSlamSteps, profiles=True, unknown=FastSlamUnknown),
@@ -163,16 +167,48 @@ BUILTIN_SLAMS: dict[str, SlamKind] = {
         SlamKind("process", "a SLAM program in any language, run as a child process speaking line-delimited "
                             "JSON (faultlab.slam.process)", ProcessSlam, ProcessSlamConfig),
     )
-}
+})
+
+
+#: Entry-point group of third-party SLAMs.
+SLAM_ENTRY_POINT_GROUP = "faultlab.slams"
+
+
+class SlamPluginWarning(UserWarning):
+    """Issued when a SLAM plugin fails to load."""
+
+
+class _SlamCatalogue(PluginCatalogue):
+    """SLAMs are records (:class:`SlamKind`), not classes: a built-in is recognised by identity."""
+
+    def is_builtin(self, item) -> bool:
+        return any(item is b for b in self.builtins)
+
+
+_CATALOGUE = _SlamCatalogue(kind="SLAM", group=SLAM_ENTRY_POINT_GROUP, base=SlamKind,
+                            builtins=tuple(BUILTIN_SLAMS.values()), error=ConfigError, warning=SlamPluginWarning)
+
+#: ``load_slam_plugins(*, group=None, warn=True)``: discover the third-party SLAMs (in entry-point name
+#: order); a :class:`~faultlab.plugins.PluginLoad`.
+load_slam_plugins = _CATALOGUE.load
+#: ``all_slams(*, plugins=True)``: the built-in SLAMs, then the plugin ones.
+all_slams = _CATALOGUE.all
 
 
 def get_slam_kind(name: str, *, where: str = "slam.name") -> SlamKind | None:
-    """The built-in SLAM ``name``; None for an import path; ConfigError for anything else."""
+    """The SLAM ``name`` (built-in or plugin); None for an import path; ConfigError for anything else.
+
+    Every process reads the plugins from the installed distributions' metadata, so a worker process
+    of a parallel campaign knows the same SLAMs as the process that started it.
+    """
     if name in BUILTIN_SLAMS:
         return BUILTIN_SLAMS[name]
     if isinstance(name, str) and ":" in name:
         return None
-    raise ConfigError(f"{where} must be one of {', '.join(map(repr, BUILTIN_SLAMS))} or "
+    plugins = {k.name: k for k in load_slam_plugins(warn=False).items}
+    if isinstance(name, str) and name in plugins:
+        return plugins[name]
+    raise ConfigError(f"{where} must be one of {', '.join(map(repr, [*BUILTIN_SLAMS, *plugins]))} or "
                       f"'package.module:factory', got {name!r}")
 
 

@@ -2,10 +2,13 @@
 
 A strategy is a :class:`SuiteStrategy`: its builder (``build(space, *, rng, n_cases)`` returning
 :class:`~faultlab.space.case.CaseSpec` s), the smallest size it accepts, and the coverage measures
-worth printing beside the class coverage of its suites.  :data:`STRATEGIES` registers them;
-:func:`build_suite`, :func:`min_suite_size` and :func:`suite_criteria` dispatch by name, and every
-check of a suite name (experiment files, ``faultlab generate --suite``) reads the registry.  A new
-strategy is therefore one module with its builder plus one entry in :data:`STRATEGIES`.
+worth printing beside the class coverage of its suites.  :data:`STRATEGIES` holds the built-in ones;
+a third-party distribution declares its own in the ``faultlab.suite_strategies`` entry-point group (an
+entry point loads to a :class:`SuiteStrategy` or an iterable of them), which every process reads, the
+worker processes of a parallel campaign included.  :func:`build_suite`, :func:`min_suite_size` and
+:func:`suite_criteria` dispatch by name, and every check of a suite name (experiment files,
+``faultlab generate --suite``) reads both.  A new built-in strategy is one module with its builder plus
+one entry in :data:`STRATEGIES`.
 
 The builders live in :mod:`faultlab.space.suites` (the paper's three, Sec. VI-VII) and
 :mod:`faultlab.space.strategies` (base choice, t-wise, effect-guided); the coverage measures in
@@ -15,13 +18,16 @@ The builders live in :mod:`faultlab.space.suites` (the paper's three, Sec. VI-VI
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import re
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from functools import partial
+from types import MappingProxyType
 
 import numpy as np
 
 from faultlab.errors import ConfigError
+from faultlab.plugins import PluginCatalogue
 from faultlab.space.case import CaseSpec
 from faultlab.space.choice import check_rng
 from faultlab.space.coverage import base_choice_coverage, t_wise_coverage
@@ -31,8 +37,8 @@ from faultlab.space.strategies import (base_choice_rows, base_choice_suite, effe
                                        t_wise_suite)
 from faultlab.space.suites import fixed_suite, random_suite, systematic_suite
 
-__all__ = ["SuiteStrategy", "STRATEGIES", "SUITE_KINDS", "suite_kinds", "get_strategy", "build_suite",
-           "min_suite_size", "suite_criteria"]
+__all__ = ["SuiteStrategy", "STRATEGIES", "SUITE_KINDS", "STRATEGY_ENTRY_POINT_GROUP", "StrategyPluginWarning",
+           "load_strategy_plugins", "suite_kinds", "get_strategy", "build_suite", "min_suite_size", "suite_criteria"]
 
 
 def _pairwise(cases: list[CaseSpec], space: ParameterSpace) -> tuple:
@@ -86,9 +92,9 @@ def _t_wise(strength: int) -> SuiteStrategy:
                          criteria=criteria, strength=strength)
 
 
-#: Registered strategies by name: the paper's three in the order it introduces them (Sec. VI), then
+#: Built-in strategies by name (read-only; a third party declares its own in the entry-point group): the paper's three in the order it introduces them (Sec. VI), then
 #: the combinatorial strategies (base choice, t-wise with the strength in the name, effect-guided).
-STRATEGIES: dict[str, SuiteStrategy] = {
+STRATEGIES: Mapping[str, SuiteStrategy] = MappingProxyType({
     s.name: s for s in (
         SuiteStrategy("systematic", "coverage-driven: every class of every parameter covered (Sec. VI)",
                       systematic_suite, min_size=lambda space: space.min_cases),
@@ -103,23 +109,65 @@ STRATEGIES: dict[str, SuiteStrategy] = {
         SuiteStrategy("effect-guided", "each class once, then classes by weights from an earlier campaign",
                       effect_guided_suite),
     )
-}
+})
 
-#: The names of the strategies faultlab ships (:func:`suite_kinds` also lists any registered later).
+#: The names of the strategies faultlab ships (:func:`suite_kinds` also lists the plugin ones).
 SUITE_KINDS: tuple[str, ...] = tuple(STRATEGIES)
+
+#: Entry-point group of third-party suite strategies.
+STRATEGY_ENTRY_POINT_GROUP = "faultlab.suite_strategies"
+
+_STRATEGY_NAME = re.compile(r"[a-z0-9][a-z0-9-]*")
+
+
+class StrategyPluginWarning(UserWarning):
+    """Issued when a suite-strategy plugin fails to load."""
+
+
+class _StrategyCatalogue(PluginCatalogue):
+    """Strategies are records named like ``[suites]`` keys (lower case, digits and hyphens: ``3-wise``)."""
+
+    def is_builtin(self, item) -> bool:
+        return any(item is b for b in self.builtins)
+
+    def problem(self, item, taken: dict[str, str], source: str) -> str | None:
+        if not isinstance(item, SuiteStrategy):
+            return f"yielded {type(item).__name__} {item!r}, not a SuiteStrategy"
+        if not isinstance(item.name, str) or not _STRATEGY_NAME.fullmatch(item.name):
+            return f"strategy name {item.name!r} is not lower case with digits and hyphens"
+        if not isinstance(item.description, str) or not item.description.strip() or "\n" in item.description.strip():
+            return f"strategy {item.name!r} needs a one-line description"
+        if item.name in taken:
+            return f"duplicate strategy name {item.name!r} (already defined by {taken[item.name]})"
+        return None
+
+
+_CATALOGUE = _StrategyCatalogue(kind="suite strategy", group=STRATEGY_ENTRY_POINT_GROUP, base=SuiteStrategy,
+                                builtins=tuple(STRATEGIES.values()), error=ConfigError,
+                                warning=StrategyPluginWarning)
+
+#: ``load_strategy_plugins(*, group=None, warn=True)``: discover the third-party suite strategies (in
+#: entry-point name order); a :class:`~faultlab.plugins.PluginLoad`.
+load_strategy_plugins = _CATALOGUE.load
+
+
+def _plugin_strategies() -> dict[str, SuiteStrategy]:
+    return {s.name: s for s in load_strategy_plugins(warn=False).items}
 
 
 def suite_kinds() -> tuple[str, ...]:
-    """The names of every registered strategy, in registration order."""
-    return tuple(STRATEGIES)
+    """The names of every strategy: the built-in ones, then the plugin ones."""
+    return tuple(STRATEGIES) + tuple(n for n in _plugin_strategies() if n not in STRATEGIES)
 
 
 def get_strategy(kind: str) -> SuiteStrategy:
-    """The strategy called ``kind``; ConfigError naming the known ones otherwise."""
-    try:
+    """The strategy called ``kind`` (built-in or plugin); ConfigError naming the known ones otherwise."""
+    if isinstance(kind, str) and kind in STRATEGIES:
         return STRATEGIES[kind]
-    except (KeyError, TypeError):
-        raise ConfigError(f"unknown suite kind {kind!r} (expected one of {', '.join(STRATEGIES)})") from None
+    plugins = _plugin_strategies()
+    if isinstance(kind, str) and kind in plugins:
+        return plugins[kind]
+    raise ConfigError(f"unknown suite kind {kind!r} (expected one of {', '.join([*STRATEGIES, *plugins])})")
 
 
 def build_suite(kind: str, space: ParameterSpace | None = None, *, rng: np.random.Generator,

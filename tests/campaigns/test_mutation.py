@@ -167,3 +167,10 @@ def test_mutants_that_leave_a_matrix_entry_unwritten_give_the_same_store_in_two_
         stores.append(load_results(tmp_path / name).drop(columns=["runtime_s"]))
     assert len(stores[0]) > 0
     pd.testing.assert_frame_equal(stores[0], stores[1], check_exact=True)
+
+
+def test_a_sample_of_zero_mutants_is_refused_naming_the_file(tmp_path):
+    f = tmp_path / "m.toml"
+    f.write_text(TINY.replace('ids = ["{kill}", "{eq}"]', "sample = 0"))
+    with pytest.raises(ConfigError, match=rf"^{f}: \[mutation\] sample must be >= 1, got 0$"):
+        load_mutation_experiment(f)

@@ -105,7 +105,7 @@ def test_reproduce_runs_then_resumes_without_rerunning(tmp_path):
     assert second.summary.n_new == 0 and second.summary.n_skipped == 18
     assert load_results(tmp_path / "out").equals(rows)
     # the campaign wrote its store and cases, nothing else (the report is rendered separately)
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".lock", "cases", "results.sqlite"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["cases", "results.sqlite"]  # no .lock left
 
 
 def test_profile_paper_runs_the_papers_filter_with_fov_bug_beside_the_default(captured, tmp_path, monkeypatch):

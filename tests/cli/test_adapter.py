@@ -22,6 +22,14 @@ def test_adapter_check_passes_arguments_through_to_the_program(example_slam, cap
     assert "rule estimate-landmarks" in capsys.readouterr().out
 
 
+def test_adapter_check_of_a_missing_program_is_one_error_line(capsys):
+    assert main(["adapter", "check", "/nonexistent/faultlab-slam"]) == 1
+    captured = capsys.readouterr()
+    assert "FAIL" not in captured.out
+    (line,) = captured.err.splitlines()
+    assert line.startswith("faultlab: error: ") and "cannot start it" in line and "no check was run" in line
+
+
 def test_adapter_check_refuses_a_bad_option(capsys):
     with pytest.raises(SystemExit) as info:
         main(["adapter", "check", "--env", "NOVALUE", "prog"])

@@ -32,3 +32,19 @@ def test_report_of_a_directory_that_is_no_study_is_one_clear_error(tmp_path, cap
     err = capsys.readouterr().err
     assert "not an effects study output" in err and "Traceback" not in err
     assert not (tmp_path / "rep").exists()
+
+
+def test_run_into_a_directory_holding_another_campaigns_store_is_refused_writing_nothing(tmp_path, capsys):
+
+    from tests.runner.suts import write_experiment
+
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 1}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    before = sorted(p.relative_to(out) for p in out.rglob("*"))
+    capsys.readouterr()
+    for extra in ([], ["--force-new"]):
+        assert main(["effects", "run", "--quick", "--out", str(out), "--no-progress", *extra]) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"holds the store of another campaign ({out / 'results.sqlite'})" in err[0], err
+        assert sorted(p.relative_to(out) for p in out.rglob("*")) == before

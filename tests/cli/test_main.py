@@ -178,3 +178,48 @@ def test_a_refused_run_of_any_verb_leaves_every_file_byte_identical(finished, tm
             assert main([*command, str(changed), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
             _one_error(capsys.readouterr().err, "changed:")
             assert _files(out) == before, (verb, i)
+
+
+def test_help_and_version_import_none_of_the_libraries_behind_the_commands():
+    # a fresh interpreter: what `faultlab --help` loads (its CPU time is measured in benchmarks/bench_startup.py)
+    code = ("import sys, contextlib, io\n"
+            "from faultlab.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out:\n"
+            "    assert main(['--version']) == 0\n"
+            "    try:\n"
+            "        main(['--help'])\n"
+            "    except SystemExit:\n"
+            "        pass\n"
+            "assert 'COMMAND' in out.getvalue() and 'faultlab ' in out.getvalue()\n"
+            "print(sorted(m for m in ('numpy', 'pandas', 'scipy', 'numba', 'matplotlib', 'statsmodels') "
+            "if m in sys.modules))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert done.stdout.strip() == "[]"
+
+
+def test_a_command_help_still_names_the_defaults_and_choices_it_reads_lazily(capsys):
+    from faultlab.metamorphic import DEFAULT_FACTOR
+    from faultlab.space.registry import suite_kinds
+
+    for argv, needles in ((["generate", "--help"], suite_kinds()),
+                          (["metamorphic", "--help"], [f"(default {DEFAULT_FACTOR:g})"])):
+        with pytest.raises(SystemExit):
+            main(argv)
+        out = " ".join(capsys.readouterr().out.split())
+        assert all(n in out for n in needles), (argv, out)
+    with pytest.raises(SystemExit):
+        main(["generate", "--suite", "no-such-kind", "--out", "x"])
+    assert "invalid choice: 'no-such-kind'" in capsys.readouterr().err
+
+
+def test_disk_full_while_writing_a_report_is_one_line_naming_where_and_leaves_no_partial_file(finished, tmpfs,
+                                                                                              capsys):
+    _, out = finished
+    fs = tmpfs("1m")
+    with open(fs / "filler", "wb", buffering=0) as f:  # room for the tables, not for the figures and the PDF
+        f.write(bytes(2**20 - 96 * 2**10))
+    reports = fs / "reports"
+    assert main(["report", str(out), "--reports", str(reports)]) == 1
+    err = capsys.readouterr().err
+    _one_error(err, "the disk is full", str(reports))
+    assert not list(reports.rglob("*.partial"))

@@ -101,9 +101,14 @@ def test_study_run_and_report_on_a_tiny_pool(tmp_path, capsys):
 
     # the report is a pure function of the store: the same tables again
     rep2 = tmp_path / "rep2"
-    assert main(["study", "report", str(out), "--reports", str(rep2)]) == 0
+    assert main(["study", "report", str(out), "--reports", str(rep2), "--html"]) == 0
     for name in ("kill_matrix.csv", "detection.csv", "scores.csv", "comparisons.csv"):
         assert (rep / name).read_bytes() == (rep2 / name).read_bytes(), name
+    # --html: the same files as a site, every table embedded on a page of its own
+    tables = sorted(p.stem for p in (rep2 / "html" / "tables").glob("*.html"))
+    assert (rep2 / "html" / "index.html").is_file() and not (rep / "html").exists()
+    assert tables == sorted(p.stem for p in rep2.glob("*.csv") if p.stat().st_size <= 1_000_000
+                            and not (rep2 / f"{p.stem}.png").exists())
     # a saved report is evaluated again from its kill matrix alone (no store): the same tables
     rep3 = tmp_path / "rep3"
     assert main(["study", "report", str(rep), "--reports", str(rep3)]) == 0

@@ -174,3 +174,15 @@ def test_halved_noise_halves_every_residual_and_twice_quarters_it(seed):
     np.testing.assert_allclose(twice.obs_range - r, 0.25 * (sc.obs_range - r), atol=1e-12)
     np.testing.assert_allclose(wrap_angle(twice.obs_bearing - b), 0.25 * wrap_angle(sc.obs_bearing - b), atol=1e-12)
     assert np.all(once.obs_range >= 0)
+
+
+def test_id_permutation_can_keep_each_steps_order():
+    from faultlab.metamorphic import IdPermutation
+    from faultlab.metamorphic.builtin import example_scenario
+
+    src = example_scenario()
+    kept = IdPermutation({10: 20, 20: 10}, keep_order=True).transform(src, np.random.default_rng(0))
+    moved = IdPermutation({10: 20, 20: 10}).transform(src, np.random.default_rng(0))
+    np.testing.assert_array_equal(kept.obs_range, src.obs_range)  # same order, ids relabelled
+    np.testing.assert_array_equal(kept.obs_ids, np.where(src.obs_ids == 10, 20, 10))
+    assert not np.array_equal(moved.obs_range, src.obs_range)

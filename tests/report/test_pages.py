@@ -190,3 +190,32 @@ def test_the_effects_page_says_why_the_campaign_effects_are_missing(monkeypatch)
     # the reason is also on the page of what these results allow, not among the report's general notes
     assert "Continuous effects: not available (no baseline jobs)." in _text(pages[:1])
     assert "campaign_effects" in BEYOND_THE_PAPER
+
+
+def test_a_table_shows_only_columns_that_hold_something_for_the_campaign(one_rep):
+    from faultlab.report.pages import _case_verdict_pages
+
+    v = one_rep.case_verdicts
+    columns = {"p": "p", "p (Holm)": "p_holm", "MDE mm (80 %)": "mde_mm", "median diff mm [CI]": "median_diff_mm"}
+    empty = [shown for shown, c in columns.items() if v[c].isna().all()]
+    assert len(v) and "p" in empty and "median diff mm [CI]" not in empty  # K = 1: one pair, no test
+    pages = _case_verdict_pages(one_rep)
+    cells = {t.get_text() for fig in pages for t in fig.findobj(Text)}
+    text = _text(pages).replace("\n", " ")
+    for shown in columns:
+        assert (shown in cells) == (shown not in empty), shown
+    assert "Left out, empty for every case of this campaign: " in text
+    assert all(e in text.split("Left out, empty for every case of this campaign: ")[1] for e in empty)
+    for shown in ("suite", "verdict", "K"):
+        assert shown in cells
+
+
+def test_no_effects_table_of_blank_size_rows(one_rep):
+    from faultlab.report.pages import EFFECT_PAGE_TITLE
+
+    eff = one_rep.campaign_effects
+    assert (eff["term"] == "(size)").any()
+    pages = beyond_pages(one_rep)
+    assert all("(size)" not in {t.get_text() for t in p.findobj(Text)} for p in pages)
+    titles = [page_title(p) for p in pages]
+    assert "Parameter effects: what this campaign's size allows" in titles

@@ -120,18 +120,16 @@ def _spin_compiled(original):
     import numba
 
     @numba.njit(cache=False)
-    def spin(n):  # xorshift: LLVM cannot fold it away; holds the GIL throughout
-        x = np.uint64(88172645463325252)
-        for _ in range(n):
+    def spin(x):  # xorshift never reaches 0 from a non-zero state: an endless loop holding the GIL
+        x = np.uint64(x)
+        while x != np.uint64(0):
             x ^= x << np.uint64(13)
             x ^= x >> np.uint64(7)
             x ^= x << np.uint64(17)
         return x
 
-    spin(10)  # compiled before the step, so the step itself spins from its first instant
-
     def spinning_move(pose, control, noise, rng):
-        spin(1 << 37)  # minutes of compiled code: only a deadline outside the worker stops it
+        spin(88172645463325252)  # only a kill from outside the worker ends it
         return original(pose, control, noise, rng)
     return spinning_move
 
@@ -147,6 +145,13 @@ def _exit(original):
     def exiting_move(pose, control, noise, rng):
         os._exit(3)  # kills the worker process
     return exiting_move
+
+
+def _segfault(original):
+    def segfaulting_move(pose, control, noise, rng):
+        import ctypes
+        ctypes.string_at(0)  # reads address 0: SIGSEGV
+    return segfaulting_move
 
 
 def _bias(original):
@@ -168,9 +173,10 @@ CRASH = _fault("tiny_crash", _crashing, "raises ZeroDivisionError")
 NAN = _fault("tiny_nan", _nan, "returns a NaN pose")
 HANG = _fault("tiny_hang", _hang, "busy-loops for a minute inside one step")
 STUBBORN = _fault("tiny_stubborn", _swallow_hang, "sleeps for a minute and swallows exceptions")
-SPIN = _fault("tiny_spin", _spin_compiled, "spins in a numba loop that holds the GIL for minutes")
+SPIN = _fault("tiny_spin", _spin_compiled, "spins for ever in a numba loop that holds the GIL")
 SLOW = _fault("tiny_slow", _slow, "sleeps 50 ms per step")
 EXIT = _fault("tiny_exit", _exit, "kills its process with os._exit(3)")
+SEGV = _fault("tiny_segv", _segfault, "dies of SIGSEGV")
 BIAS = _fault("tiny_bias", _bias, "adds 2 cm to every forward motion")
 UNBUILDABLE = _fault("tiny_unbuildable", _unbuildable, "its replacement factory fails")
 

@@ -189,8 +189,8 @@ def test_lock_excludes_a_second_writer(tmp_path):
         with store_lock(tmp_path):  # re-entrant within the process holding it
             assert _other_process_holds(tmp_path / ".lock")
         assert _other_process_holds(tmp_path / ".lock")  # the inner exit keeps it
-    assert not _other_process_holds(tmp_path / ".lock")  # released
-    fd = os.open(tmp_path / ".lock", os.O_RDWR)  # another writer holds it
+    assert not (tmp_path / ".lock").exists()  # released: a clean exit leaves no lock file
+    fd = os.open(tmp_path / ".lock", os.O_RDWR | os.O_CREAT)  # another writer holds it
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         with pytest.raises(ResultsError, match="in use"):
@@ -200,6 +200,34 @@ def test_lock_excludes_a_second_writer(tmp_path):
         os.close(fd)
     with store_lock(tmp_path):
         pass
+    assert not (tmp_path / ".lock").exists()
+
+
+def test_a_lock_file_removed_by_its_previous_holder_is_not_taken(tmp_path, monkeypatch):
+    import fcntl
+    import os
+    # A stale lock file (left by a killed run) is taken, then removed on a clean exit.
+    (tmp_path / ".lock").touch()
+    with store_lock(tmp_path):
+        assert _other_process_holds(tmp_path / ".lock")
+    assert not (tmp_path / ".lock").exists()
+    # The race: this writer opens .lock, the previous holder removes it and exits before the flock.
+    real_flock = fcntl.flock
+    removed = []
+
+    def flock_after_the_holder_left(fd, op):
+        if not removed:
+            removed.append(True)
+            os.unlink(tmp_path / ".lock")
+        return real_flock(fd, op)
+
+    (tmp_path / ".lock").touch()
+    monkeypatch.setattr(fcntl, "flock", flock_after_the_holder_left)
+    with store_lock(tmp_path):
+        monkeypatch.setattr(fcntl, "flock", real_flock)
+        # it holds the file that now carries the name, so another writer is refused
+        assert _other_process_holds(tmp_path / ".lock")
+    assert removed == [True]
 
 
 def test_case_path_layout(tmp_path):
@@ -292,7 +320,7 @@ def test_store_from_before_checksums_reads_with_a_warning_and_resumes_checked(tm
     path = _finished_store(tmp_path, exp)
     conn = sqlite3.connect(path)  # as written before checksums: no column, no meta entry
     conn.execute("ALTER TABLE results DROP COLUMN checksum")
-    conn.execute("DELETE FROM meta WHERE key = 'row_checksum'")
+    conn.execute("DELETE FROM meta WHERE key IN ('row_checksum', 'meta_checksum')")
     conn.commit()
     conn.close()
     with pytest.warns(UnverifiedStoreWarning, match="3 of 3 rows"):
@@ -504,3 +532,44 @@ def test_write_many_stores_the_rows_write_stores_one_at_a_time_in_one_transactio
     one, many = load_results(tmp_path / "one"), load_results(tmp_path / "many")  # checksums verified
     pd.testing.assert_frame_equal(one, many)
     assert len(many) == 4 and many.status.tolist() == ["ok", "ok", "crash", "ok"]
+
+
+def _sql(path, *statements):
+    conn = sqlite3.connect(path)
+    for st in statements:
+        conn.execute(st)
+    conn.commit()
+    conn.close()
+
+
+@pytest.mark.parametrize("key, value", [("root_seed", "12"), ("experiment_hash", '"0123"'),
+                                        ("detection", '{"rule": "none"}')])
+def test_changed_metadata_is_refused_by_every_reader_and_the_writer(tmp_path, exp, key, value):
+    path = _finished_store(tmp_path, exp)
+    _sql(path, f"UPDATE meta SET value = '{value}' WHERE key = '{key}'")
+    for read in (load_results, load_metadata, lambda d: ResultStore.open(d, exp)):
+        with pytest.raises(ResultsError, match="its metadata .* does not match its checksum"):
+            read(tmp_path)
+
+
+def test_a_checked_store_cannot_be_downgraded_to_unverified_by_removing_its_checksums(tmp_path, exp):
+    path = _finished_store(tmp_path, exp)
+    _sql(path, "UPDATE results SET checksum = NULL, rms_mm = 1.0", "DELETE FROM meta WHERE key = 'row_checksum'")
+    with pytest.raises(ResultsError, match="metadata .* does not match its checksum"):
+        load_results(tmp_path)
+
+
+def test_resuming_verifies_the_rows_it_counts_as_done(tmp_path, exp):
+    path = _finished_store(tmp_path, exp)
+    _sql(path, "UPDATE results SET rms_mm = rms_mm + 1 WHERE \"case\" = 2")
+    with ResultStore.open(tmp_path, exp) as store:
+        with pytest.raises(ResultsError, match=r"case 2.*column rms_mm does not match its checksum"):
+            store.done_keys()
+
+
+def test_metadata_set_while_resuming_keeps_the_checksum_valid(tmp_path, exp):
+    _finished_store(tmp_path, exp)
+    with ResultStore.open(tmp_path, exp) as store:
+        store.set_meta("skipped_variants", [{"fault": "x", "reason": "y"}])
+    assert load_metadata(tmp_path)["skipped_variants"] == [{"fault": "x", "reason": "y"}]
+    assert len(load_results(tmp_path)) == 3

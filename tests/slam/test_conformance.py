@@ -1,9 +1,11 @@
 """``check_program``: the example C SLAM passes every check; planted defects fail exactly their checks."""
 
 import sys
+import time
 
 import pytest
 
+from faultlab.errors import SlamProcessError
 from faultlab.slam.conformance import CHECKS, check_program
 from tests.processslam import example_slam  # noqa: F401  (fixture)
 
@@ -108,7 +110,37 @@ def test_each_planted_defect_fails_its_check_with_a_message_to_fix_it(defect, fa
     assert words in message
 
 
-def test_a_silent_program_fails_on_the_reply_timeout():
-    report = check_program([sys.executable, "-c", "import time; time.sleep(30)"], reply_timeout_s=0.2)
-    assert _failed(report) == set(CHECKS)
-    assert all("rule reply-timeout" in r.message for r in report.results if r.name != "protocol-version")
+def test_a_silent_program_is_one_error_after_one_reply_timeout():
+    start = time.monotonic()
+    with pytest.raises(SlamProcessError, match="rule reply-timeout.*no check was run"):
+        check_program([sys.executable, "-c", "import time; time.sleep(30)"], reply_timeout_s=0.5)
+    assert time.monotonic() - start < 5  # one timeout, not one per check
+
+
+def test_a_missing_program_is_one_error():
+    with pytest.raises(SlamProcessError, match="cannot start it.*no check was run"):
+        check_program(["/nonexistent/faultlab-slam"])
+
+
+# Answers the reset, then never replies to a step: the first check with a step times out.
+HANGS_ON_STEP = r"""
+import json, sys, time
+for line in sys.stdin:
+    if json.loads(line)["type"] == "reset":
+        print(json.dumps({"type": "ready", "protocol": 1}), flush=True)
+    else:
+        time.sleep(30)
+"""
+
+
+def test_a_check_that_times_out_ends_the_run_and_the_rest_are_not_run():
+    start = time.monotonic()
+    report = check_program([sys.executable, "-c", HANGS_ON_STEP], reply_timeout_s=0.5)
+    elapsed = time.monotonic() - start
+    # empty-run asks for the estimate at once (no step): it times out there, and nothing else is waited for
+    assert [r.name for r in report.results] == ["empty-run"] and not report.passed
+    assert "rule reply-timeout" in report.results[0].message
+    assert report.not_run == tuple(list(CHECKS)[1:])
+    assert "not run" in report.format() and report.format().endswith(f"0 of {len(CHECKS)} checks passed; "
+                                                                      f"1 failed, {len(CHECKS) - 1} not run")
+    assert elapsed < 5

@@ -388,3 +388,13 @@ def test_a_program_that_ignores_eof_ends_when_the_campaign_alone_is_killed(tmp_p
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
+
+
+def test_a_program_that_closes_its_output_but_runs_on_is_not_said_to_have_died():
+    closes = "import os, sys, time\nsys.stdin.readline()\nos.close(1)\ntime.sleep(30)\n"
+    slam = ProcessSlam(ProcessSlamConfig(command=(sys.executable, "-c", closes), reply_timeout_s=20.0))
+    with pytest.raises(SlamProcessError) as info:
+        slam.reset(np.zeros(3), rng=np.random.default_rng(1))
+    text = str(info.value)
+    assert "closed its output while answering" in text and "died" not in text
+    assert "still running (then stopped by faultlab)" in text

@@ -54,3 +54,36 @@ def test_a_paper_profile_slam_runs_a_case_like_the_profile_itself():
     b = run_slam(FastSlam(FastSlamConfig.from_options({**prof.config.to_options(), "particles": 8}),
                           steps=prof.steps), sc, rng=np.random.default_rng(2))
     np.testing.assert_array_equal(a.landmarks, b.landmarks)
+
+
+def _installed_command() -> str:
+    import shutil
+    import sys
+    from pathlib import Path
+
+    command = Path(sys.executable).with_name("faultlab")
+    return str(command) if command.exists() else shutil.which("faultlab")
+
+
+@pytest.mark.slow
+def test_a_slam_from_an_installed_distribution_runs_in_parallel_workers(tmp_path):
+    """The example plugin's SLAM, named in an experiment, runs in every loky worker of ``--jobs 2``.
+
+    A SLAM registered only in the parent process would crash in the workers (they re-import faultlab);
+    one declared in the ``faultlab.slams`` entry-point group is found by every process."""
+    import subprocess
+
+    from faultlab.runner import load_results
+    from faultlab.slam.registry import load_slam_plugins
+    from tests.runner.suts import write_experiment
+
+    assert "first_sighting" in [k.name for k in load_slam_plugins(warn=False).items], \
+        "install the example distribution: pip install -e examples/faultlab-example-plugin"
+    toml = write_experiment(tmp_path / "first.toml", runs=1, repetitions=2, variants=["baseline"],
+                            slam={"name": "first_sighting"})
+    done = subprocess.run([_installed_command(), "run", str(toml), "--out", str(tmp_path / "out"), "--jobs", "2",
+                           "--backend", "loky", "--no-progress"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    rows = load_results(tmp_path / "out")
+    assert len(rows) == 6 and (rows["status"] == "ok").all(), rows[["case", "rep", "status"]]
+    assert rows["rms_mm"].notna().all()

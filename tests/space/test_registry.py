@@ -1,10 +1,11 @@
-"""The suite-strategy registry: every name dispatches to its builder, and a new strategy is one entry
+"""The suite-strategy registry: every name dispatches to its builder, built-in or declared by a distribution
 (faultlab.space.registry)."""
 
 import numpy as np
 import pytest
 
 from faultlab.errors import ConfigError
+from faultlab.plugins import PluginLoad
 from faultlab.runner.experiment import parse_experiment
 from faultlab.space import (
     STRATEGIES,
@@ -17,6 +18,7 @@ from faultlab.space import (
     t_wise_strength,
     table1_space,
 )
+from faultlab.space import registry
 from faultlab.space.choice import cases_from_classes
 from faultlab.space.coverage import class_matrix
 from faultlab.space.strategies import base_choice_rows
@@ -34,7 +36,9 @@ def _base_only(space, *, rng, n_cases=None):
 @pytest.fixture
 def base_only(monkeypatch):
     strategy = SuiteStrategy("base-only", "every case in the base classes", _base_only)
-    monkeypatch.setitem(STRATEGIES, strategy.name, strategy)
+    found = registry.load_strategy_plugins(warn=False)
+    monkeypatch.setattr(registry, "load_strategy_plugins",
+                        lambda **kw: PluginLoad(items=found.items + (strategy,), errors=found.errors))
     return strategy
 
 
@@ -71,3 +75,26 @@ def test_a_registered_strategy_builds_through_the_normal_entry_points(base_only)
 def test_without_the_registration_the_experiment_is_refused():
     with pytest.raises(ConfigError, match="base-only"):
         parse_experiment({"seed": 1, "suites": {"base-only": 2}}, source="test.toml")
+
+
+@pytest.mark.slow
+def test_a_strategy_from_an_installed_distribution_runs_in_parallel_workers(tmp_path):
+    """The example plugin's ``smallest-first`` suite, drawn by ``faultlab run --jobs 2`` from the installed
+    command: every job runs, and the suite's cases come smallest map first."""
+    import subprocess
+
+    from faultlab.runner import load_results
+    from tests.runner.suts import write_experiment
+    from tests.slam.test_registry import _installed_command
+
+    assert "smallest-first" in suite_kinds(), \
+        "install the example distribution: pip install -e examples/faultlab-example-plugin"
+    toml = write_experiment(tmp_path / "smallest.toml", runs=1, repetitions=2, suites={"smallest-first": 4},
+                            variants=["baseline"], slam={"name": "dead_reckoning"})
+    done = subprocess.run([_installed_command(), "run", str(toml), "--out", str(tmp_path / "out"), "--jobs", "2",
+                           "--backend", "loky", "--no-progress"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    rows = load_results(tmp_path / "out")
+    assert len(rows) == 8 and (rows["status"] == "ok").all(), rows[["case", "rep", "status"]]
+    sizes = rows[rows["rep"] == 0].sort_values("case")["map_size"].to_numpy()
+    assert (np.diff(sizes) >= 0).all()

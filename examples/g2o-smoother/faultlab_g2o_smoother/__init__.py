@@ -34,10 +34,14 @@ import numpy as np
 
 from faultlab.slam.protocol import Estimate, Observations, SlamAdapter
 
-__all__ = ["G2oSmoother", "SIDEWAYS_VARIANCE"]
+__all__ = ["G2oSmoother", "SIDEWAYS_VARIANCE", "BLOCK", "RTOL"]
 
 #: Variance of the sideways motion each control edge allows, m^2 (faultlab's motion has none).
 SIDEWAYS_VARIANCE = 1e-6
+#: Iterations per convergence test.
+BLOCK = 10
+#: Relative chi2 decrease over a block below which the optimisation has converged.
+RTOL = 1e-12
 
 
 class G2oSmoother(SlamAdapter):
@@ -48,16 +52,28 @@ class G2oSmoother(SlamAdapter):
     std_v, std_omega_deg, std_range, std_bearing_deg : float
         The noise assumed (faultlab's names and units; defaults: the paper's setup).
     iterations : int
-        Levenberg-Marquardt iterations at most.
+        Levenberg-Marquardt iterations at most; the optimisation stops earlier once a block of
+        :data:`BLOCK` iterations lowers the chi2 by less than :data:`RTOL` of its value (converged).
+    initial : Estimate, optional
+        The initial guess (its ``trajectory`` and landmarks, e.g. a filter's estimate of the same run)
+        instead of dead reckoning with landmarks at their first sighting; landmarks it lacks start at
+        their first sighting from its trajectory.
+
+    Attributes
+    ----------
+    chi2 : float
+        The weighted squared error of the graph at the solution (after :meth:`estimate`).
     """
 
     name = "g2o"
 
     def __init__(self, *, std_v: float = 0.1, std_omega_deg: float = 20.0, std_range: float = 0.3,
-                 std_bearing_deg: float = 10.0, iterations: int = 50):
+                 std_bearing_deg: float = 10.0, iterations: int = 1000, initial: Estimate | None = None):
         self.std_v, self.std_omega = std_v, math.radians(std_omega_deg)
         self.std_range, self.std_bearing = std_range, math.radians(std_bearing_deg)
         self.iterations = int(iterations)
+        self.initial = initial
+        self.chi2 = float("nan")
 
     def reset(self, pose, *, rng):
         self._start = np.asarray(pose, dtype=float).copy()
@@ -82,6 +98,11 @@ class G2oSmoother(SlamAdapter):
 
         poses0 = self._dead_reckoning()
         T = len(self._controls)
+        given = {}
+        if self.initial is not None and self.initial.trajectory is not None and len(self.initial.trajectory) == T:
+            poses0 = np.vstack([poses0[:1], np.asarray(self.initial.trajectory, dtype=float)])
+            given = {int(i): np.asarray(xy, dtype=float) for i, xy in zip(self.initial.landmark_ids,
+                                                                         self.initial.landmarks)}
         if not self._obs and T == 0:
             return Estimate(self._start.copy(), np.empty(0, np.int64), np.empty((0, 2)), np.empty((0, 3)))
         opt = g2o.SparseOptimizer()
@@ -118,7 +139,7 @@ class G2oSmoother(SlamAdapter):
                 if vertex is None:
                     vertex = g2o.VertexPointXY()
                     vertex.set_id(T + 1 + len(landmarks))
-                    vertex.set_estimate(world[k])
+                    vertex.set_estimate(given.get(i, world[k]))
                     opt.add_vertex(vertex)
                     landmarks[i] = vertex
                 e = g2o.EdgeSE2PointXY()
@@ -128,7 +149,16 @@ class G2oSmoother(SlamAdapter):
                 e.set_information(info[k])
                 opt.add_edge(e)
         opt.initialize_optimization()
-        opt.optimize(self.iterations)
+        done, chi2 = 0, float("inf")
+        while done < self.iterations:
+            ran = opt.optimize(min(BLOCK, self.iterations - done))
+            done += BLOCK
+            now = float(opt.chi2())
+            if ran <= 0 or chi2 - now <= RTOL * max(now, 1e-300):
+                break
+            chi2 = now
+        self.chi2 = float(opt.chi2())
+        self.iterations_run = min(done, self.iterations)
         traj = np.array([p.estimate().to_vector() for p in poses], dtype=float)
         ids = np.fromiter(landmarks.keys(), dtype=np.int64, count=len(landmarks))
         lm = np.array([landmarks[int(i)].estimate() for i in ids], dtype=float).reshape(-1, 2)

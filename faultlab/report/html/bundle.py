@@ -2,7 +2,7 @@
 
 ``study report``, ``effects report`` (and any verb whose report is a set of files) get their site
 from the files they wrote: the Markdown summary shown as written, every CSV table as a sortable,
-filterable table, every PNG figure as an image with the CSV of the same name (when there is one) as
+filterable table on a page of its own, every PNG figure as an image with the CSV of the same name (when there is one) as
 its data table.  Nothing is analysed again: the site shows the report's own files.
 """
 
@@ -29,11 +29,13 @@ def write_files_html(files: Sequence[str | Path], out: str | Path, *, title: str
 
 
 def files_pages(files: Sequence[Path], out: Path, *, title: str) -> list[Page]:
-    """The overview (Markdown and figures) and the page of tables of ``files``."""
+    """The overview (Markdown and figures), the list of tables and a page per table of ``files``.
+
+    A table has a page of its own, so that a page loads one table however many the report has."""
     import os
 
     csvs = {f.stem: f for f in files if f.suffix == ".csv"}
-    overview, tables, links = [], [], []
+    overview, pages, links = [], [], []
     for f in files:
         if f.suffix == ".md":
             overview.append(Code(f.name, f.read_text(encoding="utf-8"), caption="The report's summary, as written."))
@@ -47,11 +49,12 @@ def files_pages(files: Sequence[Path], out: Path, *, title: str) -> list[Page]:
             links.append((f.name, Path(os.path.relpath(f, out)).as_posix(),
                           f"({f.stat().st_size / 1e6:.1f} MB: too large to embed; the CSV file itself)"))
         else:
-            tables.append(_table(f))
-    if links:
-        tables.append(Links("Large tables", tuple(links)))
+            page = Page(f"tables/{page_slug(stem)}.html", f.name, (_table(f),))
+            pages.append(page)
+            links.append((f.name, page.path, ""))
     overview.append(Links("Pages", (("Tables", "tables.html", f"({len(csvs)} tables)"),)))
-    return [Page("index.html", title, tuple(overview)), Page("tables.html", "Tables", tuple(tables))]
+    return [Page("index.html", title, tuple(overview)),
+            Page("tables.html", "Tables", (Links("Tables of the report", tuple(links)),)), *pages]
 
 
 def _table(path: Path) -> Table:

@@ -277,12 +277,12 @@ class _Scenarios:
 def _scenario_plot(scenario: Scenario):
     from bokeh.plotting import figure
 
-    lm = scenario.landmarks
+    lm = scenario.landmarks.astype(np.float32)  # a picture: micrometres at 10 m, half the page
     seen = np.zeros(lm.shape[0], dtype=bool)
     ids = np.asarray(scenario.landmark_ids)
     observed = np.unique(np.asarray(scenario.obs_ids))
     seen[np.isin(ids, observed)] = True
-    p = scenario.true_poses
+    p = scenario.true_poses[:, :2].astype(np.float32)
     fig = figure(match_aspect=True, width=560, height=520, x_axis_label="x [m]", y_axis_label="y [m]",
                  tools="pan,wheel_zoom,box_zoom,reset,save", title=None)
     fig.scatter(lm[~seen, 0], lm[~seen, 1], size=4, color="#c8c8c8", legend_label=f"landmarks never seen ({int((~seen).sum())})")
@@ -328,8 +328,8 @@ def _case_page(analysis: Analysis, row: dict, scenarios: _Scenarios, out: Path |
     sections.append(Text("The case", tuple(facts)))
     if scenario is not None:
         sections.append(Plot("Scenario: map, true path and landmarks seen", _scenario_plot(scenario),
-                             caption=f"{scenario.landmarks.shape[0]} landmarks, {scenario.n_steps} steps; the scenario "
-                                     f"is the {source}. Click a legend entry to hide it."))
+                             caption=f"{scenario.landmarks.shape[0]} landmarks, {scenario.n_steps} steps; the scenario: "
+                                     f"{source}. Click a legend entry to hide it."))
     else:
         sections.append(Text("Scenario", (f"Not pictured: {source}.",)))
     jobs = analysis.this_run_jobs

@@ -39,6 +39,8 @@ STATIC_DIR = "static"
 BOKEH_COMPONENTS = ("bokeh", "bokeh-widgets", "bokeh-tables")
 #: The one script file of the site, under :data:`STATIC_DIR`.
 BOKEH_JS = "bokeh.min.js"
+#: The site's style sheet, under :data:`STATIC_DIR` (from the templates' ``site.css``).
+STYLE = "site.css"
 #: Rows of a table shown before its scroll bar.
 MAX_VISIBLE_ROWS = 15
 
@@ -217,7 +219,9 @@ def write_site(out: str | Path, pages: Sequence[Page], *, title: str,
                       autoescape=select_autoescape(["html", "j2"]), trim_blocks=True, lstrip_blocks=True)
     template = env.get_template("page.html.j2")
     _write_bokeh(out / STATIC_DIR / BOKEH_JS)
-    written, size = [], 0
+    css = env.loader.get_source(env, "site.css")[0].encode("utf-8")
+    size = _write(out / STATIC_DIR / STYLE, css)
+    written = []
     for page in pages:
         root = "../" * (len(PurePosixPath(page.path).parts) - 1)
         models = {i: _model(s, root) for i, s in enumerate(page.sections)

@@ -26,8 +26,9 @@ def test_files_become_pages_tables_and_images(tmp_path):
     assert "systematic 93.8 % &lt;b&gt;" in index  # the Markdown as written, escaped
     assert (site.root / "figures" / "sobol.png").read_bytes() == (reports / "sobol.png").read_bytes()
     assert 'id="table-sobol"' in index  # the figure's data beside it
-    tables = (site.root / "tables.html").read_text()
-    assert 'id="table-scores"' in tables and 'id="table-sobol"' not in tables
     links = refs_of(site.root / "tables.html").refs
+    assert "tables/scores.html" in links and "tables/sobol.html" not in links  # sobol is beside its figure
+    assert 'id="table-scores"' in (site.root / "tables" / "scores.html").read_text()
     assert "../kill_matrix.csv" in links and (site.root / "../kill_matrix.csv").resolve() == big.resolve()
-    assert "table-kill_matrix" not in tables
+    assert not (site.root / "tables" / "kill_matrix.html").exists()
+    assert len(site.pages) == 3

@@ -51,3 +51,11 @@ def test_a_mutant_page_lists_every_job_that_ran_it_beside_the_baseline(mutation_
         else:  # the paired table: 9 cells a row (run, suite, case, rep, mutant mm, status, baseline mm, status, diff)
             rows = parsed.cells[len(outcomes) * 17:]
             assert len(rows) == 9 * n_jobs
+
+
+def test_the_outcomes_table_holds_the_mutants_that_ran(mutation_site):
+    site, _, chosen = mutation_site
+    killed, survived, stillborn = chosen
+    html = (site.root / "outcomes.html").read_text()
+    assert f'"{killed}"' in html and f'"{survived}"' in html and f'"{stillborn}"' not in html
+    assert f'"{stillborn}"' in (site.root / "mutants.html").read_text()
