@@ -26,7 +26,8 @@ def _pins(text: str) -> dict[str, list[Version]]:
 def _requirements() -> list[Requirement]:
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     plugin = tomllib.loads((ROOT / "examples" / "faultlab-example-plugin" / "pyproject.toml").read_text())["project"]
-    reqs = [*project["dependencies"], *project["optional-dependencies"]["test"], *plugin["dependencies"]]
+    extras = project["optional-dependencies"]
+    reqs = [*project["dependencies"], *extras["test"], *extras["wild"], *plugin["dependencies"]]
     return [r for r in map(Requirement, reqs) if canonicalize_name(r.name) != "faultlab"]
 
 
