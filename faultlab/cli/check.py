@@ -57,6 +57,9 @@ def register(subparsers) -> None:
                    help=LazyText(lambda: f"an oracle margin: {', '.join(k for k in _defaults()[2] if k != 'relations')}"))
     p.add_argument("--case", default=None, metavar="CASE.npz", help="judge one saved case instead of a suite")
     p.add_argument("--case-id", default=None, help="the case's id (its repetition seeds); default from the file")
+    p.add_argument("--html", action="store_true",
+                   help="also write the HTML report (REPORTS/html: the verdict per oracle, every result in a sortable, "
+                        "filterable table, the minimal failing scenarios)")
     p.add_argument("--out", default="results/check", help="results directory (default results/check; resumable)")
     p.add_argument("--reports", default=None, help="reports directory (default OUT/report)")
     p.add_argument("--jobs", type=positive_int, default=1, help="worker processes (default 1)")
@@ -118,6 +121,10 @@ def _handler(args: argparse.Namespace) -> int:
         raise
     summary = summarise_check(spec.to_dict(), records)
     paths = write_check_reports(summary, records, spec.to_dict(), args.reports or f"{args.out}/report")
+    if args.html:
+        from faultlab.report.html.check import write_check_html
+
+        paths.append(write_check_html(summary, records, spec.to_dict(), paths[0].parent / "html").pages[0])
     print(paths[0].read_text(), end="")
     print("reports: " + ", ".join(map(str, paths)))
     return 1 if summary.failed else 0

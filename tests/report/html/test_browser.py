@@ -200,3 +200,22 @@ def test_overview_to_a_mutant_and_its_diff(browser, mutation_site):
         "css selector", "pre.code span.del")
     assert_clean(browser)
 
+
+
+@pytest.mark.slow
+def test_a_checks_results_filter_to_its_failure(browser, tmp_path):
+    from tests.report.html.test_check import write_planted_check
+
+    site, _ = write_planted_check(tmp_path)
+    open_page(browser, site.root / "index.html")
+    assert_clean(browser)
+    browser.find_element("link text", "All results").click()
+    wait_rendered(browser)
+    assert sorted(cells_of(browser, "results", 2)) == ["fail", "pass", "pass", "pass"]
+    box = in_shadow(browser, "results", "input")
+    box.send_keys("fail")
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and cells_of(browser, "results", 2) != ["fail"]:
+        time.sleep(0.1)
+    assert cells_of(browser, "results", 2) == ["fail"]
+    assert_clean(browser)
