@@ -205,7 +205,7 @@ def test_a_command_help_still_names_the_defaults_and_choices_it_reads_lazily(cap
                           (["metamorphic", "--help"], [f"(default {DEFAULT_FACTOR:g})"])):
         with pytest.raises(SystemExit):
             main(argv)
-        out = " ".join(capsys.readouterr().out.split())
+        out = " ".join(capsys.readouterr().out.split()).replace("- ", "-")  # argparse wraps after a hyphen
         assert all(n in out for n in needles), (argv, out)
     with pytest.raises(SystemExit):
         main(["generate", "--suite", "no-such-kind", "--out", "x"])
