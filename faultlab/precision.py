@@ -10,6 +10,10 @@ only where it straddles a rounding boundary, and then by one unit in its last di
 they were written with: the text between numbers must be equal, and each number may differ from its
 counterpart by at most one unit in its last written digit (one rounding step), whatever format wrote
 it (``%.10g`` here, ``%.1f`` in a Markdown cell); integers (counts, ids) must be equal.
+
+A table never prints ``nan`` or ``inf`` as a number: :func:`write_csv` leaves such a cell blank, and a
+blank cell means the value does not exist for that row (not testable, nothing detectable, not computed;
+each table's docstring says which).
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import re
 from decimal import Decimal
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 __all__ = ["SIGNIFICANT_DIGITS", "FLOAT_FORMAT", "write_csv", "same_at_precision"]
@@ -31,9 +36,10 @@ _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
 def write_csv(frame: pd.DataFrame, path: str | Path) -> Path:
-    """Write ``frame`` as CSV (header, one line per row, no index), floats to :data:`SIGNIFICANT_DIGITS`."""
+    """Write ``frame`` as CSV (header, one line per row, no index), floats to :data:`SIGNIFICANT_DIGITS`,
+    a NaN or infinite value as a blank cell."""
     path = Path(path)
-    frame.to_csv(path, index=False, float_format=FLOAT_FORMAT)
+    frame.replace([np.inf, -np.inf], np.nan).to_csv(path, index=False, float_format=FLOAT_FORMAT)
     return path
 
 

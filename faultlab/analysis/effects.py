@@ -10,7 +10,8 @@ in design order) goes to SALib's estimators (:mod:`faultlab.inference.screening`
   effect response (detection, a coarse 0-1 share, is reported but does not steer screening);
 * ``sobol``: ``S1`` and ``ST`` with bootstrap intervals over the kept factors, corrected for the
   repetitions' noise (``noise_var`` = mean squared per-case standard error,
-  :func:`~faultlab.inference.screening.sobol_indices`);
+  :func:`~faultlab.inference.screening.sobol_indices`); ``noise`` = ``"yes"`` marks a parameter whose
+  estimates cannot be variance shares (an index outside [0, 1] or ``S1 > ST``: :func:`incoherent_indices`);
 * ``regression``: the cluster-robust OLS view over the cases of both stages.
 
 A response that some case lacks (every repetition failed) or that does not vary is not estimated;
@@ -37,7 +38,7 @@ from faultlab.stats.responses import CASE_KEY, case_responses, rep_values
 from faultlab.stats.screening import check_design, read_effects_json, response_seed, saved_design, stage_responses
 from faultlab.vocabulary import DEFAULT_ALPHA, EFFECTS_STAGES
 
-__all__ = ["EffectsAnalysis", "analyse_effects", "study_weights", "campaign_effects", "CAMPAIGN_EFFECT_COLUMNS", "CASES_PER_COEFFICIENT"]
+__all__ = ["EffectsAnalysis", "analyse_effects", "incoherent_indices", "study_weights", "campaign_effects", "CAMPAIGN_EFFECT_COLUMNS", "CASES_PER_COEFFICIENT"]
 
 
 @dataclass(frozen=True)
@@ -139,7 +140,8 @@ def analyse_effects(out: str | Path) -> EffectsAnalysis:
                     nv = float(np.nanmean(wide[f"se:{r}"].to_numpy(dtype=float) ** 2))
                     t = sobol_indices(y, factors=design.factors, seed=response_seed(spec, stage, r),
                                       resamples=int(spec["resamples"]), noise_var=nv if np.isfinite(nv) else None)
-                    sobol_rows.append(t.assign(response=r, noise_floor=noise_floor(y, wide[f"se:{r}"])))
+                    sobol_rows.append(t.assign(response=r, noise_floor=noise_floor(y, wide[f"se:{r}"]),
+                                               noise=incoherent_indices(t)))
             except FaultlabError as exc:
                 notes.append(f"{stage}, {r}: {exc}")
         for r in names:
@@ -158,7 +160,7 @@ def analyse_effects(out: str | Path) -> EffectsAnalysis:
     if not case_frames:
         raise ResultsError(f"{out}: the Morris stage has no results yet; run `faultlab effects run`")
     morris = _concat(morris_rows, MORRIS_COLUMNS)
-    sobol = _concat(sobol_rows, SOBOL_COLUMNS + ("noise_floor",))
+    sobol = _concat(sobol_rows, SOBOL_COLUMNS + ("noise_floor", "noise"))
     all_cases = pd.concat(case_frames, ignore_index=True)
     # partial dependence of the two top parameters of every response (Sobol ST if there, else mu*)
     for r in responses:
@@ -188,6 +190,15 @@ def _load(sessions: list) -> dict:
     if not loads:
         return {}
     return {"min": min(loads), "max": max(loads), "cpus": sessions[-1].get("cpus"), "sessions": len(sessions)}
+
+
+def incoherent_indices(t: pd.DataFrame) -> np.ndarray:
+    """``"yes"`` where a parameter's Sobol estimates cannot be variance shares (``S1`` or ``ST`` outside
+    [0, 1], or ``S1 > ST``): estimation noise at this base sample size, not a property of the SLAM; else ``""``."""
+    s1, st = t["S1"].to_numpy(float), t["ST"].to_numpy(float)
+    with np.errstate(invalid="ignore"):
+        bad = (s1 < 0) | (s1 > 1) | (st < 0) | (st > 1) | (s1 > st)
+    return np.where(bad, "yes", "")
 
 
 def _concat(frames: list[pd.DataFrame], columns: Sequence[str] = ()) -> pd.DataFrame:

@@ -96,7 +96,8 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
     (:func:`~faultlab.stats.killmatrix.suite_kills`).  ``reps_used`` lists the repetitions each
     case run used (``/``-separated, case order), ``n_stopped`` how many of them stopped early;
     ``min_mde_mm`` is the smallest detectable shift over the cases at the per-case level from the
-    pairs each case actually used (infinite on a case whose pairs cannot reach the level).
+    pairs each case actually used (infinite on a case whose pairs cannot reach the level, written as a
+    blank cell: none detectable).
     """
     stopped = {(int(e["run"]), str(e["suite"]), int(e["case"]), str(e["variant"])): str(e["reason"])
                for e in stops or ()}
@@ -157,7 +158,9 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
                 margin = pd.to_numeric(mv["margin_mm"], errors="coerce")
                 note = (f"equivalent within +-{margin.min():.0f}-{margin.max():.0f} mm on every case (TOST, "
                         f"p <= {base['max_p_equivalence']:.2g})" if equivalent else
-                        f"no difference shown; smallest detectable shift {base['min_mde_mm']:.0f} mm (80 % power)")
+                        f"no difference shown; " + (f"smallest detectable shift {base['min_mde_mm']:.0f} mm (80 % power)"
+                                                    if math.isfinite(base["min_mde_mm"]) else
+                                                    "no case's pairs could detect any shift"))
                 rows.append(base | dict(outcome=MutantOutcome.SURVIVED.value, killing_case=0,
                                         survival=SURVIVED_EQUIVALENT if equivalent else SURVIVED_INCONCLUSIVE,
                                         note=note))

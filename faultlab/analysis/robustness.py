@@ -14,8 +14,12 @@ computes, per (SLAM, sensor fault):
 * ``parameters``: a per-parameter view of which Table I parameters make the fault worse: for each
   numeric parameter alone, the least-squares slope of the per-repetition log ratio
   ``log(faulty_k / baseline_k)`` on the parameter (standardised over the cases: the change of the
-  log ratio per standard deviation of the parameter), with standard errors clustered by case
-  (:mod:`statsmodels`, ``cov_type="cluster"``), its two-sided p value and CI.  A positive slope
+  log ratio per standard deviation of the parameter), with its CI from standard errors clustered by
+  case (:mod:`statsmodels`, ``cov_type="cluster"`` with the small-cluster correction and Student t
+  on ``n_cases - 1`` degrees of freedom) and the two-sided p value of a permutation test over cases
+  (:func:`scipy.stats.permutation_test`: the parameter values permuted across the cases' mean log
+  ratios; exact below :data:`PERMUTATIONS` orderings), beside ``p_min``, the smallest p value that
+  permutation test can attain (4 cases: 2/24): the cases are the unit, never the repetitions.  A positive slope
   means the fault degrades the SLAM more where the parameter is larger.  No multiplicity
   correction is applied across parameters: the view ranks, it does not test.
 
@@ -40,6 +44,7 @@ from scipy import stats
 
 from faultlab.faults.sensorfaults import BUILTIN_SENSOR_FAULTS
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY, load_metadata, load_results
+from faultlab.seeds import study_seed_sequence
 from faultlab.space.case import VALUE_KEYS
 from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, JobStatus
@@ -54,7 +59,9 @@ DEGRADATION: tuple[str, ...] = ("slam", "fault", "metric", "n_cases", "ratio", "
                                 "n_detected", "n_not_detected", "n_crash_detected", "n_cannot_judge",
                                 "n_failed", "n_jobs")
 #: Columns of :attr:`Robustness.parameters`.
-PARAMETERS: tuple[str, ...] = ("slam", "fault", "parameter", "n_cases", "slope", "low", "high", "p")
+PARAMETERS: tuple[str, ...] = ("slam", "fault", "parameter", "n_cases", "slope", "low", "high", "p", "p_min")
+#: Monte Carlo permutations of the per-parameter test where the cases have more orderings than this.
+PERMUTATIONS = 9999
 
 _CASE = ["run", "suite", "case"]
 #: Map errors below this (mm) count as this in the ratios (the resolution of the result tables).
@@ -104,7 +111,18 @@ def degradation(log_ratios: np.ndarray, *, alpha: float = DEFAULT_ALPHA) -> tupl
     return math.exp(mean), math.exp(ci.low), math.exp(ci.high)
 
 
-def parameter_effects(reps: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
+def _slope_statistic(y: np.ndarray):
+    """Least-squares slope of ``y`` on each permuted ``x`` (along ``axis``), for the permutation test."""
+    yc = y - y.mean()
+
+    def statistic(x, axis=-1):
+        xc = x - x.mean(axis=axis, keepdims=True)
+        return (xc * yc).sum(axis=axis) / (xc * xc).sum(axis=axis)
+    return statistic
+
+
+def parameter_effects(reps: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA,
+                      rng: np.random.Generator | None = None) -> pd.DataFrame:
     """Per numeric Table I parameter: slope of the log ratio on the standardised parameter, clustered by case.
 
     Parameters
@@ -115,8 +133,9 @@ def parameter_effects(reps: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd
     Returns
     -------
     DataFrame
-        ``parameter, n_cases, slope, low, high, p``; NaN where the parameter does not vary over
-        the cases or there are fewer than 3 cases.
+        ``parameter, n_cases, slope, low, high, p, p_min``; NaN where the parameter does not vary
+        over the cases or there are fewer than 3 cases.  ``rng`` draws the permutations where they
+        are not enumerated (more than :data:`PERMUTATIONS` orderings of the cases).
     """
     import statsmodels.api as sm
 
@@ -124,16 +143,25 @@ def parameter_effects(reps: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd
     groups = reps.groupby(_CASE, sort=True).ngroup().to_numpy()
     n_cases = int(groups.max() + 1) if groups.size else 0
     for name in NUMERIC_PARAMETERS:
-        row = dict(parameter=name, n_cases=n_cases, slope=math.nan, low=math.nan, high=math.nan, p=math.nan)
+        row = dict(parameter=name, n_cases=n_cases, slope=math.nan, low=math.nan, high=math.nan, p=math.nan,
+                   p_min=math.nan)
         if name in reps.columns and n_cases >= 3:
             x = reps[name].to_numpy(dtype=float)
             sd = np.std(x)
             if np.ptp(x) > 1e-9 * max(1.0, float(np.max(np.abs(x)))):
                 design = np.column_stack([np.ones_like(x), (x - x.mean()) / sd])
-                fit = sm.OLS(reps["log_ratio"].to_numpy(dtype=float), design).fit(
-                    cov_type="cluster", cov_kwds={"groups": groups})
+                y = reps["log_ratio"].to_numpy(dtype=float)
+                fit = sm.OLS(y, design).fit(cov_type="cluster", cov_kwds={"groups": groups}, use_t=True)
                 low, high = fit.conf_int(alpha=alpha)[1]
-                row.update(slope=float(fit.params[1]), low=float(low), high=float(high), p=float(fit.pvalues[1]))
+                x_case = np.bincount(groups, weights=design[:, 1]) / np.bincount(groups)
+                y_case = np.bincount(groups, weights=y) / np.bincount(groups)
+                orderings = math.factorial(n_cases)
+                test = stats.permutation_test((x_case,), _slope_statistic(y_case), permutation_type="pairings",
+                                              vectorized=True, n_resamples=PERMUTATIONS, alternative="two-sided",
+                                              rng=rng)
+                p_min = min(1.0, 2.0 / (orderings if orderings <= PERMUTATIONS else PERMUTATIONS + 1))
+                row.update(slope=float(fit.params[1]), low=float(low), high=float(high), p=float(test.pvalue),
+                           p_min=p_min)
         rows.append(row)
     return pd.DataFrame(rows, columns=list(PARAMETERS[2:]))
 
@@ -202,7 +230,8 @@ def robustness(stores: Mapping[str, str | Path], *, alpha: float = DEFAULT_ALPHA
                             n_crash_detected=int((v == Verdict.CRASH_DETECTED).sum()),
                             n_cannot_judge=int((v == Verdict.CANNOT_JUDGE).sum()),
                             n_failed=int((jobs["status"] != JobStatus.OK.value).sum()), n_jobs=int(len(jobs))))
-            effects = parameter_effects(reps.loc[reps["fault"] == fault], alpha=alpha)
+            effects = parameter_effects(reps.loc[reps["fault"] == fault], alpha=alpha, rng=np.random.default_rng(
+                study_seed_sequence(0, "robustness", label, fault)))
             par.append(effects.assign(slam=label, fault=fault))
         for item in md.get(SKIPPED_VARIANTS_KEY) or ():
             skipped.append(dict(slam=label, fault=item.get("fault", "?"), reason=item.get("reason", "")))

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from faultlab.analysis.allocation import analyse_allocation
+from faultlab.precision import write_csv
 from faultlab.report.mutation import markdown_table
 
 __all__ = ["ALLOCATION_FILES", "allocation_markdown", "write_allocation_report"]
@@ -76,8 +77,8 @@ def write_allocation_report(results: str | Path, reports: str | Path, *, budget:
     out = Path(reports)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / name for name in ALLOCATION_FILES]
-    table.to_csv(paths[0], index=False, float_format="%.6g")
-    summary.to_csv(paths[1], index=False, float_format="%.6g")
+    write_csv(table, paths[0])  # at the tables' precision: 6 digits would print 1 - 1e-10 as 1
+    write_csv(summary, paths[1])
     paths[2].write_text(json.dumps(meta, indent=1, allow_nan=False) + "\n")
     paths[3].write_text(allocation_markdown(table, summary, meta))
     return paths

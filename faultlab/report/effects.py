@@ -166,7 +166,9 @@ def _sobol_md(t: pd.DataFrame) -> str:
     show = pd.DataFrame({"rank": t["rank"], "parameter": t["parameter"],
                          "ST [95 % CI]": [_ci(a, b, c) for a, b, c in zip(t["ST"], t["ST_low"], t["ST_high"])],
                          "S1 [95 % CI]": [_ci(a, b, c) for a, b, c in zip(t["S1"], t["S1_low"], t["S1_high"])],
-                         "clear of 0": ["yes" if lo > 0 else "no" for lo in t["ST_low"]]})
+                         "clear of 0": ["yes" if lo > 0 else "no" for lo in t["ST_low"]]}
+                        | ({"noise": ["yes: not a variance share" if n == "yes" else "" for n in t["noise"]]}
+                           if "noise" in t.columns else {}))
     return markdown_table(show)
 
 

@@ -96,7 +96,8 @@ def matrix_figure(analysis: MutationAnalysis, *, figsize=PAGE_SIZE) -> Figure:
 
 def survivor_table(analysis: MutationAnalysis) -> pd.DataFrame:
     """Each survived (mutant, suite): equivalent within the margin (TOST) or inconclusive, its smallest
-    per-case p value, largest TOST p value and detectable shift (80 % power).
+    per-case p value, largest TOST p value and detectable shift (80 % power); "not testable" where a
+    case had no usable pairs for that test, "none" where no case could detect any shift.
 
     An inconclusive survivor is not shown equivalent: its suite could only have detected a mean shift
     of the map error of at least ``mde_mm`` on its most sensitive case (:mod:`faultlab.analysis.mutation`).
@@ -104,9 +105,10 @@ def survivor_table(analysis: MutationAnalysis) -> pd.DataFrame:
     rows = analysis.outcomes[analysis.outcomes["outcome"] == "survived"]
     table = rows[["mutant", "unit", "operator", "run", "suite", "survival", "min_p", "max_p_equivalence",
                   "min_mde_mm"]].copy()
-    table["min_p"] = table["min_p"].map(lambda v: f"{v:.3g}")
-    table["max_p_equivalence"] = table["max_p_equivalence"].map(lambda v: f"{v:.3g}")
-    table["min_mde_mm"] = table["min_mde_mm"].map(lambda v: f"{v:.0f}")
+    table["min_p"] = table["min_p"].map(lambda v: f"{v:.3g}" if np.isfinite(v) else "not testable")
+    table["max_p_equivalence"] = table["max_p_equivalence"].map(lambda v: f"{v:.3g}" if np.isfinite(v)
+                                                                else "not testable")
+    table["min_mde_mm"] = table["min_mde_mm"].map(lambda v: f"{v:.0f}" if np.isfinite(v) else "none")
     return table.rename(columns={"min_p": "smallest p", "max_p_equivalence": "TOST p (largest)",
                                  "min_mde_mm": "detectable shift mm"}).reset_index(drop=True)
 

@@ -106,13 +106,16 @@ def robustness_markdown(r: Robustness) -> str:
                      f"{d.n_crash_detected} | {d.n_cannot_judge} | {d.n_failed}/{d.n_jobs} |")
     lines += ["", "## Which Table I parameters make it worse", "",
               "For each numeric Table I parameter alone: the least-squares slope of the per-repetition log ratio "
-              "on the parameter standardised over the cases, with standard errors clustered by case "
-              f"(statsmodels); positive: the fault hurts more where the parameter is larger.  {conf} intervals, "
-              "no correction across parameters: a ranking, not a test.  With few cases (few clusters) the "
-              "cluster-robust errors are too small; read only the larger campaign.", "",
+              "on the parameter standardised over the cases; its interval from standard errors clustered by "
+              "case (statsmodels, small-cluster correction, Student t on cases - 1 degrees of freedom), its p "
+              "value from a permutation test over the cases (the parameter's values permuted across the cases' "
+              "mean log ratios: the case is the unit, not the repetition), which cannot go below its smallest "
+              "attainable p (`p_min` in `parameters.csv`; 2/24 = 0.083 with 4 cases).  Positive: the fault hurts more where the parameter is larger.  {conf} "
+              "intervals, no correction across parameters: a ranking, not a test.  With few cases (few clusters) "
+              "the cluster-robust errors are unreliable; read only the larger campaign.", "",
               "![parameters](parameters.png)", "",
               "Strongest parameter per SLAM and fault (largest |slope|):", "",
-              "| SLAM | fault | parameter | slope | interval | p |", "|---|---|---|--:|---|--:|"]
+              "| SLAM | fault | parameter | slope | interval | p (permutation over cases) |", "|---|---|---|--:|---|--:|"]
     p = r.parameters.dropna(subset=["slope"])
     if not p.empty:
         top = p.loc[p.groupby(["slam", "fault"], sort=False)["slope"].apply(lambda s: s.abs().idxmax())]

@@ -97,7 +97,8 @@ def _detection_md(analysis: StudyAnalysis) -> pd.DataFrame:
     rows = []
     for (fault, n), g in det.groupby(["variant", "size"], sort=False):
         g = g.set_index("strategy")
-        rows.append({"fault": fault, "size": n} | {s: _interval(g.at[s, "rate"], g.at[s, "ci_low"], g.at[s, "ci_high"])
+        rows.append({"fault": fault, "size": n} | {s: _interval(g.at[s, "rate_generated"], g.at[s, "ci_low"],
+                                                                  g.at[s, "ci_high"])
                                                    for s in strategies if s in g.index})
     return pd.DataFrame(rows)
 
@@ -177,12 +178,23 @@ def _detection_comparisons_text(c: pd.DataFrame, alpha: float) -> str:
             f"pair detects with 80 % power at Holm's first step ({alpha} / {pairs}).")
 
 
+def _whole_rate(rate: float, lo: float, hi: float, rmin: float, rmax: float, suites: int) -> str:
+    """A detection rate with its interval, or a mutation score with its range over suites (no interval)."""
+    if np.isfinite(lo) and np.isfinite(hi):
+        return _interval(rate, lo, hi)
+    if suites == 1:
+        return _pct(rate)
+    if rmin == rmax:
+        return f"{_pct(rate)} (every one of {suites} suites)"
+    return f"{_pct(rate)} (range {100 * rmin:.0f}-{100 * rmax:.0f})"
+
+
 def _whole_md(whole: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({"strategy": whole["strategy"], "variant": whole["variant"],
                          "cases": whole["size"].map(lambda x: f"{x:g}"), "suites": whole["suites"],
-                         # a mutation score's range over suites is no interval: one suite gives its score alone
-                         "detected": [_pct(r) if n == 1 and lo == hi else _interval(r, lo, hi) for r, lo, hi, n in
-                                      zip(whole["rate"], whole["ci_low"], whole["ci_high"], whole["suites"])],
+                         "detected": [_whole_rate(*row) for row in
+                                      zip(whole["rate"], whole["ci_low"], whole["ci_high"], whole["range_min"],
+                                          whole["range_max"], whole["suites"])],
                          "paper rule": whole["rate_paper"].map(_pct)})
 
 
@@ -296,7 +308,9 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         "unit of evidence is the pool case. A detection probability's interval is exact: the Clopper-Pearson 95 % "
         "interval of the strategy's share of strong cases (cases that alone make a suite of this size detect) "
         "from the pool's count, mapped to n independently generated cases -- it never has zero width (0 of 16 "
-        "strong cases still allows up to 21 % per case); the 95 % percentile bootstrap over the pool's cases "
+        "strong cases still allows up to 21 % per case), and the table prints the point of that quantity, "
+        "1 - (1 - h/N)^n from the pool's h strong cases of N (the drawn suites' rate, `rate`, and the hypergeometric "
+        "`rate_exact` concern suites drawn from this pool and may lie outside it); the 95 % percentile bootstrap over the pool's cases "
         f"({st['bootstrap']} replicates) is kept beside it in `detection.csv` (`boot_low`, `boot_high`; empty where every resample agrees and it has no width). "
         "Mutation scores are bootstrap intervals resampling pool cases and mutants (the same resample for every strategy, "
         "so comparisons are paired over mutants). The bootstrap treats pool cases as independent; the cases of one "

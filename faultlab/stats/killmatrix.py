@@ -90,6 +90,7 @@ from statsmodels.stats.proportion import confint_proportions_2indep, proportion_
 
 from faultlab.config import Table
 from faultlab.errors import ConfigError, ResultsError
+from faultlab.precision import SIGNIFICANT_DIGITS
 from faultlab.metrics.detection import DetectionRule
 from faultlab.mutation.outcome import MutantOutcome
 from faultlab.seeds import study_seed_sequence
@@ -527,22 +528,28 @@ def exact_detection_interval(h, n_pool: int, n: int, *, alpha: float = DEFAULT_A
     are a binomial sample of the strategy's share ``pi`` of strong cases, so the Clopper-Pearson
     ``1 - alpha`` interval of ``pi`` mapped through ``1 - (1 - pi)^n`` (monotone) is an exact
     interval of the detection probability of ``n`` independently generated cases.  It never has
-    zero width (0 of 16 strong cases is compatible with up to 21 % per case).
+    zero width (0 of 16 strong cases is compatible with up to 21 % per case).  Where the mapped lower
+    bound lies closer to 1 than a double or a written table resolves (165 of 165 strong cases and
+    ``n = 10`` give ``1 - 3e-17``), it is rounded outwards to ``1 - 10**-SIGNIFICANT_DIGITS``: still a
+    valid (conservative) bound, and the interval keeps its width in every table.
     """
     h = np.atleast_1d(np.asarray(h, dtype=np.int64))
     lo = np.array([proportion_confint(int(k), n_pool, alpha=alpha, method="beta")[0] for k in h], dtype=float)
     hi = np.array([proportion_confint(int(k), n_pool, alpha=alpha, method="beta")[1] for k in h], dtype=float)
-    return 1.0 - (1.0 - lo) ** n, 1.0 - (1.0 - hi) ** n
+    low = -np.expm1(n * np.log1p(-lo))
+    return np.minimum(low, 1.0 - 10.0 ** -SIGNIFICANT_DIGITS), 1.0 - (1.0 - hi) ** n
 
 
 def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
     """Per (variant, strategy, size): detection probability of a drawn suite with its intervals.
 
     Columns: ``variant, strategy, size, pool, draws, rate`` (share of the drawn suites that
-    detect), ``rate_exact`` (hypergeometric, on the pool), ``ci_low, ci_high`` (exact interval,
-    :func:`exact_detection_interval`), ``boot_low, boot_high`` (95 % percentile bootstrap over
-    pool cases; NaN where every resample agrees, since a percentile interval then has no width and
-    the exact interval is the one to read), ``se_boot``, ``rate_paper`` (paper rule)
+    detect), ``rate_exact`` (hypergeometric, on the pool), ``rate_generated`` (a suite of ``size``
+    independently generated cases: ``1 - (1 - h/N)^n`` from the pool's ``h`` strong cases of ``N``)
+    with its exact interval ``ci_low, ci_high`` (:func:`exact_detection_interval`; the drawn and
+    pool rates concern the pool and may lie outside it), ``boot_low, boot_high`` (95 % percentile bootstrap over
+    pool cases of ``rate_exact``; NaN where every resample agrees, since a percentile interval then has
+    no width, and where it misses ``rate_exact``: the exact interval is the one to read), ``se_boot``, ``rate_paper`` (paper rule)
     and ``strong_cases`` (pool cases that alone make a suite of this size detect); beside ``rate``
     (the per-case minimum at ``alpha``), ``rate_combined``: share of the drawn suites detected by the
     combined decision (per-case minimum or pooled test over the suite's case mean log ratios, each
@@ -553,11 +560,18 @@ def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
     rows = []
     for (strategy, n), det in ev.detects.items():
         lo, hi = _ci(ev.boot[(strategy, n)])
-        lo, hi = np.where(lo < hi, lo, np.nan), np.where(lo < hi, hi, np.nan)  # degenerate: no interval
+        # degenerate (no width a written table resolves), or a percentile interval that misses the pool's own
+        # detection probability (skewed replicates next to 1): no bootstrap interval, the exact one is to read
+        exact = ev.exact[(strategy, n)]
+        tol = 10.0 ** -SIGNIFICANT_DIGITS * np.maximum(1.0, np.abs(hi))
+        keep = (hi - lo > tol) & (lo <= exact + tol) & (exact <= hi + tol)
+        lo, hi = np.where(keep, lo, np.nan), np.where(keep, hi, np.nan)
         se = ev.boot[(strategy, n)].std(axis=0, ddof=1) if ev.boot[(strategy, n)].shape[0] > 1 else \
             np.full(len(ev.variants), np.nan)
         n_pool = ev.pool_sizes[strategy]
         ex_lo, ex_hi = exact_detection_interval(ev.n_strong[(strategy, n)], n_pool, n)
+        with np.errstate(divide="ignore"):  # every pool case strong: log1p(-1) = -inf, rate 1
+            gen = -np.expm1(n * np.log1p(-np.asarray(ev.n_strong[(strategy, n)], dtype=float) / n_pool))
         for v in variants:
             j = col[v]
             ex = ev.exact[(strategy, n)][j]
@@ -565,7 +579,7 @@ def detection_table(ev: SuiteDraws, variants) -> pd.DataFrame:
                          "rate": float(det[:, j].mean()),
                          "rate_combined": (float(ev.detects_pooled[(strategy, n)][:, j].mean())
                                            if (strategy, n) in ev.detects_pooled else math.nan),
-                         "rate_exact": float(ex), "ci_low": float(ex_lo[j]),
+                         "rate_exact": float(ex), "rate_generated": float(gen[j]), "ci_low": float(ex_lo[j]),
                          "ci_high": float(ex_hi[j]), "boot_low": float(lo[j]), "boot_high": float(hi[j]),
                          "se_boot": float(se[j]),
                          "rate_paper": float(ev.detects_paper[(strategy, n)][:, j].mean()),
@@ -905,7 +919,8 @@ def study_spec(data: Mapping, *, source: str) -> StudySpec:
 # --------------------------------------------------------------------------- whole generated suites
 
 #: Columns of :func:`whole_suite_table`.
-WHOLE_COLUMNS = ("strategy", "variant", "size", "suites", "detected", "rate", "ci_low", "ci_high", "rate_paper")
+WHOLE_COLUMNS = ("strategy", "variant", "size", "suites", "detected", "rate", "ci_low", "ci_high", "range_min",
+                 "range_max", "rate_paper")
 
 
 def whole_suites(km: KillMatrix, strategies, *, alpha: float = DEFAULT_ALPHA, method: str = "holm",
@@ -946,8 +961,9 @@ def whole_suite_table(whole: pd.DataFrame, *, mutants=(), alpha: float = DEFAULT
     Clopper-Pearson over suites (statsmodels ``proportion_confint(method="beta")``, level
     ``1 - alpha``).  With ``mutants``, a row ``variant = "mutation score"`` per strategy gives the
     mean over suites of the share of ``mutants`` each kills (``detected`` = mutants killed over
-    all suites, ``ci_low``/``ci_high`` = the lowest and highest score of one suite: a range, not
-    an interval).  ``size`` is the suites' mean number of cases.
+    all suites, ``range_min``/``range_max`` = the lowest and highest score of one suite: a range, not
+    an interval, so ``ci_low``/``ci_high`` are blank there; the range columns are blank on detection
+    rows).  ``size`` is the suites' mean number of cases.
     """
     from statsmodels.stats.proportion import proportion_confint
 
@@ -957,13 +973,13 @@ def whole_suite_table(whole: pd.DataFrame, *, mutants=(), alpha: float = DEFAULT
         lo, hi = proportion_confint(k, n, alpha=alpha, method="beta")
         rows.append({"strategy": strategy, "variant": variant, "size": float(g["size"].mean()), "suites": n,
                      "detected": k, "rate": k / n, "ci_low": float(lo), "ci_high": float(hi),
-                     "rate_paper": float(g["paper"].mean())})
+                     "range_min": math.nan, "range_max": math.nan, "rate_paper": float(g["paper"].mean())})
     mutants = set(mutants)
     if mutants:
         for strategy, g in whole[whole["variant"].isin(mutants)].groupby("strategy", sort=False):
             per_suite = g.groupby("run")["detected"].mean()
             rows.append({"strategy": strategy, "variant": "mutation score", "size": float(g["size"].mean()),
                          "suites": int(per_suite.size), "detected": int(g["detected"].sum()),
-                         "rate": float(per_suite.mean()), "ci_low": float(per_suite.min()),
-                         "ci_high": float(per_suite.max()), "rate_paper": float(g.groupby("run")["paper"].mean().mean())})
+                         "rate": float(per_suite.mean()), "ci_low": math.nan, "ci_high": math.nan,
+                         "range_min": float(per_suite.min()), "range_max": float(per_suite.max()), "rate_paper": float(g.groupby("run")["paper"].mean().mean())})
     return pd.DataFrame(rows, columns=list(WHOLE_COLUMNS))

@@ -209,7 +209,8 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
         ``p_equivalence`` (TOST, see ``margin_rel``; NaN where not tested), ``p`` (exact p value of the chosen
         alternative; NaN where not tested), ``p_min`` (``2^-n_pairs``), ``baseline_sd_mm`` (std of the baseline's errors
         on the case, ddof = 1) and ``mde_mm`` (smallest shift detectable with ``power``; inf
-        when ``n_pairs`` is too small, NaN when the baseline failed or has one repetition).
+        when ``n_pairs`` is too small, NaN when the baseline failed or has one repetition; a written
+        table shows both as a blank cell, :func:`faultlab.precision.write_csv`).
 
     Raises
     ------

@@ -85,3 +85,13 @@ def test_campaign_effects_mean_over_cases_is_the_t_interval_of_the_per_case_log_
     size = t[(t["response"] == "effect:f") & (t["term"] == "(size)")].iloc[0]
     assert np.isnan(size["estimate"]) and "needs about 20 cases" in size["note"]
     assert "map_size" not in set(t["term"])
+
+
+def test_sobol_estimates_that_cannot_be_variance_shares_are_marked_as_noise():
+    import pandas as pd
+
+    from faultlab.analysis.effects import incoherent_indices
+
+    t = pd.DataFrame({"S1": [0.2, 3.48, 0.1, 0.5, 0.0, float("nan")], "ST": [0.3, 0.32, -1.48, 0.4, 0.0, 0.2]})
+    # coherent; S1 above 1; ST negative; S1 > ST; both zero (coherent); S1 not estimated (nothing to mark)
+    assert list(incoherent_indices(t)) == ["", "yes", "yes", "yes", "", ""]

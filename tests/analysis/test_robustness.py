@@ -59,9 +59,28 @@ def test_parameter_effects_recover_a_planted_slope():
     sd = np.std(np.repeat(np.arange(1, 11), 5).astype(float))
     row = effects.loc["map_size"]
     assert row["low"] < b * sd < row["high"]  # slope per standard deviation of the parameter
-    assert row["p"] < 1e-6 and row["n_cases"] == 10
+    # a permutation test over the 10 cases (9999 random orderings): a perfect ordering gets the smallest p it can
+    assert row["p"] == pytest.approx(2 / 10000) and row["p_min"] == pytest.approx(2 / 10000) and row["n_cases"] == 10
     assert math.isnan(effects.loc["step_size", "slope"])  # constant over the cases: no slope
     assert math.isnan(effects.loc["inactivity", "slope"])  # absent
+
+
+def test_parameter_effects_on_four_cases_give_the_exact_permutation_p_never_zero():
+    """Four clusters: the cluster-robust z test's p was ~0; over the 4! orderings of the cases the planted,
+    perfectly ordered slope is the most extreme of 2 (itself and its mirror), so p = 2/24 exactly."""
+    res = _results(lambda c, x: math.exp(0.3 * x), n_cases=4, noise=0.001, seed=1)
+    row = parameter_effects(rep_log_ratios(res), rng=np.random.default_rng(0)).set_index("parameter").loc["map_size"]
+    assert row["p"] == pytest.approx(2 / 24) and row["p_min"] == pytest.approx(2 / 24)
+    assert row["low"] < row["slope"] < row["high"]
+    # the same ordering found by brute force over the permutations of the case values
+    import itertools
+    cases = case_log_ratios(res)
+    y = cases.groupby("case")["log_ratio"].mean().to_numpy()
+    x = np.arange(1.0, 5.0)
+    slope = lambda xs: np.polyfit(xs, y, 1)[0]
+    observed = abs(slope(x))
+    p = np.mean([abs(slope(np.array(perm))) >= observed - 1e-12 for perm in itertools.permutations(x)])
+    assert row["p"] == pytest.approx(p)
 
 
 def test_parameter_effects_need_three_cases():

@@ -208,6 +208,11 @@ def test_scores_and_comparisons_are_consistent_with_the_drawn_suites():
         rate = det[(det["variant"] == "mutant:x") & (det["strategy"] == r["strategy"]) & (det["size"] == r["size"])]
         assert r["score"] == pytest.approx(float(rate["rate"].iloc[0]))
         assert r["ci_low"] <= r["ci_high"]
+    # the point of the exact interval: n generated cases, from the pool's strong cases, inside its own interval
+    h, n_pool = det["strong_cases"].to_numpy(float), det["pool"].to_numpy(float)
+    np.testing.assert_allclose(det["rate_generated"], 1 - (1 - h / n_pool) ** det["size"].to_numpy(float))
+    assert ((det["ci_low"] <= det["rate_generated"]) & (det["rate_generated"] <= det["ci_high"])).all()
+    assert (det["ci_low"] < det["ci_high"]).all()
     comp = compare_scores(ev)
     assert set(comp["size"]) == {1, 3} and (comp["p_holm"] >= comp["p_boot"] - 1e-12).all()
     row = comp[comp["size"] == 1].iloc[0]
@@ -299,6 +304,24 @@ def test_exact_detection_interval_is_clopper_pearson_mapped_to_n_cases_and_never
     lo5, hi5 = exact_detection_interval([5], 16, 5)
     assert lo5[0] == pytest.approx(1 - (1 - beta.ppf(0.025, 5, 12)) ** 5)
     assert hi5[0] == pytest.approx(1 - (1 - beta.ppf(0.975, 6, 11)) ** 5)
+
+
+def test_an_exact_detection_interval_keeps_its_width_where_the_lower_bound_rounds_to_one():
+    """165 of 165 strong cases and suites of 10: the mapped Clopper-Pearson lower bound is 1 - 3e-17, which a
+    double (and a table) shows as 1; it is rounded outwards to what a written table resolves."""
+    from decimal import Decimal
+
+    from scipy.stats import beta
+
+    from faultlab.precision import FLOAT_FORMAT
+    from faultlab.stats.killmatrix import exact_detection_interval
+
+    exact = 1 - (1 - Decimal(beta.ppf(0.025, 165, 1))) ** 10     # the bound in exact decimal arithmetic
+    assert Decimal(1) - exact < Decimal("1e-16") and float(exact) == 1.0
+    lo, hi = exact_detection_interval([165, 30], 165, 10)
+    assert hi[0] == 1.0 and lo[0] < 1.0 and FLOAT_FORMAT % lo[0] != FLOAT_FORMAT % hi[0]
+    assert Decimal(lo[0]) <= exact                                  # still a valid (conservative) lower bound
+    assert lo[1] == pytest.approx(1 - (1 - beta.ppf(0.025, 30, 136)) ** 10, rel=1e-12)  # an ordinary bound unchanged
 
 
 def test_smallest_showable_difference_is_the_exact_mcnemar_floor():
@@ -465,6 +488,11 @@ def test_whole_suites_judge_each_runs_suite_by_textbook_holm_and_count_suites_as
         assert r["ci_low"] < r["ci_high"]                      # never a zero-width interval from 2 suites
     score = table[table["variant"] == "mutation score"].iloc[0]
     assert score["rate"] == pytest.approx(whole[whole["variant"] == "mutant:x"]["detected"].mean())
+    # a score's range over suites is no interval: its own columns, and no ci_low/ci_high
+    per_suite = whole[whole["variant"] == "mutant:x"].groupby("run")["detected"].mean()
+    assert (score["range_min"], score["range_max"]) == (per_suite.min(), per_suite.max())
+    assert np.isnan(score["ci_low"]) and np.isnan(score["ci_high"])
+    assert table[table["variant"] != "mutation score"][["range_min", "range_max"]].isna().all().all()
     with pytest.raises(ConfigError, match="study.whole"):
         whole_suites(km, ["pairwise"])
 
