@@ -1,5 +1,7 @@
 """Mutation campaign: the experiment file, statistical kills with early stopping, resume."""
 
+import json
+
 import pandas as pd
 import pytest
 
@@ -108,8 +110,8 @@ IDENTICAL = "apply_resample:unary_minus:3"
 def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_resume_to_the_same_rows(tmp_path):
     import sqlite3
 
-    from faultlab.runner.store import load_metadata, results_path
     from faultlab.runner.staging import STOPS_KEY
+    from faultlab.runner.store import META_CHECKSUM_KEY, load_metadata, meta_checksum, results_path
 
     fixed_f, staged_f = tmp_path / "fixed.toml", tmp_path / "staged.toml"
     fixed_f.write_text(ADAPTIVE.split("[adaptive]")[0].format(kill=SIGN_FLIP, eq=IDENTICAL))
@@ -140,9 +142,13 @@ def test_staged_repetitions_stop_undecidable_pairs_keep_the_fixed_k_kills_and_re
     assert len(both) == len(df_s) and (both["rms_mm"] == both["rms_mm_f"]).all()
     # resume after a kill during the first round's second stage: its rows and every recorded stop are
     # lost; the rerun re-derives the same stops from the stage-1 rows and runs the same jobs again
+    # (the stops and the metadata checksum are written in one transaction, so the store left behind has a
+    # checksum of the metadata without them)
     with sqlite3.connect(results_path(tmp_path / "staged")) as con:
         con.execute("DELETE FROM results WHERE \"case\" = 1 AND rep >= 5")
         con.execute("DELETE FROM meta WHERE key = ?", (STOPS_KEY,))
+        left = {k: json.loads(v) for k, v in con.execute("SELECT key, value FROM meta")}
+        con.execute("UPDATE meta SET value = ? WHERE key = ?", (json.dumps(meta_checksum(left)), META_CHECKSUM_KEY))
     lost = int(((df_s["case"] == 1) & (df_s["rep"] >= 5)).sum())
     assert lost > 0
     again = run_mutation(staged_f, tmp_path / "staged", jobs=1, backend="threading", progress=False)

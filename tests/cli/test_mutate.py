@@ -26,7 +26,7 @@ def cache(tmp_path_factory):
 
 
 def _counts(out: str) -> dict[str, int]:
-    return {m.group(1): int(m.group(2)) for m in re.finditer(r"^  (live|stillborn|equivalent|duplicate)\s+(\d+)",
+    return {m.group(1): int(m.group(2)) for m in re.finditer(r"^  (live|stillborn|equivalent|duplicate|nondeterministic)\s+(\d+)",
                                                             out, re.M)}
 
 
@@ -34,7 +34,7 @@ def test_list_shows_the_live_mutants_of_the_reference_and_a_count_per_class(caps
     assert main(["mutate", "list"]) == 0
     out = capsys.readouterr().out
     counts = _counts(out)
-    assert set(counts) == {"live", "stillborn", "equivalent", "duplicate"} and counts["live"] >= 150
+    assert set(counts) == {"live", "stillborn", "equivalent", "duplicate", "nondeterministic"} and counts["live"] >= 150
     rows = [line for line in out.splitlines() if re.match(r"^\S+:[a-z0-9_]+:\d+\s", line)]
     assert len(rows) == counts["live"]
     total = int(re.search(r"^fastslam: (\d+) mutants", out, re.M).group(1))
@@ -49,7 +49,7 @@ def test_list_all_of_one_unit_and_operator_with_classes(capsys):
     assert set(rows) == {"resample:comparison:1", "resample:comparison:2"}
     assert "equivalent" in rows["resample:comparison:1"] and "n_eff > n" in rows["resample:comparison:1"]
     assert " live " in rows["resample:comparison:2"] and "n_eff < n" in rows["resample:comparison:2"]
-    assert _counts(out) == {"live": 1, "stillborn": 0, "equivalent": 1, "duplicate": 0}
+    assert _counts(out) == {"live": 1, "stillborn": 0, "equivalent": 1, "duplicate": 0, "nondeterministic": 0}
 
 
 def test_show_prints_the_diff_and_the_class(capsys):
