@@ -130,11 +130,12 @@ def test_every_job_is_classified_once_per_data_set(rich, monkeypatch):
 
 
 def _written(frame: pd.DataFrame) -> pd.DataFrame:
-    """``frame`` with every float as a table holds it (FLOAT_FORMAT, Python's own rounding)."""
+    """``frame`` with every float as a table holds it (FLOAT_FORMAT, Python's own rounding; an infinite
+    value is written as a blank cell, which reads back as NaN)."""
     out = frame.copy()
     for c in out.columns:
         if out[c].dtype == np.float64:
-            out[c] = [float(FLOAT_FORMAT % v) for v in out[c]]
+            out[c] = [float(FLOAT_FORMAT % v) if not np.isinf(v) else np.nan for v in out[c]]
     return out
 
 
