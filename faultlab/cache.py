@@ -8,10 +8,12 @@ in ``numba/`` below it) are kept there.
 
 from __future__ import annotations
 
+import json
 import os
+import tempfile
 from pathlib import Path
 
-__all__ = ["cache_dir", "numba_cache_dir"]
+__all__ = ["cache_dir", "numba_cache_dir", "write_cache_json"]
 
 
 def cache_dir() -> Path | None:
@@ -34,3 +36,15 @@ def numba_cache_dir() -> Path:
     if base is None:
         base = Path(os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")) / "faultlab"
     return base / "numba"
+
+
+def write_cache_json(path: Path, data) -> None:
+    """Write ``data`` as JSON to ``path`` atomically (a temporary file renamed over it); a cache is an
+    optimisation only, so a failure to write it (no room, no permission) is ignored."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as f:
+            json.dump(data, f)
+        os.replace(f.name, path)
+    except OSError:
+        pass

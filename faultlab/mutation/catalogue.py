@@ -18,9 +18,7 @@ import hashlib
 import importlib.metadata
 import inspect
 import json
-import os
 import sys
-import tempfile
 import time
 from collections import Counter
 from dataclasses import dataclass
@@ -29,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import faultlab
-from faultlab.cache import cache_dir
+from faultlab.cache import cache_dir, write_cache_json
 from faultlab.errors import FaultError
 from faultlab.mutation.examples import unit_examples
 from faultlab.mutation.mutant import Mutant, MutantSet, generate_mutants
@@ -142,13 +140,7 @@ def _save(path: Path | None, key: str, report: ScreeningReport) -> None:
             "seconds": report.seconds, "n_examples": report.n_examples,
             "results": {i: [s.outcome.value if s.outcome else None, s.reason, s.duplicate_of]
                         for i, s in report.results.items()}}
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as f:
-            json.dump(data, f)
-        os.replace(f.name, path)
-    except OSError:
-        pass  # caching is an optimisation only
+    write_cache_json(path, data)
 
 
 def mutant_catalogue(slam: str = "fastslam", *, cache: bool = True) -> Catalogue:

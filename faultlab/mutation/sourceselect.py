@@ -15,15 +15,14 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import sys
-import tempfile
 from collections import Counter
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 import faultlab
+from faultlab.cache import write_cache_json
 from faultlab.errors import ConfigError
 from faultlab.mutation.catalogue import cache_dir
 from faultlab.mutation.outcome import MutantOutcome
@@ -72,13 +71,7 @@ def screen_target(mutants: SourceMutants, slam_spec, probes: Sequence, seeds: Se
         data = {"key": key, "format": _FORMAT,
                 "results": {i: [s.outcome.value if s.outcome else None, s.reason, s.duplicate_of, s.trivial]
                             for i, s in found.items()}}
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as f:
-                json.dump(data, f)
-            os.replace(f.name, path)
-        except OSError:
-            pass  # caching is an optimisation only
+        write_cache_json(path, data)
     return found
 
 
