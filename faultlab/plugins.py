@@ -29,13 +29,9 @@ import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-__all__ = ["PluginLoad", "PluginCatalogue", "ORACLE_ENTRY_POINT_GROUP"]
+__all__ = ["PluginLoad", "PluginCatalogue"]
 
 _NAME = re.compile(r"[a-z][a-z0-9_]*")
-
-#: Entry-point group of check oracles (reserved here so that every extension kind's group is named in one
-#: package; the catalogue of oracles is built on :class:`PluginCatalogue` like the others).
-ORACLE_ENTRY_POINT_GROUP = "faultlab.oracles"
 
 
 @dataclass(frozen=True)

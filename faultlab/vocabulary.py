@@ -89,6 +89,9 @@ BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")
 #: Default level of every test and 1 - confidence level of every interval (the paper's 5 %).
 DEFAULT_ALPHA = 0.05
 
+#: Default power of every sample-size and detectable-difference figure (the conventional 80 %).
+DEFAULT_POWER = 0.8
+
 #: Which change of the map error a per-case test looks for: ``"either"`` (two-sided: the variant
 #: behaves differently, worse or better) or ``"worse"`` (one-sided: the paper's notion of detecting
 #: a fault, Sec. VII-A, "the faulty implementation's map error exceeds the baseline's").

@@ -160,7 +160,7 @@ def allocation_study(results: pd.DataFrame, *, budget: int, ks, rule: DetectionR
         lo, hi = exact_detection_interval(h, n_pool, n)
         reachable = bool(min_p_value(k, alternative=alternative_of(rule.direction)) <= alpha / n)
         for j, variant in enumerate(km.variants):
-            c_lo, c_hi = proportion_confint(int(h[j]), n_pool, alpha=0.05, method="beta")
+            c_lo, c_hi = proportion_confint(int(h[j]), n_pool, alpha=DEFAULT_ALPHA, method="beta")
             rates = [by_case[:, j].mean(), by_pool[:, j].mean(), combined[:, j].mean()]
             rows.append({"variant": variant, "k": k, "n_cases": n, "budget": budget, "pool": n_pool, "draws": draws,
                          "reachable": reachable, "strong_cases": int(h[j]), "case_rate": h[j] / n_pool, "case_low": c_lo, "case_high": c_hi,

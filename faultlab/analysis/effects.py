@@ -35,7 +35,7 @@ from faultlab.space.case import VALUE_KEYS
 from faultlab.space.parameters import space_from_mapping
 from faultlab.stats.responses import CASE_KEY, case_responses, rep_values
 from faultlab.stats.screening import check_design, read_effects_json, response_seed, saved_design, stage_responses
-from faultlab.vocabulary import EFFECTS_STAGES
+from faultlab.vocabulary import DEFAULT_ALPHA, EFFECTS_STAGES
 
 __all__ = ["EffectsAnalysis", "analyse_effects", "study_weights", "campaign_effects", "CAMPAIGN_EFFECT_COLUMNS", "CASES_PER_COEFFICIENT"]
 
@@ -272,7 +272,7 @@ CASES_PER_COEFFICIENT = 10
 CAMPAIGN_EFFECT_COLUMNS: tuple[str, ...] = ("response", "term", "n_cases", "estimate", "low", "high", "p", "note")
 
 
-def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, alpha: float = 0.05) -> pd.DataFrame:
+def campaign_effects(results: pd.DataFrame, *, metric: str = "rms", rule=None, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """The continuous effect analysis of an ordinary campaign (suites drawn for coverage, not a design).
 
     Per response (difficulty, each fault's effect size; :mod:`faultlab.stats.responses`):

@@ -42,7 +42,7 @@ from faultlab.faults.sensorfaults import BUILTIN_SENSOR_FAULTS
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY, load_metadata, load_results
 from faultlab.space.case import VALUE_KEYS
 from faultlab.stats.verdict import Verdict, case_verdicts
-from faultlab.vocabulary import BASELINE, JobStatus
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, JobStatus
 
 __all__ = ["Robustness", "robustness", "case_log_ratios", "rep_log_ratios", "degradation", "parameter_effects",
            "DEGRADATION", "PARAMETERS", "NUMERIC_PARAMETERS", "FLOOR_MM"]
@@ -91,7 +91,7 @@ def case_log_ratios(results: pd.DataFrame, *, metric: str = "rms") -> pd.DataFra
     return out[_CASE + ["fault", "log_ratio", "n_pairs"]]
 
 
-def degradation(log_ratios: np.ndarray, *, alpha: float = 0.05) -> tuple[float, float, float]:
+def degradation(log_ratios: np.ndarray, *, alpha: float = DEFAULT_ALPHA) -> tuple[float, float, float]:
     """Geometric-mean ratio ``exp(mean)`` of per-case log ratios and its Student-t CI (NaN bounds below 2 cases)."""
     x = np.asarray(log_ratios, dtype=float)
     x = x[np.isfinite(x)]
@@ -104,7 +104,7 @@ def degradation(log_ratios: np.ndarray, *, alpha: float = 0.05) -> tuple[float, 
     return math.exp(mean), math.exp(ci.low), math.exp(ci.high)
 
 
-def parameter_effects(reps: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
+def parameter_effects(reps: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Per numeric Table I parameter: slope of the log ratio on the standardised parameter, clustered by case.
 
     Parameters
@@ -174,7 +174,7 @@ def _protocol(md: dict) -> dict:
             "job_time_s": None}
 
 
-def robustness(stores: Mapping[str, str | Path], *, alpha: float = 0.05) -> Robustness:
+def robustness(stores: Mapping[str, str | Path], *, alpha: float = DEFAULT_ALPHA) -> Robustness:
     """Analyse the robustness campaign's stores (label -> store directory)."""
     sensor = {f.name for f in BUILTIN_SENSOR_FAULTS}
     deg, par, skipped, protocol = [], [], [], {}

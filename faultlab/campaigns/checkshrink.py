@@ -9,8 +9,8 @@ fresh seeds) and writes ``out/reproducers/<case>-<oracle>/``:
   into a ROS 2 bag, TUM or JSON lines);
 * ``replay.txt``: the one-line command that judges it again;
 * ``test_<case>_<oracle>.py``: a pytest file that judges it through the adapter and asserts the oracle
-  passes: it fails on the SLAM as checked and passes once the bug is fixed (``FAULTLAB_SLAM`` names
-  another build of the SLAM to replay it on, e.g. a fixed twin).
+  passes: it fails on the SLAM as checked and passes once the bug is fixed (``FAULTLAB_SLAM`` or
+  ``FAULTLAB_COMMAND`` names another build of the SLAM to replay it on, e.g. a fixed twin).
 """
 
 from __future__ import annotations
@@ -33,12 +33,13 @@ PYTEST_TEMPLATE = string.Template('''\
 """Reproducer written by faultlab check: ${oracle} fails ${case_id} (minimal: ${steps} steps, ${landmarks} landmarks).
 
 Replays the case through the SLAM's adapter and asserts the oracle passes: this test fails while the
-bug is there.  Set FAULTLAB_SLAM to another SLAM (built-in name or package.module:factory) to replay
-it on another build, e.g. the fixed one.
+bug is there.  Set FAULTLAB_SLAM to another SLAM (built-in name or package.module:factory), or
+FAULTLAB_COMMAND to another process SLAM command, to replay it on another build, e.g. the fixed one.
 """
 
 import json
 import os
+import shlex
 from pathlib import Path
 
 from faultlab.campaigns.checkspec import CheckSpec, judge_scenario
@@ -52,6 +53,8 @@ def test_${name}():
     spec = dict(SPEC)
     if os.environ.get("FAULTLAB_SLAM"):
         spec["slam"], spec["command"] = os.environ["FAULTLAB_SLAM"], ()
+    if os.environ.get("FAULTLAB_COMMAND"):
+        spec["slam"], spec["command"] = "", shlex.split(os.environ["FAULTLAB_COMMAND"])
     spec["paths"] = tuple(spec["paths"]) + (str(HERE),)
     check = CheckSpec(**{**spec, "command": tuple(spec["command"]), "oracles": tuple(spec["oracles"])})
     judgement = judge_scenario(check, ${case_id_repr}, load_scenario(HERE / "case.npz"))

@@ -18,6 +18,7 @@ from faultlab.errors import ConfigError
 from faultlab.oracles import DEFAULT_OPTIONS, CaseJudgement, get_oracle, judge_case, repetition_seeds
 from faultlab.scenario.model import Scenario
 from faultlab.slam.registry import build_slam, get_slam_kind, normalise_options
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["DEFAULT_SUITE", "DEFAULT_ORACLES", "CheckSpec", "use_paths", "slam_factory", "reference_factory",
            "judge_scenario"]
@@ -47,7 +48,7 @@ class CheckSpec:
     n_steps: int = 200
     seed: int = 1
     repetitions: int = 8
-    alpha: float = 0.05
+    alpha: float = DEFAULT_ALPHA
     oracles: tuple[str, ...] = DEFAULT_ORACLES
     options: Mapping[str, Any] = field(default_factory=dict)
     paths: tuple[str, ...] = ()
@@ -114,8 +115,9 @@ def slam_factory(spec: CheckSpec):
     if spec.command:
         return functools.partial(build_slam, "process", normalise_options(
             "process", {"command": list(spec.command)}, where="--command"))
-    kind = get_slam_kind(spec.slam, where="SLAM")
-    options = normalise_options(spec.slam, dict(spec.slam_options), where="SLAM") if kind else dict(spec.slam_options)
+    get_slam_kind(spec.slam, where="SLAM")
+    # validates a built-in's options; imports an import path's factory (a wrong path is a usage error)
+    options = normalise_options(spec.slam, dict(spec.slam_options), where="SLAM")
     return functools.partial(build_slam, spec.slam, options)
 
 

@@ -230,11 +230,9 @@ def _probes(exp: Experiment, n: int) -> tuple[list, list[int], str]:
     return scenarios, seeds, key
 
 
-def _comparable(exp: Experiment) -> dict:
-    d = exp.to_dict()
-    for k in ("description", "variants"):
-        d.pop(k, None)
-    return d
+def _comparable(experiment: dict) -> dict:
+    """An experiment as its store records it (canonical form), less what a rerun may change."""
+    return {k: v for k, v in experiment.items() if k not in ("description", "variants")}
 
 
 def _reuse_map(exp: Experiment, reuse, *, where: str) -> dict:
@@ -247,11 +245,8 @@ def _reuse_map(exp: Experiment, reuse, *, where: str) -> dict:
         meta = load_metadata(prev)
     except (OSError, ValueError, ResultsError) as exc:
         raise ConfigError(f"{where}: reuse = {str(prev)!r} is not a finished mutation campaign ({exc})") from None
-    old = dict(meta.get("experiment") or {})
-    for k in ("description", "variants"):
-        old.pop(k, None)
-    new = json.loads(json.dumps(_comparable(exp), default=str))
-    old = json.loads(json.dumps(old, default=str))
+    old = _comparable(dict(meta.get("experiment") or {}))
+    new = _comparable(json.loads(exp.canonical_json()))
     differ = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
     if differ:
         raise ConfigError(f"{where}: reuse = {str(prev)!r} ran another experiment (differs in {', '.join(differ)}); "

@@ -6,17 +6,19 @@ import argparse
 import shlex
 import sys
 
-from faultlab.analysis.check import summarise_check
-from faultlab.campaigns.check import DEFAULT_ORACLES, DEFAULT_SUITE, CheckSpec, case_records, run_check
-from faultlab.campaigns.checkspec import judge_scenario
-from faultlab.cli.options import add_examples, positive_int
-from faultlab.config import read_toml
+from faultlab.cli.options import LazyText, add_examples, positive_int
 from faultlab.errors import ConfigError, FaultlabError
-from faultlab.oracles import DEFAULT_OPTIONS
-from faultlab.report.check import write_check_reports
-from faultlab.scenario.model import load_scenario
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["register"]
+
+
+def _defaults():
+    """(suite, oracles, oracle options) when not given: read when needed, the oracles are slow to import."""
+    from faultlab.campaigns.check import DEFAULT_ORACLES, DEFAULT_SUITE
+    from faultlab.oracles import DEFAULT_OPTIONS
+
+    return DEFAULT_SUITE, DEFAULT_ORACLES, DEFAULT_OPTIONS
 
 
 def register(subparsers) -> None:
@@ -37,7 +39,7 @@ def register(subparsers) -> None:
                    help="directory to put on the import path before importing the factory (repeatable)")
     p.add_argument("--reference", default="ekf", metavar="SLAM",
                    help="reference SLAM of the differential oracle, or 'none' (default ekf)")
-    p.add_argument("--suite", default=DEFAULT_SUITE, help=f"suite kind (default {DEFAULT_SUITE})")
+    p.add_argument("--suite", default=None, help=LazyText(lambda: f"suite kind (default {_defaults()[0]})"))
     p.add_argument("--space", default=None, metavar="FILE.toml",
                    help="override Table I's classes (format of experiments/space_table1.toml), e.g. smaller maps")
     p.add_argument("--cases", type=positive_int, default=None, metavar="N", help="suite size (default: the suite's)")
@@ -45,14 +47,14 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=1, help="seed of the suite and the repetitions (default 1)")
     p.add_argument("--repetitions", "-K", type=int, default=8, metavar="K",
                    help="runs per case, >= 2; a deterministic SLAM is run twice (default 8)")
-    p.add_argument("--alpha", type=float, default=0.05,
-                   help="chance that a correct stochastic SLAM fails a case (default 0.05)")
-    p.add_argument("--oracles", nargs="+", default=list(DEFAULT_ORACLES), metavar="ORACLE",
-                   help=f"oracles to apply (default: {' '.join(DEFAULT_ORACLES)}; plugins by name)")
+    p.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
+                   help=f"chance that a correct stochastic SLAM fails a case (default {DEFAULT_ALPHA:g})")
+    p.add_argument("--oracles", nargs="+", default=None, metavar="ORACLE",
+                   help=LazyText(lambda: f"oracles to apply (default: {' '.join(_defaults()[1])}; plugins by name)"))
     p.add_argument("--relations", nargs="+", default=None, metavar="RELATION",
-                   help=f"metamorphic relations (default: {' '.join(DEFAULT_OPTIONS['relations'])})")
+                   help=LazyText(lambda: f"metamorphic relations (default: {' '.join(_defaults()[2]['relations'])})"))
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                   help=f"an oracle margin: {', '.join(k for k in DEFAULT_OPTIONS if k != 'relations')}")
+                   help=LazyText(lambda: f"an oracle margin: {', '.join(k for k in _defaults()[2] if k != 'relations')}"))
     p.add_argument("--case", default=None, metavar="CASE.npz", help="judge one saved case instead of a suite")
     p.add_argument("--case-id", default=None, help="the case's id (its repetition seeds); default from the file")
     p.add_argument("--out", default="results/check", help="results directory (default results/check; resumable)")
@@ -65,12 +67,13 @@ def register(subparsers) -> None:
 
 
 def _options(args) -> dict:
+    default_options = _defaults()[2]
     options: dict = {}
     for item in args.option:
         key, sep, value = item.partition("=")
-        if not sep or key not in DEFAULT_OPTIONS or key == "relations":
+        if not sep or key not in default_options or key == "relations":
             raise ConfigError(f"--option {item!r}: expected KEY=VALUE with KEY one of "
-                              f"{', '.join(k for k in DEFAULT_OPTIONS if k != 'relations')}")
+                              f"{', '.join(k for k in default_options if k != 'relations')}")
         try:
             options[key] = float(value)
         except ValueError:
@@ -81,11 +84,19 @@ def _options(args) -> dict:
 
 
 def _handler(args: argparse.Namespace) -> int:
+    from faultlab.analysis.check import summarise_check
+    from faultlab.campaigns.check import CheckSpec, case_records, run_check
+    from faultlab.campaigns.checkspec import judge_scenario
+    from faultlab.config import read_toml
+    from faultlab.report.check import write_check_reports
+    from faultlab.scenario.model import load_scenario
+
     try:
         spec = CheckSpec(slam=args.slam, command=tuple(shlex.split(args.command)), n_cases=args.cases,
-                         reference="" if args.reference == "none" else args.reference, suite=args.suite,
+                         reference="" if args.reference == "none" else args.reference,
+                         suite=args.suite or _defaults()[0],
                          n_steps=args.steps, seed=args.seed, repetitions=args.repetitions, alpha=args.alpha,
-                         oracles=tuple(args.oracles), options=_options(args), paths=tuple(args.path),
+                         oracles=tuple(args.oracles or _defaults()[1]), options=_options(args), paths=tuple(args.path),
                          space=read_toml(args.space, what="--space")[0] if args.space else {}).validate()
     except ConfigError as exc:
         print(f"faultlab check: error: {exc}", file=sys.stderr)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from faultlab.cli.options import add_execution_options, add_verb_group, epilog, positive_int
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["register"]
 
@@ -51,7 +52,7 @@ def register(subparsers) -> None:
     rep.add_argument("--reports", default=None, help="where to write (default: RESULTS/report)")
     rep.add_argument("--intro", default=None, metavar="FILE",
                      help="a Markdown file put above the generated page of README.md")
-    rep.add_argument("--alpha", type=float, default=0.05, help="level of the tests, 1 - confidence (default 0.05)")
+    rep.add_argument("--alpha", type=float, default=DEFAULT_ALPHA, help=f"level of the tests, 1 - confidence (default {DEFAULT_ALPHA:g})")
     rep.set_defaults(func=_report)
 
 

@@ -12,7 +12,7 @@ __all__ = ["register"]
 
 
 def _alternatives() -> tuple[str, ...]:
-    from faultlab.inference.sequential import ALTERNATIVES
+    from faultlab.inference.exact import ALTERNATIVES
 
     return ALTERNATIVES
 

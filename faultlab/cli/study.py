@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from faultlab.cli.options import add_examples, add_execution_options, add_verb_group, positive_int, print_paths
+from faultlab.vocabulary import DEFAULT_POWER
 
 __all__ = ["register"]
 
@@ -72,7 +73,7 @@ def register(subparsers) -> None:
                       help="difference in single-case detection probability to detect, pp (default: 20)")
     plan.add_argument("--target-score-pp", type=float, default=10.0,
                       help="difference in mutation score to detect, pp (default: 10)")
-    plan.add_argument("--power", type=float, default=0.8, help="power (default: 0.8)")
+    plan.add_argument("--power", type=float, default=DEFAULT_POWER, help=f"power (default: {DEFAULT_POWER:g})")
     plan.add_argument("--reverse-discordance", type=float, default=0.05,
                       help="assumed share of mutants killed only by the weaker strategy (default: 0.05)")
     plan.add_argument("--budget-hours", type=float, default=3.0, help="wall-time budget, hours (default: 3)")

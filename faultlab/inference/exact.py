@@ -22,7 +22,7 @@ import numpy as np
 
 from faultlab.errors import ConfigError
 from faultlab.inference.signflip import reference_pvalues, split_pvalues
-from faultlab.vocabulary import DEFAULT_ALPHA, DIRECTIONS
+from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_POWER, DIRECTIONS
 
 __all__ = ["ALTERNATIVES", "MAX_EXACT_PAIRS", "MDE_SEED", "check_alpha", "check_count", "check_alternative",
            "alternative_of", "min_p_value", "min_pairs", "sign_flip_pvalues", "detectable_shift_factor"]
@@ -190,7 +190,7 @@ def _shift_factor(k: int, alpha: float, power: float) -> float:
     return float(np.quantile(np.concatenate(thresholds), power))
 
 
-def detectable_shift_factor(k: int, *, alpha: float = DEFAULT_ALPHA, power: float = 0.8,
+def detectable_shift_factor(k: int, *, alpha: float = DEFAULT_ALPHA, power: float = DEFAULT_POWER,
                             alternative: str = "greater") -> float:
     """Smallest shift, in units of the differences' standard deviation, detected with ``power``.
 

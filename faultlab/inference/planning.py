@@ -66,6 +66,7 @@ from scipy.stats import binom
 
 from faultlab.errors import ConfigError
 from faultlab.inference.exact import min_p_value
+from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_POWER
 
 __all__ = ["file_scale", "STUDY_KINDS", "StudyScale", "StudyPlan", "min_repetitions", "detection_power", "detectable_detection",
            "pool_for_detection", "mcnemar_power", "detectable_score", "mutants_for_score", "study_executions",
@@ -84,7 +85,7 @@ def _check_level(x: float, name: str) -> float:
     return float(x)
 
 
-def min_repetitions(n_cases: int, *, alpha: float = 0.05, sides: int = 2) -> int:
+def min_repetitions(n_cases: int, *, alpha: float = DEFAULT_ALPHA, sides: int = 2) -> int:
     """Smallest K at which one case of a family of ``n_cases`` can reject at ``alpha / n_cases``.
 
     The exact sign-flip test's smallest p value is ``sides * 2^-K``; K is the smallest with
@@ -106,7 +107,7 @@ def _h(difference: float, centre: float) -> float:
     return 2 * math.asin(math.sqrt(hi)) - 2 * math.asin(math.sqrt(lo))
 
 
-def detection_power(n_a: int, n_b: int, difference: float, *, centre: float = 0.5, alpha: float = 0.05) -> float:
+def detection_power(n_a: int, n_b: int, difference: float, *, centre: float = 0.5, alpha: float = DEFAULT_ALPHA) -> float:
     """Power of the two-sided arcsine two-proportion test (statsmodels ``NormalIndPower``).
 
     Pools of ``n_a`` and ``n_b`` cases, detection probabilities ``centre +- difference / 2``,
@@ -121,7 +122,7 @@ def detection_power(n_a: int, n_b: int, difference: float, *, centre: float = 0.
                                         alpha=alpha, alternative="two-sided"))
 
 
-def detectable_detection(n: int, *, centre: float = 0.5, alpha: float = 0.05, power: float = 0.8) -> float:
+def detectable_detection(n: int, *, centre: float = 0.5, alpha: float = DEFAULT_ALPHA, power: float = DEFAULT_POWER) -> float:
     """Smallest difference (centred on ``centre``) two pools of ``n`` cases detect with ``power``.
 
     ``inf`` when even the largest difference that stays in [0, 1] is not detected.
@@ -134,7 +135,7 @@ def detectable_detection(n: int, *, centre: float = 0.5, alpha: float = 0.05, po
                         xtol=1e-7))
 
 
-def pool_for_detection(difference: float, *, centre: float = 0.5, alpha: float = 0.05, power: float = 0.8) -> int:
+def pool_for_detection(difference: float, *, centre: float = 0.5, alpha: float = DEFAULT_ALPHA, power: float = DEFAULT_POWER) -> int:
     """Smallest pool per strategy (equal pools) with which ``difference`` is detected with ``power``."""
     from statsmodels.stats.power import NormalIndPower
 
@@ -156,7 +157,7 @@ def _critical(d: np.ndarray, alpha: float) -> np.ndarray:
     return np.where(d > 0, c, -1).astype(np.int64)
 
 
-def mcnemar_power(n_mutants: int, only_a: float, only_b: float, *, alpha: float = 0.05) -> float:
+def mcnemar_power(n_mutants: int, only_a: float, only_b: float, *, alpha: float = DEFAULT_ALPHA) -> float:
     """Exact power of the two-sided exact McNemar test over ``n_mutants`` independent mutants.
 
     Each mutant is killed by a only with probability ``only_a``, by b only with ``only_b``.  The
@@ -178,7 +179,7 @@ def mcnemar_power(n_mutants: int, only_a: float, only_b: float, *, alpha: float 
     return float(np.sum(binom.pmf(d, n_mutants, disc) * (low + high)))
 
 
-def detectable_score(n_mutants: int, *, reverse: float = 0.05, alpha: float = 0.05, power: float = 0.8) -> float:
+def detectable_score(n_mutants: int, *, reverse: float = 0.05, alpha: float = DEFAULT_ALPHA, power: float = DEFAULT_POWER) -> float:
     """Smallest score difference the exact McNemar test detects with ``power`` over ``n_mutants``.
 
     ``reverse`` is the rate of mutants killed only by the weaker strategy; ``inf`` when no
@@ -195,7 +196,7 @@ def detectable_score(n_mutants: int, *, reverse: float = 0.05, alpha: float = 0.
     return hi
 
 
-def mutants_for_score(difference: float, *, reverse: float = 0.05, alpha: float = 0.05, power: float = 0.8,
+def mutants_for_score(difference: float, *, reverse: float = 0.05, alpha: float = DEFAULT_ALPHA, power: float = DEFAULT_POWER,
                       window: int = 25) -> int:
     """Smallest number of mutants from which the exact McNemar test keeps ``power`` for ``difference``.
 
@@ -351,8 +352,8 @@ def _scale(kind, *, strategies, cases, faults, mutants, repetitions, runs, secon
 
 
 def plan_study(kind: str, *, strategies: int, faults: int = 0, suite_cases: int = 5, max_suite: int = 20,
-               runs: int = 1, target_detection: float = 0.20, target_score: float = 0.10, power: float = 0.8,
-               alpha: float = 0.05, sides: int = 2, centre: float = 0.5, reverse: float = 0.05,
+               runs: int = 1, target_detection: float = 0.20, target_score: float = 0.10, power: float = DEFAULT_POWER,
+               alpha: float = DEFAULT_ALPHA, sides: int = 2, centre: float = 0.5, reverse: float = 0.05,
                seconds_per_execution: float, budget_hours: float = 3.0, cores: int = 2) -> StudyPlan:
     """The scale a study needs, its cost and, if it does not fit, the largest scale that does.
 

@@ -10,9 +10,10 @@ pragma ``# faultlab: no mutate`` is left alone; so is any line carrying it.
 
 The module's source is read through its import spec (``loader.get_source``), so a target installed
 as a wheel in site-packages works as well as one in a checkout.  Nothing is ever written to the
-user's files: a mutant reaches a SLAM through :func:`mutated_modules`, which imports the target's
-package (and the SLAM factory's) afresh with a meta-path finder that serves the mutated source
-for the target module, builds the SLAM, and puts the original modules back.  The fresh modules
+user's files: a mutant reaches a SLAM through :func:`mutated_modules`, which imports the Python
+modules of the target's package (and of the SLAM factory's) afresh -- compiled extension modules
+are shared, they cannot be initialised twice -- with a meta-path finder that serves the mutated
+source for the target module, builds the SLAM, and puts the original modules back.  The fresh modules
 are kept per process and mutant, so a worker imports a mutant's package once.
 
 Ids are ``<module>:<function>:<operator>:<n>:<key>``; ``n`` counts the operator's points in the
@@ -479,7 +480,12 @@ class _MutatedFinder(importlib.abc.MetaPathFinder):
 
 
 def _owned(name: str, tops: set[str]) -> bool:
-    return name.split(".")[0] in tops
+    """Whether module ``name`` is imported afresh: a Python module of one of the ``tops`` packages
+    (compiled extension modules stay: they cannot be initialised twice)."""
+    if name.split(".")[0] not in tops:
+        return False
+    file = getattr(sys.modules.get(name), "__file__", None) or ""
+    return not file.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES))
 
 
 @functools.lru_cache(maxsize=8)

@@ -182,9 +182,12 @@ class MetamorphicOracle(Oracle):
                 if not fu.ok:
                     d.append(math.inf)
                 else:
-                    with np.errstate(all="ignore"):
-                        x = float(rel.discrepancy(src.estimate, fu.estimate, source_scenario=runs.scenario,
-                                                  followup=fu_scenario))
+                    try:
+                        with np.errstate(all="ignore"):
+                            x = float(rel.discrepancy(src.estimate, fu.estimate, source_scenario=runs.scenario,
+                                                      followup=fu_scenario))
+                    except Exception:  # e.g. the SLAM mapped an id the case does not have: the relation cannot hold
+                        x = math.inf
                     d.append(math.inf if math.isnan(x) else x)
                 if not deterministic:
                     other = runs.run(k, key="independent seed", seed_stream=2)

@@ -68,9 +68,9 @@ def _vec2(shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     storage) and ``view`` is the same memory with the documented shape
     ``shape + (2,)``.
 
-    Every scratch array of the units is zero-filled, not ``np.empty``: a mutant or fault that
-    leaves an entry unwritten then gives the same result on every run, never whatever an
-    earlier computation left in that memory.
+    Every array a unit returns is zero-filled, not ``np.empty``: a mutant or fault that leaves
+    an entry unwritten then gives the same result on every run, never whatever an earlier
+    computation left in that memory.
     """
     nd = len(shape)
     buf = np.zeros((2,) + tuple(shape)[::-1])
@@ -85,13 +85,15 @@ def _mat22(shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _scratch(shape: tuple[int, ...], m: int) -> list[np.ndarray]:
-    """``m`` zero-filled work arrays of ``shape``, in the same (reversed) order as :func:`_vec2`.
+    """``m`` uninitialised work arrays of ``shape``, in the same (reversed) order as :func:`_vec2`.
 
     One allocation for all of them; the formulas below write every intermediate
-    into these with ``out=`` instead of allocating a temporary per operation.
+    into these with ``out=`` instead of allocating a temporary per operation.  Never an output:
+    a mutant that skips writing one reads memory it never wrote, which screening detects
+    (:mod:`faultlab.mutation.screening`: *nondeterministic*, never run).
     """
     nd = len(shape)
-    return list(np.zeros((m,) + tuple(shape)[::-1]).transpose((0,) + tuple(range(nd, 0, -1))))
+    return list(np.empty((m,) + tuple(shape)[::-1]).transpose((0,) + tuple(range(nd, 0, -1))))
 
 
 def _common_shape(*xs) -> tuple[int, ...]:

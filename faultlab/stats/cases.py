@@ -49,7 +49,7 @@ from faultlab.metrics.detection import DetectionRule
 from faultlab.inference.multiplicity import holm
 from faultlab.inference.exact import MAX_EXACT_PAIRS, alternative_of, detectable_shift_factor
 from faultlab.stats.verdict import Verdict, case_verdicts
-from faultlab.vocabulary import DEFAULT_ALPHA, SUITE_ORDER, Outcome, ordered
+from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_POWER, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["CASE_VERDICT_COLUMNS", "CASE_RATE_COLUMNS", "CASE_COMPARISON_COLUMNS", "BOOTSTRAP_SEED",
            "PAPER_COMPARISON_COLUMNS", "AGREEMENT_MARGIN", "REPLICA_FALSE_ALARM_COLUMNS", "replica_false_alarms", "detectable_difference", "compare_with_paper",
@@ -108,7 +108,7 @@ def holm_within(p, families) -> np.ndarray:
 
 
 def rule_verdicts(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: DetectionRule,
-                  metric: str = "rms", power: float = 0.8) -> pd.DataFrame:
+                  metric: str = "rms", power: float = DEFAULT_POWER) -> pd.DataFrame:
     """One verdict per (suite, run, case, fault) by ``rule`` (module docstring).
 
     Parameters
@@ -384,8 +384,6 @@ def compare_suites_by_case(verdicts: pd.DataFrame) -> pd.DataFrame:
 #: A difference of detection rates below this is "no practical difference" from the paper's figure
 #: (20 percentage points: with the paper's 15 cases per suite even this is rarely within reach).
 AGREEMENT_MARGIN = 0.20
-#: Power at which the smallest detectable difference is computed.
-COMPARISON_POWER = 0.8
 
 PAPER_COMPARISON_COLUMNS: tuple[str, ...] = (
     "suite", "fault", "paper_k", "paper_n", "k", "n", "paper_rate", "rate", "difference", "p", "detectable_difference",
@@ -393,7 +391,7 @@ PAPER_COMPARISON_COLUMNS: tuple[str, ...] = (
 
 
 def detectable_difference(p_ref: float, n_ref: int, n: int, *, alpha: float = DEFAULT_ALPHA,
-                          power: float = COMPARISON_POWER) -> float:
+                          power: float = DEFAULT_POWER) -> float:
     """Smallest |p - p_ref| a two-sided two-sample test of proportions detects with ``power``.
 
     statsmodels ``NormalIndPower`` on Cohen's arcsine effect size ``h = 2 asin(sqrt(p)) -

@@ -99,22 +99,21 @@ from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.inference.sequential import Look
 from faultlab.inference.exact import MAX_EXACT_PAIRS
 from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, case_verdicts
-from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, SUITE_ORDER, JobStatus, ordered
+from faultlab.vocabulary import (BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, SUITE_ORDER, JobStatus,
+                                 ordered)
 
 __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects", "combined_detects",
            "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "exact_detection_interval", "score_table", "compare_scores", "detectable_score_difference", "smallest_showable_difference",
            "DETECTION_COMPARISON_COLUMNS", "compare_detection", "MEAN_DETECTION_COLUMNS", "compare_mean_detection",
-           "COMPARISON_POWER", "WHOLE_COLUMNS", "whole_suites", "whole_suite_table"]
+           "WHOLE_COLUMNS", "whole_suites", "whole_suite_table"]
 
 #: Multiplicity rules within a suite's cases.
 MULTIPLICITY: tuple[str, ...] = ("holm", "bonferroni")
 #: Columns of :meth:`KillMatrix.to_frame`.
 KILL_MATRIX_COLUMNS = ("strategy", "run", "case", "variant", "p", "crash", "timeout", "judged", "paper",
                        "mean_diff_mm", "direction", "mean_log_ratio")
-#: Power of the smallest detectable differences.
-COMPARISON_POWER = 0.8
 
 
 @dataclass(frozen=True, eq=False)
@@ -609,7 +608,7 @@ def score_table(ev: SuiteDraws) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def detectable_score_difference(se: float, *, alpha: float = DEFAULT_ALPHA, power: float = COMPARISON_POWER) -> float:
+def detectable_score_difference(se: float, *, alpha: float = DEFAULT_ALPHA, power: float = DEFAULT_POWER) -> float:
     """Smallest difference a two-sided level-``alpha`` test with standard error ``se`` detects with ``power``.
 
     NaN when ``se`` is 0 or NaN: without any spread the bootstrap says nothing about power (every
@@ -685,7 +684,7 @@ DETECTION_COMPARISON_COLUMNS = ("variant", "strategy_a", "strategy_b", "pool_a",
 
 
 def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
-                      power: float = COMPARISON_POWER) -> pd.DataFrame:
+                      power: float = DEFAULT_POWER) -> pd.DataFrame:
     """Strategies compared per variant on the single-case detection probability.
 
     The unit of evidence is the pool case: a strategy's rate is the share of its pool cases that
@@ -909,7 +908,7 @@ def study_spec(data: Mapping, *, source: str) -> StudySpec:
 WHOLE_COLUMNS = ("strategy", "variant", "size", "suites", "detected", "rate", "ci_low", "ci_high", "rate_paper")
 
 
-def whole_suites(km: KillMatrix, strategies, *, alpha: float = 0.05, method: str = "holm",
+def whole_suites(km: KillMatrix, strategies, *, alpha: float = DEFAULT_ALPHA, method: str = "holm",
                  timeouts_detect: bool = False, seed: int = 0) -> pd.DataFrame:
     """Each evaluation run's suite of ``strategies`` judged whole by the suite rule.
 
@@ -940,7 +939,7 @@ def whole_suites(km: KillMatrix, strategies, *, alpha: float = 0.05, method: str
     return pd.concat(frames, ignore_index=True)[["strategy", "run", "size", "variant", "detected", "paper"]]
 
 
-def whole_suite_table(whole: pd.DataFrame, *, mutants=(), alpha: float = 0.05) -> pd.DataFrame:
+def whole_suite_table(whole: pd.DataFrame, *, mutants=(), alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Per (strategy, variant): share of the whole suites that detect, with its exact interval.
 
     The unit is the independently generated suite (one per evaluation run), so the interval is

@@ -123,7 +123,7 @@ from faultlab.inference.exact import (MAX_EXACT_PAIRS, alternative_of, check_alp
                                       detectable_shift_factor, min_p_value, min_pairs, sign_flip_pvalues)
 from faultlab.inference.intervals import median_interval
 from faultlab.runner.store import usable_rows
-from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, METRICS, Change, JobStatus
+from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, METRICS, Change, JobStatus
 
 __all__ = ["Verdict", "TOO_FEW_PAIRS", "EQUIVALENCE_MARGIN_REL", "EQUIVALENCE_MARGIN_MM", "case_verdicts"]
 
@@ -151,7 +151,7 @@ class Verdict(StrEnum):
     CANNOT_JUDGE = "cannot_judge"
 
 
-def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric: str = "rms", power: float = 0.8,
+def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric: str = "rms", power: float = DEFAULT_POWER,
                   min_pairs_required: int | None = None, direction: str = DEFAULT_DIRECTION,
                   mde_alpha: float | None = None, margin_rel: float = EQUIVALENCE_MARGIN_REL,
                   margin_mm: float = EQUIVALENCE_MARGIN_MM) -> pd.DataFrame:

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import gc
-import threading
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from statsmodels.stats.multitest import multipletests
@@ -42,34 +40,20 @@ def test_a_planted_family_is_adjusted_step_down():
     assert reject.tolist() == [False, True, True, True]
 
 
-def test_no_full_collection_runs_and_gc_collect_is_restored(monkeypatch):
+def test_no_full_collection_runs(monkeypatch):
     calls = []
     monkeypatch.setattr(gc, "collect", lambda *args: calls.append(args) or 0)
-    counting = gc.collect
     multipletests(np.array([0.01, 0.2]), method="holm")
     assert len(calls) == 1  # statsmodels' Holm branch collects: what holm() avoids
     holm([0.01, 0.2])
-    assert len(calls) == 1 and gc.collect is counting
+    assert len(calls) == 1
 
 
-def test_gc_collect_is_restored_after_an_error_and_after_concurrent_calls(monkeypatch):
-    import faultlab.inference.multiplicity as multiplicity
-
-    original = gc.collect
-
-    def failing(*args, **kwargs):
-        assert gc.collect is not original  # raised while the collection is swapped out
-        raise RuntimeError("statsmodels failed")
-
-    with monkeypatch.context() as m:
-        m.setattr(multiplicity, "multipletests", failing)
-        with pytest.raises(RuntimeError, match="statsmodels failed"):
-            holm([0.1, 0.2])
-    assert gc.collect is original
-    threads = [threading.Thread(target=lambda: [holm(np.random.default_rng(i).random(30)) for _ in range(50)])
-               for i in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert gc.collect is original
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.sampled_from([0.0, 0.001, 0.01, 0.0125, 0.025, 0.05, 0.5, 1.0]), min_size=1, max_size=30),
+       st.sampled_from([0.01, 0.05, 0.1]))
+def test_ties_and_boundary_values_match_statsmodels(p, alpha):
+    reject, adjusted = holm(p, alpha=alpha)
+    expected_reject, expected_adjusted, _, _ = _statsmodels_holm(p, alpha)
+    np.testing.assert_array_equal(reject, expected_reject)
+    np.testing.assert_array_equal(adjusted, expected_adjusted)

@@ -17,11 +17,15 @@ import pandas as pd
 
 from faultlab.analysis.mutation import MutationAnalysis
 from faultlab.errors import FaultlabError
+from faultlab.mutation.outcome import SCREENED_OUT
 from faultlab.report.html.site import Code, Links, Page, Site, Table, Text, page_slug, write_site
 from faultlab.runner.store import load_metadata, load_results
 from faultlab.vocabulary import BASELINE
 
 __all__ = ["mutation_pages", "write_mutation_html", "mutant_page_path", "NAV"]
+
+#: Outcomes of the mutants screened out before the campaign (never run).
+SCREENED = tuple(str(o) for o in SCREENED_OUT)
 
 NAV = (("Overview", "index.html"), ("Mutants", "mutants.html"), ("Outcomes", "outcomes.html"))
 
@@ -57,6 +61,7 @@ def mutation_pages(analysis: MutationAnalysis, results: Path) -> list[Page]:
     from faultlab.report.mutation import score_table
 
     oc = analysis.outcomes
+    ran = oc[~oc["outcome"].isin(SCREENED)]
     meta = analysis.meta
     mutants = list(dict.fromkeys(oc["mutant"]))
     diffs, diff_note = _diffs(results, mutants)
@@ -90,37 +95,34 @@ def mutation_pages(analysis: MutationAnalysis, results: Path) -> list[Page]:
                                                             "screened out, ...). Click a mutant for its diff and "
                                                             "cases."),)),
              Page("outcomes.html", "Outcomes",
-                  (Table("Outcomes per mutant, run and suite",
-                         oc.assign(page=[mutant_page_path(m) for m in oc["mutant"]]), key="outcomes",
+                  (Table("Outcomes per mutant, run and suite of the mutants that ran",
+                         ran.assign(page=[mutant_page_path(m) for m in ran["mutant"]]), key="outcomes",
                          links={"mutant": "page"},
-                         caption="min_p: the smallest per-case p value; min_mde_mm: the smallest shift of the mean "
-                                 "error the most sensitive case could detect with 80 % power."),))]
+                         caption=f"min_p: the smallest per-case p value; min_mde_mm: the smallest shift of the mean "
+                                 f"error the most sensitive case could detect with 80 % power. The "
+                                 f"{len(oc) - len(ran)} rows of mutants screened out before the campaign "
+                                 f"({', '.join(SCREENED)}) are on the mutants page."),))]
     rows = _paired_rows(results)
     for mutant in mutants:
         pages.append(_mutant_page(mutant, oc[oc["mutant"] == mutant], diffs.get(mutant), diff_note,
-                                  rows.get(_fault_name(mutant))))
+                                  rows.get(mutant)))
     return pages
 
 
 def _paired_rows(results: Path) -> dict[str, pd.DataFrame]:
-    """Per mutant (by id): its jobs beside the baseline's job of the same run, suite, case and repetition."""
-    from faultlab.mutation.mutant import FAULT_PROVIDER
+    """Per mutant id: its jobs beside the baseline's job of the same run, suite, case and repetition."""
+    from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 
     jobs = load_results(results)
     keys = ["run", "suite", "case", "rep"]
     base = jobs[jobs["variant"] == BASELINE][keys + ["rms_mm", "status"]].rename(
         columns={"rms_mm": "baseline RMS mm", "status": "baseline status"})
-    mutated = jobs[jobs["variant"].str.startswith(f"{FAULT_PROVIDER}/")]
+    mutated = jobs[jobs["variant"].map(is_mutant_variant)]
     paired = mutated[keys + ["variant", "rms_mm", "status"]].merge(base, on=keys, how="left").rename(
         columns={"rms_mm": "mutant RMS mm", "status": "mutant status"})
     paired["difference mm"] = paired["mutant RMS mm"] - paired["baseline RMS mm"]
-    return {v: g.drop(columns="variant").sort_values(keys).reset_index(drop=True) for v, g in paired.groupby("variant")}
-
-
-def _fault_name(mutant: str) -> str:
-    from faultlab.mutation.mutant import FAULT_PROVIDER
-
-    return f"{FAULT_PROVIDER}/" + mutant.replace(":", ".").replace("/", "-").lower()
+    return {mutant_id_of(v): g.drop(columns="variant").sort_values(keys).reset_index(drop=True)
+            for v, g in paired.groupby("variant")}
 
 
 def _mutant_page(mutant: str, outcomes: pd.DataFrame, diff: str | None, diff_note: str,

@@ -3,7 +3,6 @@ diff, its status in every suite and the map errors of the cases that ran it."""
 
 from __future__ import annotations
 
-from faultlab.mutation.mutant import FAULT_PROVIDER
 from faultlab.report.html.mutation import mutant_page_path
 from faultlab.runner.store import load_results
 from tests.report.html.conftest import MUTATION_STORE as STORE
@@ -38,9 +37,10 @@ def test_a_mutant_page_shows_the_diff_of_its_changed_line(mutation_site):
 def test_a_mutant_page_lists_every_job_that_ran_it_beside_the_baseline(mutation_site):
     site, analysis, chosen = mutation_site
     jobs = load_results(STORE)
+    counts = []
     for mutant in chosen:
-        name = f"{FAULT_PROVIDER}/" + mutant.replace(":", ".").lower()
-        n_jobs = int((jobs["variant"] == name).sum())
+        n_jobs = int(jobs["variant"].str.endswith(f":{mutant}").sum())  # the campaign's variant "mutant:<id>"
+        counts.append(n_jobs)
         parsed = refs_of(site.root / mutant_page_path(mutant))
         outcomes = analysis.outcomes[analysis.outcomes["mutant"] == mutant]
         html = (site.root / mutant_page_path(mutant)).read_text()
@@ -51,3 +51,13 @@ def test_a_mutant_page_lists_every_job_that_ran_it_beside_the_baseline(mutation_
         else:  # the paired table: 9 cells a row (run, suite, case, rep, mutant mm, status, baseline mm, status, diff)
             rows = parsed.cells[len(outcomes) * 17:]
             assert len(rows) == 9 * n_jobs
+    killed, survived, stillborn = counts
+    assert killed > 0 and survived > 0 and stillborn == 0  # the killed and survived mutants ran, the stillborn not
+
+
+def test_the_outcomes_table_holds_the_mutants_that_ran(mutation_site):
+    site, _, chosen = mutation_site
+    killed, survived, stillborn = chosen
+    html = (site.root / "outcomes.html").read_text()
+    assert f'"{killed}"' in html and f'"{survived}"' in html and f'"{stillborn}"' not in html
+    assert f'"{stillborn}"' in (site.root / "mutants.html").read_text()
