@@ -25,7 +25,7 @@ not valid once cases are skipped.  K must be at least ``min_pairs(alpha / n)`` f
 sidedness (two-sided: one more than one-sided).
 
 A mutant that survives a suite comes with the smallest shift of the mean map error it could
-have detected (80 % power): the smallest per-case detectable shift ``mde_mm`` of the suite's
+have detected (at :data:`~faultlab.vocabulary.DEFAULT_POWER`): the smallest per-case detectable shift ``mde_mm`` of the suite's
 cases (estimated from the baseline's spread, :func:`~faultlab.stats.verdict.case_verdicts`).
 
 Adaptive repetitions.  An ``[adaptive]`` table (``stages``, cumulative, the last equal to
