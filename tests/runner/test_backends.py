@@ -9,11 +9,10 @@ import sys
 import time
 from pathlib import Path
 
-import pandas as pd
 import pytest
 
 from faultlab.runner import load_metadata, load_results, run_experiment
-from tests.runner.suts import SUTS, fastslam_batches, one_case, without_runtime, write_experiment
+from tests.runner.suts import SUTS, fastslam_batches, one_case, write_experiment
 
 
 def test_worker_death_is_recorded_as_crash(tmp_path):
