@@ -52,8 +52,9 @@ import numpy as np
 import pandas as pd
 
 from faultlab import __version__
-from faultlab.errors import ResultsError
-from faultlab.vocabulary import MAP_METRICS, METRICS, JobStatus
+from faultlab.errors import InvalidCaseError, ResultsError, ScenarioError
+from faultlab.scenario.model import load_scenario
+from faultlab.vocabulary import BASELINE, MAP_METRICS, METRICS, JobStatus
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 
 __all__ = [
@@ -964,6 +965,30 @@ def usable_rows(frame: pd.DataFrame, column: str) -> np.ndarray:
         frame[column].to_numpy(dtype=float))
 
 
+def _check_failed_cases(path: Path, df: pd.DataFrame) -> None:
+    """ResultsError ``case invalid: <file>`` if a saved case on which the baseline failed is not a valid case.
+
+    A case with a NaN or an infinity saved with valid checksums is refused on load before any job
+    runs (:func:`faultlab.scenario.model.load_scenario`); a store written before that check holds
+    its jobs as crashes, which an analysis would read as "baseline failed".  Only the cases with a
+    failed baseline row are read (a store of healthy cases reads none); a case file that is absent
+    or damaged is left to the readers that picture cases.
+    """
+    failed = df.loc[(df["variant"] == BASELINE) & (df["status"] != JobStatus.OK.value), ["run", "suite", "case"]]
+    for run, suite, case in failed.drop_duplicates().itertuples(index=False):
+        npz = case_path(path, run, suite, case)
+        if not npz.is_file():
+            continue
+        try:
+            load_scenario(npz)
+        except InvalidCaseError as exc:
+            n = int(((df["run"] == run) & (df["suite"] == suite) & (df["case"] == case)).sum())
+            raise ResultsError(f"case invalid: {npz}: the {n} rows of {path} on it are failures of the case, not "
+                               f"results of the SLAM ({str(exc).removeprefix(f'test case {npz}: ')})") from None
+        except ScenarioError:
+            continue
+
+
 def load_results(out: str | Path) -> pd.DataFrame:
     """All rows of a store as a DataFrame (columns :data:`RESULT_COLUMNS`), each verified against its checksum.
 
@@ -975,7 +1000,8 @@ def load_results(out: str | Path) -> pd.DataFrame:
     ------
     ResultsError
         No store, a damaged store (SQLite cannot read it, or a row's values do not match its
-        checksum: the message names the store, the row and the column), or not a store.
+        checksum: the message names the store, the row and the column), or not a store; a saved
+        case on which the baseline failed that is not a valid case (``case invalid: <file>``).
     """
     path, conn = _open_existing(out)
     try:
@@ -997,6 +1023,7 @@ def load_results(out: str | Path) -> pd.DataFrame:
     except (TypeError, ValueError) as exc:  # only an unverified row can get here
         raise ResultsError(f"{path} is damaged: a column has values of the wrong type ({exc})") from exc
     df["error"] = df["error"].fillna("")
+    _check_failed_cases(path, df)
     order_s = {s: i for i, s in enumerate(meta.get("suites", []))}
     order_v = {v: i for i, v in enumerate(meta.get("variants", []))}
     df = df.sort_values(["run", "suite", "case", "variant", "rep"], kind="mergesort", key=lambda s: (
