@@ -41,6 +41,7 @@ COMMAND_MODULES = (
     "faultlab.cli.adapter",  # adapter check
     "faultlab.cli.export",  # export
     "faultlab.cli.check",  # check
+    "faultlab.cli.compare",  # compare
 )
 
 

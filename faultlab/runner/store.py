@@ -73,6 +73,7 @@ __all__ = [
     "store_lock",
     "ensure_out_dir",
     "check_store",
+    "check_store_meta",
     "row_checksum",
     "UnverifiedStoreWarning",
     "accept_unverified",
@@ -569,6 +570,42 @@ def check_store(out: str | Path, experiment, *, force_new: bool = False) -> None
         raise _refusal(out, meta, experiment)
     if unverified:
         raise _unverified_refusal(path, unverified, n_rows)
+
+
+def check_store_meta(out: str | Path, entries: Mapping, *, force_new: bool = False) -> None:
+    """Refuse, writing nothing, a store whose metadata would not hold ``entries`` as recorded before its rows.
+
+    A store that holds one of the keys with another value, or that lacks one while already holding
+    rows (the entry would be recorded after the run began), is refused; a new or empty store, or
+    ``force_new``, passes.
+
+    Raises
+    ------
+    ResultsError
+        Naming the store, the key and what to do (a new ``--out`` or ``--force-new``).
+    """
+    out = Path(out)
+    path = results_path(out)
+    if force_new or not path.exists() or _is_blank(path):
+        return
+    conn = _connect_ro(path)
+    try:
+        meta = _read_meta(conn, path)
+        n_rows = conn.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "reading its metadata") from exc
+    finally:
+        conn.close()
+    for key, value in entries.items():
+        value = json.loads(json.dumps(value))
+        if key not in meta and n_rows:
+            raise ResultsError(f"{path}: the store holds {n_rows:,} rows and no {key!r}, which must be recorded "
+                               f"before the first row; run into a new --out (or --force-new: the old store is "
+                               f"moved aside, not deleted)")
+        if key in meta and meta[key] != value:
+            raise ResultsError(f"{path}: the store was started with another {key!r} than the one given now; it "
+                               f"cannot change once recorded. Restore the file's {key} as it was, or run into a "
+                               f"new --out (or --force-new: the old store is moved aside, not deleted)")
 
 
 class ResultStore:

@@ -126,7 +126,7 @@ def test_changed_experiment_is_refused_unless_force_new(tmp_path, exp):
         store.write(_row(1, "random", 1, "baseline", 0))
     (tmp_path / "cases").mkdir()
     (tmp_path / "cases" / "marker").write_text("old case")
-    changed = exp.replace(repetitions=3, slam={"options": {"noise": 0.5}})
+    changed = exp.merge(repetitions=3, slam={"options": {"noise": 0.5}})
     with pytest.raises(ResultsError, match=r"different experiment.*changed: repetitions, slam.options.noise"):
         ResultStore.open(tmp_path, changed)
     assert load_metadata(tmp_path)["experiment_hash"] == exp.hash  # untouched
