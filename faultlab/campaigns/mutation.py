@@ -77,6 +77,7 @@ from faultlab.mutation.target import generate_source_mutants, parse_target
 from faultlab.mutation.variants import MutantSelection, mutant_variant, select_mutants
 from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, load_results, parse_experiment,
                              prepare_cases, result_row, store_session, stream_results)
+from faultlab.runner.backends import check_backend
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import (MUTANTS_FILE, MUTATION_FILE, check_store, job_metrics, load_metadata, results_path,
@@ -400,6 +401,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
     exp = mexp.experiment
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ConfigError(f"jobs must be an integer >= 1, got {jobs!r}")
+    check_backend(backend, jobs=jobs)
     t0 = time.perf_counter()
     out = Path(out)
     n_new = 0

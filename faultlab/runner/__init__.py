@@ -2,7 +2,7 @@
 
 Modules: :mod:`~faultlab.runner.experiment` (experiment files), :mod:`~faultlab.runner.jobs`
 (jobs and batches), :mod:`~faultlab.runner.execution` (executing a job or a batch in a worker),
-:mod:`~faultlab.runner.backends` (joblib/dask/ray workers streaming results back),
+:mod:`~faultlab.runner.backends` (loky workers streaming results back, under the parent's deadlines),
 :mod:`~faultlab.runner.orchestration` (:func:`run_experiment`: cases, jobs, store) and
 :mod:`~faultlab.runner.store` (the results store).
 
