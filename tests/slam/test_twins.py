@@ -700,3 +700,15 @@ def test_sampled_mutants_inside_the_correction_equal_numpy(monkeypatch, scenario
             assert_same_run(final(compiled, scenario, 2),
                             final(numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG))), scenario, 2),
                             mutant_id)
+
+
+@pytest.mark.parametrize("mutant_id", ["ekf_update:index:51", "predict_measurement:statement_deletion:5"])
+def test_mutants_that_leave_an_output_entry_unwritten_are_deterministic_on_both_paths(monkeypatch, scenario,
+                                                                                      mutant_id):
+    """The units return zero-filled arrays: a mutant that skips writing an entry gives the same run
+    twice, and the compiled path (the staged correction) the numpy filter's."""
+    mutants = generate_mutants(REFERENCE_STEPS, units=[mutant_id.split(":")[0]], plugins=False)
+    fault = mutant_fault(mutants.get(mutant_id), FastSlamSteps)
+    first, again = final(fault.apply(FastSlam(CFG)), scenario, 2), final(fault.apply(FastSlam(CFG)), scenario, 2)
+    assert_same_run(first, again, mutant_id)
+    assert_same_run(first, final(numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG))), scenario, 2), mutant_id)
