@@ -75,9 +75,8 @@ from faultlab.errors import ConfigError, FaultError, ResultsError
 from faultlab.mutation.sourceselect import mutant_records, screen_target, select_source_mutants
 from faultlab.mutation.target import generate_source_mutants, parse_target
 from faultlab.mutation.variants import MutantSelection, mutant_variant, select_mutants
-from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, load_results, parse_experiment,
+from faultlab.runner import (Experiment, ResultStore, batch_jobs, check_backend, expand_jobs, load_results, parse_experiment,
                              prepare_cases, result_row, store_session, stream_results)
-from faultlab.runner.backends import check_backend
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import (MUTANTS_FILE, MUTATION_FILE, check_store, job_metrics, load_metadata, results_path,
