@@ -11,7 +11,7 @@ Modules: :mod:`~faultlab.runner.experiment` (experiment files), :mod:`~faultlab.
 >>> df = load_results("results/paper")                                         # doctest: +SKIP
 """
 
-from faultlab.runner.backends import stream_batches, stream_results
+from faultlab.runner.backends import check_backend, stream_batches, stream_results
 from faultlab.runner.execution import JobResult, execute_batch, execute_job
 from faultlab.runner.orchestration import CaseInfo, RunSummary, prepare_cases, result_row, run_experiment, store_session
 from faultlab.runner.experiment import (
@@ -32,6 +32,7 @@ from faultlab.runner.store import (
 )
 
 __all__ = [
+    "check_backend",
     "Experiment",
     "SuiteSpec",
     "SlamSpec",
