@@ -22,7 +22,6 @@ from faultlab.metamorphic.check import (
 )
 from faultlab.metamorphic.registry import (
     RELATION_ENTRY_POINT_GROUP,
-    RelationPlugins,
     RelationPluginWarning,
     all_relations,
     get_relation,
@@ -48,7 +47,6 @@ __all__ = [
     "relation_matrix",
     "metamorphic_scenario",
     "RELATION_ENTRY_POINT_GROUP",
-    "RelationPlugins",
     "RelationPluginWarning",
     "load_relation_plugins",
     "all_relations",

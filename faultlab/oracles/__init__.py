@@ -20,7 +20,6 @@ from faultlab.oracles.judge import CaseJudgement, judge_case, repetition_seeds
 from faultlab.oracles.oracle import FAIL, PASS, SKIP, CaseRuns, Oracle, OracleResult, Outcome, execute, sign_test
 from faultlab.oracles.registry import (
     ORACLE_ENTRY_POINT_GROUP,
-    OraclePlugins,
     OraclePluginWarning,
     all_oracles,
     get_oracle,
@@ -31,6 +30,6 @@ __all__ = [
     "Oracle", "OracleResult", "Outcome", "CaseRuns", "PASS", "FAIL", "SKIP", "execute", "sign_test",
     "ExecutionOracle", "MetamorphicOracle", "FloorOracle", "DifferentialOracle", "BUILTIN_ORACLES", "DEFAULT_OPTIONS",
     "CaseJudgement", "judge_case", "repetition_seeds",
-    "ORACLE_ENTRY_POINT_GROUP", "OraclePlugins", "OraclePluginWarning", "all_oracles", "get_oracle",
+    "ORACLE_ENTRY_POINT_GROUP", "OraclePluginWarning", "all_oracles", "get_oracle",
     "load_oracle_plugins",
 ]
