@@ -72,11 +72,37 @@ class CheckSpec:
         unknown = set(self.options) - set(DEFAULT_OPTIONS)
         if unknown:
             raise ConfigError(f"unknown oracle option(s) {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
+        self._check_budgets()
         with use_paths(self.paths):
             slam_factory(self)  # imports the factory: a wrong path is a usage error before any run
             if self.reference:
                 normalise_options(self.reference, {}, where="--reference")
         return self
+
+    def _check_budgets(self) -> None:
+        """Each per-class budget names a class of the check's space and is a positive number of mm."""
+        per_class = dict(self.options.get("budget_classes") or {})
+        if not per_class:
+            return
+        space = self.parameter_space()
+        for key, mm in per_class.items():
+            name, _, cls = str(key).partition(".")
+            try:
+                known = space[name].class_names
+            except (KeyError, ConfigError):
+                known = None
+            if known is None or cls not in known:
+                raise ConfigError(f"--budget {key}: not PARAMETER.CLASS of the space (e.g. map_size.large"
+                                  + (f"; {name}'s classes: {', '.join(known)}" if known else "") + ")")
+            if not (isinstance(mm, (int, float)) and mm > 0):
+                raise ConfigError(f"--budget {key}={mm!r}: the bound must be a positive number of mm")
+
+    def parameter_space(self):
+        """The check's parameter space: Table I with the spec's overrides."""
+        from faultlab.space import table1_space
+        from faultlab.space.parameters import space_from_mapping
+
+        return space_from_mapping(self.space, source="check space") if self.space else table1_space()
 
     @property
     def label(self) -> str:
@@ -89,6 +115,7 @@ class CheckSpec:
         d["paths"] = list(self.paths)
         d["options"] = {**DEFAULT_OPTIONS, **dict(self.options)}
         d["options"]["relations"] = list(d["options"]["relations"])
+        d["options"]["budget_classes"] = dict(d["options"]["budget_classes"])
         return d
 
     def digest(self) -> str:
@@ -130,9 +157,12 @@ def reference_factory(spec: CheckSpec):
     return functools.partial(build_slam, spec.reference, normalise_options(spec.reference, {}, where="--reference"))
 
 
-def judge_scenario(spec: CheckSpec, case_id: str, scenario: Scenario) -> CaseJudgement:
-    """Judge one scenario by the spec's oracles (in this process)."""
+def judge_scenario(spec: CheckSpec, case_id: str, scenario: Scenario,
+                   classes: Mapping[str, str] | None = None) -> CaseJudgement:
+    """Judge one scenario (in Table I's ``classes``, parameter -> class name; default: those a reduced
+    case keeps in ``meta["check_classes"]``) by the spec's oracles, in this process."""
     with use_paths(spec.paths):
         return judge_case(case_id, scenario, slam_factory(spec), oracles=[get_oracle(o) for o in spec.oracles],
                           seeds=repetition_seeds(spec.seed, case_id, spec.repetitions), alpha=spec.alpha,
-                          reference=reference_factory(spec), options={**DEFAULT_OPTIONS, **dict(spec.options)})
+                          reference=reference_factory(spec), options={**DEFAULT_OPTIONS, **dict(spec.options)},
+                          classes=scenario.meta.get("check_classes", {}) if classes is None else classes)
