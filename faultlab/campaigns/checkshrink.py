@@ -21,7 +21,7 @@ import string
 from dataclasses import replace
 from pathlib import Path
 
-from faultlab.campaigns.checkspec import reference_factory, slam_factory, use_paths
+from faultlab.campaigns.checkspec import executor, reference_factory, slam_factory, use_paths
 from faultlab.oracles import DEFAULT_OPTIONS, CaseJudgement, get_oracle, judge_case, repetition_seeds
 from faultlab.oracles.shrink import reduce_scenario
 from faultlab.scenario.model import Scenario, save_scenario
@@ -76,7 +76,7 @@ def replay_command(spec, case_file: Path, case_id: str) -> str:
     argv += ["--command", shlex.join(spec.command)] if spec.command else [spec.slam]
     argv += ["--case", str(case_file), "--case-id", case_id, "--oracles", *spec.oracles,
              "--seed", str(spec.seed), "--repetitions", str(spec.repetitions), "--alpha", f"{spec.alpha:g}",
-             "--reference", spec.reference or "none"]
+             "--reference", spec.reference or "none", "--timeout", f"{spec.timeout_s:g}"]
     for p in spec.paths:
         argv += ["--path", p]
     for key, value in dict(spec.options).items():
@@ -107,7 +107,8 @@ def reduce_failure(spec, case_id: str, scenario: Scenario, judgement: CaseJudgem
         def judged(s: Scenario, seeds) -> bool:
             with use_paths(spec.paths):
                 j = judge_case(case_id, s, slam_factory(spec), oracles=[oracle], seeds=seeds, alpha=one.alpha,
-                               reference=reference_factory(spec), options=options, classes=classes)
+                               reference=reference_factory(spec), options=options, classes=classes,
+                               executor=executor(spec))
             return j.results[0].failed
 
         seeds = repetition_seeds(spec.seed, case_id, spec.repetitions)

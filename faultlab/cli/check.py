@@ -21,6 +21,12 @@ def _defaults():
     return DEFAULT_SUITE, DEFAULT_ORACLES, DEFAULT_OPTIONS
 
 
+def _default_timeout() -> float:
+    from faultlab.campaigns.checkspec import DEFAULT_TIMEOUT_S
+
+    return DEFAULT_TIMEOUT_S
+
+
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "check", help="test your SLAM: a coverage-driven suite judged by execution, metamorphic, floor and "
@@ -65,6 +71,9 @@ def register(subparsers) -> None:
                         "filterable table, the minimal failing scenarios)")
     p.add_argument("--out", default="results/check", help="results directory (default results/check; resumable)")
     p.add_argument("--reports", default=None, help="reports directory (default OUT/report)")
+    p.add_argument("--timeout", type=float, default=None, metavar="S",
+                   help=LazyText(lambda: f"wall-clock limit of one run of the SLAM, s; a run past it fails the "
+                                         f"execution oracle (default {_default_timeout():g})"))
     p.add_argument("--jobs", type=positive_int, default=1, help="worker processes (default 1)")
     p.add_argument("--no-shrink", action="store_true", help="do not reduce failures to minimal scenarios")
     add_examples(p, ["faultlab check mylab.mapper:make --path .", "faultlab check --command './my_slam --quiet'",
@@ -126,7 +135,8 @@ def _handler(args: argparse.Namespace) -> int:
                          suite=args.suite or _defaults()[0],
                          n_steps=args.steps, seed=args.seed, repetitions=args.repetitions, alpha=args.alpha,
                          oracles=_oracles(args), options=_options(args), paths=tuple(args.path),
-                         space=read_toml(args.space, what="--space")[0] if args.space else {}).validate()
+                         space=read_toml(args.space, what="--space")[0] if args.space else {},
+                         timeout_s=_default_timeout() if args.timeout is None else args.timeout).validate()
     except ConfigError as exc:
         print(f"faultlab check: error: {exc}", file=sys.stderr)
         return 2

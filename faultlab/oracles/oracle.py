@@ -110,6 +110,9 @@ class CaseRuns:
     classes : mapping
         The case's Table I equivalence class of each parameter (name -> class name); empty when unknown
         (a saved case judged alone).
+    executor : callable
+        ``(factory, scenario, seed) -> Outcome``: one execution (default :func:`execute`; ``faultlab
+        check`` passes one with a wall-clock limit).
     """
 
     case_id: str
@@ -119,6 +122,7 @@ class CaseRuns:
     reference: Callable[[], SlamAdapter] | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
     classes: Mapping[str, str] = field(default_factory=dict)
+    executor: Callable[[Callable[[], SlamAdapter], Scenario, int], Outcome] = execute
     executions: int = 0
     _cache: dict = field(default_factory=dict, repr=False)
 
@@ -136,7 +140,7 @@ class CaseRuns:
             seed = self.seeds[k]
             if seed_stream:
                 seed = int(np.random.SeedSequence([seed, seed_stream]).generate_state(1, np.uint64)[0] >> 1)
-            self._cache[cache_key] = execute(factory or self.factory, scenario or self.scenario, seed)
+            self._cache[cache_key] = self.executor(factory or self.factory, scenario or self.scenario, seed)
         return self._cache[cache_key]
 
     @property
