@@ -33,7 +33,7 @@ from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, MEAN_DETECT
                                        evaluate_suites, kill_matrix, score_table, study_spec, whole_suite_table,
                                        whole_suites)
 from faultlab.inference.exact import alternative_of, min_pairs
-from faultlab.vocabulary import BASELINE, PAPER_FAULTS
+from faultlab.vocabulary import BASELINE, MDD_COLUMN, PAPER_FAULTS
 
 __all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]
 
@@ -61,7 +61,7 @@ class StudyAnalysis(TableBundle):
         Per strategy: pool size, suites drawn, bootstrap replicates, the Monte Carlo error bound
         of a drawn-suite rate and the smallest difference in a size-1 detection probability (a
         share of pool cases) between this and every other pool that a two-sample test detects
-        with 80 % power at 0.05, at rates 0.5 and 0.1.
+        with the default power at 0.05, at rates 0.5 and 0.1 (columns ``<MDD_COLUMN>_at_<rate>``).
     whole : DataFrame
         :func:`~faultlab.stats.killmatrix.whole_suite_table` of the strategies in ``[study] whole``:
         each evaluation run's generated suite (e.g. a whole pairwise covering array) judged whole.
@@ -97,8 +97,8 @@ def _power(pool_sizes: dict, spec: StudySpec) -> pd.DataFrame:
         others = [n for b, n in pool_sizes.items() if b != a] or [n_a]
         rows.append({"strategy": a, "pool": n_a, "draws": spec.draws, "bootstrap": spec.bootstrap,
                      "mc_se_max": 0.5 / math.sqrt(spec.draws),
-                     "mdd80_at_0.5": max(detectable_difference(0.5, n_a, n) for n in others),
-                     "mdd80_at_0.1": max(detectable_difference(0.1, n_a, n) for n in others)})
+                     **{f"{MDD_COLUMN}_at_{rate}": max(detectable_difference(rate, n_a, n) for n in others)
+                        for rate in (0.5, 0.1)}})
     return pd.DataFrame(rows)
 
 

@@ -8,6 +8,7 @@ module attaches its handler as ``func`` (``handler(args) -> int`` exit code).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import importlib
 import os
@@ -40,6 +41,7 @@ COMMAND_MODULES = (
     "faultlab.cli.adapter",  # adapter check
     "faultlab.cli.export",  # export
     "faultlab.cli.check",  # check
+    "faultlab.cli.compare",  # compare
 )
 
 
@@ -56,6 +58,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                   "faultlab COMMAND --help"]),
     )
     parser.add_argument("--version", action="version", version=f"faultlab {__version__}")
+    parser.add_argument("--accept-unverified", action="store_true",
+                        help="read (and resume) results stores whose rows carry no checksums -- written before "
+                             "faultlab checked its stores, or with their integrity entries removed -- instead "
+                             "of refusing them; their values are not verified")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         try:
@@ -105,6 +111,8 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     """Run the command of ``argv`` (default ``sys.argv[1:]``); returns the exit status.
 
     Every expected failure is one ``faultlab: error:`` line on stderr and exit code 1.
+    ``--accept-unverified`` (before the command) reads stores without row checksums
+    (:func:`faultlab.runner.store.accept_unverified`).
 
     A reader that closes the pipe early (``faultlab mutate list | head``) ends the command quietly
     with exit code 141, as a process killed by SIGPIPE (the shell's convention); the command stops
@@ -124,8 +132,14 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     previous = None
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _terminate)
+    accepting = contextlib.nullcontext()
+    if args.accept_unverified:
+        from faultlab.runner.store import accept_unverified
+
+        accepting = accept_unverified()
     try:
-        code = int(args.func(args) or 0)
+        with accepting:
+            code = int(args.func(args) or 0)
         sys.stdout.flush()
         return code
     except Terminated:

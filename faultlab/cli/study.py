@@ -165,12 +165,21 @@ def _plan(args: argparse.Namespace) -> int:
     else:
         from faultlab.campaigns.mutation import load_mutation_experiment
 
-        mexp = load_mutation_experiment(args.study)
+        from faultlab.campaigns.mutation import KILL_EXACT
+        from faultlab.inference.planning import mutation_file_scale
+
+        mexp = load_mutation_experiment(args.study, screen=False)
         exp = mexp.experiment
         plan = plan_study("mutation", strategies=len(exp.suites), suite_cases=max(s.n_cases or 0 for s in exp.suites),
-                          runs=exp.runs, alpha=mexp.alpha, sides=_sides(exp), **common)
+                          runs=exp.runs, alpha=mexp.alpha, sides=_sides(exp), exact=mexp.kill == KILL_EXACT,
+                          **common)
+        budget = (data.get("mutation") or {}).get("sample")
+        if isinstance(budget, int) and not isinstance(budget, bool) and budget >= 1:
+            scale = mutation_file_scale(plan, mutants=budget)
+            pools = f"a sample budget of {budget} live mutants"
     particles = dict(exp.slam.options).get("particles")
-    settings = f"{exp.slam.name}, {particles} particles, {exp.n_steps} active steps"
+    settings = f"{exp.slam.name}, " + (f"{particles} particles, " if particles is not None else "") + \
+        f"{exp.n_steps} active steps"
     text = plan_markdown(plan, study=Path(args.study).stem + (" --quick" if args.quick else ""), cost=cost, cost_source=str(args.cost_store),
                          settings=settings, same_settings=cost is None or (particles, exp.n_steps, exp.slam.name) ==
                          (cost.particles, cost.n_steps, cost.slam), file_scale=scale, pools=pools)

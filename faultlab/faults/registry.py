@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from faultlab.config import import_object
 from faultlab.errors import FaultError
 from faultlab.faults.builtin import BUILTIN_FAULTS
 from faultlab.faults.discovery import PluginFailure, PluginReport, load_plugins
 from faultlab.faults.fault import Fault
+from faultlab.faults.real import fault_categories
 from faultlab.faults.sensor import SensorFault, load_sensor_plugins
 from faultlab.faults.sensorfaults import BUILTIN_SENSOR_FAULTS
 from faultlab.vocabulary import BASELINE, UNMODIFIED
@@ -129,19 +130,29 @@ class FaultListing:
         Plugins (or plugin faults) that failed to load.
     sensor_faults : tuple of SensorFault
         The sensor and hardware faults, listed in their own section.
+    categories : mapping
+        Fault name -> category for the faults that have one (``"real"``: reproduces a bug found in
+        public SLAM code, :mod:`faultlab.faults.real`).
     """
 
     faults: tuple[Fault, ...]
     sources: Mapping[str, str]
     errors: tuple = ()
     sensor_faults: tuple[SensorFault, ...] = ()
+    categories: Mapping[str, str] = field(default_factory=dict)
 
     def select(self, specs: Iterable[str]) -> "FaultListing":
         """The listing of the given faults (names or ``module:attr`` paths), in that order."""
         chosen = tuple(resolve_fault(s) for s in specs)
         sources = {f.name: self.sources.get(f.name, "import path") for f in chosen}
         return FaultListing(faults=tuple(f for f in chosen if isinstance(f, Fault)), sources=sources,
-                            errors=self.errors, sensor_faults=tuple(f for f in chosen if isinstance(f, SensorFault)))
+                            errors=self.errors, sensor_faults=tuple(f for f in chosen if isinstance(f, SensorFault)),
+                            categories=self.categories)
+
+    def in_category(self, category: str) -> "FaultListing":
+        """The listing of the faults of one category (no sensor faults: none has a category)."""
+        return FaultListing(faults=tuple(f for f in self.faults if self.categories.get(f.name) == category),
+                            sources=self.sources, errors=self.errors, categories=self.categories)
 
     def rows(self) -> list[tuple[str, str, str, str]]:
         """``(name, step, origin, description)`` per fault."""
@@ -155,12 +166,14 @@ class FaultListing:
             w1 = max(len(r[1]) for r in rows) if rows else 4
             lines = []
             for name, step, origin, description in rows:
+                category = f" (category: {self.categories[name]})" if name in self.categories else ""
                 lines.append(f"{name.ljust(w0)}  {step.ljust(w1)}  {description}")
-                lines.append(f"{'':{w0}}  {'':{w1}}  origin: {origin}")
+                lines.append(f"{'':{w0}}  {'':{w1}}  origin: {origin}{category}")
         else:
             lines = []
             for f in self.faults:
-                lines += [f"{f.name}  (step: {f.step}; {self.sources.get(f.name, '?')})",
+                category = f"; category: {self.categories[f.name]}" if f.name in self.categories else ""
+                lines += [f"{f.name}  (step: {f.step}; {self.sources.get(f.name, '?')}{category})",
                           f"    {f.description}",
                           f"    origin: {f.origin}",
                           f"    {f.rationale}", ""]
@@ -192,4 +205,5 @@ def list_faults(*, plugins: bool = True) -> FaultListing:
                | dict(report.sources) | (dict(sensor.sources) if sensor else {}))
     errors = (*report.errors, *(sensor.errors if sensor else ()))
     return FaultListing(faults=(*builtins.values(), *report.faults), sources=sources, errors=errors,
-                        sensor_faults=(*BUILTIN_SENSOR_FAULTS, *(sensor.faults if sensor else ())))
+                        sensor_faults=(*BUILTIN_SENSOR_FAULTS, *(sensor.faults if sensor else ())),
+                        categories=fault_categories())

@@ -198,7 +198,7 @@ def detectable_shift_factor(k: int, *, alpha: float = DEFAULT_ALPHA, power: floa
     (simulation with a fixed generator for ``k <= 12``, the paired t test's power beyond).  The
     two-sided test at ``alpha`` rejects a positive shift when the "greater" p value is at most
     ``alpha / 2`` (or, rarely, the "less" one is), so its factor is the one-sided factor at
-    ``alpha / 2`` (conservative by the wrong-sign rejections, negligible at 80 % power).
+    ``alpha / 2`` (conservative by the wrong-sign rejections, negligible at the usual powers).
 
     Parameters
     ----------

@@ -9,7 +9,7 @@ seed-to-seed spread; :func:`relation_matrix` does so for many faults.  Built-in 
 ``faultlab.metamorphic`` (:mod:`faultlab.metamorphic.registry`).
 """
 
-from faultlab.metamorphic.builtin import BUILTIN_RELATIONS, BearingTurn, HalvedNoise, IdPermutation, RigidMotion
+from faultlab.metamorphic.builtin import BUILTIN_RELATIONS, BearingTurn, HalvedNoise, IdPermutation, IdRelabel, RigidMotion
 from faultlab.metamorphic.check import (
     DEFAULT_ATOL,
     DEFAULT_FACTOR,
@@ -36,6 +36,7 @@ __all__ = [
     "estimate_distance",
     "RigidMotion",
     "IdPermutation",
+    "IdRelabel",
     "BearingTurn",
     "HalvedNoise",
     "BUILTIN_RELATIONS",

@@ -60,8 +60,11 @@ def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, co
                      f"on the pool cases, difference centred on {plan.centre:.2f}.")
     lines += [f"- Mutation score: exact McNemar test over the mutants, discordance against the effect "
               f"(mutants killed only by the weaker strategy) assumed {plan.reverse:.0%}.",
-              f"- Repetitions: a case of a family of {plan.case_family} cases is judged at alpha / "
-              f"{plan.case_family}; the {side} exact sign-flip test reaches it from K = {plan.needed.repetitions}.",
+              (f"- Repetitions: the SLAM is deterministic, so each case runs once and is judged exactly (any change "
+               f"of its map error, or the mutant alone failing, kills): K = 1, no test over identical repetitions."
+               if plan.exact else
+               f"- Repetitions: a case of a family of {plan.case_family} cases is judged at alpha / "
+               f"{plan.case_family}; the {side} exact sign-flip test reaches it from K = {plan.needed.repetitions}."),
               "", "## Cost", "",
               (f"- {cost.seconds:.2f} s per execution: mean of {cost.jobs} executions in `{cost_source}` "
                f"({cost.slam}, {cost.particles} particles, {cost.n_steps} active steps; the machine's load when "
@@ -74,7 +77,15 @@ def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, co
                  "case earlier when its verdict is settled, so the executions are an upper bound.")
     if plan.kind == "mutation":
         lines.append("- Mutation executions are an upper bound: the campaign stops a mutant's suite at its first kill.")
-    if file_scale is not None:
+    if file_scale is not None and plan.kind == "mutation":
+        lines += ["", "## The file's scale", "",
+                  f"The file sets {pools}: every case of every suite runs the baseline and each of them once"
+                  + (", judged exactly." if plan.exact else ", K times each.") + " It "
+                  + ("detects" if file_scale.score_pp <= plan.target_score_pp else "does **not** detect")
+                  + f" a {plan.target_score_pp:.0f} pp score difference between two suites with power "
+                  f"{plan.power:.0%} (the needed scale below has {plan.needed.mutants} live mutants).", "",
+                  "| | |", "|---|---|", *_scale_rows(plan, file_scale)]
+    elif file_scale is not None:
         lines += ["", "## The file's scale", "",
                   f"Pools: {pools}; the detectable difference of two pools of the smallest size is shown (a pair "
                   f"holding a larger pool detects a smaller one). Every pool case runs the baseline, {plan.faults} faults and the "

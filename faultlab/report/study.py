@@ -21,7 +21,7 @@ from faultlab.report.figures import PAGE_SIZE, suite_palette
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
 from faultlab.inference.exact import min_p_value
-from faultlab.vocabulary import SUITE_ORDER, ordered
+from faultlab.vocabulary import MDD_COLUMN, POWER_TEXT, SUITE_ORDER, ordered
 
 __all__ = ["FIGURE_FILE", "REPORT_FILE", "detection_figure", "study_markdown", "write_study_report"]
 
@@ -121,7 +121,8 @@ def _comparisons_md(analysis: StudyAnalysis) -> pd.DataFrame:
         "score a - b (95 % CI)": [f"{100 * d:+.0f} pp ({100 * lo:+.0f} to {100 * hi:+.0f})"
                                   for d, lo, hi in zip(c["diff"], c["ci_low"], c["ci_high"])],
         "p (bootstrap)": [_p(p) for p in c["p_boot"]], "p (Holm)": [_p(p) for p in c["p_holm"]],
-        "detectable at 80 %": [f"{100 * d:.0f} pp" if np.isfinite(d) else "n/a (no spread)" for d in c["mdd80"]],
+        f"detectable at {POWER_TEXT}": [f"{100 * d:.0f} pp" if np.isfinite(d) else "n/a (no spread)"
+                                       for d in c[MDD_COLUMN]],
         "only a / only b (mean)": [f"{a:.1f} / {b:.1f}" for a, b in zip(c["only_a"], c["only_b"])],
         "McNemar p (median)": [_p(p) for p in c["mcnemar_p_median"]],
         "drawn pairs with McNemar p <= 0.05": [_pct(x) for x in c["mcnemar_share_sig"]]})
@@ -140,7 +141,7 @@ def _detection_comparisons_md(c: pd.DataFrame) -> pd.DataFrame:
                 f"{r.strategy_a} - {r.strategy_b} {100 * r.diff:+.0f} pp ({100 * r.ci_low:+.0f} to "
                 f"{100 * r.ci_high:+.0f}), {_p(r.p_holm)}" for r in shown.itertuples()) or "none",
             "other pairs equivalent within": f"±{100 * rest['equivalence_margin'].max():.0f} pp" if len(rest) else "-",
-            "detectable at 80 %": f"{100 * g['mdd80'].min():.0f}-{100 * g['mdd80'].max():.0f} pp"})
+            f"detectable at {POWER_TEXT}": f"{100 * g[MDD_COLUMN].min():.0f}-{100 * g[MDD_COLUMN].max():.0f} pp"})
     return pd.DataFrame(rows)
 
 
@@ -175,7 +176,7 @@ def _detection_comparisons_text(c: pd.DataFrame, alpha: float) -> str:
             f"{len(c)} (`p_holm_study` in `detection_comparisons.csv`). For the other pairs, two one-sided tests at "
             f"{alpha} (per pair, not adjusted for the family) show the difference within the margin given (the "
             f"largest over the fault's pairs; each pair's own is `equivalence_margin`). Detectable: the difference a "
-            f"pair detects with 80 % power at Holm's first step ({alpha} / {pairs}).")
+            f"pair detects with {POWER_TEXT} power at Holm's first step ({alpha} / {pairs}).")
 
 
 def _whole_rate(rate: float, lo: float, hi: float, rmin: float, rmax: float, suites: int) -> str:
@@ -227,12 +228,12 @@ def _failures_text(meta: dict) -> str:
 
 
 def _mdd_text(comparisons: pd.DataFrame) -> str:
-    mdd = comparisons["mdd80"].dropna() if not comparisons.empty else pd.Series(dtype=float)
+    mdd = comparisons[MDD_COLUMN].dropna() if not comparisons.empty else pd.Series(dtype=float)
     if mdd.empty:
         return ""
-    return (f"For mutation scores the smallest difference detectable with 80 % power ranges from "
+    return (f"For mutation scores the smallest difference detectable with {POWER_TEXT} power ranges from "
             f"{100 * mdd.min():.0f} to {100 * mdd.max():.0f} pp over the comparisons with any bootstrap spread "
-            f"(`comparisons.csv`, `mdd80`).")
+            f"(`comparisons.csv`, `{MDD_COLUMN}`).")
 
 
 def _sidedness(meta: dict) -> str:
@@ -334,7 +335,7 @@ def study_markdown(analysis: StudyAnalysis) -> str:
                markdown_table(_scores_md(analysis)),
                "## Strategies compared at equal size on the same mutants", "",
                "Score difference with its bootstrap interval and two-sided bootstrap p (Holm over the strategy "
-               "pairs of a size); the smallest difference detectable with 80 % power from the bootstrap standard "
+               f"pairs of a size); the smallest difference detectable with {POWER_TEXT} power from the bootstrap standard "
                "error; and exact McNemar tests over the mutants for the suites drawn with the same index (statsmodels), "
                "summarised over the drawn pairs (they concern a typical pair of suites, not the strategies).", "",
                markdown_table(_comparisons_md(analysis))]
@@ -353,8 +354,9 @@ def study_markdown(analysis: StudyAnalysis) -> str:
            f"Suites drawn per strategy and size: {st['draws']}; bootstrap replicates: {st['bootstrap']}; pool sizes: "
            + ", ".join(f"{s} {n}" for s, n in pool_sizes.items()) + ". "
            f"A size-1 detection probability is the share of a pool's cases that detect; with these pools a two-sample "
-           f"test at 0.05 detects with 80 % power a difference between two strategies of about "
-           f"{100 * p['mdd80_at_0.5'].max():.0f} pp around 50 % and {100 * p['mdd80_at_0.1'].max():.0f} pp around 10 %. "
+           f"test at 0.05 detects with {POWER_TEXT} power a difference between two strategies of about "
+           f"{100 * p[f'{MDD_COLUMN}_at_0.5'].max():.0f} pp around 50 % and "
+           f"{100 * p[f'{MDD_COLUMN}_at_0.1'].max():.0f} pp around 10 %. "
            + _mdd_text(analysis.comparisons), "",
            markdown_table(p.round(3)),
            "Files: `kill_matrix.csv` (per pool case and variant), `detection.csv` (every variant, strategy and size; "

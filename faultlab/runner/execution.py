@@ -5,7 +5,7 @@ Faults in the SLAM under test never stop the campaign: an exception or a non-fin
 recorded as ``crash`` (with ``"Type: message"``), a SLAM past ``timeout_s`` is stopped and recorded
 as ``timeout``.  The limit is enforced with ``SIGALRM`` (``signal.setitimer``) when the job runs in
 a process's main thread (loky workers, ``jobs=1``), which also stops a SLAM stuck in a Python loop
-or a sleep; elsewhere (threads, dask workers) a cooperative deadline check between SLAM steps is
+or a sleep; elsewhere (a thread) a cooperative deadline check between SLAM steps is
 the fallback.  Neither stops a SLAM that spins in compiled code holding the GIL (the SIGALRM handler
 runs only between bytecodes): for that the worker announces each call's deadline in a file the
 parent watches (:func:`init_worker`), and the parent kills a worker still busy past the deadline

@@ -65,7 +65,8 @@ the difference (independent pools, paired mutants; two-sided bootstrap p value, 
 strategy pairs of a size) and (b) by exact McNemar tests over the mutants for the suites drawn
 with the same index (statsmodels), summarised over the draws (median p, share of draws with
 p <= 0.05) -- (b) is about a typical pair of suites, (a) about the strategies.  The smallest
-difference detectable with 80 % power is ``(z_0.975 + z_0.8) * SE`` with SE the bootstrap
+difference detectable with power ``1 - beta`` (default :data:`~faultlab.vocabulary.DEFAULT_POWER`) is
+``(z_(1 - alpha/2) + z_(1 - beta)) * SE`` with SE the bootstrap
 standard error of the difference (:func:`detectable_score_difference`).
 
 The ``[study]`` table of a study file (suite sizes, draws, bootstrap, seed, level, multiplicity)
@@ -100,8 +101,8 @@ from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.inference.sequential import Look
 from faultlab.inference.exact import MAX_EXACT_PAIRS
 from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, case_verdicts
-from faultlab.vocabulary import (BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, SUITE_ORDER, JobStatus,
-                                 ordered)
+from faultlab.vocabulary import (BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, MDD_COLUMN, SUITE_ORDER,
+                                 JobStatus, ordered)
 
 __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects", "combined_detects",
            "judge_suite",
@@ -639,7 +640,7 @@ def smallest_showable_difference(n_mutants: int, *, alpha: float = DEFAULT_ALPHA
     A difference of ``d / M`` needs at least ``d`` discordant mutants; the exact McNemar test
     (two-sided binomial on the discordant pairs) reaches ``alpha`` only when all of them favour
     one side and ``2 * 2^-d <= alpha``, so no difference below ``ceil(log2(2 / alpha)) / M`` can be
-    shown, whatever the bootstrap's spread (a floor for :func:`compare_scores`' ``mdd80``).
+    shown, whatever the bootstrap's spread (a floor for :func:`compare_scores`' :data:`~faultlab.vocabulary.MDD_COLUMN`).
     """
     if n_mutants < 1:
         return math.nan
@@ -653,7 +654,7 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFr
     and two-sided bootstrap p value ``p_boot`` = 2 min(share of replicates <= 0, share >= 0), where
     replicates with no difference count on both sides (conservative: strategies that kill the same
     mutants in most replicates get p near 1) (Holm over the pairs of a size: ``p_holm``),
-    ``mdd80`` (smallest difference detectable with 80 % power from the bootstrap SE, never below
+    :data:`~faultlab.vocabulary.MDD_COLUMN` (smallest difference detectable with the default power from the bootstrap SE, never below
     :func:`smallest_showable_difference` of the mutant sample), and the
     exact McNemar test over mutants for the suites drawn with the same index: mean discordant
     counts ``only_a``, ``only_b``, ``mcnemar_p_median`` and ``mcnemar_share_sig`` (share of
@@ -681,8 +682,8 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFr
             rows.append({"size": n, "strategy_a": a, "strategy_b": b, "score_a": sa, "score_b": sb,
                          "diff": sa - sb, "ci_low": float(lo), "ci_high": float(hi), "se_boot": se,
                          "p_boot": float(p_boot),
-                         "mdd80": max(detectable_score_difference(se, alpha=alpha),
-                                      smallest_showable_difference(len(ev.mutants), alpha=alpha)),
+                         MDD_COLUMN: max(detectable_score_difference(se, alpha=alpha),
+                                         smallest_showable_difference(len(ev.mutants), alpha=alpha)),
                          "only_a": float(only_a.mean()), "only_b": float(only_b.mean()),
                          "mcnemar_p_median": float(np.median(pm)), "mcnemar_share_sig": float((pm <= alpha).mean())})
     out = pd.DataFrame(rows)
@@ -694,7 +695,7 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFr
 #: Columns of :func:`compare_detection`.
 DETECTION_COMPARISON_COLUMNS = ("variant", "strategy_a", "strategy_b", "pool_a", "detect_a", "pool_b", "detect_b",
                                 "rate_a", "rate_b", "diff", "ci_low", "ci_high", "p", "p_holm", "p_holm_study",
-                                "shown", "equivalence_margin", "mdd80")
+                                "shown", "equivalence_margin", MDD_COLUMN)
 
 
 def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
@@ -714,7 +715,7 @@ def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
     * ``equivalence_margin``: the smallest margin d for which two one-sided tests at ``alpha``
       show ``|difference| < d`` (by their duality, the largest end of the ``1 - 2 alpha``
       interval; statsmodels ``tost_proportions_2indep`` gives p = ``alpha`` there);
-    * ``mdd80``: the smallest difference, around the two rates' mean, that a two-sided test at
+    * :data:`~faultlab.vocabulary.MDD_COLUMN`: the smallest difference, around the two rates' mean, that a two-sided test at
       Holm's first step (``alpha`` / pairs, the strictest level a pair is judged at) detects with
       ``power`` for these pool sizes (:func:`faultlab.stats.cases.detectable_difference`).
 
@@ -740,7 +741,7 @@ def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
                          "detect_b": kb, "rate_a": ka / na, "rate_b": kb / nb, "diff": ka / na - kb / nb,
                          "ci_low": float(lo), "ci_high": float(hi), "p": float(p),
                          "equivalence_margin": float(max(abs(lo2), abs(hi2))),
-                         "mdd80": detectable_difference(mid, na, nb, alpha=alpha / max(1, len(pairs)), power=power)})
+                         MDD_COLUMN: detectable_difference(mid, na, nb, alpha=alpha / max(1, len(pairs)), power=power)})
     out = pd.DataFrame(rows, columns=[c for c in DETECTION_COMPARISON_COLUMNS
                                       if c not in ("p_holm", "p_holm_study", "shown")])
     p = out["p"].to_numpy(float)
