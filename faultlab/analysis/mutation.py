@@ -34,7 +34,7 @@ from faultlab.runner.store import MUTATION_FILE, load_metadata, load_results
 from faultlab.stats.exactkill import exact_kills
 from faultlab.stats.killmatrix import suite_kills
 from faultlab.inference.multiplicity import holm
-from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_DIRECTION
+from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_DIRECTION, POWER_TEXT
 
 __all__ = ["MUTATION_TABLES", "MutationAnalysis", "analyse_mutation", "mutation_scores", "compare_suites",
            "clopper_pearson", "mutant_outcomes", "stored_direction", "adaptive_savings", "OBSERVED_EQUIVALENT"]
@@ -158,7 +158,7 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
                 margin = pd.to_numeric(mv["margin_mm"], errors="coerce")
                 note = (f"equivalent within +-{margin.min():.0f}-{margin.max():.0f} mm on every case (TOST, "
                         f"p <= {base['max_p_equivalence']:.2g})" if equivalent else
-                        f"no difference shown; " + (f"smallest detectable shift {base['min_mde_mm']:.0f} mm (80 % power)"
+                        f"no difference shown; " + (f"smallest detectable shift {base['min_mde_mm']:.0f} mm ({POWER_TEXT} power)"
                                                     if math.isfinite(base["min_mde_mm"]) else
                                                     "no case's pairs could detect any shift"))
                 rows.append(base | dict(outcome=MutantOutcome.SURVIVED.value, killing_case=0,

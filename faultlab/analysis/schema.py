@@ -40,6 +40,7 @@ from faultlab.stats.effects import EFFECT_COLUMNS
 from faultlab.stats.paper import PAPER_BY_SUITE_COLUMNS, PAPER_RATE_COLUMNS
 from faultlab.stats.pooling import SUITE_VERDICT_COLUMNS
 from faultlab.stats.rates import BY_SUITE_COLUMNS, FALSE_ALARM_COLUMNS, RATE_COLUMNS
+from faultlab.vocabulary import POWER_TEXT
 
 __all__ = ["TableSchema", "KINDS", "THIS_RUN", "PAPER", "ALL_VARIANTS", "TABLES"] + [
     "JOBS", "CASES", "OUTCOMES", "DETECTION_RATES", "BY_SUITE", "FALSE_ALARMS", "ORACLE", "ORACLE_SUMMARY",
@@ -292,7 +293,7 @@ REPLICA_FALSE_ALARMS = TableSchema.define(
     ("rule", "suite", "n_cases", "n_pairs", "flagged", "rate", "low", "high", "design_effect"))
 PAPER_COMPARISONS = TableSchema.define(
     "paper_comparisons", "Per suite and fault with a printed paper figure: paper k/n vs this run's detected / "
-    "judged cases, Boschloo's exact test, smallest detectable difference at 80 % power, verdict "
+    f"judged cases, Boschloo's exact test, smallest detectable difference at {POWER_TEXT} power, verdict "
     "(faultlab.stats.cases.compare_with_paper).", PAPER_COMPARISON_COLUMNS, k="int", n="int", paper_k="int",
     paper_n="int")
 

@@ -133,7 +133,7 @@ def _sensitivity(label: str, a, metric: str, alpha: float, store) -> list[dict]:
     """Per fault: pooled case rates of the campaign's rule and the per-repetition rate of the paper's rule.
 
     Both in the campaign's primary metric.  ``mde_*_mm``: the median, smallest and largest over the
-    fault's judged cases of the smallest shift the case's decision detects with 80 % power at the
+    fault's judged cases of the smallest shift the case's decision detects with the default power at the
     level it was judged at (the verdicts' ``mde_mm``, :func:`faultlab.stats.verdict.case_verdicts`):
     what a "not detected" could have missed.  The per-repetition rates count every repetition (the
     Analysis's Table II rates judge one repetition per case, in RMS), classified by the campaign's

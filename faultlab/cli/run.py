@@ -30,7 +30,7 @@ def register(subparsers) -> None:
     add_execution_options(p)
     add_examples(p, ["faultlab run smoke --out results/smoke --metrics rms",
                      "nice -n 10 faultlab run paper --out results/paper --jobs 2",
-                     "faultlab run my-campaign.toml --out results/mine --backend dask"])
+                     "faultlab run my-campaign.toml --out results/mine --jobs 1"])
     p.set_defaults(func=handler)
 
 

@@ -18,7 +18,7 @@ from faultlab.runner.store import MUTANTS_FILE
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.pdf import table_pages, text_pages, write_pdf
 from faultlab.stats.verdict import EQUIVALENCE_MARGIN_REL
-from faultlab.vocabulary import PAPER_DIRECTION, SUITE_ORDER, ordered
+from faultlab.vocabulary import PAPER_DIRECTION, POWER_TEXT, SUITE_ORDER, ordered
 
 __all__ = ["STRYKER_FILE", "MATRIX_CLASSES", "markdown_table", "score_table", "matrix_figure", "write_mutation_report"]
 
@@ -96,7 +96,7 @@ def matrix_figure(analysis: MutationAnalysis, *, figsize=PAGE_SIZE) -> Figure:
 
 def survivor_table(analysis: MutationAnalysis) -> pd.DataFrame:
     """Each survived (mutant, suite): equivalent within the margin (TOST) or inconclusive, its smallest
-    per-case p value, largest TOST p value and detectable shift (80 % power); "not testable" where a
+    per-case p value, largest TOST p value and detectable shift (at :data:`~faultlab.vocabulary.DEFAULT_POWER`); "not testable" where a
     case had no usable pairs for that test, "none" where no case could detect any shift.
 
     An inconclusive survivor is not shown equivalent: its suite could only have detected a mean shift
@@ -147,7 +147,7 @@ def _effect(rows: pd.DataFrame, kill: str) -> str:
     if kill == "exact":
         return f"none: map error identical to the original's on all {n} cases (judged exactly)"
     mde = pd.to_numeric(rows["min_mde_mm"], errors="coerce")
-    return (f"no difference shown on {n} cases; smallest detectable mean shift {mde.min():.0f} mm (80 % power)"
+    return (f"no difference shown on {n} cases; smallest detectable mean shift {mde.min():.0f} mm ({POWER_TEXT} power)"
             if mde.notna().any() else f"no difference shown on {n} cases")
 
 
@@ -164,13 +164,21 @@ def _target_markdown(analysis: MutationAnalysis, records: dict, all_scores: pd.D
             f"A case kills a mutant when the {_test_text(meta)} over K = {meta['repetitions']} repetitions rejects "
             f"at the per-case level {meta['case_alpha']:.4g} (alpha = {meta['alpha']} over the largest suite), or "
             f"the mutant alone fails.")
-    sampled = (f" A budget of {t['sample']} mutants was drawn uniformly (seeded) from the {t['n_live']} live ones: "
-               f"each score estimates the score of all live mutants, and its exact Clopper-Pearson interval covers "
-               f"the sampled fraction." if t.get("sample") and t["n_sampled"] < t["n_live"] else "")
+    n_screened = int(t.get("n_screened", t["n_mutants"]))
+    sampled = (f" A budget of {t['sample']} live mutants was drawn before screening: the {t['n_mutants']} mutants "
+               f"were put in a seeded uniform random order and screened along it until {t['n_sampled']} live ones "
+               f"were found. They are a uniform sample of the live mutants (about "
+               f"{t['n_mutants'] * cls['live'] / n_screened:.0f} of the {t['n_mutants']}, at the live share of the "
+               f"{n_screened} screened), so each score estimates the score of all live mutants and its exact "
+               f"Clopper-Pearson interval covers the sampled fraction." if n_screened < t["n_mutants"] else
+               f" The budget of {t['sample']} live mutants exceeds the {t['n_sampled']} the target has: every mutant "
+               f"was screened and every live one ran (no sampling)." if t.get("sample") and t["n_sampled"] < t["sample"]
+               else "")
     reused = meta.get("reused") or {}
     md = ["# Mutation analysis of user code", "",
           f"Target `{t['target']}` ({t['path']}, module digest {t['module_digest']}): {t['n_mutants']} mutants "
-          f"generated; screened on probe scenarios before the campaign: {cls['live']} live, {cls['invalid']} invalid "
+          f"generated; {'' if n_screened == t['n_mutants'] else f'{n_screened} of them '}screened on probe scenarios "
+          f"before the campaign: {cls['live']} live, {cls['invalid']} invalid "
           f"(cannot be imported or built: neither killed nor survived), {cls['equivalent']} equivalent and "
           f"{cls['duplicate']} duplicate (estimates bit-identical to the original's, or to an earlier mutant's, on "
           f"every probe under common random numbers). Functions not mutated: "
@@ -245,7 +253,7 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
           "",
           "Per survived (mutant, suite): 'equivalent' (TOST on every case) or 'inconclusive', the smallest "
           "per-case p value, the largest TOST p value and the smallest mean shift of the map error (mm) its most "
-          "sensitive case could have detected with 80 % power at the case's level and sidedness: an inconclusive "
+          f"sensitive case could have detected with {POWER_TEXT} power at the case's level and sidedness: an inconclusive "
           "survivor is a change below that size or one the suite's cases do not exercise, not shown equivalent.",
           "", markdown_table(survivors)]
     paths = [out / f"{n}.csv" for n in ("outcomes", "scores", "mcnemar")]
@@ -265,7 +273,7 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
     pages += table_pages("Score per unit", units)
     if len(observed):
         pages += table_pages("Equivalent as observed (bit-identical maps, not scored)", observed)
-    pages += table_pages("Survived mutants: equivalent or smallest detectable shift (80 % power)", survivors)
+    pages += table_pages(f"Survived mutants: equivalent or smallest detectable shift ({POWER_TEXT} power)", survivors)
     write_pdf(out / "mutation.pdf", pages, title="faultlab mutation report")
     paths.append(out / "mutation.pdf")
     return paths

@@ -43,7 +43,7 @@ from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
 from faultlab.stats.class_effects import MIN_EPV
 from faultlab.inference.exact import alternative_of, min_pairs
-from faultlab.vocabulary import JobStatus
+from faultlab.vocabulary import POWER_TEXT, JobStatus
 
 __all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "EFFECT_PAGE_TITLE", "CLASS_EFFECT_PAGE_TITLE", "summary_pages",
            "title_pages", "table2_pages", "rates_pages", "comparison_pages",
@@ -493,7 +493,7 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
         "median diff mm [CI]": [_effect(m, lo, hi, "{:.0f}") for m, lo, hi in
                                 zip(v["median_diff_mm"], v["median_low_mm"], v["median_high_mm"])],
         "ratio [CI]": [_effect(m, lo, hi, "{:.2f}") for m, lo, hi in zip(v["ratio"], v["ratio_low"], v["ratio_high"])],
-        "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
+        f"MDE mm ({POWER_TEXT})": [_g3(x) for x in v["mde_mm"]],
     })
     cannot = int((v["verdict"] == "cannot_judge").sum())
     show, empty = _without_empty_columns(_frame_text(show))
@@ -506,7 +506,7 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
                             f"mean paired difference; effect: median difference (mm) and median ratio faulty / "
                             f"baseline with order-statistic intervals (coverage >= 1 - alpha where K allows). MDE: "
                             f"smallest shift of the paired differences the decision's test (its sidedness, Holm's "
-                            f"first step alpha / m over the family) detects with 80 % power.{_left_out(empty)}")
+                            f"first step alpha / m over the family) detects with {POWER_TEXT} power.{_left_out(empty)}")
 
 
 def _effect(mid: float, lo: float, hi: float, fmt: str) -> str:
@@ -595,13 +595,13 @@ def _paper_comparison_pages(analysis: Analysis) -> list[Figure]:
         "paper k/n": [f"{k}/{n}" for k, n in zip(c["paper_k"], c["paper_n"])],
         "this run k/n (cases)": [f"{k}/{n}" for k, n in zip(c["k"], c["n"])],
         "difference": [f"{x:+.2f}" for x in c["difference"]], "p (Boschloo)": [_g3(x) for x in c["p"]],
-        "detectable difference (80 %)": [_g3(x) for x in c["detectable_difference"]], "verdict": c["verdict"],
+        f"detectable difference ({POWER_TEXT})": [_g3(x) for x in c["detectable_difference"]], "verdict": c["verdict"],
     })
     return table_pages("Detection counts compared with the paper (two-sample exact test)", show, fontsize=8,
                        note=f"Boschloo's exact unconditional test (two-sided) of the paper's printed count "
                             f"against this run's detected / judged cases, alpha = {analysis.alpha:g}, no "
                             f"multiplicity correction (each row is its own question). 'differs': p < alpha; "
-                            f"'agrees': not differing and the smallest difference detectable with 80 % power "
+                            f"'agrees': not differing and the smallest difference detectable with {POWER_TEXT} power "
                             f"is below {AGREEMENT_MARGIN:g}; otherwise 'inconclusive' (too few cases).")
 
 

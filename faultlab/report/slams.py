@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 
 from faultlab.analysis.slams import SlamComparison
 from faultlab.report.tables import format_pct
-from faultlab.vocabulary import DEFAULT_ALPHA
+from faultlab.vocabulary import DEFAULT_ALPHA, POWER_TEXT
 
 __all__ = ["slam_figure", "slam_markdown", "write_slam_report"]
 
@@ -118,7 +118,7 @@ def slam_markdown(c: SlamComparison, *, figure: str = "slams.png") -> str:
               f">= {100 * rule.get('rel', 0.25):.0f} % more; Wilson intervals): a shift smaller than that can "
               f"still be detected by the test, and a rare large one can be flagged without a detection.  Both "
               f"in the SLAM's metric.  Detectable shift: per judged case, the smallest shift of the error its "
-              f"decision detects with 80 % power at the level it was judged at (median over the cases, and their "
+              f"decision detects with {POWER_TEXT} power at the level it was judged at (median over the cases, and their "
               f"range; \"any\" where the baseline's repetitions do not vary, as for a deterministic SLAM): a fault "
               f"not detected on a case may still shift it by less.", "",
               "| SLAM | fault | metric | cases detected | rate, % | interval, % | not judged | detectable shift, mm "

@@ -287,12 +287,12 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         Output directory (created).  Rerunning the same call resumes: only jobs
         missing from the store are executed.
     jobs : int
-        Worker processes (joblib ``n_jobs``); ignored by ``dask`` (the cluster decides).
-    backend : {"loky", "threading", "dask", "ray"}
-        joblib backend.  ``dask`` uses the current dask.distributed client, else
-        the scheduler in dask's ``scheduler-address`` config, else a local
-        cluster of ``jobs`` processes; workers need the output directory on a
-        shared file system.  ``ray`` uses ``ray.util.joblib``.
+        Worker processes (joblib ``n_jobs``); with 1, the jobs run one after another in one
+        worker process, so that the parent can enforce their ``timeout_s``.
+    backend : {"loky", "threading"}
+        joblib backend.  Only those whose workers the campaign can kill past a job's deadline are
+        accepted (:func:`faultlab.runner.backends.check_backend`): loky with any ``jobs``,
+        threading with ``jobs = 1``; threads, dask and ray workers are refused.
     force_new : bool
         Start afresh: move existing results and cases to ``out/previous-<time>/``
         (never deleted).  Without it, ``out`` holding another experiment's
@@ -326,7 +326,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     Raises
     ------
     ConfigError
-        Bad experiment, backend or ``jobs``.
+        Bad experiment, backend or ``jobs`` (or a backend that cannot enforce ``timeout_s``).
     ResultsError
         ``out`` belongs to another experiment (without ``force_new``) or is in use.
     """
@@ -334,7 +334,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         experiment = load_experiment(experiment)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ConfigError(f"jobs must be an integer >= 1, got {jobs!r}")
-    check_backend(backend)
+    check_backend(backend, jobs=jobs)
     if batch_size is not None and (isinstance(batch_size, bool) or not isinstance(batch_size, int)
                                    or batch_size < 1):
         raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")

@@ -427,7 +427,8 @@ def compare_with_paper(paper: pd.DataFrame, this_run: pd.DataFrame, *, alpha: fl
     Test: Boschloo's exact unconditional test (:func:`scipy.stats.boschloo_exact`, two-sided),
     more powerful than Fisher's conditional test on the same 2 x 2 table.  Verdict:
     ``"differs"`` when p < alpha; ``"agrees"`` when it does not differ **and** the smallest
-    difference the test could detect with 80 % power at these sample sizes
+    difference the test could detect with the default power (:data:`~faultlab.vocabulary.DEFAULT_POWER`)
+    at these sample sizes
     (:func:`detectable_difference`) is below ``margin``; otherwise ``"inconclusive"`` (the
     samples are too small for "no difference" to mean anything).
 

@@ -85,7 +85,7 @@ at most ``alpha``, which is what a detection *rate* over cases needs.
 Smallest detectable shift
 -------------------------
 Per case, ``mde_mm`` is the smallest shift ``delta`` of the paired differences that the test
-detects with probability ``power`` (default 80 %) at ``alpha``, under the model
+detects with probability ``power`` (default :data:`~faultlab.vocabulary.DEFAULT_POWER`) at ``alpha``, under the model
 ``d_r = delta + e_r`` with ``e_r ~ N(0, sigma^2)`` i.i.d.  ``sigma`` is estimated from the
 baseline's own variability: ``sigma = sqrt(2) * s_b`` with ``s_b`` the standard deviation
 (ddof = 1) of the baseline's K errors on the case -- the spread of the difference of two
