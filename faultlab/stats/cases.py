@@ -48,6 +48,7 @@ from faultlab.errors import ConfigError
 from faultlab.metrics.detection import DetectionRule
 from faultlab.inference.multiplicity import holm
 from faultlab.inference.exact import MAX_EXACT_PAIRS, alternative_of, detectable_shift_factor
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_POWER, SUITE_ORDER, Outcome, ordered
 
@@ -245,7 +246,7 @@ def case_rates(verdicts: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.Da
         j = _judged(g)
         n, k = len(j), int(j["y"].sum())
         wl, wh = proportion_confint(k, n, alpha=alpha, method="wilson") if n else (math.nan, math.nan)
-        cl, ch = proportion_confint(k, n, alpha=alpha, method="beta") if n else (math.nan, math.nan)
+        cl, ch = clopper_pearson(k, n, alpha=alpha)
         rows.append({"suite": suite, "fault": fault, "rule": g["rule"].iloc[0], "n_cases": len(g),
                      "n_cannot_judge": len(g) - n, "n": n, "k": k, "rate": k / n if n else math.nan,
                      "wilson_low": wl, "wilson_high": wh, "cp_low": cl, "cp_high": ch})
