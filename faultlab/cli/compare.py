@@ -20,6 +20,12 @@ def _default_delta() -> float:
     return DEFAULT_DELTA
 
 
+def _default_timeout() -> float:
+    from faultlab.campaigns.checkspec import DEFAULT_TIMEOUT_S
+
+    return DEFAULT_TIMEOUT_S
+
+
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "compare", help="regression gate: a candidate SLAM against a recorded baseline on one coverage-driven suite "
@@ -65,6 +71,9 @@ def register(subparsers) -> None:
                    help="where the baseline is recorded (default OUT/baseline; resumable, reusable)")
     p.add_argument("--out", default="results/compare", help="results directory (default results/compare; resumable)")
     p.add_argument("--reports", default=None, help="reports directory (default OUT/report)")
+    p.add_argument("--timeout", type=float, default=None, metavar="S",
+                   help=LazyText(lambda: f"wall-clock limit of one run of a SLAM, s; a run past it failed "
+                                         f"(default {_default_timeout():g})"))
     p.add_argument("--jobs", type=positive_int, default=1, help="worker processes (default 1)")
     add_examples(p, ["faultlab compare mylab.v1:make mylab.v2:make --path .",
                      "faultlab compare fastslam --record-only --baseline-store baseline/",
@@ -103,7 +112,9 @@ def _handler(args: argparse.Namespace) -> int:
             base_spec = RecordSpec(slam=args.baseline, command=tuple(shlex.split(args.baseline_command)),
                                    suite=args.suite or RecordSpec.suite, n_cases=args.cases, n_steps=args.steps,
                                    seed=args.seed, repetitions=args.repetitions, paths=tuple(args.path),
-                                   space=read_toml(args.space, what="--space")[0] if args.space else {}).validate()
+                                   space=read_toml(args.space, what="--space")[0] if args.space else {},
+                                   timeout_s=_default_timeout() if args.timeout is None else args.timeout
+                                   ).validate()
         if not args.record_only:
             cand_spec = candidate_spec(base_spec, slam=args.candidate,
                                        command=tuple(shlex.split(args.candidate_command)),
