@@ -9,6 +9,7 @@ from pathlib import Path
 
 from faultlab.cli.options import LazyText, add_examples, positive_int
 from faultlab.errors import ConfigError, FaultlabError
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["register"]
 
@@ -59,7 +60,8 @@ def register(subparsers) -> None:
                    help="seed of the candidate's repetitions (default: the baseline's, common random numbers)")
     p.add_argument("--repetitions", "-K", type=int, default=8, metavar="K",
                    help="runs per case, >= 2; a deterministic SLAM is run twice and judged exactly (default 8)")
-    p.add_argument("--alpha", type=float, default=0.05, help="level of each one-sided test (default 0.05)")
+    p.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
+                   help=f"level of each one-sided test (default {DEFAULT_ALPHA:g})")
     p.add_argument("--delta", type=float, default=None,
                    help=LazyText(lambda: f"equivalence margin, a relative change of the map error in (0, 1) "
                                          f"(default {_default_delta():g}: see docs/how-to/compare-in-ci.md)"))
