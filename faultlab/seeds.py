@@ -20,7 +20,10 @@ a campaign (``faultlab run``) or on its own (``faultlab generate``):
   bootstrap from ``spawn_key=(STUDY, code("bootstrap"), code(strategy))`` (the mutants from
   ``code("mutants")``), so adding a strategy or a size changes no other draw;
 - an effects study (``faultlab effects``) draws its design of ``method`` (``"morris"``,
-  ``"sobol"``) from ``spawn_key=(DESIGN, code(method))``.
+  ``"sobol"``) from ``spawn_key=(DESIGN, code(method))``;
+- a mutation campaign's sample budget orders the mutants of a target by one uniform draw each,
+  from ``spawn_key=(SAMPLE, code(mutant id))``: a mutant keeps its draw whatever else the target
+  generates, so a rerun after a change to one function keeps the rest of the sample.
 
 ``code(name)`` is :func:`stable_code`, a 32-bit hash of the name, so adding, removing or
 reordering suites changes no other suite's draws.
@@ -33,10 +36,10 @@ import hashlib
 import numpy as np
 
 __all__ = ["stable_code", "suite_seed_sequence", "case_seed", "slam_seed", "study_seed_sequence",
-           "sensor_seed_sequence", "design_seed_sequence"]
+           "sensor_seed_sequence", "design_seed_sequence", "mutant_draw"]
 
 # Spawn-key tags: what a seed is for.
-_SUITE, _CASE, _SLAM, _REPLICA, _STUDY, _SENSOR, _DESIGN = 1, 2, 3, 4, 5, 6, 7
+_SUITE, _CASE, _SLAM, _REPLICA, _STUDY, _SENSOR, _DESIGN, _SAMPLE = 1, 2, 3, 4, 5, 6, 7, 8
 
 
 def stable_code(name: str) -> int:
@@ -92,3 +95,13 @@ def sensor_seed_sequence(slam_seed: int, fault: str) -> np.random.SeedSequence:
 def design_seed_sequence(root: int, method: str) -> np.random.SeedSequence:
     """The SeedSequence an effects study's design of ``method`` (``"morris"``, ``"sobol"``) is drawn from."""
     return np.random.SeedSequence(entropy=int(root), spawn_key=(_DESIGN, stable_code(method)))
+
+
+def mutant_draw(root: int, mutant_id: str) -> float:
+    """The uniform draw in [0, 1) that places mutant ``mutant_id`` in a sample budget seeded ``root``.
+
+    Ordering mutants by their draws is a uniform random permutation; its first ``n`` live mutants are
+    a uniform sample of ``n`` of the live ones.
+    """
+    ss = np.random.SeedSequence(entropy=int(root), spawn_key=(_SAMPLE, stable_code(mutant_id)))
+    return float(np.random.default_rng(ss).random())

@@ -72,7 +72,7 @@ import pandas as pd
 from faultlab.config import read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultError, ResultsError
-from faultlab.mutation.sourceselect import mutant_records, screen_target, select_source_mutants
+from faultlab.mutation.sourceselect import mutant_records, sample_order, screen_target, select_source_mutants
 from faultlab.mutation.target import generate_source_mutants, parse_target
 from faultlab.mutation.variants import MutantSelection, mutant_variant, select_mutants
 from faultlab.runner import (Experiment, ResultStore, batch_jobs, check_backend, expand_jobs, load_results, parse_experiment,
@@ -155,13 +155,15 @@ def parse_selector(text: str) -> dict:
 
 def load_mutation_experiment(path: str | Path, *, mutants: str | None = None, repetitions: int | None = None,
                              target: str | None = None, slam: str | None = None, reuse: str | Path | None = None,
-                             jobs: int = 1) -> MutationExperiment:
+                             jobs: int = 1, screen: bool = True) -> MutationExperiment:
     """Read a mutation experiment file (or a shipped one by name, e.g. ``mutation``).
 
     ``mutants`` (a :func:`parse_selector` text) replaces the file's selection; ``repetitions``
     its K; ``target`` the ``[mutation]`` target (user code, :func:`~faultlab.mutation.target.parse_target`);
     ``slam`` the ``[slam]`` name (the factory that runs the target); ``reuse`` the ``[mutation]``
-    reuse directory.  A campaign on a target screens its mutants here (``jobs`` processes; cached).
+    reuse directory.  A campaign on a target screens its mutants here (``jobs`` processes; cached);
+    ``screen=False`` skips that (and the selection: only the baseline), for what needs the
+    experiment's settings alone (a power plan).
     ConfigError naming the file and key for anything malformed.
     """
     file = resolve_experiment(path, what="mutation experiment file")
@@ -183,7 +185,7 @@ def load_mutation_experiment(path: str | Path, *, mutants: str | None = None, re
     if repetitions is not None:
         data["repetitions"] = repetitions
     if "target" in table:
-        return _load_target_experiment(path, data, text, table, jobs=jobs)
+        return _load_target_experiment(path, data, text, table, jobs=jobs, screen=screen)
     extra = sorted(set(table) & set(_TARGET_KEYS))
     if extra:
         raise ConfigError(f"{path}: [mutation]: {', '.join(extra)} need a target (user code to mutate)")
@@ -256,7 +258,8 @@ def _reuse_map(exp: Experiment, reuse, *, where: str) -> dict:
     return out
 
 
-def _load_target_experiment(path, data: dict, text: str, table: dict, *, jobs: int) -> MutationExperiment:
+def _load_target_experiment(path, data: dict, text: str, table: dict, *, jobs: int,
+                            screen: bool = True) -> MutationExperiment:
     """A mutation experiment on user code (``[mutation].target``): mutants generated from the target's
     source, screened on probes, sampled, reused; exact kills for K = 1 (a deterministic SLAM)."""
     where = f"{path}: [mutation]"
@@ -288,6 +291,9 @@ def _load_target_experiment(path, data: dict, text: str, table: dict, *, jobs: i
                           f"runs with repetitions = 1 and is judged exactly")
     target = parse_target(table["target"], functions=table.get("functions", ()), lines=table.get("lines", ()),
                           where=f"{where}.target")
+    if not screen:
+        return MutationExperiment(experiment=exp0, selection=MutantSelection((), {}, {}, {}, {}), alpha=alpha,
+                                  direction=direction, kill=kill, fixed_case_alpha=alpha / n_max)
     operators = table.get("operators")
     try:
         mutants = generate_source_mutants(target, operators=operators)
@@ -298,9 +304,14 @@ def _load_target_experiment(path, data: dict, text: str, table: dict, *, jobs: i
                           f"{mutants.skipped or 'none'})")
     reuse = _reuse_map(exp0, table.get("reuse"), where=where)
     scenarios, seeds, probe_key = _probes(exp0, table.get("probes", DEFAULT_PROBES))
-    screening = screen_target(mutants, exp0.slam, scenarios, seeds, probe_key=probe_key, jobs=jobs)
-    selection = select_source_mutants(mutants, screening, sample=table.get("sample"), seed=int(table.get("seed", 0)),
-                                      reuse=reuse)
+    sample = table.get("sample")
+    try:
+        order = sample_order(mutants, sample=sample, seed=int(table.get("seed", 0)))
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    screening = screen_target(mutants, exp0.slam, scenarios, seeds, probe_key=probe_key, order=order, budget=sample,
+                              jobs=jobs)
+    selection = select_source_mutants(mutants, screening, sample=sample, reuse=reuse)
     if not selection.run and not selection.reused:
         raise ConfigError(f"{where} selects no live mutant of {target}")
     exp = parse_experiment(dict(data) | {"variants": [BASELINE, *map(mutant_variant, selection.run)]},

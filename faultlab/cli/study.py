@@ -82,10 +82,14 @@ def register(subparsers) -> None:
                       help="store whose mean runtime per execution is the cost (default: reports/paper-k10/store)")
     plan.add_argument("--seconds-per-execution", type=float, default=None,
                       help="assume this cost of one SLAM execution instead of measuring it from --cost-store")
+    plan.add_argument("--pilot", default=None,
+                      help="a pilot study's saved analysis (kill_matrix.csv): plan the runs the study's declared "
+                           "run-level analyses need from the pilot's run-level effect and spread instead")
     plan.add_argument("--reports", default=None, help="also write plan.md into this directory")
     add_examples(plan, ["faultlab study plan study --reports reports/study",
                         "faultlab study plan mutation --reports reports/mutation",
-                        "faultlab study plan study --quick --seconds-per-execution 0.12"])
+                        "faultlab study plan study-confirm --pilot reports/study-large-faults "
+                        "--seconds-per-execution 0.016"])
     plan.set_defaults(func=_plan)
 
 
@@ -140,6 +144,8 @@ def _plan(args: argparse.Namespace) -> int:
     data, _ = read_toml(resolve_experiment(args.study, what="study file"), what="study file")
     if args.seconds_per_execution is not None and not args.seconds_per_execution > 0:
         raise ConfigError(f"--seconds-per-execution must be positive, got {args.seconds_per_execution}")
+    if args.pilot is not None:
+        return _confirmation_plan(args)
     cost = execution_cost(args.cost_store) if args.seconds_per_execution is None else None
     seconds = cost.seconds if cost is not None else args.seconds_per_execution
     common = dict(target_detection=args.target_detection_pp / 100, target_score=args.target_score_pp / 100,
@@ -165,15 +171,41 @@ def _plan(args: argparse.Namespace) -> int:
     else:
         from faultlab.campaigns.mutation import load_mutation_experiment
 
-        mexp = load_mutation_experiment(args.study)
+        from faultlab.campaigns.mutation import KILL_EXACT
+        from faultlab.inference.planning import mutation_file_scale
+
+        mexp = load_mutation_experiment(args.study, screen=False)
         exp = mexp.experiment
         plan = plan_study("mutation", strategies=len(exp.suites), suite_cases=max(s.n_cases or 0 for s in exp.suites),
-                          runs=exp.runs, alpha=mexp.alpha, sides=_sides(exp), **common)
+                          runs=exp.runs, alpha=mexp.alpha, sides=_sides(exp), exact=mexp.kill == KILL_EXACT,
+                          **common)
+        budget = (data.get("mutation") or {}).get("sample")
+        if isinstance(budget, int) and not isinstance(budget, bool) and budget >= 1:
+            scale = mutation_file_scale(plan, mutants=budget)
+            pools = f"a sample budget of {budget} live mutants"
     particles = dict(exp.slam.options).get("particles")
-    settings = f"{exp.slam.name}, {particles} particles, {exp.n_steps} active steps"
+    settings = f"{exp.slam.name}, " + (f"{particles} particles, " if particles is not None else "") + \
+        f"{exp.n_steps} active steps"
     text = plan_markdown(plan, study=Path(args.study).stem + (" --quick" if args.quick else ""), cost=cost, cost_source=str(args.cost_store),
                          settings=settings, same_settings=cost is None or (particles, exp.n_steps, exp.slam.name) ==
                          (cost.particles, cost.n_steps, cost.slam), file_scale=scale, pools=pools)
+    print(text)
+    if args.reports is not None:
+        out = Path(args.reports)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / PLAN_FILE).write_text(text)
+        print(out / PLAN_FILE)
+    return 0
+
+
+def _confirmation_plan(args: argparse.Namespace) -> int:
+    from faultlab.analysis.planning import confirmation_plan
+    from faultlab.campaigns.study import load_study_experiment
+    from faultlab.report.planning import PLAN_FILE, confirmation_markdown
+
+    plan = confirmation_plan(load_study_experiment(args.study, quick=args.quick), args.pilot, power=args.power)
+    text = confirmation_markdown(plan, study=Path(args.study).stem + (" --quick" if args.quick else ""),
+                                 seconds_per_execution=args.seconds_per_execution)
     print(text)
     if args.reports is not None:
         out = Path(args.reports)

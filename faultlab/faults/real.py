@@ -118,10 +118,11 @@ REAL_FAULTS: tuple[RealFault, ...] = (
         "gain_from_wrong_covariance", _BUILTIN["gain_from_wrong_covariance"],
         "built-in fault gain_from_wrong_covariance",
         Provenance(
-            project="AtsushiSakai/PythonRobotics",
+            project="AtsushiSakai/PythonRobotics, commit e0c15292b233f7d142c692c3aba51722d70882a1",
             file="SLAM/FastSLAM1/fast_slam1.py, the landmark update (S versus Sf)",
-            what="which innovation covariance the landmark update uses, S or Sf, questioned as incorrect",
-            found="a user's report: PythonRobotics issue #138 'S here seems incorrect'",
+            what=("the landmark update forms its own innovation covariance S where Table 13.1 of Probabilistic "
+                  "Robotics uses Sf, computed a few lines before: which covariance the gain uses is questioned"),
+            found="a user's report: PythonRobotics issue #138 'S here seems incorrect' (2018-11-28, still open)",
             known="reported")),
     RealFault(
         "measurement_noise_from_state_covariance", MEASUREMENT_NOISE_FROM_STATE_COVARIANCE,

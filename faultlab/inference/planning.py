@@ -33,7 +33,9 @@ Repetitions K
     A case of a suite of ``n`` cases is judged at ``alpha / n`` (Holm's first step); the exact
     sign-flip test with K pairs attains ``sides * 2^-K`` at the smallest
     (:func:`faultlab.inference.exact.min_p_value`), so K is the smallest value with
-    ``sides * 2^-K <= alpha / n`` (:func:`min_repetitions`).
+    ``sides * 2^-K <= alpha / n`` (:func:`min_repetitions`).  A deterministic SLAM (``exact``) is
+    judged exactly: each case runs once (K = 1) and any change of its map error kills; repeating
+    it would give identical runs, not evidence.
 
 Cost: every pool case runs once per variant (baseline, faults, mutants) with K repetitions
 (strategies study), or every case of every suite once per mutant plus the baseline (mutation
@@ -68,7 +70,7 @@ from faultlab.errors import ConfigError
 from faultlab.inference.exact import min_p_value
 from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_POWER
 
-__all__ = ["file_scale", "STUDY_KINDS", "StudyScale", "StudyPlan", "min_repetitions", "detection_power", "detectable_detection",
+__all__ = ["file_scale", "mutation_file_scale", "STUDY_KINDS", "StudyScale", "StudyPlan", "min_repetitions", "detection_power", "detectable_detection",
            "pool_for_detection", "mcnemar_power", "detectable_score", "mutants_for_score", "study_executions",
            "plan_study"]
 
@@ -293,6 +295,7 @@ class StudyPlan:
     cores: int
     needed: StudyScale
     fitting: StudyScale | None
+    exact: bool = False
 
     @property
     def fits(self) -> bool:
@@ -354,7 +357,8 @@ def _scale(kind, *, strategies, cases, faults, mutants, repetitions, runs, secon
 def plan_study(kind: str, *, strategies: int, faults: int = 0, suite_cases: int = 5, max_suite: int = 20,
                runs: int = 1, target_detection: float = 0.20, target_score: float = 0.10, power: float = DEFAULT_POWER,
                alpha: float = DEFAULT_ALPHA, sides: int = 2, centre: float = 0.5, reverse: float = 0.05,
-               seconds_per_execution: float, budget_hours: float = 3.0, cores: int = 2) -> StudyPlan:
+               seconds_per_execution: float, budget_hours: float = 3.0, cores: int = 2,
+               exact: bool = False) -> StudyPlan:
     """The scale a study needs, its cost and, if it does not fit, the largest scale that does.
 
     Parameters
@@ -384,6 +388,8 @@ def plan_study(kind: str, *, strategies: int, faults: int = 0, suite_cases: int 
         Measured cost of one SLAM execution at the study's settings.
     budget_hours, cores : float, int
         The budget: ``budget_hours`` of wall time on ``cores``.
+    exact : bool
+        The SLAM is deterministic and judged exactly (mutation study only): K = 1.
     """
     if kind not in STUDY_KINDS:
         raise ConfigError(f"study plan: unknown study kind {kind!r}; known: {', '.join(STUDY_KINDS)}")
@@ -395,7 +401,9 @@ def plan_study(kind: str, *, strategies: int, faults: int = 0, suite_cases: int 
     comparisons = strategies * (strategies - 1) // 2
     a = _check_level(alpha, "alpha") / comparisons
     family = max_suite if kind == "strategies" else suite_cases
-    k = min_repetitions(family, alpha=alpha, sides=sides)
+    if exact and kind != "mutation":
+        raise ConfigError("study plan: exact judgement (K = 1) is planned for a mutation study only")
+    k = 1 if exact else min_repetitions(family, alpha=alpha, sides=sides)
     m_need = mutants_for_score(target_score, reverse=reverse, alpha=a, power=power)
     common = dict(strategies=strategies, faults=faults, repetitions=k, runs=runs, seconds=seconds_per_execution,
                   largest_suite=max_suite)
@@ -415,12 +423,12 @@ def plan_study(kind: str, *, strategies: int, faults: int = 0, suite_cases: int 
     fitting = needed if needed.cpu_hours <= budget else _largest_fitting(kind, n_need, m_need, budget, det, sc,
                                                                           target_detection, target_score,
                                                                           max_suite, suite_cases, sides, alpha,
-                                                                          common)
+                                                                          common, exact=exact)
     return StudyPlan(kind=kind, strategies=strategies, faults=faults, runs=runs, comparisons=comparisons, alpha=alpha,
                      comparison_alpha=a, case_family=family, sides=sides, power=power,
                      target_detection_pp=100 * target_detection, target_score_pp=100 * target_score, centre=centre,
                      reverse=reverse, seconds_per_execution=seconds_per_execution, budget_hours=budget_hours,
-                     cores=cores, needed=needed, fitting=fitting)
+                     cores=cores, needed=needed, fitting=fitting, exact=exact)
 
 
 def file_scale(plan: StudyPlan, *, pools, mutants: int, repetitions: int, largest_suite: int) -> StudyScale:
@@ -454,8 +462,21 @@ def file_scale(plan: StudyPlan, *, pools, mutants: int, repetitions: int, larges
                       cpu_hours=executions * plan.seconds_per_execution / 3600)
 
 
+def mutation_file_scale(plan: StudyPlan, *, mutants: int) -> StudyScale:
+    """The scale a mutation study file sets with ``mutants`` live mutants (its sample budget), costed
+    and powered like ``plan``'s scales (the plan's cases per suite, runs and K)."""
+    if plan.kind != "mutation" or isinstance(mutants, bool) or int(mutants) < 1:
+        raise ConfigError("study plan: a mutation file's scale needs a mutation plan and at least one mutant")
+    need = plan.needed
+    return _scale("mutation", strategies=plan.strategies, cases=need.cases, faults=0, mutants=int(mutants),
+                  repetitions=need.repetitions, runs=plan.runs, seconds=plan.seconds_per_execution,
+                  det_pp=math.nan, largest_suite=need.largest_suite,
+                  score_pp=100 * detectable_score(int(mutants), reverse=plan.reverse, alpha=plan.comparison_alpha,
+                                                  power=plan.power))
+
+
 def _largest_fitting(kind, n_need, m_need, budget, det, sc, target_detection, target_score, max_suite, suite_cases,
-                     sides, alpha, common) -> StudyScale | None:
+                     sides, alpha, common, exact=False) -> StudyScale | None:
     """Among the scales within the budget, the one whose worse detectable difference, relative to its
     target, is smallest; ties (e.g. no affordable number of mutants detects any score difference) go to
     the smaller detectable detection difference, then to fewer executions.  A strategies pool smaller
@@ -466,7 +487,8 @@ def _largest_fitting(kind, n_need, m_need, budget, det, sc, target_detection, ta
     best, best_key = None, None
     sc_cache: dict = {}
     for n in pools:
-        k = min_repetitions(min(max_suite, n) if kind == "strategies" else n, alpha=alpha, sides=sides)
+        k = 1 if exact else min_repetitions(min(max_suite, n) if kind == "strategies" else n, alpha=alpha,
+                                            sides=sides)
         args = dict(strategies=common["strategies"], cases=n, faults=common["faults"], repetitions=k,
                     runs=common["runs"])
         fixed = study_executions(kind, **args, mutants=0)

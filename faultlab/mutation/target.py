@@ -160,6 +160,7 @@ class SourceFunction:
     indent: str
     source: str  # dedented
     excluded: str = ""  # why it is not mutated ("" if it is)
+    body_line: int = 0  # first line of its body (after the signature): what runs only when it is called
 
 
 @dataclass(frozen=True)
@@ -249,7 +250,7 @@ def _function(src: ModuleSource, node, qualname: str) -> SourceFunction:
     if not excluded and _indent(source, indent) != "".join(lines):
         excluded = "its source does not survive dedenting"
     return SourceFunction(qualname=qualname, first_line=first, last_line=last, indent=indent, source=source,
-                          excluded=excluded)
+                          excluded=excluded, body_line=node.body[0].lineno)
 
 
 def _indent(text: str, indent: str) -> str:

@@ -24,7 +24,6 @@ from faultlab.oracles.judge import CaseJudgement, judge_case, repetition_seeds
 from faultlab.oracles.oracle import FAIL, PASS, SKIP, CaseRuns, Oracle, OracleResult, Outcome, execute, sign_test
 from faultlab.oracles.registry import (
     ORACLE_ENTRY_POINT_GROUP,
-    OraclePlugins,
     OraclePluginWarning,
     all_oracles,
     get_oracle,
@@ -36,6 +35,6 @@ __all__ = [
     "ExecutionOracle", "MetamorphicOracle", "FloorOracle", "DifferentialOracle", "ConsistencyOracle",
     "BudgetOracle", "BUILTIN_ORACLES", "DEFAULT_OPTIONS",
     "CaseJudgement", "judge_case", "repetition_seeds",
-    "ORACLE_ENTRY_POINT_GROUP", "OraclePlugins", "OraclePluginWarning", "all_oracles", "get_oracle",
+    "ORACLE_ENTRY_POINT_GROUP", "OraclePluginWarning", "all_oracles", "get_oracle",
     "load_oracle_plugins",
 ]

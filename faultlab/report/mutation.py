@@ -164,13 +164,21 @@ def _target_markdown(analysis: MutationAnalysis, records: dict, all_scores: pd.D
             f"A case kills a mutant when the {_test_text(meta)} over K = {meta['repetitions']} repetitions rejects "
             f"at the per-case level {meta['case_alpha']:.4g} (alpha = {meta['alpha']} over the largest suite), or "
             f"the mutant alone fails.")
-    sampled = (f" A budget of {t['sample']} mutants was drawn uniformly (seeded) from the {t['n_live']} live ones: "
-               f"each score estimates the score of all live mutants, and its exact Clopper-Pearson interval covers "
-               f"the sampled fraction." if t.get("sample") and t["n_sampled"] < t["n_live"] else "")
+    n_screened = int(t.get("n_screened", t["n_mutants"]))
+    sampled = (f" A budget of {t['sample']} live mutants was drawn before screening: the {t['n_mutants']} mutants "
+               f"were put in a seeded uniform random order and screened along it until {t['n_sampled']} live ones "
+               f"were found. They are a uniform sample of the live mutants (about "
+               f"{t['n_mutants'] * cls['live'] / n_screened:.0f} of the {t['n_mutants']}, at the live share of the "
+               f"{n_screened} screened), so each score estimates the score of all live mutants and its exact "
+               f"Clopper-Pearson interval covers the sampled fraction." if n_screened < t["n_mutants"] else
+               f" The budget of {t['sample']} live mutants exceeds the {t['n_sampled']} the target has: every mutant "
+               f"was screened and every live one ran (no sampling)." if t.get("sample") and t["n_sampled"] < t["sample"]
+               else "")
     reused = meta.get("reused") or {}
     md = ["# Mutation analysis of user code", "",
           f"Target `{t['target']}` ({t['path']}, module digest {t['module_digest']}): {t['n_mutants']} mutants "
-          f"generated; screened on probe scenarios before the campaign: {cls['live']} live, {cls['invalid']} invalid "
+          f"generated; {'' if n_screened == t['n_mutants'] else f'{n_screened} of them '}screened on probe scenarios "
+          f"before the campaign: {cls['live']} live, {cls['invalid']} invalid "
           f"(cannot be imported or built: neither killed nor survived), {cls['equivalent']} equivalent and "
           f"{cls['duplicate']} duplicate (estimates bit-identical to the original's, or to an earlier mutant's, on "
           f"every probe under common random numbers). Functions not mutated: "

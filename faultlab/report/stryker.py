@@ -6,7 +6,8 @@ generated mutant with its place and replacement, and one test per (run, suite, c
 campaign.  A mutant's status is over the whole campaign (every suite's cases together): killed
 by some case -> ``Killed`` (the map error differed or the test rejected), ``RuntimeError`` (the
 mutant alone crashed) or ``Timeout``; otherwise ``Survived``.  Screening classes: ``invalid`` ->
-``CompileError``; ``equivalent`` and ``duplicate`` -> ``Ignored`` with the reason.  A reused
+``CompileError``; ``equivalent``, ``duplicate`` and ``unsampled`` (left out by the sample budget
+before screening) -> ``Ignored`` with the reason.  A reused
 verdict says so in ``statusReason``.
 """
 
@@ -18,7 +19,7 @@ __all__ = ["stryker_report", "SCHEMA_VERSION"]
 
 SCHEMA_VERSION = "2"
 _KILL_STATUS = {"killed": "Killed", "crash": "RuntimeError", "timeout": "Timeout"}
-_SCREEN_STATUS = {"invalid": "CompileError", "equivalent": "Ignored", "duplicate": "Ignored"}
+_SCREEN_STATUS = {"invalid": "CompileError", "equivalent": "Ignored", "duplicate": "Ignored", "unsampled": "Ignored"}
 
 
 def _test_id(run, suite, case) -> str:

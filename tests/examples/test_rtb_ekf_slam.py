@@ -97,3 +97,26 @@ def test_the_process_server_gives_the_in_process_estimate():
         slam.close()
     assert np.array_equal(_by_id(served)[0], _by_id(direct)[0])
     assert np.array_equal(_by_id(served)[1], _by_id(direct)[1]) and np.array_equal(served.pose, direct.pose)
+
+
+
+def test_a_mutant_of_the_toolbox_filter_reaches_the_slam_the_adapter_builds():
+    """The adapter imports the toolbox while it is built, so a mutant of ``roboticstoolbox.mobile.EKF``
+    served at import (as ``faultlab mutate`` does) is the filter it runs; imported later, in ``reset``,
+    it would get the original back and every mutant would look equivalent."""
+    from faultlab.mutation.target import generate_source_mutants, mutated_modules, parse_target
+
+    mutants = generate_source_mutants(parse_target("roboticstoolbox.mobile.EKF:EKF.step"), operators=["arithmetic"])
+    # the Joseph-form covariance update (I - K H) P (I - K H)^T + K W K^T with the noise term subtracted
+    joseph = next(m for m in mutants if m.line == 1006 and "- K @ self._W_est @ K.T" in m.replacement)
+    case = _case(3, n_steps=30)
+    original = rtb_slam.RtbEkfSlam()
+    run_slam(original, case, rng=np.random.default_rng(0))
+    with mutated_modules(joseph.id, "faultlab_rtb_ekf_slam"):
+        mutated = sys.modules["faultlab_rtb_ekf_slam"].RtbEkfSlam()
+    run_slam(mutated, case, rng=np.random.default_rng(0))
+    again = rtb_slam.RtbEkfSlam()
+    run_slam(again, case, rng=np.random.default_rng(0))
+    assert np.array_equal(again.covariance, original.covariance)  # the filter is deterministic
+    assert mutated.covariance.shape == original.covariance.shape
+    assert not np.array_equal(mutated.covariance, original.covariance)

@@ -221,3 +221,22 @@ def test_the_split_design_runs_faults_on_the_needed_pools_and_mutants_on_the_sma
     assert not plan.fits and plan.split_fits  # 13 CPU hours crossed, under 6 split at 0.02 s
     assert plan_study("strategies", strategies=5, faults=0, max_suite=22, seconds_per_execution=0.02).split is None
     assert plan_study("mutation", strategies=3, seconds_per_execution=0.02).split is None
+
+
+def test_a_deterministic_slams_mutation_plan_judges_exactly_and_needs_the_mcnemar_mutants():
+    from faultlab.inference.planning import mutation_file_scale
+
+    plan = plan_study("mutation", strategies=2, suite_cases=10, exact=True, seconds_per_execution=0.5)
+    need = plan.needed
+    assert plan.exact and need.repetitions == 1 and plan.comparison_alpha == 0.05
+    # the smallest number of mutants from which the simulated exact McNemar test keeps 80 % power
+    assert need.mutants == mutants_for_score(0.10, reverse=0.05, alpha=0.05)
+    assert _simulated_mcnemar_power(need.mutants, 0.15, 0.05, 0.05, 10_000, _rng("exact-plan")) >= 0.8 - 0.02
+    assert need.executions == 2 * 10 * (1 + need.mutants)  # each case once per variant: no repetitions
+    scale = mutation_file_scale(plan, mutants=need.mutants)
+    assert scale.score_pp <= 10 and scale.repetitions == 1 and scale.executions == need.executions
+    assert mutation_file_scale(plan, mutants=45).score_pp > 10
+    sign_flip = plan_study("mutation", strategies=2, suite_cases=10, seconds_per_execution=0.5)
+    assert sign_flip.needed.repetitions == min_repetitions(10) > 1
+    with pytest.raises(ConfigError, match="mutation study only"):
+        plan_study("strategies", strategies=2, exact=True, seconds_per_execution=0.5)

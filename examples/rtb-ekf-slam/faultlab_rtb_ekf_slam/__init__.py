@@ -115,9 +115,10 @@ class RtbEkfSlam(SlamAdapter):
         self.V = np.diag([std_v ** 2, math.radians(std_omega_deg) ** 2])
         self.W = np.diag([std_range ** 2, math.radians(std_bearing_deg) ** 2])
         self._ekf = None
+        self._classes = _toolbox()  # at construction: the toolbox's modules as the SLAM is built
 
     def reset(self, pose, *, rng):
-        EKF, OdometryVehicle, ReplaySensor = _toolbox()
+        EKF, OdometryVehicle, ReplaySensor = self._classes
         pose = np.asarray(pose, dtype=float)
         self._vehicle = OdometryVehicle(x0=pose.copy())
         self._sensor = ReplaySensor(self._vehicle)
