@@ -188,3 +188,72 @@ def test_equivalence_is_tost_with_the_shifted_exact_test_and_identity_is_observe
     assert wide.loc["motion_sign_error", "p_equivalence"] <= 0.05
     with pytest.raises(ConfigError, match="margin_rel"):
         case_verdicts(res, margin_rel=-0.1)
+
+
+# --------------------------------------------------------------------------- deterministic cases
+
+
+def deterministic_campaign(k=10, *, base=(812.5, 640.25, 1020.0), faulty=(900.0, 640.25, 700.0)):
+    """A planted deterministic SLAM: every repetition of a case gives the same error, bit for bit
+    (baseline ``base[i]``, the fault ``faulty[i]`` on case i + 1), as EKF-SLAM does whatever its seed."""
+    rows = []
+    for case, (b, f) in enumerate(zip(base, faulty), 1):
+        for rep in range(k):
+            rows.append(job(1, "systematic", case, "baseline", rep, b))
+            rows.append(job(1, "systematic", case, "naive_resampling", rep, f))
+    return frame(rows)
+
+
+def test_a_deterministic_case_is_judged_by_its_exact_difference_not_a_test_over_copies():
+    """Ten copies of one execution: a sign-flip test would report p = 2^-9 from one observation; the
+    verdict is the difference itself, with no p value, no interval, and any shift detectable."""
+    table = case_verdicts(deterministic_campaign()).set_index("case")
+    assert (table["test"] == "exact").all()
+    assert table["p"].isna().all() and table["p_min"].isna().all() and table["p_equivalence"].isna().all()
+    assert table["median_low_mm"].isna().all() and table["ratio_low"].isna().all()
+    assert list(table["verdict"]) == [Verdict.DETECTED, Verdict.NOT_DETECTED, Verdict.DETECTED]
+    assert list(table["direction"]) == ["worse", "none", "better"]
+    assert list(table["mean_diff_mm"]) == [900.0 - 812.5, 0.0, 700.0 - 1020.0]
+    assert table.loc[1, "ratio"] == 900.0 / 812.5 and table.loc[3, "ratio"] == 700.0 / 1020.0
+    assert (table["mde_mm"] == 0).all()
+    assert list(table["identical"]) == [False, True, False]
+
+
+def test_a_deterministic_case_needs_no_minimum_of_pairs_and_one_stochastic_repetition_ends_it():
+    few = case_verdicts(deterministic_campaign(k=3)).set_index("case")  # K = 3 < min_pairs: still judged
+    assert (few["test"] == "exact").all() and few.loc[1, "verdict"] == Verdict.DETECTED
+    res = deterministic_campaign()
+    wobble = (res["case"] == 1) & (res["variant"] == "baseline") & (res["rep"] == 4)
+    res.loc[wobble, "rms_mm"] = 812.5 + 1e-9  # the baseline varies on case 1: the repetitions are evidence
+    table = case_verdicts(res).set_index("case")
+    assert table.loc[1, "test"] == "sign-flip" and table.loc[1, "p"] == pytest.approx(2.0 ** -9)
+    assert list(table.loc[[2, 3], "test"]) == ["exact", "exact"]
+    one = case_verdicts(deterministic_campaign(k=1))  # one repetition shows nothing about determinism
+    assert (one["test"] == "").all() and (one["verdict"] == Verdict.CANNOT_JUDGE).all()
+
+
+def test_rule_verdicts_keep_an_exact_case_out_of_the_holm_family():
+    from faultlab.metrics.detection import DetectionRule
+    from faultlab.stats.cases import rule_verdicts
+    from faultlab.stats.detection import outcomes
+
+    res = deterministic_campaign()
+    rule = DetectionRule(rule="statistical", family="fault")
+    table = rule_verdicts(res, outcomes(res, rule=rule), rule=rule).set_index("case")
+    assert table["p_holm"].isna().all() and (table["test"] == "exact").all()
+    assert list(table["verdict"]) == [Verdict.DETECTED, Verdict.NOT_DETECTED, Verdict.DETECTED]
+
+
+def test_the_committed_deterministic_slams_are_judged_exactly_and_the_stochastic_ones_by_the_test(tmp_path):
+    """reports/slams: EKF-SLAM's repetitions are bit-identical on every case, FastSLAM's are not."""
+    import shutil
+
+    from faultlab.runner.store import load_results
+    from tests.report.committed import REPORTS
+
+    for slam, test in (("ekf", "exact"), ("fastslam1", "sign-flip")):
+        store = tmp_path / slam
+        store.mkdir()
+        shutil.copy2(REPORTS / "slams" / "store" / slam / "results.sqlite", store / "results.sqlite")
+        v = case_verdicts(load_results(store))
+        assert len(v) >= 10 and (v["test"] == test).all(), slam
