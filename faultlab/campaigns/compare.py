@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 from joblib import Parallel, delayed
 
-from faultlab.campaigns.checkspec import DEFAULT_SUITE, slam_factory, use_paths
+from faultlab.campaigns.checkspec import DEFAULT_SUITE, DEFAULT_TIMEOUT_S, executor, slam_factory, use_paths
 from faultlab.errors import ConfigError
-from faultlab.oracles import execute, repetition_seeds
+from faultlab.oracles import repetition_seeds
 from faultlab.oracles.oracle import map_error_mm
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
 from faultlab.space import table1_space
@@ -50,7 +50,7 @@ class RecordSpec:
     """What a record holds: a SLAM (built-in name or ``package.module:factory``, or a process
     ``command``) on a suite (kind, size, steps, seed, Table I overrides ``space``), ``repetitions``
     runs per case with seeds from ``rep_seed`` (default: the suite's ``seed``; a candidate with the
-    baseline's uses common random numbers)."""
+    baseline's uses common random numbers), each within ``timeout_s`` (a run past it failed)."""
 
     slam: str = ""
     command: tuple[str, ...] = ()
@@ -63,8 +63,11 @@ class RecordSpec:
     repetitions: int = 8
     paths: tuple[str, ...] = ()
     space: Mapping[str, Any] = field(default_factory=dict)
+    timeout_s: float = DEFAULT_TIMEOUT_S
 
     def validate(self) -> "RecordSpec":
+        if not self.timeout_s > 0:
+            raise ConfigError(f"--timeout must be > 0 s, got {self.timeout_s}")
         if bool(self.slam) == bool(self.command):
             raise ConfigError("name each SLAM either as a built-in name or package.module:factory, or as a "
                               "command, not both or neither")
@@ -168,7 +171,7 @@ def _record_case(spec: RecordSpec, case: SuiteCase, out: Path) -> CaseErrors:
     scenario = generate_case(case, n_steps=spec.n_steps)
     seeds = repetition_seeds(spec.repetition_seed, case_id, spec.repetitions)
     with use_paths(spec.paths):
-        factory = slam_factory(spec)
+        factory, execute = slam_factory(spec), executor(spec)  # each run within the wall-clock limit
         outcomes = [execute(factory, scenario, seeds[0]), execute(factory, scenario, seeds[1])]
         a, b = outcomes
         if a.ok and b.ok:

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from faultlab.cli.options import LazyText, add_examples, positive_int
 from faultlab.errors import ConfigError, FaultlabError
+from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["register"]
 
@@ -17,6 +18,12 @@ def _default_delta() -> float:
     from faultlab.analysis.compare import DEFAULT_DELTA
 
     return DEFAULT_DELTA
+
+
+def _default_timeout() -> float:
+    from faultlab.campaigns.checkspec import DEFAULT_TIMEOUT_S
+
+    return DEFAULT_TIMEOUT_S
 
 
 def register(subparsers) -> None:
@@ -53,7 +60,8 @@ def register(subparsers) -> None:
                    help="seed of the candidate's repetitions (default: the baseline's, common random numbers)")
     p.add_argument("--repetitions", "-K", type=int, default=8, metavar="K",
                    help="runs per case, >= 2; a deterministic SLAM is run twice and judged exactly (default 8)")
-    p.add_argument("--alpha", type=float, default=0.05, help="level of each one-sided test (default 0.05)")
+    p.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
+                   help=f"level of each one-sided test (default {DEFAULT_ALPHA:g})")
     p.add_argument("--delta", type=float, default=None,
                    help=LazyText(lambda: f"equivalence margin, a relative change of the map error in (0, 1) "
                                          f"(default {_default_delta():g}: see docs/how-to/compare-in-ci.md)"))
@@ -63,6 +71,9 @@ def register(subparsers) -> None:
                    help="where the baseline is recorded (default OUT/baseline; resumable, reusable)")
     p.add_argument("--out", default="results/compare", help="results directory (default results/compare; resumable)")
     p.add_argument("--reports", default=None, help="reports directory (default OUT/report)")
+    p.add_argument("--timeout", type=float, default=None, metavar="S",
+                   help=LazyText(lambda: f"wall-clock limit of one run of a SLAM, s; a run past it failed "
+                                         f"(default {_default_timeout():g})"))
     p.add_argument("--jobs", type=positive_int, default=1, help="worker processes (default 1)")
     add_examples(p, ["faultlab compare mylab.v1:make mylab.v2:make --path .",
                      "faultlab compare fastslam --record-only --baseline-store baseline/",
@@ -101,7 +112,9 @@ def _handler(args: argparse.Namespace) -> int:
             base_spec = RecordSpec(slam=args.baseline, command=tuple(shlex.split(args.baseline_command)),
                                    suite=args.suite or RecordSpec.suite, n_cases=args.cases, n_steps=args.steps,
                                    seed=args.seed, repetitions=args.repetitions, paths=tuple(args.path),
-                                   space=read_toml(args.space, what="--space")[0] if args.space else {}).validate()
+                                   space=read_toml(args.space, what="--space")[0] if args.space else {},
+                                   timeout_s=_default_timeout() if args.timeout is None else args.timeout
+                                   ).validate()
         if not args.record_only:
             cand_spec = candidate_spec(base_spec, slam=args.candidate,
                                        command=tuple(shlex.split(args.candidate_command)),

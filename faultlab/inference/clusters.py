@@ -37,6 +37,9 @@ from faultlab.errors import ConfigError
 from faultlab.inference.exact import MAX_EXACT_PAIRS, check_alpha, check_alternative, sign_flip_pvalues
 from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_POWER
 
+#: Relative spread of the cluster differences below which they are taken as equal (rounding of the means).
+_SPREAD_TOLERANCE = 1e-12
+
 __all__ = ["ClusterComparison", "cluster_differences", "compare_by_cluster", "clusters_for_difference",
            "equivalence_power"]
 
@@ -122,7 +125,7 @@ def compare_by_cluster(x, *, arm, cluster, alpha: float = DEFAULT_ALPHA, alterna
     est = float(d.mean()) if r else nan
     sd = float(d.std(ddof=1)) if r > 1 else nan
     p_exact = float(sign_flip_pvalues(d, alternative=alternative)) if 1 <= r <= MAX_EXACT_PAIRS else nan
-    if r < 2 or not sd > 0:
+    if r < 2 or not sd > _SPREAD_TOLERANCE * max(1.0, float(np.abs(d).max())):  # no spread beyond rounding
         return ClusterComparison(clusters=r, estimate=est, ci_low=nan, ci_high=nan, p=nan, p_exact=p_exact, sd=sd,
                                  margin=nan if margin is None else float(margin))
     res = stats.ttest_1samp(d, 0.0, alternative=alternative)

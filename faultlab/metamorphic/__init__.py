@@ -22,7 +22,6 @@ from faultlab.metamorphic.check import (
 )
 from faultlab.metamorphic.registry import (
     RELATION_ENTRY_POINT_GROUP,
-    RelationPlugins,
     RelationPluginWarning,
     all_relations,
     get_relation,
@@ -49,7 +48,6 @@ __all__ = [
     "relation_matrix",
     "metamorphic_scenario",
     "RELATION_ENTRY_POINT_GROUP",
-    "RelationPlugins",
     "RelationPluginWarning",
     "load_relation_plugins",
     "all_relations",

@@ -32,12 +32,13 @@ from typing import Any
 import numpy as np
 
 from faultlab.metamorphic.registry import get_relation
+from faultlab.oracles.budget import BUDGET_OPTIONS, BudgetOracle
 from faultlab.oracles.consistency import ConsistencyOracle
 from faultlab.oracles.oracle import FAIL, PASS, SKIP, CaseRuns, Oracle, OracleResult, map_error_mm, sign_test
 from faultlab.slam.deadreckoning import DeadReckoning
 
 __all__ = ["DEFAULT_OPTIONS", "ExecutionOracle", "MetamorphicOracle", "FloorOracle", "DifferentialOracle",
-           "ConsistencyOracle", "BUILTIN_ORACLES"]
+           "ConsistencyOracle", "BudgetOracle", "BUILTIN_ORACLES"]
 
 #: The declared margins and tolerances (``faultlab check`` options of the same names).
 DEFAULT_OPTIONS: dict[str, Any] = {
@@ -48,6 +49,7 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "differential_ratio": 2.0,    # three times the reference SLAM's error ...
     "differential_margin_mm": 100.0,  # ... plus 100 mm
     "consistency_stochastic": 0.0,  # 1: a stochastic SLAM's overconfidence fails the case (0: reported)
+    **BUDGET_OPTIONS,  # budget_mm, budget_classes, budget_step_ms: none declared
 }
 
 
@@ -223,4 +225,4 @@ class MetamorphicOracle(Oracle):
 
 #: The built-in oracles, in the order ``faultlab check`` applies them.
 BUILTIN_ORACLES: tuple[Oracle, ...] = (ExecutionOracle(), MetamorphicOracle(), FloorOracle(), DifferentialOracle(),
-                                       ConsistencyOracle())
+                                       ConsistencyOracle(), BudgetOracle())

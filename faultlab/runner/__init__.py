@@ -12,7 +12,7 @@ Modules: :mod:`~faultlab.runner.experiment` (experiment files), :mod:`~faultlab.
 """
 
 from faultlab.runner.backends import check_backend, stream_batches, stream_results
-from faultlab.runner.execution import JobResult, execute_batch, execute_job
+from faultlab.runner.execution import JobResult, TimeLimitExceeded, execute_batch, execute_job, time_limit
 from faultlab.runner.orchestration import CaseInfo, RunSummary, prepare_cases, result_row, run_experiment, store_session
 from faultlab.runner.experiment import (
     Experiment,
@@ -32,6 +32,7 @@ from faultlab.runner.store import (
 )
 
 __all__ = [
+    "TimeLimitExceeded", "time_limit",
     "check_backend",
     "Experiment",
     "SuiteSpec",

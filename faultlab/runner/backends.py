@@ -223,6 +223,8 @@ def _single_worker(initargs: tuple) -> ProcessPoolExecutor:
     if _single is None or _single[0] != initargs:
         if _single is not None:
             _single[1].shutdown(wait=False, kill_workers=True)
+        else:
+            atexit.register(_drop_single_worker)  # the command's end ends its worker, not its idle timeout
         _single = (initargs, ProcessPoolExecutor(max_workers=1, timeout=IDLE_WORKER_TIMEOUT_S,
                                                  initializer=init_worker, initargs=initargs))
     return _single[1]

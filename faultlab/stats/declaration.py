@@ -35,15 +35,24 @@ analyses stay exploratory.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Mapping
 
+import numpy as np
+import pandas as pd
+from scipy.stats import ttest_ind
+from statsmodels.stats.weightstats import ttost_ind
+
 from faultlab.config import Table
 from faultlab.errors import ConfigError
+from faultlab.inference.clusters import compare_by_cluster
+from faultlab.inference.multiplicity import holm
 from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["DECLARATION_KEY", "DECLARED_TABLES", "TESTS", "UNITS", "FAMILIES", "SIDEDNESS", "RECORDED",
-           "DeclaredAnalysis", "Declaration", "declaration_from"]
+           "DeclaredAnalysis", "Declaration", "declaration_from", "DECLARED_COLUMNS", "CONFIRMATORY",
+           "DECLARED_AFTER", "EXPLORATORY", "label_rows", "declared_table"]
 
 #: Metadata key of a store (and of a saved study analysis) holding the declaration.
 DECLARATION_KEY = "declaration"
@@ -223,3 +232,113 @@ def declaration_from(data: Mapping, *, source: str, recorded: str | None = None)
                        family=family, unit=t.str("unit", "run", choices=UNITS),
                        recorded=recorded if recorded is not None else t.str("recorded", RECORDED[1], choices=RECORDED),
                        note=t.str("note", ""))
+
+
+#: Columns of :func:`declared_table`.
+DECLARED_COLUMNS = ("analysis", "status", "table", "strategy_a", "strategy_b", "test", "unit", "sidedness", "margin",
+                    "n_a", "n_b", "runs", "estimate", "level", "estimate_low", "estimate_high", "p", "p_family",
+                    "decision")
+
+#: Values of a table's ``analysis`` column (:func:`label_rows`).
+CONFIRMATORY, DECLARED_AFTER, EXPLORATORY = "confirmatory", "declared after the run", "exploratory"
+
+
+def label_rows(frame, declaration: Declaration | None, table: str):
+    """``frame`` (a study table with ``strategy_a``, ``strategy_b`` and, where it has them, ``variant``
+    and ``size``) with a column ``analysis``: ``confirmatory`` for a row a declaration recorded before
+    the run declares, ``declared after the run`` for one a later declaration names, ``exploratory``
+    for every other row."""
+    out = frame.copy()
+    if out.empty:
+        out["analysis"] = []
+        return out
+    status = CONFIRMATORY if declaration is not None and declaration.confirmatory else DECLARED_AFTER
+    variants = out["variant"] if "variant" in out.columns else [None] * len(out)
+    sizes = out["size"] if "size" in out.columns else [None] * len(out)
+    declared = [declaration is not None and declaration.declares(table, a, b, variant=v,
+                                                                 size=None if n is None else int(n))
+                for a, b, v, n in zip(out["strategy_a"], out["strategy_b"], variants, sizes)]
+    out["analysis"] = np.where(declared, status, EXPLORATORY)
+    return out
+
+
+def declared_table(declaration: Declaration | None, *, score, strategy, run) -> pd.DataFrame:
+    """The declared analyses computed at the declared level, sidedness and unit.
+
+    Parameters
+    ----------
+    declaration : Declaration or None
+        None gives an empty table (with the columns).
+    score : array_like, shape (N,)
+        Per pool case, the share of the faults it alone detects
+        (:func:`faultlab.stats.killmatrix.case_scores`): the quantity of ``detection_means``.
+    strategy, run : array_like, shape (N,)
+        The pool case's strategy and evaluation run.
+
+    Returns
+    -------
+    DataFrame
+        One row per declared analysis (:data:`DECLARED_COLUMNS`).  A ``detection_means`` analysis is
+        computed here: with ``unit = "run"`` paired by run
+        (:func:`faultlab.inference.clusters.compare_by_cluster`: t over the runs' differences), with
+        ``unit = "case"`` by Welch's t test over the cases (statsmodels ``ttost_ind`` for
+        equivalence); a difference test's interval is at ``1 - alpha``, an equivalence test's at
+        ``1 - 2 alpha`` (its dual).  ``p_family`` is Holm over the declared analyses (``family =
+        "holm"``).  An analysis of another table is marked in that table's ``analysis`` column
+        (:func:`label_rows`) and listed here without figures.
+    """
+    if declaration is None:
+        return pd.DataFrame(columns=list(DECLARED_COLUMNS))
+    d = declaration
+    score, strategy, run = np.asarray(score, float), np.asarray(strategy), np.asarray(run)
+    status = CONFIRMATORY if d.confirmatory else DECLARED_AFTER
+    rows = []
+    for x in d.analyses:
+        row = {"analysis": x.describe(), "status": status, "table": x.table, "strategy_a": x.strategy_a,
+               "strategy_b": x.strategy_b, "test": x.test, "unit": d.unit, "sidedness": d.sidedness,
+               "margin": math.nan if x.margin is None else x.margin, "n_a": math.nan, "n_b": math.nan,
+               "runs": math.nan, "estimate": math.nan, "level": math.nan, "estimate_low": math.nan,
+               "estimate_high": math.nan, "p": math.nan,
+               "decision": f"see {x.table}.csv (rows marked {status})"}
+        if x.table == "detection_means" and "*" not in (x.strategy_a, x.strategy_b):
+            a, b = strategy == x.strategy_a, strategy == x.strategy_b
+            both = a | b
+            level = 1 - d.alpha if x.test == "difference" else 1 - 2 * d.alpha
+            row |= {"n_a": int(a.sum()), "n_b": int(b.sum()), "level": level}
+            if d.unit == "run":
+                res = compare_by_cluster(score[both], arm=a[both], cluster=run[both], alpha=1 - level,
+                                         alternative=d.sidedness, margin=x.margin)
+                p = res.p if x.test == "difference" else res.p_equivalence
+                row |= {"runs": res.clusters, "estimate": res.estimate, "estimate_low": res.ci_low,
+                        "estimate_high": res.ci_high, "p": p}
+            else:
+                xa, xb = score[a], score[b]
+                res = ttest_ind(xa, xb, equal_var=False, alternative=d.sidedness if x.test == "difference"
+                                else "two-sided")
+                ci = ttest_ind(xa, xb, equal_var=False).confidence_interval(level)
+                p = res.pvalue if x.test == "difference" else ttost_ind(xa, xb, -x.margin, x.margin,
+                                                                        usevar="unequal")[0]
+                row |= {"estimate": float(xa.mean() - xb.mean()), "estimate_low": float(ci.low),
+                        "estimate_high": float(ci.high), "p": float(p)}
+        rows.append(row)
+    out = pd.DataFrame(rows)
+    p = out["p"].to_numpy(float)
+    fam = np.full(p.shape, np.nan)
+    ok = np.isfinite(p)
+    if ok.any():
+        fam[ok] = holm(p[ok], alpha=d.alpha)[1] if d.family == "holm" else p[ok]
+    out["p_family"] = fam
+    for i, x in enumerate(d.analyses):
+        if not ok[i]:
+            if x.table == "detection_means" and "*" not in (x.strategy_a, x.strategy_b):
+                out.loc[i, "decision"] = "cannot be judged (no spread over the units)"
+            continue
+        shown = fam[i] <= d.alpha
+        if x.test == "equivalence":
+            out.loc[i, "decision"] = (f"shown within ±{100 * x.margin:g} pp" if shown
+                                      else f"not shown within ±{100 * x.margin:g} pp")
+        else:
+            sign = ">" if out.loc[i, "estimate"] > 0 else "<"
+            out.loc[i, "decision"] = (f"shown: {x.strategy_a} {sign} {x.strategy_b}" if shown
+                                      else "no difference shown")
+    return out[list(DECLARED_COLUMNS)]

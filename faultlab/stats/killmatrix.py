@@ -99,6 +99,7 @@ from faultlab.stats.cases import detectable_difference, holm_within, rule_verdic
 from faultlab.stats.detection import outcomes
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.inference.sequential import Look
+from faultlab.inference.clusters import compare_by_cluster
 from faultlab.inference.exact import MAX_EXACT_PAIRS
 from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, case_verdicts
 from faultlab.vocabulary import (BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, MDD_COLUMN, SUITE_ORDER,
@@ -109,6 +110,7 @@ __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRI
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "exact_detection_interval", "score_table", "compare_scores", "detectable_score_difference", "smallest_showable_difference",
            "DETECTION_COMPARISON_COLUMNS", "compare_detection", "MEAN_DETECTION_COLUMNS", "compare_mean_detection",
+           "case_scores",
            "WHOLE_COLUMNS", "whole_suites", "whole_suite_table"]
 
 #: Multiplicity rules within a suite's cases.
@@ -753,7 +755,8 @@ def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
 
 #: Columns of :func:`compare_mean_detection`.
 MEAN_DETECTION_COLUMNS = ("strategy_a", "strategy_b", "variants", "pool_a", "pool_b", "mean_a", "mean_b", "diff",
-                          "ci_low", "ci_high", "p", "p_holm", "shown", "equivalence_margin")
+                          "ci_low", "ci_high", "p", "p_holm", "shown", "equivalence_margin", "runs", "run_diff",
+                          "run_diff_low", "run_diff_high", "run_p", "run_p_exact", "run_p_holm", "run_shown")
 
 
 def compare_mean_detection(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA,
@@ -768,16 +771,24 @@ def compare_mean_detection(km: KillMatrix, variants, *, alpha: float = DEFAULT_A
     independent samples of case scores, compared by Welch's t test with its 95 % interval (scipy
     ``ttest_ind(equal_var=False)``), Holm over the strategy pairs (``p_holm``, ``shown``), and
     ``equivalence_margin``, the smallest margin two one-sided Welch tests at ``alpha`` show (the
-    largest end of the ``1 - 2 alpha`` interval; statsmodels ``ttost_ind`` is the reference).
+    largest end of the ``1 - 2 alpha`` interval; statsmodels ``ttost_ind`` is the reference; it is
+    derived from the data it describes, so it is exploratory, never a declared margin).
     Where neither pool's scores vary, nothing can be judged: ``p``, the interval and the margin
     are NaN rather than an interval of zero width.
+
+    The cases of a pool are nested in evaluation runs (one generated suite per run), so the same
+    comparison is also made with the run as the unit: paired by run, the t test and interval over
+    the ``runs`` differences of the two suites' mean scores and the exact sign-flip p value over
+    runs (:func:`faultlab.inference.clusters.compare_by_cluster`; ``run_diff`` with its interval
+    ``run_diff_low``, ``run_diff_high``, ``run_p``, ``run_p_exact``), Holm over the pairs (``run_p_holm``, ``run_shown``).
     """
     cols = [km.variants.index(v) for v in variants]
-    columns = [c for c in MEAN_DETECTION_COLUMNS if c not in ("p_holm", "shown")]
+    columns = [c for c in MEAN_DETECTION_COLUMNS if c not in ("p_holm", "shown", "run_p_holm", "run_shown")]
     if not cols:
         return pd.DataFrame(columns=list(MEAN_DETECTION_COLUMNS))
-    score = strong_cases(km, 1, alpha=alpha, timeouts_detect=timeouts_detect)[:, cols].mean(axis=1)
+    score = case_scores(km, variants, alpha=alpha, timeouts_detect=timeouts_detect)
     strategy = km.cases["strategy"].to_numpy()
+    run = km.cases["run"].to_numpy()
     rows = []
     for a, b in itertools.combinations(km.strategies, 2):
         xa, xb = score[strategy == a], score[strategy == b]
@@ -790,11 +801,24 @@ def compare_mean_detection(km: KillMatrix, variants, *, alpha: float = DEFAULT_A
             ci2 = res.confidence_interval(1 - 2 * alpha)
             row |= {"ci_low": float(ci.low), "ci_high": float(ci.high), "p": float(res.pvalue),
                     "equivalence_margin": float(max(abs(ci2.low), abs(ci2.high)))}
+        both = (strategy == a) | (strategy == b)
+        by_run = compare_by_cluster(score[both], arm=strategy[both] == a, cluster=run[both], alpha=alpha)
+        row |= {"runs": by_run.clusters, "run_diff": by_run.estimate, "run_diff_low": by_run.ci_low,
+                "run_diff_high": by_run.ci_high, "run_p": by_run.p, "run_p_exact": by_run.p_exact}
         rows.append(row)
     out = pd.DataFrame(rows, columns=columns)
     out.insert(out.columns.get_loc("p") + 1, "p_holm", holm_within(out["p"].to_numpy(float), np.zeros(len(out))))
     out.insert(out.columns.get_loc("p_holm") + 1, "shown", out["p_holm"].to_numpy(float) <= alpha)
-    return out
+    out["run_p_holm"] = holm_within(out["run_p"].to_numpy(float), np.zeros(len(out)))
+    out["run_shown"] = out["run_p_holm"].to_numpy(float) <= alpha
+    return out[list(MEAN_DETECTION_COLUMNS)]
+
+
+def case_scores(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA, timeouts_detect: bool = False) -> np.ndarray:
+    """Per pool case: the share of ``variants`` it alone detects (a suite of one case: a crash, or exact
+    p <= ``alpha``; :func:`strong_cases` at n = 1), shape (N,)."""
+    cols = [km.variants.index(v) for v in variants]
+    return strong_cases(km, 1, alpha=alpha, timeouts_detect=timeouts_detect)[:, cols].mean(axis=1)
 
 
 def _mcnemar_exact(only_a: np.ndarray, only_b: np.ndarray) -> np.ndarray:

@@ -44,7 +44,7 @@ def test_run_prints_location_and_summary(tmp_path, capsys):
 
 def test_run_refuses_malformed_and_changed_files(tmp_path, capsys):
     bad = write_experiment(tmp_path / "bad.toml", variants=["baseline", "no_such_fault"])
-    assert main(["run", str(bad), "--out", str(tmp_path / "bad_out"), "--no-progress"]) == 1
+    assert main(["run", str(bad), "--out", str(tmp_path / "bad_out"), "--no-progress"]) == 2  # an unknown name
     err = capsys.readouterr().err
     assert "faultlab: error:" in err and "variants[1] = 'no_such_fault'" in err
     assert not (tmp_path / "bad_out").exists()

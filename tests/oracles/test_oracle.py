@@ -93,7 +93,7 @@ def test_floor_oracle_flags_a_map_worse_than_dead_reckoning_by_a_sign_test():
 
 def test_the_catalogue_serves_the_builtins_by_name():
     assert [o.name for o in all_oracles(plugins=False)] == ["execution", "metamorphic", "floor", "differential",
-                                                         "consistency"]
+                                                         "consistency", "budget"]
     assert get_oracle("floor") is BUILTIN_ORACLES[2]
     with pytest.raises(ConfigError, match="did you mean 'floor'"):
         get_oracle("flor")

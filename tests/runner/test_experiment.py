@@ -152,7 +152,7 @@ def test_apply_typed_overrides_replaces_keys_and_merges_particles_and_rule():
         ({"variants": ["baseline", "no_such_fault"]}, r"variants\[1\] = 'no_such_fault'.*unknown fault"),
         ({"variants": ["baseline", "tests.runner.suts:nothing"]}, r"variants\[1\].*no attribute"),
         ({"variants": ["baseline", 3]}, r"variants\[1\] must be a variant name"),
-        ({"slam": {"name": "orbslam"}}, r"slam.name must be one of"),
+        ({"slam": {"name": "orbslam"}}, r"slam.name: unknown SLAM 'orbslam'. Known SLAMs: fastslam, "),
         ({"slam": {"name": "no_such_module_xyz:Slam"}}, r"slam.name = .*cannot import module"),
         ({"slam": {"name": "fastslam", "particles": 0}}, r"slam.particles must be >= 1"),
         ({"slam": {"name": "fastslam", "particles": 10.5}}, r"slam.particles must be an integer"),
