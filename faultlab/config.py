@@ -20,7 +20,8 @@ from typing import Any, ClassVar
 
 from faultlab.errors import ConfigError
 
-__all__ = ["read_toml", "merge_tables", "Table", "check_number", "check_int", "check_choice", "import_object", "Option", "Settings"]
+__all__ = ["read_toml", "merge_tables", "Table", "check_number", "check_int", "check_choice", "import_object", "Option",
+           "Settings", "ExperimentOverrides"]
 
 
 def read_toml(path: str | Path, *, what: str) -> tuple[dict, str]:
@@ -300,3 +301,99 @@ class Settings:
         return {option.key: (math.degrees(getattr(self, name)) if option.degrees else getattr(self, name))
                 for name, option in self.OPTIONS.items()
                 if not (option.omit_default and getattr(self, name) == defaults[name])}
+
+
+@dataclass(frozen=True)
+class ExperimentOverrides:
+    """Typed changes a campaign makes to an experiment's settings (``--quick``, a profile, a scale).
+
+    Every field is an experiment file's key with its meaning; ``None`` keeps the experiment's value.
+    Each value is checked here on construction (type and range, naming the field); the experiment
+    checks the changed whole again (:meth:`faultlab.runner.Experiment.apply`: suite kinds, variant
+    names, the SLAM's options).  Combine two with :meth:`then`, change one with
+    :func:`dataclasses.replace`.
+
+    Attributes
+    ----------
+    runs, repetitions, n_steps : int, optional
+        Evaluation runs, SLAM repetitions per case (K), active steps per case.
+    particles : int, optional
+        ``slam.particles``: set in the ``[slam]`` table, whose other settings are kept (a SLAM
+        without particles refuses it).
+    suites : tuple of (str, int or None), optional
+        Replaces ``[suites]``: (kind, cases) in order, ``None`` cases = ``"auto"``.  A mapping is
+        accepted.
+    variants : tuple of str, optional
+        Replaces ``variants``.
+    fov_bug : bool, optional
+    slam : tuple of (str, value), optional
+        Replaces the whole ``[slam]`` table (a mapping is accepted); ``particles`` then applies to it.
+    rule : str, optional
+        ``detection.rule``, the detection rule's other settings (alpha, family, ...) kept.
+    """
+
+    runs: int | None = None
+    repetitions: int | None = None
+    n_steps: int | None = None
+    particles: int | None = None
+    suites: tuple[tuple[str, int | None], ...] | None = None
+    variants: tuple[str, ...] | None = None
+    fov_bug: bool | None = None
+    slam: tuple[tuple[str, Any], ...] | None = None
+    rule: str | None = None
+
+    def __post_init__(self) -> None:
+        def name(key: str) -> str:
+            return f"{type(self).__name__}.{key}"
+
+        for key in ("runs", "repetitions", "n_steps", "particles"):
+            if getattr(self, key) is not None:
+                object.__setattr__(self, key, check_int(getattr(self, key), name=name(key), minimum=1))
+        if self.suites is not None:
+            items = self.suites.items() if isinstance(self.suites, Mapping) else self.suites
+            suites = []
+            for item in items:
+                if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str)):
+                    raise ConfigError(f"{name('suites')} must map suite kinds to cases, got {self.suites!r}")
+                kind, n = item
+                suites.append((kind, None if n in (None, "auto")
+                               else check_int(n, name=f"{name('suites')}[{kind!r}]", minimum=1)))
+            if not suites:
+                raise ConfigError(f"{name('suites')} must name at least one suite")
+            object.__setattr__(self, "suites", tuple(suites))
+        if self.variants is not None:
+            if isinstance(self.variants, str) or not all(isinstance(v, str) for v in self.variants) \
+                    or not self.variants:
+                raise ConfigError(f"{name('variants')} must be a non-empty sequence of names, got {self.variants!r}")
+            object.__setattr__(self, "variants", tuple(self.variants))
+        if self.fov_bug is not None and not isinstance(self.fov_bug, bool):
+            raise ConfigError(f"{name('fov_bug')} must be True or False, got {self.fov_bug!r}")
+        if self.slam is not None:
+            items = tuple(self.slam.items()) if isinstance(self.slam, Mapping) else tuple(self.slam)
+            if not all(isinstance(i, tuple) and len(i) == 2 and isinstance(i[0], str) for i in items):
+                raise ConfigError(f"{name('slam')} must be a table of settings, got {self.slam!r}")
+            object.__setattr__(self, "slam", items)
+        if self.rule is not None and not isinstance(self.rule, str):
+            raise ConfigError(f"{name('rule')} must be a rule's name, got {self.rule!r}")
+
+    def then(self, later: "ExperimentOverrides") -> "ExperimentOverrides":
+        """These overrides followed by ``later``: a field ``later`` sets wins."""
+        return ExperimentOverrides(**{f.name: getattr(self, f.name) if getattr(later, f.name) is None
+                                      else getattr(later, f.name) for f in fields(self)})
+
+    def tables(self) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+        """The changes as file-shaped keys: (keys that replace the experiment's, tables merged key by key)."""
+        replaced: dict[str, Any] = {key: getattr(self, key) for key in ("runs", "repetitions", "n_steps", "fov_bug")
+                                    if getattr(self, key) is not None}
+        if self.suites is not None:
+            replaced["suites"] = {kind: "auto" if n is None else n for kind, n in self.suites}
+        if self.variants is not None:
+            replaced["variants"] = list(self.variants)
+        if self.slam is not None:
+            replaced["slam"] = copy.deepcopy(dict(self.slam))
+        merged: dict[str, dict[str, Any]] = {}
+        if self.particles is not None:
+            merged["slam"] = {"particles": self.particles}
+        if self.rule is not None:
+            merged["detection"] = {"rule": self.rule}
+        return replaced, merged

@@ -7,6 +7,9 @@ key, step, landmark id) in one sentence.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+
 __all__ = [
     "FaultlabError",
     "ConfigError",
@@ -18,6 +21,7 @@ __all__ = [
     "SlamProcessError",
     "FaultError",
     "PluginError",
+    "UnknownPluginError",
     "ResultsError",
 ]
 
@@ -76,6 +80,41 @@ class FaultError(FaultlabError, LookupError):
 
 class PluginError(FaultlabError):
     """A third-party fault plugin failed to load (its name and error are in the message)."""
+
+
+class UnknownPluginError(ConfigError, FaultError):
+    """A name no built-in or installed plugin of its kind has: a SLAM, a suite strategy, a fault, a sensor
+    fault, a mutation operator, a metamorphic relation or an oracle.
+
+    One type for every kind of :class:`faultlab.plugins.PluginCatalogue`; a :class:`ConfigError` (a
+    setting names it) and a :class:`FaultError` (a fault or mutant names it), so either catches it.
+    The command line prints it as one line and exits with 2.
+
+    Parameters
+    ----------
+    kind : str
+        What was looked up (``"SLAM"``, ``"suite strategy"``, ``"mutation operator"``, ...).
+    name : str
+        The unknown name.
+    known : iterable of str
+        Every known name of the kind, in the catalogue's order; the closest are suggested first.
+    where : str, optional
+        The setting that named it (``"exp.toml: slam.name"``), prefixed to the message.
+    note : str
+        Appended to the message (e.g. the plugins of the kind that failed to load).
+    """
+
+    def __init__(self, kind: str, name: object, known: Iterable[str], where: str | None = None, note: str = ""):
+        self.kind, self.name, self.known, self.where, self.note = kind, name, tuple(known), where, note
+        close = difflib.get_close_matches(str(name), list(self.known), n=3, cutoff=0.6)
+        last = kind.split()[-1]
+        plural = last[:-1] + "ies" if last.endswith("y") else last + "s"
+        message = (f"unknown {kind} {name!r}" + (f"; did you mean {' or '.join(map(repr, close))}?" if close else ".")
+                   + f" Known {plural}: {', '.join(self.known) or 'none'}{note}")
+        super().__init__(f"{where}: {message}" if where else message)
+
+    def __reduce__(self):  # rebuilt from its fields (a worker process raises it to the parent)
+        return type(self), (self.kind, self.name, self.known, self.where, self.note)
 
 
 class ResultsError(FaultlabError):

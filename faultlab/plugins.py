@@ -22,27 +22,87 @@ and :meth:`~PluginCatalogue.collect`).
 
 from __future__ import annotations
 
-import difflib
 import importlib.metadata
 import re
 import warnings
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 
-__all__ = ["PluginLoad", "PluginCatalogue"]
+from faultlab.errors import PluginError, UnknownPluginError
+
+__all__ = ["PluginFailure", "PluginLoad", "PluginCatalogue"]
 
 _NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 
 @dataclass(frozen=True)
-class PluginLoad:
-    """What :meth:`PluginCatalogue.load` found: the plugins that loaded and the failures.
+class PluginFailure:
+    """A plugin (entry point) that failed to load, or one of its items that was refused.
 
-    A kind of plugin may subclass it to name its items (``operators``, ``relations``).
+    Attributes
+    ----------
+    plugin : str
+        Entry-point name.
+    source : str
+        The entry point (and, for faults, the distribution), e.g. ``"entry point broken = broken_mod:FAULTS"``.
+    error : str
+        The exception type and text, or what is wrong with the loaded item.
+    kind : str
+        The kind of plugin, hyphenated (``"fault"``, ``"sensor-fault"``, ``"mutation-operator"``, ...).
+    loading : bool
+        The entry point failed to load (True) or loaded an item that was refused (False).
+    """
+
+    plugin: str
+    source: str
+    error: str
+    kind: str = "fault"
+    loading: bool = True
+
+    def __str__(self) -> str:
+        if self.loading:
+            return f"{self.kind} plugin {self.plugin!r} ({self.source}) failed to load: {self.error}"
+        return f"{self.kind} plugin {self.plugin!r} ({self.source}): {self.error}"
+
+
+@dataclass(frozen=True)
+class PluginLoad:
+    """What :meth:`PluginCatalogue.load` found, for every kind of plugin: the plugins that loaded, where
+    each came from, and the failures.
+
+    Attributes
+    ----------
+    items : tuple
+        The plugins that loaded, in the catalogue's order.
+    sources : mapping
+        Plugin name -> the entry point (and distribution) it came from.
+    errors : tuple of PluginFailure
+        One per plugin that failed to load or item that was refused.
     """
 
     items: tuple = ()
-    errors: tuple[str, ...] = ()
+    sources: Mapping[str, str] = field(default_factory=dict)
+    errors: tuple[PluginFailure, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        """True if every plugin loaded without error."""
+        return not self.errors
+
+    def by_name(self) -> dict:
+        """Plugin name -> plugin."""
+        return {item.name: item for item in self.items}
+
+    def raise_for_errors(self) -> None:
+        """Raise :class:`~faultlab.errors.PluginError` listing every failure, if there is any."""
+        if self.errors:
+            raise PluginError("; ".join(str(e) for e in self.errors))
+
+    def __str__(self) -> str:
+        lines = [f"{len(self.items)} plugin(s) loaded"]
+        lines += [f"  {item.name}  ({self.sources.get(item.name, '?')})" for item in self.items]
+        lines += [f"  error: {e}" for e in self.errors]
+        return "\n".join(lines)
 
 
 @dataclass(frozen=True)
@@ -59,21 +119,15 @@ class PluginCatalogue:
         The class every plugin instance must be an instance of.
     builtins : sequence
         The built-in instances, in order.
-    error : exception class
-        Raised by :meth:`get` for an unknown name.
     warning : warning class
         Issued by :meth:`load` for each plugin that fails.
-    result : PluginLoad subclass
-        What :meth:`load` returns (default :class:`PluginLoad`).
     """
 
     kind: str
     group: str
     base: type
     builtins: Sequence
-    error: type[Exception]
     warning: type[Warning]
-    result: type[PluginLoad] = PluginLoad
 
     def describe(self, ep: importlib.metadata.EntryPoint) -> str:
         """Where a plugin comes from, for messages: ``"entry point NAME = VALUE"``."""
@@ -109,16 +163,13 @@ class PluginCatalogue:
             return f"duplicate {self.kind.split()[-1]} name {name!r} (already defined by {taken[name]})"
         return None
 
-    def failure(self, plugin: str, source: str, error: str, *, loading: bool):
+    def failure(self, plugin: str, source: str, error: str, *, loading: bool) -> PluginFailure:
         """The record of one failure: a plugin that did not load (``loading``) or an item it rejected."""
-        label = self.kind.replace(" ", "-")
-        if loading:
-            return f"{label} plugin {plugin!r} ({source}) failed to load: {error}"
-        return f"{label} plugin {plugin!r} ({source}): {error}"
+        return PluginFailure(plugin, source, error, kind=self.kind.replace(" ", "-"), loading=loading)
 
     def collect(self, items: list, sources: dict[str, str], errors: list) -> PluginLoad:
         """What :meth:`load` returns, from the items in load order, their sources and the failures."""
-        return self.result(items=tuple(items), errors=tuple(errors))
+        return PluginLoad(items=tuple(items), sources=sources, errors=tuple(errors))
 
     def load(self, *, group: str | None = None, warn: bool = True) -> PluginLoad:
         """Discover the third-party plugins (in entry-point name order).
@@ -133,7 +184,7 @@ class PluginCatalogue:
         Returns
         -------
         PluginLoad
-            What :meth:`collect` makes of the result (an instance of :attr:`result`).
+            What :meth:`collect` makes of the result.
         """
         taken = {b.name: "faultlab (built-in)" for b in self.builtins}
         items: list = []
@@ -165,14 +216,12 @@ class PluginCatalogue:
         return list(self.builtins) + (list(self.load().items) if plugins else [])
 
     def get(self, name: str):
-        """The plugin called ``name`` (built-in or third-party); :attr:`error` with close names otherwise."""
+        """The plugin called ``name`` (built-in or third-party); :class:`~faultlab.errors.UnknownPluginError`
+        naming the kind, the name and the known names (closest first) otherwise."""
         for item in self.builtins:
             if item.name == name:
                 return item
         known = {item.name: item for item in self.all(plugins=True)}
         if name in known:
             return known[name]
-        close = difflib.get_close_matches(str(name), list(known), n=3, cutoff=0.6)
-        hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
-        plural = self.kind.split()[-1] + "s"
-        raise self.error(f"unknown {self.kind} {name!r}{hint} Known {plural}: {', '.join(known)}")
+        raise UnknownPluginError(self.kind, name, known)

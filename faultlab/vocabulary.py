@@ -24,6 +24,9 @@ __all__ = [
     "UNKNOWN_ASSOCIATION",
     "BACKENDS",
     "DEFAULT_ALPHA",
+    "DEFAULT_POWER",
+    "POWER_TEXT",
+    "MDD_COLUMN",
     "DIRECTIONS",
     "DEFAULT_DIRECTION",
     "PAPER_DIRECTION",
@@ -89,8 +92,12 @@ BACKENDS: tuple[str, ...] = ("loky", "threading", "dask", "ray")
 #: Default level of every test and 1 - confidence level of every interval (the paper's 5 %).
 DEFAULT_ALPHA = 0.05
 
-#: Default power of every sample-size and detectable-difference figure (the conventional 80 %).
+#: Default power of every sample-size and detectable-difference figure (the conventional choice).
 DEFAULT_POWER = 0.8
+#: :data:`DEFAULT_POWER` as tables and messages write it (``"80 %"``).
+POWER_TEXT = f"{100 * DEFAULT_POWER:g} %"
+#: Column of the smallest difference detectable with :data:`DEFAULT_POWER` (``"mdd80"``).
+MDD_COLUMN = f"mdd{100 * DEFAULT_POWER:g}"
 
 #: Which change of the map error a per-case test looks for: ``"either"`` (two-sided: the variant
 #: behaves differently, worse or better) or ``"worse"`` (one-sided: the paper's notion of detecting

@@ -37,3 +37,35 @@ def test_a_file_that_is_not_utf8_is_invalid_toml_naming_file_byte_and_line(tmp_p
     with pytest.raises(ConfigError) as info:
         read_toml(bad, what="test file")
     assert str(info.value) == f"{bad}: test file is not valid TOML (not UTF-8 text: byte 0xe9 at line 2)"
+
+
+def test_experiment_overrides_are_checked_on_construction_and_normalised():
+    from faultlab.config import ExperimentOverrides
+
+    o = ExperimentOverrides(repetitions=5, suites={"systematic": "auto", "random": 2}, variants=["baseline"],
+                            slam={"name": "ekf"})
+    assert o.suites == (("systematic", None), ("random", 2)) and o.variants == ("baseline",)
+    assert o.slam == (("name", "ekf"),)
+    assert o.tables() == ({"repetitions": 5, "suites": {"systematic": "auto", "random": 2},
+                           "variants": ["baseline"], "slam": {"name": "ekf"}}, {})
+    assert ExperimentOverrides(particles=30, rule="statistical").tables() == (
+        {}, {"slam": {"particles": 30}, "detection": {"rule": "statistical"}})
+    for bad, match in [({"repetitions": 0}, r"ExperimentOverrides.repetitions must be >= 1"),
+                       ({"particles": 2.5}, r"ExperimentOverrides.particles must be an integer"),
+                       ({"runs": True}, r"ExperimentOverrides.runs must be an integer"),
+                       ({"suites": {"random": 0}}, r"ExperimentOverrides.suites\['random'\] must be >= 1"),
+                       ({"suites": {}}, r"at least one suite"),
+                       ({"variants": "baseline"}, r"ExperimentOverrides.variants"),
+                       ({"fov_bug": 1}, r"ExperimentOverrides.fov_bug"),
+                       ({"slam": ["name"]}, r"ExperimentOverrides.slam")]:
+        with pytest.raises(ConfigError, match=match):
+            ExperimentOverrides(**bad)
+
+
+def test_experiment_overrides_then_lets_the_later_set_fields_win():
+    from faultlab.config import ExperimentOverrides
+
+    first = ExperimentOverrides(runs=1, repetitions=1, particles=60)
+    both = first.then(ExperimentOverrides(repetitions=10, n_steps=25))
+    assert both == ExperimentOverrides(runs=1, repetitions=10, particles=60, n_steps=25)
+    assert first.then(ExperimentOverrides()) == first and ExperimentOverrides().then(first) == first

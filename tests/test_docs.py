@@ -127,3 +127,33 @@ def test_every_test_the_integrity_page_cites_exists():
             assert re.search(rf"^def {re.escape(name)}\(", path.read_text(), re.M), ref
             cited += 1
     assert cited >= 25
+
+
+def test_compare_ci_recipe_commands_parse_and_its_yaml_is_valid():
+    import shlex
+
+    import yaml
+
+    from faultlab.cli import build_parser
+
+    text = (DOCS / "how-to" / "compare-in-ci.md").read_text()
+    blocks = _blocks(text, "yaml")
+    assert len(blocks) == 2
+    commands = []
+    for block in blocks:
+        job = yaml.safe_load(block)
+        assert isinstance(job, dict)
+        commands += re.findall(r"(faultlab compare [^\n\"]+)", block)
+    for block in _blocks(text, "bash"):
+        commands += [line for line in block.splitlines() if line.startswith("faultlab compare")]
+    assert len(commands) >= 6
+    parser = build_parser()
+    for line in commands:
+        args = parser.parse_args(shlex.split(line)[1:])  # exits (a test failure) on an unknown option
+        assert args.command == "compare" and (args.baseline or args.baseline_command)
+    # the exit statuses promised are the command's
+    from faultlab.analysis.compare import EXIT_NOT_EQUIVALENT, EXIT_OK, EXIT_REGRESSION, EXIT_USAGE
+
+    table = dict(re.findall(r"^\| (\d) \| (.+) \|$", text, flags=re.M))
+    assert set(map(int, table)) == {EXIT_OK, EXIT_REGRESSION, EXIT_USAGE, EXIT_NOT_EQUIVALENT}
+    assert "regression" in table[str(EXIT_REGRESSION)] and "require-equivalence" in table[str(EXIT_NOT_EQUIVALENT)]

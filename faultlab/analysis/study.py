@@ -27,19 +27,22 @@ from faultlab.errors import ResultsError
 from faultlab.mutation.variants import is_mutant_variant, mutant_id_of
 from faultlab.runner.store import STUDY_FILE, load_metadata, load_results, load_sessions, settle_sessions
 from faultlab.stats.cases import detectable_difference
+from faultlab.stats.controls import CONTROL_COLUMNS, CONTROL_SUMMARY_COLUMNS, aa_controls, aa_summary
+from faultlab.stats.declaration import (DECLARATION_KEY, DECLARED_COLUMNS, Declaration, declaration_from,
+                                        declared_table, label_rows)
 from faultlab.stats.killmatrix import (DETECTION_COMPARISON_COLUMNS, MEAN_DETECTION_COLUMNS, WHOLE_COLUMNS,
                                        KillMatrix, StudySpec, compare_detection, compare_mean_detection,
-                                       compare_scores, detection_table,
+                                       case_scores, compare_scores, detection_table,
                                        evaluate_suites, kill_matrix, score_table, study_spec, whole_suite_table,
                                        whole_suites)
 from faultlab.inference.exact import alternative_of, min_pairs
-from faultlab.vocabulary import BASELINE, PAPER_FAULTS
+from faultlab.vocabulary import BASELINE, MDD_COLUMN, PAPER_FAULTS
 
 __all__ = ["STUDY_TABLES", "StudyAnalysis", "analyse_study", "reanalyse_saved_study"]
 
 #: Tables of a :class:`StudyAnalysis`, saved as ``<name>.csv``.
 STUDY_TABLES = ("kill_matrix", "detection", "scores", "comparisons", "power", "whole", "detection_comparisons",
-                "detection_means")
+                "detection_means", "declared", "controls", "controls_summary")
 _META_FILE = "study_meta.json"
 
 
@@ -61,7 +64,7 @@ class StudyAnalysis(TableBundle):
         Per strategy: pool size, suites drawn, bootstrap replicates, the Monte Carlo error bound
         of a drawn-suite rate and the smallest difference in a size-1 detection probability (a
         share of pool cases) between this and every other pool that a two-sample test detects
-        with 80 % power at 0.05, at rates 0.5 and 0.1.
+        with the default power at 0.05, at rates 0.5 and 0.1 (columns ``<MDD_COLUMN>_at_<rate>``).
     whole : DataFrame
         :func:`~faultlab.stats.killmatrix.whole_suite_table` of the strategies in ``[study] whole``:
         each evaluation run's generated suite (e.g. a whole pairwise covering array) judged whole.
@@ -70,7 +73,17 @@ class StudyAnalysis(TableBundle):
         detection probabilities compared pair by pair, with intervals, Holm and equivalence margins.
     detection_means : DataFrame
         :func:`~faultlab.stats.killmatrix.compare_mean_detection` over the faults: the single-case
-        detection probability averaged over the faults, compared pair by pair with the case as the unit.
+        detection probability averaged over the faults, compared pair by pair with the case and with
+        the evaluation run as the unit.
+    declared : DataFrame
+        :func:`~faultlab.stats.declaration.declared_table`: the study's declared analyses (empty
+        without a declaration); ``detection_means``, ``detection_comparisons`` and ``comparisons``
+        carry a column ``analysis`` saying which of their rows are declared and which exploratory.
+    controls : DataFrame
+        :func:`~faultlab.stats.controls.aa_controls`: every strategy against itself (A/A).
+    controls_summary : DataFrame
+        :func:`~faultlab.stats.controls.aa_summary`: the A/A false-alarm rates, per comparison and
+        per family kept apart.
     meta : dict
         Settings, mutants, run time per session, sampled machine load, SLAM time, job counts.
     """
@@ -84,6 +97,10 @@ class StudyAnalysis(TableBundle):
     detection_comparisons: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=list(DETECTION_COMPARISON_COLUMNS)))
     detection_means: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(MEAN_DETECTION_COLUMNS)))
+    declared: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(DECLARED_COLUMNS)))
+    controls: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=list(CONTROL_COLUMNS)))
+    controls_summary: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=list(CONTROL_SUMMARY_COLUMNS)))
     meta: dict = field(default_factory=dict)
 
     TABLES = STUDY_TABLES
@@ -97,8 +114,8 @@ def _power(pool_sizes: dict, spec: StudySpec) -> pd.DataFrame:
         others = [n for b, n in pool_sizes.items() if b != a] or [n_a]
         rows.append({"strategy": a, "pool": n_a, "draws": spec.draws, "bootstrap": spec.bootstrap,
                      "mc_se_max": 0.5 / math.sqrt(spec.draws),
-                     "mdd80_at_0.5": max(detectable_difference(0.5, n_a, n) for n in others),
-                     "mdd80_at_0.1": max(detectable_difference(0.1, n_a, n) for n in others)})
+                     **{f"{MDD_COLUMN}_at_{rate}": max(detectable_difference(rate, n_a, n) for n in others)
+                        for rate in (0.5, 0.1)}})
     return pd.DataFrame(rows)
 
 
@@ -135,7 +152,7 @@ def _whole(km: KillMatrix, spec: StudySpec, mutants, *, k: int | None = None,
 def _evaluate(km: KillMatrix, spec: StudySpec, *, k: int | None, alternative: str):
     """Drawn suites of every size from every pool, the detection table, the whole suites and the faults'
     strategy comparisons of a kill matrix: ``(evaluation, mutants, detection, whole, whole_not_evaluated,
-    detection_comparisons, detection_means)``."""
+    detection_comparisons, detection_means)`` (unlabelled: :func:`_analysis` labels them)."""
     mutants = tuple(v for v in km.variants if is_mutant_variant(v))
     ev = evaluate_suites(km, spec.sizes, draws=spec.draws, bootstrap=spec.bootstrap, seed=spec.seed,
                          alpha=spec.alpha, method=spec.multiplicity, mutants=mutants,
@@ -146,6 +163,31 @@ def _evaluate(km: KillMatrix, spec: StudySpec, *, k: int | None, alternative: st
     faults = [v for v in km.variants if v != BASELINE and v not in mutants]
     return (ev, mutants, detection, whole, skipped, compare_detection(ev, faults, alpha=spec.alpha),
             compare_mean_detection(km, faults, alpha=spec.alpha, timeouts_detect=spec.timeouts_detect))
+
+
+def _declaration(stored, source: str) -> Declaration | None:
+    return None if stored is None else declaration_from(stored, source=source)
+
+
+def _analysis(km: KillMatrix, spec: StudySpec, ev, mutants, detection, whole, per_fault, means,
+              declaration: Declaration | None, meta: dict) -> StudyAnalysis:
+    """The :class:`StudyAnalysis` of an evaluated kill matrix: the declared analyses, the A/A controls,
+    and every comparison table labelled declared or exploratory."""
+    faults = [v for v in km.variants if v != BASELINE and v not in mutants]
+    score = case_scores(km, faults, alpha=spec.alpha, timeouts_detect=spec.timeouts_detect) if faults else \
+        np.zeros(len(km.cases))
+    declared = declared_table(declaration, score=score, strategy=km.cases["strategy"].to_numpy(),
+                              run=km.cases["run"].to_numpy())
+    controlled, kind = (faults, "fault") if faults else (list(mutants), "mutant")
+    controls = aa_controls(km, controlled, alpha=spec.alpha, timeouts_detect=spec.timeouts_detect, kind=kind) \
+        if controlled else pd.DataFrame(columns=list(CONTROL_COLUMNS))
+    meta = meta | {DECLARATION_KEY: None if declaration is None else declaration.to_dict()}
+    return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
+                         comparisons=label_rows(compare_scores(ev, alpha=spec.alpha), declaration, "comparisons"),
+                         power=_power(ev.pool_sizes, spec), whole=whole,
+                         detection_comparisons=label_rows(per_fault, declaration, "detection_comparisons"),
+                         detection_means=label_rows(means, declaration, "detection_means"), declared=declared,
+                         controls=controls, controls_summary=aa_summary(controls, alpha=spec.alpha), meta=meta)
 
 
 def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
@@ -168,13 +210,12 @@ def reanalyse_saved_study(directory: str | Path) -> StudyAnalysis:
         frame["mean_log_ratio"] = np.nan
     km = KillMatrix.from_frame(frame)
     spec = study_spec(meta["study"], source=str(d / _META_FILE))
-    ev, _, detection, whole, skipped, per_fault, means = _evaluate(km, spec, k=meta.get("repetitions"),
-                                                                   alternative=alternative)
+    ev, mutants, detection, whole, skipped, per_fault, means = _evaluate(km, spec, k=meta.get("repetitions"),
+                                                                         alternative=alternative)
     meta = meta | {"alternative": alternative, "sizes_not_evaluated": meta.get("sizes_not_evaluated", {}),
                    "whole_not_evaluated": skipped}
-    return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
-                         comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole, detection_comparisons=per_fault, detection_means=means, meta=meta)
+    declaration = _declaration(meta.get(DECLARATION_KEY), str(d / _META_FILE))
+    return _analysis(km, spec, ev, mutants, detection, whole, per_fault, means, declaration, meta)
 
 
 def analyse_study(out: str | Path) -> StudyAnalysis:
@@ -237,7 +278,6 @@ def analyse_study(out: str | Path) -> StudyAnalysis:
         "crash_cases": {v: int(n) for v, n in zip(km.variants, km.crash.sum(axis=0)) if n},
         "timeout_cases": {v: int(n) for v, n in zip(km.variants, km.timeout.sum(axis=0)) if n},
     }
-    return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
-                         comparisons=compare_scores(ev, alpha=spec.alpha), power=_power(ev.pool_sizes, spec),
-                         whole=whole, detection_comparisons=per_fault, detection_means=means, meta=meta_out)
+    declaration = _declaration(meta.get(DECLARATION_KEY), str(out))
+    return _analysis(km, spec, ev, mutants, detection, whole, per_fault, means, declaration, meta_out)
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from faultlab.config import ExperimentOverrides
 from faultlab.campaigns.reproduce import DEFAULT_EXPERIMENT, quick_overrides
 from faultlab.runner import Experiment, RunSummary, load_experiment, run_experiment
 from faultlab.vocabulary import BASELINE, REPLICA
@@ -44,7 +45,7 @@ def default_calibration_out(*, quick: bool = False) -> Path:
 
 def calibrate(*, experiment_path: str | Path = DEFAULT_EXPERIMENT, out: str | Path | None = None,
               quick: bool = False, repetitions: int | None = None, jobs: int = 2, backend: str = "loky",
-              force_new: bool = False, progress: bool = True, overrides: dict | None = None) -> CalibrationRun:
+              force_new: bool = False, progress: bool = True, overrides: ExperimentOverrides | None = None) -> CalibrationRun:
     """Run (or resume) the A/A campaign.
 
     Parameters
@@ -61,19 +62,18 @@ def calibrate(*, experiment_path: str | Path = DEFAULT_EXPERIMENT, out: str | Pa
         K (default :data:`CALIBRATION_REPS`, or the quick one).
     jobs, backend, force_new, progress
         Passed to :func:`faultlab.runner.run_experiment`.
-    overrides : dict, optional
-        Further experiment overrides applied last (e.g. a smaller test configuration).
+    overrides : ExperimentOverrides, optional
+        Further changes applied last (e.g. a smaller test configuration).
 
     Returns
     -------
     CalibrationRun
     """
     experiment = load_experiment(experiment_path)
-    changes = quick_overrides(experiment) if quick else {}
     k = repetitions if repetitions is not None else (QUICK_CALIBRATION_REPS if quick else CALIBRATION_REPS)
-    changes.update(variants=[BASELINE, REPLICA], repetitions=k, detection={"rule": "statistical"})
-    changes.update(overrides or {})
-    experiment = experiment.replace(**changes)
+    changes = (quick_overrides(experiment) if quick else ExperimentOverrides()).then(
+        ExperimentOverrides(variants=(BASELINE, REPLICA), repetitions=k, rule="statistical"))
+    experiment = experiment.apply(changes.then(overrides or ExperimentOverrides()))
     out = Path(out) if out is not None else default_calibration_out(quick=quick)
     summary = run_experiment(experiment, out, jobs=jobs, backend=backend, force_new=force_new, progress=progress)
     return CalibrationRun(experiment=experiment, summary=summary, out=out)

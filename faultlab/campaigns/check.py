@@ -32,8 +32,6 @@ from faultlab.campaigns.checkshrink import reduce_failure
 from faultlab.campaigns.checkspec import DEFAULT_ORACLES, DEFAULT_SUITE, CheckSpec, judge_scenario
 from faultlab.errors import ConfigError
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
-from faultlab.space import table1_space
-from faultlab.space.parameters import space_from_mapping
 
 __all__ = ["DEFAULT_SUITE", "DEFAULT_ORACLES", "CheckSpec", "CaseRecord", "judge_scenario", "run_check",
            "case_records"]
@@ -65,10 +63,12 @@ def _case_id(case: SuiteCase) -> str:
 def _judge_and_store(spec: CheckSpec, case: SuiteCase, out: Path, shrink: bool) -> CaseRecord:
     case_id = _case_id(case)
     scenario = generate_case(case, n_steps=spec.n_steps)
-    judgement = judge_scenario(spec, case_id, scenario)
+    space = spec.parameter_space()
+    classes = {name: space[name].class_names[index] for name, index in case.spec.classes.items()}
+    judgement = judge_scenario(spec, case_id, scenario, classes)
     reduction = None
     if judgement.failed and shrink:
-        reduction = reduce_failure(spec, case_id, scenario, judgement, out)
+        reduction = reduce_failure(spec, case_id, scenario, judgement, out, classes)
     record = CaseRecord(case_id=case_id, values=dict(case.spec.values), n_steps=scenario.n_steps,
                         n_landmarks=int(scenario.landmarks.shape[0]), deterministic=judgement.deterministic,
                         executions=judgement.executions, alpha_per_test=judgement.alpha_per_test,
@@ -109,8 +109,7 @@ def run_check(spec: CheckSpec, out: str | Path, *, jobs: int = 1, shrink: bool =
     """
     spec = spec.validate()
     out = Path(out)
-    space = space_from_mapping(spec.space, source="check space") if spec.space else table1_space()
-    cases = draw_suite(spec.suite, space, root_seed=spec.seed, n_cases=spec.n_cases)
+    cases = draw_suite(spec.suite, spec.parameter_space(), root_seed=spec.seed, n_cases=spec.n_cases)
     head = out / "check.json"
     meta = {"spec": spec.to_dict(), "digest": spec.digest(), "cases": [_case_id(c) for c in cases]}
     if head.is_file():

@@ -21,7 +21,7 @@ import string
 from dataclasses import replace
 from pathlib import Path
 
-from faultlab.campaigns.checkspec import reference_factory, slam_factory, use_paths
+from faultlab.campaigns.checkspec import executor, reference_factory, slam_factory, use_paths
 from faultlab.oracles import DEFAULT_OPTIONS, CaseJudgement, get_oracle, judge_case, repetition_seeds
 from faultlab.oracles.shrink import reduce_scenario
 from faultlab.scenario.model import Scenario, save_scenario
@@ -76,19 +76,26 @@ def replay_command(spec, case_file: Path, case_id: str) -> str:
     argv += ["--command", shlex.join(spec.command)] if spec.command else [spec.slam]
     argv += ["--case", str(case_file), "--case-id", case_id, "--oracles", *spec.oracles,
              "--seed", str(spec.seed), "--repetitions", str(spec.repetitions), "--alpha", f"{spec.alpha:g}",
-             "--reference", spec.reference or "none"]
+             "--reference", spec.reference or "none", "--timeout", f"{spec.timeout_s:g}"]
     for p in spec.paths:
         argv += ["--path", p]
     for key, value in dict(spec.options).items():
-        if key != "relations":
+        if key == "budget_classes":
+            for cls, mm in dict(value).items():
+                argv += ["--budget", f"{cls}={mm}"]
+        elif key != "relations":
             argv += ["--option", f"{key}={value}"]
     if "relations" in spec.options:
         argv += ["--relations", *spec.options["relations"]]
     return shlex.join(argv)
 
 
-def reduce_failure(spec, case_id: str, scenario: Scenario, judgement: CaseJudgement, out: Path) -> dict:
-    """Reduce the case for every failed oracle and write the reproducers; a JSON-friendly summary."""
+def reduce_failure(spec, case_id: str, scenario: Scenario, judgement: CaseJudgement, out: Path,
+                   classes=None) -> dict:
+    """Reduce the case for every failed oracle and write the reproducers; a JSON-friendly summary.
+
+    ``classes`` (the case's Table I classes, for per-class budgets) is kept in the minimal case's
+    ``meta["check_classes"]``, where a replay finds it."""
     summary = {}
     for result in judgement.results:
         if not result.failed:
@@ -100,7 +107,8 @@ def reduce_failure(spec, case_id: str, scenario: Scenario, judgement: CaseJudgem
         def judged(s: Scenario, seeds) -> bool:
             with use_paths(spec.paths):
                 j = judge_case(case_id, s, slam_factory(spec), oracles=[oracle], seeds=seeds, alpha=one.alpha,
-                               reference=reference_factory(spec), options=options)
+                               reference=reference_factory(spec), options=options, classes=classes,
+                               executor=executor(spec))
             return j.results[0].failed
 
         seeds = repetition_seeds(spec.seed, case_id, spec.repetitions)
@@ -108,7 +116,8 @@ def reduce_failure(spec, case_id: str, scenario: Scenario, judgement: CaseJudgem
         red = reduce_scenario(scenario, lambda s: judged(s, seeds), confirm=lambda s: judged(s, fresh))
         where = out / "reproducers" / f"{case_id}-{result.oracle}"
         where.mkdir(parents=True, exist_ok=True)
-        minimal = replace(red.scenario, meta={**red.scenario.meta, "check_case": case_id})
+        minimal = replace(red.scenario, meta={**red.scenario.meta, "check_case": case_id,
+                                              **({"check_classes": dict(classes)} if classes else {})})
         case_file = save_scenario(minimal, where / "case.npz")
         command = replay_command(one, case_file, case_id)
         (where / "replay.txt").write_text(command + "\n")

@@ -25,7 +25,7 @@ not valid once cases are skipped.  K must be at least ``min_pairs(alpha / n)`` f
 sidedness (two-sided: one more than one-sided).
 
 A mutant that survives a suite comes with the smallest shift of the mean map error it could
-have detected (80 % power): the smallest per-case detectable shift ``mde_mm`` of the suite's
+have detected (at :data:`~faultlab.vocabulary.DEFAULT_POWER`): the smallest per-case detectable shift ``mde_mm`` of the suite's
 cases (estimated from the baseline's spread, :func:`~faultlab.stats.verdict.case_verdicts`).
 
 Adaptive repetitions.  An ``[adaptive]`` table (``stages``, cumulative, the last equal to
@@ -75,7 +75,7 @@ from faultlab.errors import ConfigError, FaultError, ResultsError
 from faultlab.mutation.sourceselect import mutant_records, sample_order, screen_target, select_source_mutants
 from faultlab.mutation.target import generate_source_mutants, parse_target
 from faultlab.mutation.variants import MutantSelection, mutant_variant, select_mutants
-from faultlab.runner import (Experiment, ResultStore, batch_jobs, expand_jobs, load_results, parse_experiment,
+from faultlab.runner import (Experiment, ResultStore, batch_jobs, check_backend, expand_jobs, load_results, parse_experiment,
                              prepare_cases, result_row, store_session, stream_results)
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
@@ -411,6 +411,7 @@ def run_mutation(mexp: MutationExperiment | str | Path, out: str | Path, *, jobs
     exp = mexp.experiment
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ConfigError(f"jobs must be an integer >= 1, got {jobs!r}")
+    check_backend(backend, jobs=jobs)
     t0 = time.perf_counter()
     out = Path(out)
     n_new = 0

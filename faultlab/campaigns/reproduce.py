@@ -27,8 +27,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from faultlab.config import ExperimentOverrides, check_int
 from faultlab.errors import ConfigError
-from faultlab.runner import Experiment, RunSummary, load_experiment, parse_experiment, run_experiment
+from faultlab.runner import Experiment, RunSummary, load_experiment, run_experiment
 from faultlab.vocabulary import BASELINE, PAPER_FAULTS
 
 __all__ = ["ReproduceRun", "reproduce", "quick_overrides", "profile_overrides", "default_out", "default_reports",
@@ -56,28 +57,21 @@ REPORT_DIR = "report"
 ABLATION_VARIANTS = (BASELINE, "missing_angle_wrap")
 
 
-def quick_overrides(experiment: Experiment) -> dict:
+def quick_overrides(experiment: Experiment) -> ExperimentOverrides:
     """Overrides that turn an experiment into a smoke version (1 run, few cases, short traces).
 
     One evaluation run; the systematic suite with the fewest cases that cover every class
     ("auto"), the other suites with :data:`QUICK_CASES` cases; the baseline and the paper's three
     faults; one SLAM repetition; :data:`QUICK_STEPS` steps; :data:`QUICK_PARTICLES` particles.
     """
-    suites = {kind: ("auto" if kind == "systematic" else QUICK_CASES)
-              for kind in experiment.suite_kinds}
-    overrides = {
-        "runs": 1,
-        "suites": suites,
-        "variants": [BASELINE, *PAPER_FAULTS],
-        "repetitions": 1,
-        "n_steps": QUICK_STEPS,
-    }
-    if experiment.slam.name == "fastslam":
-        overrides["slam"] = {"particles": min(QUICK_PARTICLES, experiment.slam.config.particles)}
-    return overrides
+    return ExperimentOverrides(
+        runs=1, repetitions=1, n_steps=QUICK_STEPS, variants=(BASELINE, *PAPER_FAULTS),
+        suites=tuple((kind, None if kind == "systematic" else QUICK_CASES) for kind in experiment.suite_kinds),
+        particles=(min(QUICK_PARTICLES, experiment.slam.config.particles) if experiment.slam.name == "fastslam"
+                   else None))
 
 
-def profile_overrides(experiment, profile: str) -> dict:
+def profile_overrides(experiment, profile: str) -> ExperimentOverrides:
     """Overrides that run ``experiment`` on FastSLAM profile ``profile`` (as the paper did for ``"paper"``).
 
     The SLAM becomes ``fastslam`` with the profile's settings (the file's SLAM settings are replaced:
@@ -90,8 +84,8 @@ def profile_overrides(experiment, profile: str) -> dict:
     if experiment.slam.name != "fastslam":
         raise ConfigError(f"a FastSLAM profile needs [slam] name = 'fastslam', {experiment.source} has "
                           f"{experiment.slam.name!r}")
-    return {"slam": {"name": "fastslam", "profile": p.name, **p.config.to_options()},
-            "fov_bug": p.name != DEFAULT_PROFILE}
+    return ExperimentOverrides(slam={"name": "fastslam", "profile": p.name, **p.config.to_options()},
+                               fov_bug=p.name != DEFAULT_PROFILE)
 
 
 def default_out(experiment_path: str | Path, *, quick: bool = False, runs: int | None = None,
@@ -157,8 +151,7 @@ def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RU
     if experiment.slam.profile != ABLATION_PROFILE:
         raise ConfigError(f"the ablation isolates the differences of the profile {ABLATION_PROFILE!r}; "
                           f"{experiment.source} runs {experiment.slam.profile!r}")
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise ConfigError(f"ablation runs must be a positive integer, got {runs!r}")
+    check_int(runs, name="ablation runs", minimum=1)
     main = Arm(experiment.slam.profile, experiment.fov_bug)
     with_main = {a.alternative for a in ABLATIONS if a.paper == main} | {a.paper for a in ABLATIONS
                                                                            if a.alternative == main}
@@ -167,13 +160,10 @@ def run_ablation(experiment, out: str | Path, *, runs: int = DEFAULT_ABLATION_RU
         if arm == main:
             dirs[arm.name] = Path(out)
             continue
-        arm_experiment = experiment.replace(slam={"profile": arm.profile}, fov_bug=arm.fov_bug,
-                                            runs=min(runs, experiment.runs),
-                                            variants=[v for v in experiment.variants if v in ABLATION_VARIANTS])
-        if suites is not None and arm not in with_main:  # replace() merges tables: the suites are swapped here
-            arm_experiment = parse_experiment({**arm_experiment.to_dict(), "suites": dict(suites)},
-                                              source=f"{arm_experiment.source} (with suites={dict(suites)!r})",
-                                              text=arm_experiment.text)
+        arm_experiment = experiment.merge(slam={"profile": arm.profile}).apply(ExperimentOverrides(
+            fov_bug=arm.fov_bug, runs=min(runs, experiment.runs),
+            variants=tuple(v for v in experiment.variants if v in ABLATION_VARIANTS),
+            suites=suites if suites is not None and arm not in with_main else None))
         dirs[arm.name] = ablation_dir(out) / arm.name
         run_experiment(arm_experiment, dirs[arm.name], jobs=jobs, backend=backend, progress=progress)
     return dirs
@@ -255,22 +245,18 @@ def reproduce(experiment_path: str | Path = DEFAULT_EXPERIMENT, *, out: str | Pa
         ``out`` holds another experiment's results and ``force_new`` is False.
     """
     start = time.perf_counter()
-    if runs is not None and (isinstance(runs, bool) or not isinstance(runs, int) or runs < 1):
-        raise ConfigError(f"runs must be a positive integer, got {runs!r}")
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise ConfigError(f"jobs must be a positive integer, got {jobs!r}")
+    changes = ExperimentOverrides(runs=runs)  # ConfigError for runs that are not a positive integer
+    check_int(jobs, name="jobs", minimum=1)
     experiment = load_experiment(experiment_path)
     if profile is not None:
-        experiment = experiment.replace(**profile_overrides(experiment, profile))
+        experiment = experiment.apply(profile_overrides(experiment, profile))
     if quick:
-        experiment = experiment.replace(**quick_overrides(experiment))
-    if runs is not None:
-        experiment = experiment.replace(runs=runs)
+        changes = quick_overrides(experiment).then(changes)
+    experiment = experiment.apply(changes)
     if ablation and profile != ABLATION_PROFILE:
         raise ConfigError(f"ablation needs profile={ABLATION_PROFILE!r} (it isolates that profile's differences), "
                           f"got {profile!r}")
-    if isinstance(ablation_runs, bool) or not isinstance(ablation_runs, int) or ablation_runs < 1:
-        raise ConfigError(f"ablation_runs must be a positive integer, got {ablation_runs!r}")
+    check_int(ablation_runs, name="ablation_runs", minimum=1)
     out = Path(out) if out is not None else default_out(experiment_path, quick=quick, runs=runs, profile=profile)
     reports = Path(reports) if reports is not None else default_reports(out)
     summary = run_experiment(experiment, out, jobs=jobs, backend=backend, force_new=force_new,

@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from faultlab.campaigns.slams import SUTS, SlamsRun, slam_experiments
+from faultlab.config import ExperimentOverrides
 from faultlab.errors import ConfigError
 from faultlab.runner import results_path, run_experiment
 
@@ -27,16 +28,10 @@ LABELS: tuple[str, ...] = ("fastslam1", "fastslam2", "ekf", "gtsam")
 
 
 def scale_overrides(*, cases: int | None = None, steps: int | None = None,
-                    repetitions: int | None = None) -> dict:
-    """Experiment keys that set the scale: random cases, active steps, repetitions K (None: the file's)."""
-    out: dict = {}
-    if cases is not None:
-        out["suites"] = {"random": int(cases)}
-    if steps is not None:
-        out["n_steps"] = int(steps)
-    if repetitions is not None:
-        out["repetitions"] = int(repetitions)
-    return out
+                    repetitions: int | None = None) -> ExperimentOverrides:
+    """The scale: one random suite of ``cases`` cases, active steps, repetitions K (None: the file's)."""
+    return ExperimentOverrides(suites=None if cases is None else (("random", cases),), n_steps=steps,
+                               repetitions=repetitions)
 
 
 def robustness_stores(out: str | Path) -> dict[str, Path]:
@@ -50,7 +45,7 @@ def robustness_stores(out: str | Path) -> dict[str, Path]:
 RobustnessRun = SlamsRun
 
 
-def run_robustness(out: str | Path, *, experiment=DEFAULT_EXPERIMENT, overrides: dict | None = None,
+def run_robustness(out: str | Path, *, experiment=DEFAULT_EXPERIMENT, overrides: ExperimentOverrides | None = None,
                    particles: int | None = None, only: list[str] | None = None, jobs: int = 2,
                    backend: str = "loky", force_new: bool = False, progress: bool = True) -> RobustnessRun:
     """Run (or resume) the robustness protocol on every SLAM of :data:`LABELS`.
@@ -61,8 +56,8 @@ def run_robustness(out: str | Path, *, experiment=DEFAULT_EXPERIMENT, overrides:
         Directory of the stores (``out/<label>``).
     experiment : path, shipped name or Experiment
         The protocol (default the shipped ``robustness``).
-    overrides : dict, optional
-        Experiment keys replaced first (:func:`scale_overrides`).
+    overrides : ExperimentOverrides, optional
+        Changes applied first (:func:`scale_overrides`).
     particles : int, optional
         Particles of the FastSLAMs (default: their ``[slam]`` table's).
     only : list of str, optional
@@ -82,7 +77,7 @@ def run_robustness(out: str | Path, *, experiment=DEFAULT_EXPERIMENT, overrides:
         if exp is None:
             continue
         if particles is not None and "particles" in dict(exp.slam.options):
-            exp = exp.replace(slam={"particles": int(particles)})
+            exp = exp.apply(ExperimentOverrides(particles=particles))
         summaries[label] = run_experiment(exp, out / label, jobs=jobs, backend=backend, force_new=force_new,
                                           progress=progress)
     return RobustnessRun(out=out, summaries=summaries,

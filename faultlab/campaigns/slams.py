@@ -14,6 +14,7 @@ import importlib.util
 from dataclasses import dataclass
 from pathlib import Path
 
+from faultlab.config import ExperimentOverrides
 from faultlab.errors import ConfigError
 from faultlab.runner import Experiment, RunSummary, load_experiment, parse_experiment, results_path, run_experiment
 
@@ -35,16 +36,16 @@ REQUIRES = {"gtsam": "gtsam"}
 
 
 def slam_experiments(experiment: str | Path | Experiment = DEFAULT_EXPERIMENT, *,
-                     overrides: dict | None = None) -> dict[str, Experiment | None]:
+                     overrides: ExperimentOverrides | None = None) -> dict[str, Experiment | None]:
     """label -> the protocol on that SLAM of :data:`SUTS` (None when its optional dependency is missing).
 
-    ``overrides`` (experiment keys, e.g. a smaller scale) are applied to the protocol before the
+    ``overrides`` (e.g. a smaller scale) are applied to the protocol before the
     ``[slam]`` table is replaced; the metric follows each SLAM's association (``rms``, or ``emd``
     without landmark ids).
     """
     base = experiment if isinstance(experiment, Experiment) else load_experiment(experiment)
     if overrides:
-        base = base.replace(**overrides)
+        base = base.apply(overrides)
     out: dict[str, Experiment | None] = {}
     for label, table in SUTS.items():
         if not _installed(label):
@@ -88,7 +89,7 @@ class SlamsRun:
 
 
 def run_slams(out: str | Path, *, experiment: str | Path | Experiment = DEFAULT_EXPERIMENT,
-              overrides: dict | None = None, only: list[str] | None = None, jobs: int = 2, backend: str = "loky",
+              overrides: ExperimentOverrides | None = None, only: list[str] | None = None, jobs: int = 2, backend: str = "loky",
               force_new: bool = False, progress: bool = True) -> SlamsRun:
     """Run (or resume) the protocol on every SLAM of :data:`SUTS`, one store per SLAM in ``out/<label>``.
 
@@ -98,8 +99,8 @@ def run_slams(out: str | Path, *, experiment: str | Path | Experiment = DEFAULT_
         Directory of the stores.
     experiment : path, shipped name or Experiment
         The protocol (default the shipped ``slams``).
-    overrides : dict, optional
-        Experiment keys replaced in the protocol (:func:`slam_experiments`).
+    overrides : ExperimentOverrides, optional
+        Changes to the protocol (:func:`slam_experiments`).
     only : list of str, optional
         Run only these SLAM labels (default: all of :data:`SUTS`).
     jobs, backend, force_new, progress

@@ -10,7 +10,9 @@ A study file is an ordinary experiment file (``experiments/study.toml``) plus
   rule (:class:`~faultlab.stats.killmatrix.StudySpec`), and ``weights``: the class-weights CSV of
   an earlier effects study (``weights_<fault>.csv`` of ``faultlab effects report``) that an
   ``effect-guided`` suite draws its classes by (:func:`study_class_weights`);
-* ``[study.quick]``: keys that replace the file's for ``--quick`` (tables merged key by key).
+* ``[study.quick]``: keys that replace the file's for ``--quick`` (tables merged key by key);
+* ``[declaration]``: the analyses declared before the run (:mod:`faultlab.stats.declaration`),
+  recorded in the store when it is created and refused on a resume if they changed.
 
 The *case pool* of a strategy is every case its generator draws in the campaign: ``runs``
 evaluation runs, each drawing a new suite of the size in ``[suites]`` through the one case
@@ -42,6 +44,7 @@ from faultlab.mutation.variants import MutantSelection, is_mutant_variant, mutan
 from faultlab.runner import Experiment, RunSummary, parse_experiment, run_experiment
 from faultlab.runner.store import STUDY_FILE, check_store, load_sessions, settle_sessions
 from faultlab.space import read_class_weights, space_from_mapping
+from faultlab.stats.declaration import DECLARATION_KEY, RECORDED, Declaration, declaration_from
 from faultlab.stats.killmatrix import StudySpec, study_spec
 from faultlab.inference.exact import alternative_of, min_pairs
 
@@ -61,10 +64,12 @@ class StudyExperiment:
     selection: MutantSelection | None
     quick: bool = False
     weights_file: str | None = None
+    declaration: Declaration | None = None
 
     def to_json(self) -> dict:
         sel = self.selection
         return {"study": self.study.to_dict(), "quick": self.quick, "weights_file": self.weights_file,
+                DECLARATION_KEY: None if self.declaration is None else self.declaration.to_dict(),
                 "mutants": [] if sel is None else list(sel.run),
                 "mutant_unit": {} if sel is None else {m: sel.unit[m] for m in sel.run},
                 "mutant_operator": {} if sel is None else {m: sel.operator[m] for m in sel.run},
@@ -166,6 +171,8 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
     elif weighted and not (isinstance(space, Mapping) and "weights" in space):
         raise ConfigError(f"{source}: suites.{WEIGHTED_STRATEGY}: needs class weights: give study.weights = "
                           f"the path of an effects study's weights_<fault>.csv (`faultlab effects report`)")
+    declared = data.pop("declaration", None)
+    declaration = None if declared is None else declaration_from(declared, source=source, recorded=RECORDED[0])
     mutation = data.pop("mutation", None)
     selection = None
     variants = list(data.get("variants", []))
@@ -183,6 +190,14 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
             raise ConfigError(f"{source}: study.sizes: a suite of {max(spec.sizes)} cases cannot be drawn from the "
                               f"{pool} cases of the {s.kind} pool (runs x suites.{s.kind})")
     kinds = [s.kind for s in exp.suites]
+    for i, analysis in enumerate(declaration.analyses if declaration is not None else ()):
+        for strategy in (analysis.strategy_a, analysis.strategy_b):
+            if strategy != "*" and strategy not in kinds:
+                raise ConfigError(f"{source}: declaration.analyses[{i}]: {strategy!r} is not one of the study's "
+                                  f"suites ({', '.join(kinds)})")
+        if analysis.variant != "*" and analysis.variant not in exp.variants:
+            raise ConfigError(f"{source}: declaration.analyses[{i}].variant: {analysis.variant!r} is not one of "
+                              f"the study's variants")
     for strategy in spec.whole:
         if strategy not in kinds:
             raise ConfigError(f"{source}: study.whole: {strategy!r} is not one of the study's suites "
@@ -195,7 +210,8 @@ def load_study_experiment(path: str | Path, *, quick: bool = False) -> StudyExpe
         raise ConfigError(f"{source}: repetitions = {exp.repetitions} is too few: a case of a suite of "
                           f"{largest} cases is judged at {spec.alpha}/{largest}, which the exact "
                           f"{alternative} sign-flip test reaches only from K = {need}")
-    return StudyExperiment(experiment=exp, study=spec, selection=selection, quick=quick, weights_file=weights_file)
+    return StudyExperiment(experiment=exp, study=spec, selection=selection, quick=quick, weights_file=weights_file,
+                           declaration=declaration)
 
 
 @contextlib.contextmanager
@@ -275,7 +291,9 @@ def run_study(sexp: StudyExperiment | str | Path, out: str | Path, *, jobs: int 
         with sampled_load() as load:
             record["load"] = load
             summary = run_experiment(sexp.experiment, out, jobs=jobs, backend=backend, force_new=force_new,
-                                     progress=progress, on_start=start)
+                                     progress=progress, on_start=start,
+                                     meta=None if sexp.declaration is None
+                                     else {DECLARATION_KEY: sexp.declaration.to_dict()})
             record.update(state="complete", n_new=summary.n_new)
     finally:
         if sessions:  # not refused

@@ -8,6 +8,7 @@ module attaches its handler as ``func`` (``handler(args) -> int`` exit code).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import importlib
 import os
@@ -19,7 +20,7 @@ import warnings
 
 from faultlab import __version__
 from faultlab.cli.options import epilog
-from faultlab.errors import FaultlabError
+from faultlab.errors import FaultlabError, UnknownPluginError
 
 __all__ = ["main", "build_parser"]
 
@@ -40,6 +41,7 @@ COMMAND_MODULES = (
     "faultlab.cli.adapter",  # adapter check
     "faultlab.cli.export",  # export
     "faultlab.cli.check",  # check
+    "faultlab.cli.compare",  # compare
 )
 
 
@@ -56,6 +58,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                   "faultlab COMMAND --help"]),
     )
     parser.add_argument("--version", action="version", version=f"faultlab {__version__}")
+    parser.add_argument("--accept-unverified", action="store_true",
+                        help="read (and resume) results stores whose rows carry no checksums -- written before "
+                             "faultlab checked its stores, or with their integrity entries removed -- instead "
+                             "of refusing them; their values are not verified")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         try:
@@ -101,10 +107,24 @@ def _terminate(signum, frame) -> None:
     raise Terminated()
 
 
+def _unknown_name(exc: BaseException | None) -> bool:
+    """True if ``exc`` or an error it was raised from is an :class:`~faultlab.errors.UnknownPluginError`."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, UnknownPluginError):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__
+    return False
+
+
 def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     """Run the command of ``argv`` (default ``sys.argv[1:]``); returns the exit status.
 
-    Every expected failure is one ``faultlab: error:`` line on stderr and exit code 1.
+    Every expected failure is one ``faultlab: error:`` line on stderr and exit code 1; a name no
+    plugin of its kind has (:class:`~faultlab.errors.UnknownPluginError`, also when a setting's
+    error wraps it) exits with 2, as a usage error.  ``--accept-unverified`` (before the command)
+    reads stores without row checksums (:func:`faultlab.runner.store.accept_unverified`).
 
     A reader that closes the pipe early (``faultlab mutate list | head``) ends the command quietly
     with exit code 141, as a process killed by SIGPIPE (the shell's convention); the command stops
@@ -124,8 +144,14 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
     previous = None
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _terminate)
+    accepting = contextlib.nullcontext()
+    if args.accept_unverified:
+        from faultlab.runner.store import accept_unverified
+
+        accepting = accept_unverified()
     try:
-        code = int(args.func(args) or 0)
+        with accepting:
+            code = int(args.func(args) or 0)
         sys.stdout.flush()
         return code
     except Terminated:
@@ -137,7 +163,7 @@ def main(argv: list[str] | None = None, *, prog: str = PROG) -> int:
         return 128 + 13  # SIGPIPE
     except FaultlabError as exc:
         print(f"faultlab: error: {exc}", file=sys.stderr)
-        return 1
+        return 2 if _unknown_name(exc) else 1
     except OSError as exc:  # the file system refused (disk full, permission, read-only): no traceback
         target = exc.filename or next((getattr(args, a) for a in ("reports", "out") if getattr(args, a, None)), None)
         where = f" ({target if exc.filename else f'writing under {target}'})" if target else ""

@@ -21,6 +21,12 @@ def _defaults():
     return DEFAULT_SUITE, DEFAULT_ORACLES, DEFAULT_OPTIONS
 
 
+def _default_timeout() -> float:
+    from faultlab.campaigns.checkspec import DEFAULT_TIMEOUT_S
+
+    return DEFAULT_TIMEOUT_S
+
+
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "check", help="test your SLAM: a coverage-driven suite judged by execution, metamorphic, floor and "
@@ -54,7 +60,10 @@ def register(subparsers) -> None:
     p.add_argument("--relations", nargs="+", default=None, metavar="RELATION",
                    help=LazyText(lambda: f"metamorphic relations (default: {' '.join(_defaults()[2]['relations'])})"))
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                   help=LazyText(lambda: f"an oracle margin: {', '.join(k for k in _defaults()[2] if k != 'relations')}"))
+                   help=LazyText(lambda: f"an oracle margin: {', '.join(k for k in _defaults()[2] if k not in _NOT_NUMBERS)}"))
+    p.add_argument("--budget", action="append", default=[], metavar="PARAMETER.CLASS=MM",
+                   help="an accuracy budget of the budget oracle for the cases in one Table I class, e.g. "
+                        "map_size.large=500 (repeatable; with --option budget_mm=MM for every other case)")
     p.add_argument("--case", default=None, metavar="CASE.npz", help="judge one saved case instead of a suite")
     p.add_argument("--case-id", default=None, help="the case's id (its repetition seeds); default from the file")
     p.add_argument("--html", action="store_true",
@@ -62,6 +71,9 @@ def register(subparsers) -> None:
                         "filterable table, the minimal failing scenarios)")
     p.add_argument("--out", default="results/check", help="results directory (default results/check; resumable)")
     p.add_argument("--reports", default=None, help="reports directory (default OUT/report)")
+    p.add_argument("--timeout", type=float, default=None, metavar="S",
+                   help=LazyText(lambda: f"wall-clock limit of one run of the SLAM, s; a run past it fails the "
+                                         f"execution oracle (default {_default_timeout():g})"))
     p.add_argument("--jobs", type=positive_int, default=1, help="worker processes (default 1)")
     p.add_argument("--no-shrink", action="store_true", help="do not reduce failures to minimal scenarios")
     add_examples(p, ["faultlab check mylab.mapper:make --path .", "faultlab check --command './my_slam --quiet'",
@@ -74,16 +86,39 @@ def _options(args) -> dict:
     options: dict = {}
     for item in args.option:
         key, sep, value = item.partition("=")
-        if not sep or key not in default_options or key == "relations":
+        if not sep or key not in default_options or key in _NOT_NUMBERS:
             raise ConfigError(f"--option {item!r}: expected KEY=VALUE with KEY one of "
-                              f"{', '.join(k for k in default_options if k != 'relations')}")
+                              f"{', '.join(k for k in default_options if k not in _NOT_NUMBERS)}")
         try:
             options[key] = float(value)
         except ValueError:
             raise ConfigError(f"--option {item!r}: {value!r} is not a number") from None
     if args.relations is not None:
         options["relations"] = tuple(args.relations)
+    budgets = {}
+    for item in args.budget:
+        key, sep, value = item.partition("=")
+        try:
+            budgets[key] = float(value) if sep else None
+        except ValueError:
+            budgets[key] = None
+        if budgets[key] is None:
+            raise ConfigError(f"--budget {item!r}: expected PARAMETER.CLASS=MM, e.g. map_size.large=500")
+    if budgets:
+        options["budget_classes"] = budgets
     return options
+
+
+#: Oracle options that are not one number (set by their own flags).
+_NOT_NUMBERS = ("relations", "budget_classes")
+
+
+def _oracles(args) -> tuple[str, ...]:
+    """The oracles asked for; by default check's, plus ``budget`` when a budget is declared."""
+    if args.oracles:
+        return tuple(args.oracles)
+    declared = args.budget or any(item.partition("=")[0] in ("budget_mm", "budget_step_ms") for item in args.option)
+    return tuple(_defaults()[1]) + (("budget",) if declared else ())
 
 
 def _handler(args: argparse.Namespace) -> int:
@@ -99,8 +134,9 @@ def _handler(args: argparse.Namespace) -> int:
                          reference="" if args.reference == "none" else args.reference,
                          suite=args.suite or _defaults()[0],
                          n_steps=args.steps, seed=args.seed, repetitions=args.repetitions, alpha=args.alpha,
-                         oracles=tuple(args.oracles or _defaults()[1]), options=_options(args), paths=tuple(args.path),
-                         space=read_toml(args.space, what="--space")[0] if args.space else {}).validate()
+                         oracles=_oracles(args), options=_options(args), paths=tuple(args.path),
+                         space=read_toml(args.space, what="--space")[0] if args.space else {},
+                         timeout_s=_default_timeout() if args.timeout is None else args.timeout).validate()
     except ConfigError as exc:
         print(f"faultlab check: error: {exc}", file=sys.stderr)
         return 2

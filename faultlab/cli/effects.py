@@ -73,7 +73,7 @@ def _verb_parser(verb: str, parent: str = "faultlab effects") -> argparse.Argume
                        help="at most this many repetitions of a case per batched SLAM (default: all)")
         add_execution_options(v)
         return add_examples(v, ["faultlab effects run effects --quick --out results/effects-quick",
-                                "nice -n 10 faultlab effects run effects --out results/effects --backend dask"])
+                                "nice -n 10 faultlab effects run effects --out results/effects --jobs 2"])
     return add_examples(v, ["faultlab effects design effects --quick",
                             "faultlab effects design effects --quick --out results/effects-design"])
 

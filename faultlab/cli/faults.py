@@ -33,9 +33,13 @@ def register(subparsers) -> None:
     p.add_argument("--slam", metavar="NAME", default=None,
                    help="list only the faults that apply to this SLAM (a built-in name such as 'ekf', or "
                         "package.module:factory): those replacing one of its units; says how many do not")
+    p.add_argument("--category", choices=("real",), default=None,
+                   help="list only the faults of this category: 'real', those reproducing bugs found in public "
+                        "SLAM code (provenance in faultlab.faults.real)")
     p.add_argument("--no-plugins", action="store_true", help="ignore third-party fault plugins")
     p.add_argument("-v", "--verbose", action="store_true", help="show each fault's rationale and source")
-    add_examples(p, ["faultlab faults", "faultlab faults --slam ekf", "faultlab faults --check naive_resampling"])
+    add_examples(p, ["faultlab faults --slam ekf", "faultlab faults --category real -v",
+                     "faultlab faults --check naive_resampling"])
     p.set_defaults(func=_handler)
 
 
@@ -51,12 +55,14 @@ def _handler(args: argparse.Namespace) -> int:
     listing = list_faults(plugins=plugins)
     if args.names:
         listing = listing.select(args.names)
+    if args.category is not None:
+        listing = listing.in_category(args.category)
     note = ""
     if args.slam is not None:
         fit = applicable_faults(args.slam, listing.faults)
         sensor = tuple(f for f in listing.sensor_faults if not_applicable(f, args.slam) is None)
         listing = FaultListing(faults=fit.applicable, sources=listing.sources, errors=listing.errors,
-                               sensor_faults=sensor)
+                               sensor_faults=sensor, categories=listing.categories)
         note = fit.summary() or f"all {len(fit.applicable)} faults apply to {fit.slam!r}"
     print(listing.format(verbose=args.verbose))
     if note:

@@ -74,7 +74,8 @@ def positive_int(text: str) -> int:
 def add_execution_options(parser: argparse.ArgumentParser) -> None:
     """``--backend``, ``--force-new`` and ``--no-progress`` of the commands that run jobs."""
     parser.add_argument("--backend", default="loky", choices=BACKENDS,
-                        help="joblib backend (default: loky; dask and ray are optional extras)")
+                        help="joblib backend (default: loky); threading only with --jobs 1, dask and ray are refused: "
+                             "timeout_s needs workers the campaign can kill")
     parser.add_argument("--force-new", action="store_true",
                         help="start afresh: move results of another (or a changed) experiment in the "
                              "results directory to <dir>/previous-<time>/")

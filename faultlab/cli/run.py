@@ -30,7 +30,7 @@ def register(subparsers) -> None:
     add_execution_options(p)
     add_examples(p, ["faultlab run smoke --out results/smoke --metrics rms",
                      "nice -n 10 faultlab run paper --out results/paper --jobs 2",
-                     "faultlab run my-campaign.toml --out results/mine --backend dask"])
+                     "faultlab run my-campaign.toml --out results/mine --jobs 1"])
     p.set_defaults(func=handler)
 
 
@@ -46,7 +46,7 @@ def handler(args: argparse.Namespace) -> int:
         except ValueError:
             raise ConfigError(f"--adaptive: expected cumulative repetitions such as 5,10, got {args.adaptive!r}") \
                 from None
-        experiment = experiment.replace(adaptive={"stages": stages})
+        experiment = experiment.merge(adaptive={"stages": stages})
     if args.metrics is not None:
         experiment = experiment.replace(metrics=[m.strip() for m in args.metrics.split(",")])
     summary = run_experiment(experiment, out, jobs=args.jobs, backend=args.backend,

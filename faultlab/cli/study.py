@@ -82,10 +82,14 @@ def register(subparsers) -> None:
                       help="store whose mean runtime per execution is the cost (default: reports/paper-k10/store)")
     plan.add_argument("--seconds-per-execution", type=float, default=None,
                       help="assume this cost of one SLAM execution instead of measuring it from --cost-store")
+    plan.add_argument("--pilot", default=None,
+                      help="a pilot study's saved analysis (kill_matrix.csv): plan the runs the study's declared "
+                           "run-level analyses need from the pilot's run-level effect and spread instead")
     plan.add_argument("--reports", default=None, help="also write plan.md into this directory")
     add_examples(plan, ["faultlab study plan study --reports reports/study",
                         "faultlab study plan mutation --reports reports/mutation",
-                        "faultlab study plan study --quick --seconds-per-execution 0.12"])
+                        "faultlab study plan study-confirm --pilot reports/study-large-faults "
+                        "--seconds-per-execution 0.016"])
     plan.set_defaults(func=_plan)
 
 
@@ -140,6 +144,8 @@ def _plan(args: argparse.Namespace) -> int:
     data, _ = read_toml(resolve_experiment(args.study, what="study file"), what="study file")
     if args.seconds_per_execution is not None and not args.seconds_per_execution > 0:
         raise ConfigError(f"--seconds-per-execution must be positive, got {args.seconds_per_execution}")
+    if args.pilot is not None:
+        return _confirmation_plan(args)
     cost = execution_cost(args.cost_store) if args.seconds_per_execution is None else None
     seconds = cost.seconds if cost is not None else args.seconds_per_execution
     common = dict(target_detection=args.target_detection_pp / 100, target_score=args.target_score_pp / 100,
@@ -184,6 +190,23 @@ def _plan(args: argparse.Namespace) -> int:
     text = plan_markdown(plan, study=Path(args.study).stem + (" --quick" if args.quick else ""), cost=cost, cost_source=str(args.cost_store),
                          settings=settings, same_settings=cost is None or (particles, exp.n_steps, exp.slam.name) ==
                          (cost.particles, cost.n_steps, cost.slam), file_scale=scale, pools=pools)
+    print(text)
+    if args.reports is not None:
+        out = Path(args.reports)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / PLAN_FILE).write_text(text)
+        print(out / PLAN_FILE)
+    return 0
+
+
+def _confirmation_plan(args: argparse.Namespace) -> int:
+    from faultlab.analysis.planning import confirmation_plan
+    from faultlab.campaigns.study import load_study_experiment
+    from faultlab.report.planning import PLAN_FILE, confirmation_markdown
+
+    plan = confirmation_plan(load_study_experiment(args.study, quick=args.quick), args.pilot, power=args.power)
+    text = confirmation_markdown(plan, study=Path(args.study).stem + (" --quick" if args.quick else ""),
+                                 seconds_per_execution=args.seconds_per_execution)
     print(text)
     if args.reports is not None:
         out = Path(args.reports)

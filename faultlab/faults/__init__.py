@@ -31,7 +31,7 @@ from faultlab.faults.applicability import (
     not_applicable,
     slam_units,
 )
-from faultlab.faults.discovery import ENTRY_POINT_GROUP, PluginFailure, PluginReport, PluginWarning, load_plugins
+from faultlab.faults.discovery import ENTRY_POINT_GROUP, PluginFailure, PluginWarning, load_plugins
 from faultlab.faults.fault import Fault, UnitExample, apply_faults, known_steps, step_names
 from faultlab.faults.registry import (
     FaultListing,
@@ -57,7 +57,6 @@ __all__ = [
     "UnitExample",
     "FaultListing",
     "PluginFailure",
-    "PluginReport",
     "PluginWarning",
     "all_faults",
     "apply_faults",

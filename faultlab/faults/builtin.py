@@ -30,10 +30,12 @@ import numpy as np
 
 from faultlab.faults.fault import Fault, UnitExample
 from faultlab.slam.fastslam import REFERENCE_STEPS, FastSlamConfig
+from faultlab.slam.noise import NoiseConfig
 from faultlab.slam.paperunits import shallow_copy_ancestors
 from faultlab.slam.particles import ParticleState
 
-__all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors", "PAPER_ALIASING"]
+__all__ = ["BUILTIN_FAULTS", "PAPER_FAULTS", "in_place_ancestors", "PAPER_ALIASING",
+           "MEASUREMENT_NOISE_FROM_STATE_COVARIANCE", "CONTROL_NOISE_FROM_COVARIANCE"]
 
 _LOG_TWO_PI = math.log(2.0 * math.pi)
 
@@ -607,6 +609,71 @@ PAPER_ALIASING = Fault(
                           "particles 1 and 2 share slot 0's landmarks, which slot 0 took from particle 2"),),
 )
 
+
+# --------------------------------------------------------------------------- faults from real bugs
+# (their provenance: faultlab.faults.real)
+
+def _state_block_as_measurement_noise(original):
+    """S = H P H^T + Q' with Q' the pose-noise block: the filter's motion noise where the sensor's belongs."""
+    M = NoiseConfig().M
+
+    def innovation_covariance(H, P, Q):
+        return original(H, P, M)
+
+    return innovation_covariance
+
+
+def _ex_innovation():
+    H = np.tile(np.array([[0.8, 0.6], [-0.12, 0.16]]), (2, 1, 1, 1))
+    P = np.tile(np.array([[0.04, 0.01], [0.01, 0.09]]), (2, 1, 1, 1))
+    return (H, P, NoiseConfig().Q), {}
+
+
+MEASUREMENT_NOISE_FROM_STATE_COVARIANCE = Fault(
+    name="measurement_noise_from_state_covariance",
+    step="innovation_covariance",
+    description="The innovation covariance adds the motion-noise matrix instead of the measurement noise Q.",
+    rationale=(
+        "EKF-based SLAM code keeps several 2x2 and 3x3 noise matrices side by side; PythonRobotics' EKF-SLAM "
+        "example forms S = H P H^T + Cx[0:2, 0:2], the top-left (x, y) block of its state noise Cx, where "
+        "the range-bearing noise belongs. The unit cannot see the filter's own motion noise, so here the "
+        "default control-noise matrix M = diag(std_v^2, std_omega^2) of faultlab.slam.noise stands in for "
+        "Q: range gets 0.1 m instead of 0.3 m and bearing 20 deg instead of 10 deg of assumed noise, so the filter trusts ranges too much and bearings too little."),
+    origin=("public code: PythonRobotics SLAM/EKFSLAM/ekf_slam.py, calc_innovation() "
+            "(S = H @ PEst @ H.T + Cx[0:2, 0:2])"),
+    replacement=_state_block_as_measurement_noise,
+    examples=(UnitExample(_ex_innovation, "range and bearing noise swapped for the control noise"),),
+)
+
+
+def _variance_as_standard_deviation(original):
+    """Control noise scaled by the variances std_v^2, std_omega^2 where the deviations belong."""
+
+    def sample_controls(u, n, rng, config):
+        squared = dataclasses.replace(config, std_v=config.std_v ** 2, std_omega=config.std_omega ** 2)
+        return original(u, n, rng, squared)
+
+    return sample_controls
+
+
+CONTROL_NOISE_FROM_COVARIANCE = Fault(
+    name="control_noise_from_covariance",
+    step="sample_controls",
+    description="Control noise is scaled by the variances (the covariance's diagonal) instead of the deviations.",
+    rationale=(
+        "Noise matrices are written as covariances, diag(sigma)^2, and sampling needs their square root. "
+        "PythonRobotics' FastSLAM 1.0 example perturbs each particle's control with randn(1, 2) @ R where R "
+        "is the covariance diag(1.0, 20 deg)^2: the spread is sigma^2 instead of sigma. With faultlab's "
+        "noise (0.1 m, 20 deg per step) the particles spread by 1 cm and 7 deg, a tenth and a third of "
+        "what they should, so the filter is over-confident in its motion; for a deviation of 0 or 1 the "
+        "mistake is invisible."),
+    origin=("public code: PythonRobotics SLAM/FastSLAM1/fast_slam1.py, predict_particles() "
+            "(ud = u + (np.random.randn(1, 2) @ R).T with R a covariance)"),
+    replacement=_variance_as_standard_deviation,
+    examples=(UnitExample(_ex_sample_controls, "the spread of each control shrinks to its square"),),
+)
+
+
 #: The paper's three faults (Sec. VII-A), in Table II order.
 PAPER_FAULTS: tuple[Fault, ...] = (NAIVE_RESAMPLING, MISSING_ANGLE_WRAP, MOTION_SIGN_ERROR)
 
@@ -626,4 +693,6 @@ BUILTIN_FAULTS: tuple[Fault, ...] = PAPER_FAULTS + (
     TURN_BEFORE_DRIVE,
     RESAMPLE_KEEPS_WEIGHTS,
     PAPER_ALIASING,
+    MEASUREMENT_NOISE_FROM_STATE_COVARIANCE,
+    CONTROL_NOISE_FROM_COVARIANCE,
 )

@@ -337,7 +337,7 @@ def _faults_to_check(faults, *, plugins: bool) -> tuple[list[Fault], tuple[str, 
         faults = all_faults(plugins=False)
         if plugins:
             report = load_plugins(warn=False)
-            faults += list(report.faults)
+            faults += list(report.items)
             plugin_errors = tuple(str(e) for e in report.errors)
     return [resolve_fault(f) for f in faults], plugin_errors
 

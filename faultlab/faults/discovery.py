@@ -16,15 +16,14 @@ from __future__ import annotations
 
 import importlib.metadata
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
-from faultlab.errors import FaultError, PluginError
 from faultlab.faults.builtin import BUILTIN_FAULTS
 from faultlab.faults.fault import Fault, known_steps
-from faultlab.plugins import PluginCatalogue
+from faultlab.plugins import PluginCatalogue, PluginFailure, PluginLoad
 
-__all__ = ["ENTRY_POINT_GROUP", "PluginWarning", "PluginFailure", "PluginReport", "FaultCatalogue", "load_plugins"]
+__all__ = ["ENTRY_POINT_GROUP", "PluginWarning", "PluginFailure", "FaultCatalogue", "load_plugins"]
 
 #: Entry-point group a plugin distribution declares its faults in.
 ENTRY_POINT_GROUP = "faultlab.faults"
@@ -35,79 +34,13 @@ class PluginWarning(UserWarning):
 
 
 @dataclass(frozen=True)
-class PluginFailure:
-    """A plugin (entry point) or one of its faults that could not be loaded.
-
-    Attributes
-    ----------
-    plugin : str
-        Entry-point name.
-    source : str
-        Entry point and distribution, e.g. ``"entry point broken = broken_mod:FAULTS
-        (distribution broken-faults 1.0)"``.
-    error : str
-        The exception type and text, or what is wrong with the loaded object.
-    kind : str
-        What the plugin provides: ``"fault"`` (group ``faultlab.faults``) or ``"sensor-fault"``
-        (group ``faultlab.sensor_faults``).
-    """
-
-    plugin: str
-    source: str
-    error: str
-    kind: str = "fault"
-
-    def __str__(self) -> str:
-        return f"{self.kind} plugin {self.plugin!r} ({self.source}) failed to load: {self.error}"
-
-
-@dataclass(frozen=True)
-class PluginReport:
-    """Result of :func:`load_plugins`.
-
-    Attributes
-    ----------
-    faults : tuple of Fault
-        The third-party faults that loaded, sorted by name.
-    sources : mapping
-        Fault name -> the entry point / distribution it came from.
-    errors : tuple of PluginFailure
-        One entry per plugin that failed to import, or per rejected fault
-        (bad object, invalid name, unknown step, duplicate name).
-    """
-
-    faults: tuple[Fault, ...] = ()
-    sources: Mapping[str, str] = field(default_factory=dict)
-    errors: tuple[PluginFailure, ...] = ()
-
-    @property
-    def ok(self) -> bool:
-        """True if every plugin loaded without error."""
-        return not self.errors
-
-    def by_name(self) -> dict[str, Fault]:
-        return {f.name: f for f in self.faults}
-
-    def raise_for_errors(self) -> None:
-        """Raise :class:`PluginError` listing every failure, if there is any."""
-        if self.errors:
-            raise PluginError("; ".join(str(e) for e in self.errors))
-
-    def __str__(self) -> str:
-        lines = [f"{len(self.faults)} plugin fault(s) loaded"]
-        lines += [f"  {f.name}  ({self.sources.get(f.name, '?')})" for f in self.faults]
-        lines += [f"  error: {e}" for e in self.errors]
-        return "\n".join(lines)
-
-
-@dataclass(frozen=True)
 class FaultCatalogue(PluginCatalogue):
     """The fault plugins: :class:`~faultlab.plugins.PluginCatalogue` with the rules of faults.
 
     An entry point loads to a Fault or an iterable of Faults (a mapping is refused); a plugin
     fault needs a ``provider/name`` name, a known step and a name no other plugin took.  Failures
-    are :class:`PluginFailure` records naming the distribution; :meth:`load` returns a
-    :class:`PluginReport` with the faults sorted by name.
+    are :class:`~faultlab.plugins.PluginFailure` records naming the distribution; :meth:`load` returns a
+    :class:`~faultlab.plugins.PluginLoad` with the faults sorted by name.
     """
 
     def describe(self, ep: importlib.metadata.EntryPoint) -> str:
@@ -150,23 +83,22 @@ class FaultCatalogue(PluginCatalogue):
     def failure(self, plugin: str, source: str, error: str, *, loading: bool) -> PluginFailure:
         return PluginFailure(plugin, source, error)
 
-    def collect(self, items: list, sources: dict[str, str], errors: list) -> PluginReport:
+    def collect(self, items: list, sources: dict[str, str], errors: list) -> PluginLoad:
         ordered = tuple(sorted(items, key=lambda f: f.name))
-        return PluginReport(faults=ordered, sources={f.name: sources[f.name] for f in ordered},
-                            errors=tuple(errors))
+        return PluginLoad(items=ordered, sources={f.name: sources[f.name] for f in ordered}, errors=tuple(errors))
 
 
 _CATALOGUE = FaultCatalogue(kind="fault", group=ENTRY_POINT_GROUP, base=Fault, builtins=tuple(BUILTIN_FAULTS),
-                            error=FaultError, warning=PluginWarning)
+                            warning=PluginWarning)
 
 
-def load_plugins(*, group: str = ENTRY_POINT_GROUP, warn: bool = True) -> PluginReport:
+def load_plugins(*, group: str = ENTRY_POINT_GROUP, warn: bool = True) -> PluginLoad:
     """Discover third-party faults through the entry-point group ``faultlab.faults``.
 
     Every entry point is loaded with :mod:`importlib.metadata`; it must resolve
     to a :class:`Fault` or an iterable of Faults.  Plugins are independent: one
     that fails to import (or yields a bad object, an invalid or duplicate name,
-    or an unknown step) is recorded in :attr:`PluginReport.errors` with its
+    or an unknown step) is recorded in :attr:`PluginLoad.errors <faultlab.plugins.PluginLoad.errors>` with its
     name and error text, a :class:`PluginWarning` is issued, and the other
     plugins still load.  Discovery is repeated on each call (a few ms); nothing
     is cached or registered globally.
@@ -180,6 +112,7 @@ def load_plugins(*, group: str = ENTRY_POINT_GROUP, warn: bool = True) -> Plugin
 
     Returns
     -------
-    PluginReport
+    PluginLoad
+        The faults sorted by name, their sources, the failures.
     """
     return _CATALOGUE.load(group=group, warn=warn)

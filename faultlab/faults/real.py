@@ -4,11 +4,12 @@ Mutants and invented faults stand for real faults only if tests that find the fo
 latter (Just et al., "Are mutants a valid substitute for real faults in software testing?", FSE 2014).
 This module names the faults whose failure mode was *found* in published SLAM code, and says where:
 the project, the file, what was wrong, how it was found, and how faultlab knows it (read in a copy of
-the code, recorded from an issue thread, or recalled from the public file and not re-read here --
-the last kind is a weaker claim and is marked so).
+the code, recorded from an issue thread, or recalled from the public file and not re-read -- the last
+kind is a weaker claim and is marked so).
 
-Most entries point at a fault faultlab already has under its own name (:mod:`faultlab.faults.builtin`);
-:data:`MEASUREMENT_NOISE_FROM_STATE_COVARIANCE` is defined here.  One entry is not a unit fault: the
+Every unit fault of the category is a built-in fault (:mod:`faultlab.faults.builtin`), so an
+experiment names it among its ``variants`` like any other and ``faultlab run`` runs it; this module
+adds the provenance and the category (:func:`fault_categories`).  One entry is not a unit fault: the
 paper's field-of-view defect lives in the paper's *simulator*, not in its filter, and faultlab
 reproduces it as the scenario option ``fov_bug = True`` (:attr:`RealFault.fault` is None for it).
 """
@@ -17,13 +18,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
+from faultlab.faults.builtin import (
+    BUILTIN_FAULTS,
+    CONTROL_NOISE_FROM_COVARIANCE,
+    MEASUREMENT_NOISE_FROM_STATE_COVARIANCE,
+)
+from faultlab.faults.fault import Fault
 
-from faultlab.faults.builtin import BUILTIN_FAULTS
-from faultlab.faults.fault import Fault, UnitExample
-from faultlab.slam.noise import NoiseConfig
+__all__ = ["REAL", "Provenance", "RealFault", "REAL_FAULTS", "real_faults", "fault_categories"]
 
-__all__ = ["Provenance", "RealFault", "REAL_FAULTS", "MEASUREMENT_NOISE_FROM_STATE_COVARIANCE", "real_faults"]
+#: The category name of the faults that reproduce real bugs (``faultlab faults --category real``).
+REAL = "real"
 
 
 @dataclass(frozen=True)
@@ -67,38 +72,6 @@ class RealFault:
     provenance: Provenance
 
 
-def _state_block_as_measurement_noise(original):
-    """S = H P H^T + Q' with Q' the pose-noise block: the filter's motion noise where the sensor's belongs."""
-    M = NoiseConfig().M
-
-    def innovation_covariance(H, P, Q):
-        return original(H, P, M)
-
-    return innovation_covariance
-
-
-def _ex_innovation():
-    H = np.tile(np.array([[0.8, 0.6], [-0.12, 0.16]]), (2, 1, 1, 1))
-    P = np.tile(np.array([[0.04, 0.01], [0.01, 0.09]]), (2, 1, 1, 1))
-    return (H, P, NoiseConfig().Q), {}
-
-
-MEASUREMENT_NOISE_FROM_STATE_COVARIANCE = Fault(
-    name="measurement_noise_from_state_covariance",
-    step="innovation_covariance",
-    description="The innovation covariance adds the motion-noise matrix instead of the measurement noise Q.",
-    rationale=(
-        "EKF-based SLAM code keeps several 2x2 and 3x3 noise matrices side by side; PythonRobotics' EKF-SLAM "
-        "example forms S = H P H^T + Cx[0:2, 0:2], the top-left block of its state (motion) noise Cx, where "
-        "the range-bearing noise belongs. Here the filter's control-noise matrix M = diag(std_v^2, "
-        "std_omega^2) stands in for Q: range gets 0.1 m instead of 0.3 m and bearing 20 deg instead of 10 deg "
-        "of assumed noise, so the filter trusts ranges too much and bearings too little."),
-    origin=("public code: PythonRobotics SLAM/EKFSLAM/ekf_slam.py, calc_innovation() "
-            "(S = H @ PEst @ H.T + Cx[0:2, 0:2]); recalled, not re-read"),
-    replacement=_state_block_as_measurement_noise,
-    examples=(UnitExample(_ex_innovation, "range and bearing noise swapped for the control noise"),),
-)
-
 _BUILTIN = {f.name: f for f in BUILTIN_FAULTS}
 
 #: The real faults, the paper's own first.
@@ -117,7 +90,8 @@ REAL_FAULTS: tuple[RealFault, ...] = (
     RealFault(
         "paper_aliasing", _BUILTIN["paper_aliasing"], "built-in fault paper_aliasing",
         Provenance(
-            project="AtsushiSakai/PythonRobotics, as copied into EmbSys-WWU/SLAMtesting slam/slam_correct.py",
+            project=("AtsushiSakai/PythonRobotics (read at commit 2f8df1ec19a760caa6d255d2fc2a67f534e70ac2), as "
+                     "copied into EmbSys-WWU/SLAMtesting slam/slam_correct.py"),
             file="SLAM/FastSLAM1/fast_slam1.py, resampling() and update_with_observation()",
             what=("resampling copies the particle list shallowly (tmp = particles[:]) and assigns array views "
                   "(lm[:, :], lmP[:, :]): resampled duplicates share landmark storage and every later update is "
@@ -134,7 +108,8 @@ REAL_FAULTS: tuple[RealFault, ...] = (
     RealFault(
         "new_landmark_near_zero", _BUILTIN["new_landmark_near_zero"], "built-in fault new_landmark_near_zero",
         Provenance(
-            project="AtsushiSakai/PythonRobotics, as copied into EmbSys-WWU/SLAMtesting",
+            project=("AtsushiSakai/PythonRobotics (read at commit 2f8df1ec19a760caa6d255d2fc2a67f534e70ac2), as "
+                     "copied into EmbSys-WWU/SLAMtesting"),
             file="SLAM/FastSLAM1/fast_slam1.py, update_with_observation()",
             what=("a landmark counts as new while abs(lm[id, 0]) <= 0.01 (zero-initialised storage), so one "
                   "estimated within 1 cm of x = 0 is re-initialised at every sighting."),
@@ -143,22 +118,42 @@ REAL_FAULTS: tuple[RealFault, ...] = (
         "gain_from_wrong_covariance", _BUILTIN["gain_from_wrong_covariance"],
         "built-in fault gain_from_wrong_covariance",
         Provenance(
-            project="AtsushiSakai/PythonRobotics",
+            project="AtsushiSakai/PythonRobotics, commit e0c15292b233f7d142c692c3aba51722d70882a1",
             file="SLAM/FastSLAM1/fast_slam1.py, the landmark update (S versus Sf)",
-            what="which innovation covariance the landmark update uses, S or Sf, questioned as incorrect",
-            found="a user's report: PythonRobotics issue #138 'S here seems incorrect'",
+            what=("the landmark update forms its own innovation covariance S where Table 13.1 of Probabilistic "
+                  "Robotics uses Sf, computed a few lines before: which covariance the gain uses is questioned"),
+            found="a user's report: PythonRobotics issue #138 'S here seems incorrect' (2018-11-28, still open)",
             known="reported")),
     RealFault(
         "measurement_noise_from_state_covariance", MEASUREMENT_NOISE_FROM_STATE_COVARIANCE,
-        "fault measurement_noise_from_state_covariance (this module)",
+        "built-in fault measurement_noise_from_state_covariance",
         Provenance(
-            project="AtsushiSakai/PythonRobotics",
+            project="AtsushiSakai/PythonRobotics, commit 047f89beb47587e9b758565c0d458e279ebb4681",
             file="SLAM/EKFSLAM/ekf_slam.py, calc_innovation()",
-            what="S = H @ PEst @ H.T + Cx[0:2, 0:2]: the state noise block Cx where the measurement noise belongs",
-            found="reading the example's code", known="recalled")),
+            what=("S = H @ PEst @ H.T + Cx[0:2, 0:2]: the (x, y) block of the state noise Cx = diag(0.5 m, "
+                  "0.5 m, 30 deg)^2 where the range-bearing noise belongs; the filter assumes 0.5 rad (29 deg) "
+                  "of bearing noise whatever the sensor's."),
+            found="reading the example's code (the stored public copy, for faultlab's real-fault category)",
+            known="read")),
+    RealFault(
+        "control_noise_from_covariance", CONTROL_NOISE_FROM_COVARIANCE,
+        "built-in fault control_noise_from_covariance",
+        Provenance(
+            project="AtsushiSakai/PythonRobotics, commit 2f8df1ec19a760caa6d255d2fc2a67f534e70ac2",
+            file="SLAM/FastSLAM1/fast_slam1.py, predict_particles()",
+            what=("ud = u + (np.random.randn(1, 2) @ R).T with R = diag(1.0, 20 deg)^2 a covariance: each "
+                  "particle's control noise has deviation sigma^2 instead of sigma (1.0 m/s and 7 deg instead "
+                  "of 1.0 m/s and 20 deg; the speed's is right only because its sigma is 1)."),
+            found="reading the example's code (the stored public copy, for faultlab's real-fault category)",
+            known="read")),
 )
 
 
 def real_faults() -> dict[str, RealFault]:
     """The ``real`` category by name."""
     return {r.name: r for r in REAL_FAULTS}
+
+
+def fault_categories() -> dict[str, str]:
+    """Fault name -> category, for the registered faults that have one (the ``real`` ones)."""
+    return {r.name: REAL for r in REAL_FAULTS if r.fault is not None}

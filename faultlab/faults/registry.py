@@ -13,17 +13,18 @@ name ``"baseline"`` is reserved for the unmodified reference.  Which faults appl
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from faultlab.config import import_object
-from faultlab.errors import FaultError
+from faultlab.errors import FaultError, UnknownPluginError
 from faultlab.faults.builtin import BUILTIN_FAULTS
-from faultlab.faults.discovery import PluginFailure, PluginReport, load_plugins
+from faultlab.faults.discovery import load_plugins
 from faultlab.faults.fault import Fault
+from faultlab.faults.real import fault_categories
 from faultlab.faults.sensor import SensorFault, load_sensor_plugins
 from faultlab.faults.sensorfaults import BUILTIN_SENSOR_FAULTS
+from faultlab.plugins import PluginLoad
 from faultlab.vocabulary import BASELINE, UNMODIFIED
 
 __all__ = ["builtin_faults", "builtin_sensor_faults", "all_sensor_faults", "all_faults", "get_fault", "resolve_fault", "FaultListing", "list_faults"]
@@ -45,7 +46,7 @@ def all_sensor_faults(*, plugins: bool = True, warn: bool = True) -> list[Sensor
     """Every sensor fault: the built-ins in registration order, then plugin sensor faults by name."""
     faults = list(BUILTIN_SENSOR_FAULTS)
     if plugins:
-        faults += list(load_sensor_plugins(warn=warn).faults)
+        faults += list(load_sensor_plugins(warn=warn).items)
     return faults
 
 
@@ -59,7 +60,7 @@ def all_faults(*, plugins: bool = True, warn: bool = True) -> list[Fault]:
     """
     faults = list(builtin_faults().values())
     if plugins:
-        faults += list(load_plugins(warn=warn).faults)
+        faults += list(load_plugins(warn=warn).items)
     return faults
 
 
@@ -69,8 +70,8 @@ def get_fault(name: str) -> Fault | SensorFault:
     Raises
     ------
     FaultError
-        For ``"baseline"`` (not a fault) and for unknown names; the message
-        lists the known names with close matches first.
+        For ``"baseline"`` (not a fault); for an unknown name its subclass
+        :class:`~faultlab.errors.UnknownPluginError`, listing the known names with close matches first.
     """
     if not isinstance(name, str):
         raise FaultError(f"fault name must be a string, got {type(name).__name__}")
@@ -83,13 +84,9 @@ def get_fault(name: str) -> Fault | SensorFault:
     known = {**builtins, **report.by_name(), **sensor.by_name()}
     if name in known:
         return known[name]
-    close = difflib.get_close_matches(name, list(known), n=3, cutoff=0.6)
-    hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
-    msg = f"unknown fault {name!r}{hint} Known faults: {', '.join(known)}"
     failures = (*report.errors, *sensor.errors)
-    if "/" in name and failures:
-        msg += ". Plugins that failed to load: " + "; ".join(str(e) for e in failures)
-    raise FaultError(msg)
+    note = (". Plugins that failed to load: " + "; ".join(str(e) for e in failures)) if "/" in name and failures else ""
+    raise UnknownPluginError("fault", name, known, note=note)
 
 
 def _import_fault(spec: str) -> Fault | SensorFault:
@@ -125,23 +122,33 @@ class FaultListing:
         Built-ins in registration order, then plugin faults by name.
     sources : mapping
         Fault name -> ``"built-in"`` or the plugin entry point it came from.
-    errors : tuple of PluginFailure
+    errors : tuple of faultlab.plugins.PluginFailure
         Plugins (or plugin faults) that failed to load.
     sensor_faults : tuple of SensorFault
         The sensor and hardware faults, listed in their own section.
+    categories : mapping
+        Fault name -> category for the faults that have one (``"real"``: reproduces a bug found in
+        public SLAM code, :mod:`faultlab.faults.real`).
     """
 
     faults: tuple[Fault, ...]
     sources: Mapping[str, str]
     errors: tuple = ()
     sensor_faults: tuple[SensorFault, ...] = ()
+    categories: Mapping[str, str] = field(default_factory=dict)
 
     def select(self, specs: Iterable[str]) -> "FaultListing":
         """The listing of the given faults (names or ``module:attr`` paths), in that order."""
         chosen = tuple(resolve_fault(s) for s in specs)
         sources = {f.name: self.sources.get(f.name, "import path") for f in chosen}
         return FaultListing(faults=tuple(f for f in chosen if isinstance(f, Fault)), sources=sources,
-                            errors=self.errors, sensor_faults=tuple(f for f in chosen if isinstance(f, SensorFault)))
+                            errors=self.errors, sensor_faults=tuple(f for f in chosen if isinstance(f, SensorFault)),
+                            categories=self.categories)
+
+    def in_category(self, category: str) -> "FaultListing":
+        """The listing of the faults of one category (no sensor faults: none has a category)."""
+        return FaultListing(faults=tuple(f for f in self.faults if self.categories.get(f.name) == category),
+                            sources=self.sources, errors=self.errors, categories=self.categories)
 
     def rows(self) -> list[tuple[str, str, str, str]]:
         """``(name, step, origin, description)`` per fault."""
@@ -155,12 +162,14 @@ class FaultListing:
             w1 = max(len(r[1]) for r in rows) if rows else 4
             lines = []
             for name, step, origin, description in rows:
+                category = f" (category: {self.categories[name]})" if name in self.categories else ""
                 lines.append(f"{name.ljust(w0)}  {step.ljust(w1)}  {description}")
-                lines.append(f"{'':{w0}}  {'':{w1}}  origin: {origin}")
+                lines.append(f"{'':{w0}}  {'':{w1}}  origin: {origin}{category}")
         else:
             lines = []
             for f in self.faults:
-                lines += [f"{f.name}  (step: {f.step}; {self.sources.get(f.name, '?')})",
+                category = f"; category: {self.categories[f.name]}" if f.name in self.categories else ""
+                lines += [f"{f.name}  (step: {f.step}; {self.sources.get(f.name, '?')}{category})",
                           f"    {f.description}",
                           f"    origin: {f.origin}",
                           f"    {f.rationale}", ""]
@@ -186,10 +195,11 @@ class FaultListing:
 def list_faults(*, plugins: bool = True) -> FaultListing:
     """All faults with their sources and any plugin load errors (no warnings issued)."""
     builtins = builtin_faults()
-    report = load_plugins(warn=False) if plugins else PluginReport()
+    report = load_plugins(warn=False) if plugins else PluginLoad()
     sensor = load_sensor_plugins(warn=False) if plugins else None
     sources = ({name: "built-in" for name in builtins} | {f.name: "built-in" for f in BUILTIN_SENSOR_FAULTS}
                | dict(report.sources) | (dict(sensor.sources) if sensor else {}))
     errors = (*report.errors, *(sensor.errors if sensor else ()))
-    return FaultListing(faults=(*builtins.values(), *report.faults), sources=sources, errors=errors,
-                        sensor_faults=(*BUILTIN_SENSOR_FAULTS, *(sensor.faults if sensor else ())))
+    return FaultListing(faults=(*builtins.values(), *report.items), sources=sources, errors=errors,
+                        sensor_faults=(*BUILTIN_SENSOR_FAULTS, *(sensor.items if sensor else ())),
+                        categories=fault_categories())

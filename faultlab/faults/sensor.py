@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -38,7 +38,7 @@ from faultlab.scenario.model import Scenario
 from faultlab.seeds import sensor_seed_sequence
 from faultlab.vocabulary import UNMODIFIED
 
-__all__ = ["SENSOR_ENTRY_POINT_GROUP", "STREAM", "SensorFault", "SensorPluginReport", "load_sensor_plugins",
+__all__ = ["SENSOR_ENTRY_POINT_GROUP", "STREAM", "SensorFault", "load_sensor_plugins",
            "step_of_observations", "select_observations", "gather_steps"]
 
 #: Entry-point group a plugin distribution declares its sensor faults in.
@@ -223,29 +223,11 @@ def gather_steps(scenario: Scenario, source: np.ndarray) -> Scenario:
 # --------------------------------------------------------------------------- plugins
 
 @dataclass(frozen=True)
-class SensorPluginReport(PluginLoad):
-    """Result of :func:`load_sensor_plugins`: the plugin sensor faults by name, their sources, the failures.
-
-    ``errors`` are :class:`~faultlab.faults.discovery.PluginFailure` records, as for code faults.
-    """
-
-    errors: tuple[PluginFailure, ...] = ()
-    sources: Mapping[str, str] = field(default_factory=dict)
-
-    @property
-    def faults(self) -> tuple:
-        return self.items
-
-    def by_name(self) -> dict[str, SensorFault]:
-        return {f.name: f for f in self.items}
-
-
-@dataclass(frozen=True)
 class SensorFaultCatalogue(FaultCatalogue):
     """The sensor-fault plugins: ``provider/name`` :class:`SensorFault` instances (or iterables of them).
 
     Entry points are described and failures recorded as for code faults
-    (:class:`~faultlab.faults.discovery.PluginFailure`, of kind ``"sensor-fault"``).
+    (:class:`~faultlab.plugins.PluginFailure`, of kind ``"sensor-fault"``).
     """
 
     def failure(self, plugin: str, source: str, error: str, *, loading: bool) -> PluginFailure:
@@ -270,19 +252,18 @@ class SensorFaultCatalogue(FaultCatalogue):
             return f"duplicate sensor fault name {item.name!r}: defined by {taken[item.name]} and by {source}"
         return None
 
-    def collect(self, items: list, sources: dict[str, str], errors: list) -> SensorPluginReport:
+    def collect(self, items: list, sources: dict[str, str], errors: list) -> PluginLoad:
         ordered = tuple(sorted(items, key=lambda f: f.name))
-        return SensorPluginReport(items=ordered, sources={f.name: sources[f.name] for f in ordered},
-                                  errors=tuple(errors))
+        return PluginLoad(items=ordered, sources={f.name: sources[f.name] for f in ordered}, errors=tuple(errors))
 
 
-def load_sensor_plugins(*, group: str = SENSOR_ENTRY_POINT_GROUP, warn: bool = True) -> SensorPluginReport:
+def load_sensor_plugins(*, group: str = SENSOR_ENTRY_POINT_GROUP, warn: bool = True) -> PluginLoad:
     """Discover third-party sensor faults in the entry-point group ``faultlab.sensor_faults``.
 
     Each entry point loads to a :class:`SensorFault` or an iterable of them, named ``provider/name``;
     a plugin that fails is reported (and warned about) and the others still load.
     """
     catalogue = SensorFaultCatalogue(kind="sensor fault", group=group, base=SensorFault, builtins=(),
-                                     error=FaultError, warning=PluginWarning)
+                                     warning=PluginWarning)
     return catalogue.load(group=group, warn=warn)
 

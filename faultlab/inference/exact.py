@@ -25,7 +25,8 @@ from faultlab.inference.signflip import reference_pvalues, split_pvalues
 from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_POWER, DIRECTIONS
 
 __all__ = ["ALTERNATIVES", "MAX_EXACT_PAIRS", "MDE_SEED", "check_alpha", "check_count", "check_alternative",
-           "alternative_of", "min_p_value", "min_pairs", "sign_flip_pvalues", "detectable_shift_factor"]
+           "alternative_of", "min_p_value", "min_pairs", "sign_flip_pvalues", "sign_flip_interval",
+           "detectable_shift_factor"]
 
 #: The alternatives of :func:`sign_flip_pvalues` (SciPy's names): ``"greater"`` (the faulty error is
 #: larger), ``"less"``, ``"two-sided"``.
@@ -198,7 +199,7 @@ def detectable_shift_factor(k: int, *, alpha: float = DEFAULT_ALPHA, power: floa
     (simulation with a fixed generator for ``k <= 12``, the paired t test's power beyond).  The
     two-sided test at ``alpha`` rejects a positive shift when the "greater" p value is at most
     ``alpha / 2`` (or, rarely, the "less" one is), so its factor is the one-sided factor at
-    ``alpha / 2`` (conservative by the wrong-sign rejections, negligible at 80 % power).
+    ``alpha / 2`` (conservative by the wrong-sign rejections, negligible at the usual powers).
 
     Parameters
     ----------
@@ -226,3 +227,68 @@ def detectable_shift_factor(k: int, *, alpha: float = DEFAULT_ALPHA, power: floa
     if check_alternative(alternative, "detectable_shift_factor") == "two-sided":
         alpha = alpha / 2
     return _shift_factor(k, alpha, float(power))
+
+
+def _subset_means(x: np.ndarray) -> np.ndarray:
+    """The means of the ``2^n - 1`` non-empty subsets of ``x`` (sums and sizes doubled one element at a time)."""
+    sums, sizes = np.zeros(1), np.zeros(1)
+    for v in x:
+        sums = np.concatenate([sums, sums + v])
+        sizes = np.concatenate([sizes, sizes + 1])
+    return sums[1:] / sizes[1:]
+
+
+def sign_flip_interval(x, *, level: float = 1 - DEFAULT_ALPHA, rng: np.random.Generator | None = None,
+                       resamples: int = 99_999) -> tuple[float, float]:
+    """Confidence interval of the centre of symmetry of ``x``: the shifts the two-sided sign-flip test keeps.
+
+    The interval is ``{delta : sign_flip_pvalues(x - delta, "two-sided") > 1 - level}``, the inverse
+    of the test of :func:`sign_flip_pvalues` with the mean as statistic, so it excludes 0 exactly when
+    that test rejects at ``1 - level``.  Flipping the signs of a subset ``F`` makes the mean of
+    ``x - delta`` at least the observed one iff ``mean(x_F) <= delta``; hence the one-sided p value
+    at ``delta`` counts the subset means at most ``delta``, and the bounds are the ``m``-th smallest
+    and the ``m``-th largest of the ``2^n - 1`` non-empty subset means, ``m = floor((1 - level) / 2 *
+    2^n)`` (Hartigan's subset-mean interval).  Beyond :data:`MAX_EXACT_PAIRS` values ``resamples``
+    random subsets stand for all of them, as for the Monte Carlo test (``m`` from ``resamples + 1``).
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Finite values (e.g. one mean log ratio per case).
+    level : float
+        Confidence level, in (0, 1).
+    rng : numpy.random.Generator, optional
+        Needed only when ``n > MAX_EXACT_PAIRS``.
+    resamples : int
+        Random subsets of the Monte Carlo interval.
+
+    Returns
+    -------
+    (low, high) : tuple of float
+        NaN, NaN when no outcome of the test could reject at ``1 - level`` (``m < 1``: too few values).
+    """
+    alpha = check_alpha(1 - level, "sign_flip_interval")
+    x = np.asarray(x, dtype=float).reshape(-1)
+    if not np.all(np.isfinite(x)):
+        raise ConfigError("sign_flip_interval: values must be finite")
+    n = x.size
+    if n <= MAX_EXACT_PAIRS:
+        m = math.floor(alpha / 2 * 2.0 ** n)
+        if m < 1:
+            return math.nan, math.nan
+        means = _subset_means(x)
+    else:
+        if rng is None:
+            raise ConfigError(f"sign_flip_interval: {n} values exceed the {MAX_EXACT_PAIRS} the exact interval "
+                              "enumerates; a Monte Carlo interval needs an rng")
+        m = math.floor(alpha / 2 * (resamples + 1))
+        members = rng.random((resamples, n)) < 0.5
+        size = members.sum(axis=1)
+        means = (members @ x) / np.maximum(size, 1)
+        # an empty subset flips nothing: it counts on both sides, as the identity pattern does
+        low = np.partition(np.where(size > 0, means, -np.inf), m - 1)[m - 1]
+        high = -np.partition(-np.where(size > 0, means, np.inf), m - 1)[m - 1]
+        return float(low), float(high)
+    low = np.partition(means, m - 1)[m - 1]
+    high = -np.partition(-means, m - 1)[m - 1]
+    return float(low), float(high)

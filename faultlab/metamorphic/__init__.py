@@ -9,7 +9,7 @@ seed-to-seed spread; :func:`relation_matrix` does so for many faults.  Built-in 
 ``faultlab.metamorphic`` (:mod:`faultlab.metamorphic.registry`).
 """
 
-from faultlab.metamorphic.builtin import BUILTIN_RELATIONS, BearingTurn, HalvedNoise, IdPermutation, RigidMotion
+from faultlab.metamorphic.builtin import BUILTIN_RELATIONS, BearingTurn, HalvedNoise, IdPermutation, IdRelabel, RigidMotion
 from faultlab.metamorphic.check import (
     DEFAULT_ATOL,
     DEFAULT_FACTOR,
@@ -22,7 +22,6 @@ from faultlab.metamorphic.check import (
 )
 from faultlab.metamorphic.registry import (
     RELATION_ENTRY_POINT_GROUP,
-    RelationPlugins,
     RelationPluginWarning,
     all_relations,
     get_relation,
@@ -36,6 +35,7 @@ __all__ = [
     "estimate_distance",
     "RigidMotion",
     "IdPermutation",
+    "IdRelabel",
     "BearingTurn",
     "HalvedNoise",
     "BUILTIN_RELATIONS",
@@ -48,7 +48,6 @@ __all__ = [
     "relation_matrix",
     "metamorphic_scenario",
     "RELATION_ENTRY_POINT_GROUP",
-    "RelationPlugins",
     "RelationPluginWarning",
     "load_relation_plugins",
     "all_relations",

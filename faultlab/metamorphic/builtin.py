@@ -39,7 +39,7 @@ from faultlab.scenario.trace import wrap_angle
 from faultlab.slam.protocol import Estimate
 from faultlab.space.case import FIXED_VALUES, CaseSpec
 
-__all__ = ["RigidMotion", "IdPermutation", "BearingTurn", "HalvedNoise", "BUILTIN_RELATIONS", "example_scenario",
+__all__ = ["RigidMotion", "IdPermutation", "IdRelabel", "BearingTurn", "HalvedNoise", "BUILTIN_RELATIONS", "example_scenario",
            "true_measurements"]
 
 _TWO_PI = 2.0 * math.pi
@@ -209,6 +209,36 @@ class IdPermutation(MetamorphicRelation):
     )
 
 
+class IdRelabel(IdPermutation):
+    """Relabel the landmarks and keep each step's observations in their order.
+
+    :class:`IdPermutation` with ``keep_order=True`` under its own name, so that a check can ask for it:
+    the relation that holds for a sequential EKF update (each observation linearised at the state the
+    previous one left), whose map legitimately depends on the order of a step's observations.
+
+    Parameters
+    ----------
+    mapping : mapping of int to int, optional
+        Old id -> new id, a permutation of the map's ids; default: a uniform random one from ``rng``.
+    """
+
+    name = "id_relabel"
+    description = "relabelling the landmark ids, each step's observations kept in their order, relabels the map"
+
+    def __init__(self, mapping: dict[int, int] | None = None):
+        super().__init__(mapping, keep_order=True)
+
+    examples = (
+        RelationExample(
+            source=example_scenario, options={"mapping": {10: 20, 20: 10}},
+            # step 0 saw (10, 20) -> relabelled (20, 10), kept in that order
+            followup={"landmark_ids": [20, 10], "obs_ids": [20, 10, 20]},
+            estimate=Estimate(np.array([1.0, 0.0, 0.0]), np.array([10]), np.array([[2.0, 1.0]])),
+            expected=Estimate(np.array([1.0, 0.0, 0.0]), np.array([20]), np.array([[2.0, 1.0]])),
+            note="swapping the two ids keeps step 0's order: ranges and bearings stay where they were"),
+    )
+
+
 class _Relabel:
     """Vectorised id relabelling ``old[i] -> new[i]`` (ids not in ``old`` are an error)."""
 
@@ -341,4 +371,5 @@ class HalvedNoise(MetamorphicRelation):
 
 
 #: The built-in relations, one instance each (random parameters drawn per check).
-BUILTIN_RELATIONS: tuple[MetamorphicRelation, ...] = (RigidMotion(), IdPermutation(), BearingTurn(), HalvedNoise())
+BUILTIN_RELATIONS: tuple[MetamorphicRelation, ...] = (RigidMotion(), IdPermutation(), IdRelabel(), BearingTurn(),
+                                                       HalvedNoise())

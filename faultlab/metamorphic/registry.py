@@ -14,17 +14,13 @@ and the others still load.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-from faultlab.errors import ConfigError
 from faultlab.metamorphic.relation import MetamorphicRelation
 from faultlab.metamorphic.builtin import BUILTIN_RELATIONS
-from faultlab.plugins import PluginCatalogue, PluginLoad
+from faultlab.plugins import PluginCatalogue
 
 __all__ = [
     "RELATION_ENTRY_POINT_GROUP",
     "RelationPluginWarning",
-    "RelationPlugins",
     "load_relation_plugins",
     "all_relations",
     "get_relation",
@@ -38,25 +34,15 @@ class RelationPluginWarning(UserWarning):
     """Issued when a metamorphic relation plugin fails to load."""
 
 
-@dataclass(frozen=True)
-class RelationPlugins(PluginLoad):
-    """Result of :func:`load_relation_plugins`: the metamorphic relations that loaded and the failures."""
-
-    @property
-    def relations(self) -> tuple[MetamorphicRelation, ...]:
-        """The metamorphic relations that loaded (:attr:`items`)."""
-        return self.items
-
-
 _CATALOGUE = PluginCatalogue(kind="metamorphic relation", group=RELATION_ENTRY_POINT_GROUP,
-                             base=MetamorphicRelation, builtins=tuple(BUILTIN_RELATIONS), error=ConfigError,
-                             warning=RelationPluginWarning, result=RelationPlugins)
+                             base=MetamorphicRelation, builtins=tuple(BUILTIN_RELATIONS),
+                             warning=RelationPluginWarning)
 
 #: ``load_relation_plugins(*, group=None, warn=True)``: discover the third-party metamorphic
-#: relations (in entry-point name order); a :class:`RelationPlugins`.
+#: relations (in entry-point name order); a :class:`~faultlab.plugins.PluginLoad`.
 load_relation_plugins = _CATALOGUE.load
 #: ``all_relations(*, plugins=True)``: the built-in metamorphic relations, then the plugin ones.
 all_relations = _CATALOGUE.all
-#: ``get_relation(name)``: the relation called ``name`` (built-in or plugin); ConfigError with close
-#: names otherwise.
+#: ``get_relation(name)``: the relation called ``name`` (built-in or plugin);
+#: :class:`~faultlab.errors.UnknownPluginError` with close names otherwise.
 get_relation = _CATALOGUE.get

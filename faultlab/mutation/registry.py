@@ -15,17 +15,13 @@ and the others still load.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-from faultlab.errors import FaultError
 from faultlab.mutation.operatorbase import MutationOperator
 from faultlab.mutation.operators import BUILTIN_OPERATORS
-from faultlab.plugins import PluginCatalogue, PluginLoad
+from faultlab.plugins import PluginCatalogue
 
 __all__ = [
     "OPERATOR_ENTRY_POINT_GROUP",
     "OperatorPluginWarning",
-    "OperatorPlugins",
     "load_operator_plugins",
     "all_operators",
     "get_operator",
@@ -39,25 +35,14 @@ class OperatorPluginWarning(UserWarning):
     """Issued when a mutation operator plugin fails to load."""
 
 
-@dataclass(frozen=True)
-class OperatorPlugins(PluginLoad):
-    """Result of :func:`load_operator_plugins`: the mutation operators that loaded and the failures."""
-
-    @property
-    def operators(self) -> tuple[MutationOperator, ...]:
-        """The mutation operators that loaded (:attr:`items`)."""
-        return self.items
-
-
 _CATALOGUE = PluginCatalogue(kind="mutation operator", group=OPERATOR_ENTRY_POINT_GROUP, base=MutationOperator,
-                             builtins=tuple(BUILTIN_OPERATORS), error=FaultError, warning=OperatorPluginWarning,
-                             result=OperatorPlugins)
+                             builtins=tuple(BUILTIN_OPERATORS), warning=OperatorPluginWarning)
 
 #: ``load_operator_plugins(*, group=None, warn=True)``: discover the third-party mutation operators
-#: (in entry-point name order); an :class:`OperatorPlugins`.
+#: (in entry-point name order); a :class:`~faultlab.plugins.PluginLoad`.
 load_operator_plugins = _CATALOGUE.load
 #: ``all_operators(*, plugins=True)``: the built-in mutation operators, then the plugin ones.
 all_operators = _CATALOGUE.all
-#: ``get_operator(name)``: the operator called ``name`` (built-in or plugin); FaultError with close
-#: names otherwise.
+#: ``get_operator(name)``: the operator called ``name`` (built-in or plugin);
+#: :class:`~faultlab.errors.UnknownPluginError` with close names otherwise.
 get_operator = _CATALOGUE.get

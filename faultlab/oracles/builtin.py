@@ -32,11 +32,13 @@ from typing import Any
 import numpy as np
 
 from faultlab.metamorphic.registry import get_relation
+from faultlab.oracles.budget import BUDGET_OPTIONS, BudgetOracle
+from faultlab.oracles.consistency import ConsistencyOracle
 from faultlab.oracles.oracle import FAIL, PASS, SKIP, CaseRuns, Oracle, OracleResult, map_error_mm, sign_test
 from faultlab.slam.deadreckoning import DeadReckoning
 
 __all__ = ["DEFAULT_OPTIONS", "ExecutionOracle", "MetamorphicOracle", "FloorOracle", "DifferentialOracle",
-           "BUILTIN_ORACLES"]
+           "ConsistencyOracle", "BudgetOracle", "BUILTIN_ORACLES"]
 
 #: The declared margins and tolerances (``faultlab check`` options of the same names).
 DEFAULT_OPTIONS: dict[str, Any] = {
@@ -46,6 +48,8 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "floor_margin_mm": 50.0,      # ... plus 50 mm, before it is called broken
     "differential_ratio": 2.0,    # three times the reference SLAM's error ...
     "differential_margin_mm": 100.0,  # ... plus 100 mm
+    "consistency_stochastic": 0.0,  # 1: a stochastic SLAM's overconfidence fails the case (0: reported)
+    **BUDGET_OPTIONS,  # budget_mm, budget_classes, budget_step_ms: none declared
 }
 
 
@@ -220,4 +224,5 @@ class MetamorphicOracle(Oracle):
 
 
 #: The built-in oracles, in the order ``faultlab check`` applies them.
-BUILTIN_ORACLES: tuple[Oracle, ...] = (ExecutionOracle(), MetamorphicOracle(), FloorOracle(), DifferentialOracle())
+BUILTIN_ORACLES: tuple[Oracle, ...] = (ExecutionOracle(), MetamorphicOracle(), FloorOracle(), DifferentialOracle(),
+                                       ConsistencyOracle(), BudgetOracle())

@@ -41,11 +41,15 @@ def repetition_seeds(seed: int, case_id: str, repetitions: int) -> tuple[int, ..
 def judge_case(case_id: str, scenario: Scenario, factory: Callable[[], SlamAdapter], *,
                oracles: Sequence[Oracle], seeds: Sequence[int], alpha: float,
                reference: Callable[[], SlamAdapter] | None = None,
-               options: Mapping[str, Any] | None = None) -> CaseJudgement:
+               options: Mapping[str, Any] | None = None,
+               classes: Mapping[str, str] | None = None,
+               executor: Callable | None = None) -> CaseJudgement:
     """Judge ``scenario`` by every oracle.
 
     The level ``alpha`` is the chance that a correct stochastic SLAM fails the case: it is divided
     equally among the oracles' sign tests (Bonferroni).  A deterministic SLAM is judged exactly.
+    ``classes`` (parameter -> class name) is the case's place in Table I, for per-class budgets;
+    ``executor`` runs one execution (default :func:`faultlab.oracles.oracle.execute`).
     """
     if len(seeds) < 2:
         raise ConfigError(f"repetitions must be >= 2 (two seeds tell a deterministic SLAM), got {len(seeds)}")
@@ -53,7 +57,7 @@ def judge_case(case_id: str, scenario: Scenario, factory: Callable[[], SlamAdapt
         raise ConfigError(f"alpha must lie in (0, 1), got {alpha!r}")
     options = dict(options or {})
     runs = CaseRuns(case_id=case_id, scenario=scenario, factory=factory, seeds=tuple(seeds), reference=reference,
-                    options=options)
+                    options=options, classes=dict(classes or {}), **({"executor": executor} if executor else {}))
     n_tests = max(1, sum(o.tests(options) for o in oracles))
     per_test = alpha / n_tests
     results = tuple(o.judge(runs, alpha=per_test) for o in oracles)

@@ -20,6 +20,7 @@ case, Bonferroni, so a correct SLAM fails a case with probability at most ``alph
 from __future__ import annotations
 
 import math
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -45,6 +46,7 @@ class Outcome:
 
     estimate: Estimate | None
     error: str = ""
+    seconds: float = math.nan  # wall-clock time of the whole run (reset, steps, estimate)
 
     @property
     def ok(self) -> bool:
@@ -56,12 +58,13 @@ def execute(factory: Callable[[], SlamAdapter], scenario: Scenario, seed: int) -
 
     Any exception of the SLAM (a crash, a malformed or non-finite estimate) is an outcome, not an error.
     """
+    start = time.perf_counter()
     try:
         with np.errstate(all="ignore"):
             est = run_slam(factory(), scenario, rng=np.random.default_rng(seed))
     except Exception as exc:  # the SLAM under test's failure is a result
-        return Outcome(None, f"{type(exc).__name__}: {exc}")
-    return Outcome(est)
+        return Outcome(None, f"{type(exc).__name__}: {exc}", time.perf_counter() - start)
+    return Outcome(est, seconds=time.perf_counter() - start)
 
 
 def map_error_mm(scenario: Scenario, outcome: Outcome) -> float:
@@ -104,6 +107,12 @@ class CaseRuns:
         ``() -> SlamAdapter``: the reference SLAM of the differential oracle.
     options : mapping
         The check's options (margins, relations, alpha per test, ...), see :mod:`faultlab.oracles.builtin`.
+    classes : mapping
+        The case's Table I equivalence class of each parameter (name -> class name); empty when unknown
+        (a saved case judged alone).
+    executor : callable
+        ``(factory, scenario, seed) -> Outcome``: one execution (default :func:`execute`; ``faultlab
+        check`` passes one with a wall-clock limit).
     """
 
     case_id: str
@@ -112,6 +121,8 @@ class CaseRuns:
     seeds: tuple[int, ...]
     reference: Callable[[], SlamAdapter] | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
+    classes: Mapping[str, str] = field(default_factory=dict)
+    executor: Callable[[Callable[[], SlamAdapter], Scenario, int], Outcome] = execute
     executions: int = 0
     _cache: dict = field(default_factory=dict, repr=False)
 
@@ -129,7 +140,7 @@ class CaseRuns:
             seed = self.seeds[k]
             if seed_stream:
                 seed = int(np.random.SeedSequence([seed, seed_stream]).generate_state(1, np.uint64)[0] >> 1)
-            self._cache[cache_key] = execute(factory or self.factory, scenario or self.scenario, seed)
+            self._cache[cache_key] = self.executor(factory or self.factory, scenario or self.scenario, seed)
         return self._cache[cache_key]
 
     @property

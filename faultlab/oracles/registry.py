@@ -11,14 +11,11 @@ arguments) or instance, or an iterable of them (the rules of :class:`faultlab.pl
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-from faultlab.errors import ConfigError
 from faultlab.oracles.builtin import BUILTIN_ORACLES
 from faultlab.oracles.oracle import Oracle
-from faultlab.plugins import PluginCatalogue, PluginLoad
+from faultlab.plugins import PluginCatalogue
 
-__all__ = ["ORACLE_ENTRY_POINT_GROUP", "OraclePluginWarning", "OraclePlugins", "load_oracle_plugins",
+__all__ = ["ORACLE_ENTRY_POINT_GROUP", "OraclePluginWarning", "load_oracle_plugins",
            "all_oracles", "get_oracle"]
 
 #: Entry-point group of third-party oracles.
@@ -29,22 +26,12 @@ class OraclePluginWarning(UserWarning):
     """Issued when an oracle plugin fails to load."""
 
 
-@dataclass(frozen=True)
-class OraclePlugins(PluginLoad):
-    """Result of :func:`load_oracle_plugins`."""
-
-    @property
-    def oracles(self) -> tuple[Oracle, ...]:
-        return self.items
-
-
 _CATALOGUE = PluginCatalogue(kind="oracle", group=ORACLE_ENTRY_POINT_GROUP, base=Oracle,
-                             builtins=tuple(BUILTIN_ORACLES), error=ConfigError, warning=OraclePluginWarning,
-                             result=OraclePlugins)
+                             builtins=tuple(BUILTIN_ORACLES), warning=OraclePluginWarning)
 
 #: ``load_oracle_plugins(*, group=None, warn=True)``: the third-party oracles.
 load_oracle_plugins = _CATALOGUE.load
 #: ``all_oracles(*, plugins=True)``: the built-in oracles, then the plugin ones.
 all_oracles = _CATALOGUE.all
-#: ``get_oracle(name)``: the oracle called ``name``; ConfigError with close names otherwise.
+#: ``get_oracle(name)``: the oracle called ``name``; :class:`~faultlab.errors.UnknownPluginError` otherwise.
 get_oracle = _CATALOGUE.get

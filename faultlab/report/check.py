@@ -45,6 +45,12 @@ def check_markdown(summary: CheckSummary, spec: Mapping) -> str:
               "`(1 + {differential_ratio:g}) x reference + {differential_margin_mm:g} mm`; exact metamorphic "
               "relations {rel} within {metamorphic_atol:g} m for a deterministic SLAM.".format(
                   rel=", ".join(options["relations"]), **{k: v for k, v in options.items() if k != "relations"})]
+    budgets = [f"{options['budget_mm']:g} mm per case" if options.get("budget_mm") else ""]
+    budgets += [f"{mm:g} mm in {cls}" for cls, mm in dict(options.get("budget_classes") or {}).items()]
+    budgets += [f"{options['budget_step_ms']:g} ms per step" if options.get("budget_step_ms") else ""]
+    if any(budgets):
+        lines += ["", "Budgets declared: " + "; ".join(b for b in budgets if b) + " (the most lenient of a case's "
+                  "classes applies)."]
     return "\n".join(lines) + "\n"
 
 

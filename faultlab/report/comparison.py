@@ -13,7 +13,7 @@ does not, says so in words.  The criteria are explicit and conservative:
   (:func:`faultlab.stats.cases.compare_with_paper`, the Analysis table ``paper_comparisons``):
   the paper's printed count k/15 against this run's detected / judged cases, Boschloo's exact
   test; *disagrees* when p < alpha, *agrees* when it does not differ and the smallest difference
-  detectable with 80 % power is below the stated margin, else *inconclusive* (too few cases for
+  detectable with the default power (:data:`~faultlab.vocabulary.DEFAULT_POWER`) is below the stated margin, else *inconclusive* (too few cases for
   "no difference" to mean anything).  Rows without a printed figure fall back to the paper's
   rate from its raw data lying inside this run's Wilson interval.
 * **by Suite** per suite: the paper's share lies inside this run's interval for that share.
@@ -46,7 +46,7 @@ from faultlab.report.tables import (
     suite_label,
     variant_label,
 )
-from faultlab.vocabulary import BASELINE
+from faultlab.vocabulary import BASELINE, POWER_TEXT
 
 __all__ = ["Verdict", "Statement", "Comparison", "compare_with_paper"]
 
@@ -251,9 +251,9 @@ def _two_sample_statement(analysis: Analysis, suite: str, variant: str) -> State
     verdict = _TWO_SAMPLE[r["verdict"]]
     why = {"differs": f"p = {r['p']:.3g} < alpha = {analysis.alpha:g}",
            "agrees": f"p = {r['p']:.3g} and a difference of {format_pct(r['detectable_difference'])} percentage "
-                     f"points would have been detected with 80 % power",
+                     f"points would have been detected with {POWER_TEXT} power",
            "inconclusive": f"p = {r['p']:.3g}, but only a difference of {format_pct(r['detectable_difference'])} "
-                           f"percentage points or more would have been detected with 80 % power"}[r["verdict"]]
+                           f"percentage points or more would have been detected with {POWER_TEXT} power"}[r["verdict"]]
     return Statement("detection", suite, variant, verdict, mine, paper,
                      f"{label}: this run detects the fault in {mine}, the paper in {paper}; {verdict} "
                      f"(Boschloo's exact two-sample test, {analysis.rule.rule} rule over cases: {why}).")

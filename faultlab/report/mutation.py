@@ -18,7 +18,7 @@ from faultlab.runner.store import MUTANTS_FILE
 from faultlab.report.figures import PAGE_SIZE
 from faultlab.report.pdf import table_pages, text_pages, write_pdf
 from faultlab.stats.verdict import EQUIVALENCE_MARGIN_REL
-from faultlab.vocabulary import PAPER_DIRECTION, SUITE_ORDER, ordered
+from faultlab.vocabulary import PAPER_DIRECTION, POWER_TEXT, SUITE_ORDER, ordered
 
 __all__ = ["STRYKER_FILE", "MATRIX_CLASSES", "markdown_table", "score_table", "matrix_figure", "write_mutation_report"]
 
@@ -96,7 +96,7 @@ def matrix_figure(analysis: MutationAnalysis, *, figsize=PAGE_SIZE) -> Figure:
 
 def survivor_table(analysis: MutationAnalysis) -> pd.DataFrame:
     """Each survived (mutant, suite): equivalent within the margin (TOST) or inconclusive, its smallest
-    per-case p value, largest TOST p value and detectable shift (80 % power); "not testable" where a
+    per-case p value, largest TOST p value and detectable shift (at :data:`~faultlab.vocabulary.DEFAULT_POWER`); "not testable" where a
     case had no usable pairs for that test, "none" where no case could detect any shift.
 
     An inconclusive survivor is not shown equivalent: its suite could only have detected a mean shift
@@ -147,7 +147,7 @@ def _effect(rows: pd.DataFrame, kill: str) -> str:
     if kill == "exact":
         return f"none: map error identical to the original's on all {n} cases (judged exactly)"
     mde = pd.to_numeric(rows["min_mde_mm"], errors="coerce")
-    return (f"no difference shown on {n} cases; smallest detectable mean shift {mde.min():.0f} mm (80 % power)"
+    return (f"no difference shown on {n} cases; smallest detectable mean shift {mde.min():.0f} mm ({POWER_TEXT} power)"
             if mde.notna().any() else f"no difference shown on {n} cases")
 
 
@@ -253,7 +253,7 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
           "",
           "Per survived (mutant, suite): 'equivalent' (TOST on every case) or 'inconclusive', the smallest "
           "per-case p value, the largest TOST p value and the smallest mean shift of the map error (mm) its most "
-          "sensitive case could have detected with 80 % power at the case's level and sidedness: an inconclusive "
+          f"sensitive case could have detected with {POWER_TEXT} power at the case's level and sidedness: an inconclusive "
           "survivor is a change below that size or one the suite's cases do not exercise, not shown equivalent.",
           "", markdown_table(survivors)]
     paths = [out / f"{n}.csv" for n in ("outcomes", "scores", "mcnemar")]
@@ -273,7 +273,7 @@ def write_mutation_report(results: str | Path, reports: str | Path) -> list[Path
     pages += table_pages("Score per unit", units)
     if len(observed):
         pages += table_pages("Equivalent as observed (bit-identical maps, not scored)", observed)
-    pages += table_pages("Survived mutants: equivalent or smallest detectable shift (80 % power)", survivors)
+    pages += table_pages(f"Survived mutants: equivalent or smallest detectable shift ({POWER_TEXT} power)", survivors)
     write_pdf(out / "mutation.pdf", pages, title="faultlab mutation report")
     paths.append(out / "mutation.pdf")
     return paths

@@ -26,6 +26,9 @@ from faultlab.report.comparison import Comparison, Verdict
 from faultlab.report.figures import PAGE_SIZE, detection_rate_figure, draw_detection_rates, rms_distribution_figure
 from faultlab.report.pdf import PAGE_TITLE_ATTR, new_page, table_pages, text_pages
 from faultlab.report.tables import (
+    campaign_verdict_line,
+    campaign_verdict_note,
+    campaign_verdict_records,
     detection_records,
     format_pct,
     format_pct_interval,
@@ -37,13 +40,14 @@ from faultlab.report.tables import (
     table2_rows,
     table2_runs,
     variant_label,
+    verdict_text,
 )
 from faultlab.runner.store import case_path
 from faultlab.scenario.model import Scenario, load_scenario
 from faultlab.stats.cases import AGREEMENT_MARGIN
 from faultlab.stats.class_effects import MIN_EPV
 from faultlab.inference.exact import alternative_of, min_pairs
-from faultlab.vocabulary import JobStatus
+from faultlab.vocabulary import POWER_TEXT, JobStatus
 
 __all__ = ["MAX_PICTURED_RUNS", "REPORT_TITLE", "EFFECT_PAGE_TITLE", "CLASS_EFFECT_PAGE_TITLE", "summary_pages",
            "title_pages", "table2_pages", "rates_pages", "comparison_pages",
@@ -122,11 +126,14 @@ def _detected_lines(analysis: Analysis) -> list[str]:
     case_rates = analysis.case_rates
     if len(case_rates):  # K >= 2 repetitions: one verdict per case from all its repetitions
         conf = round_mm(100 * (1 - analysis.alpha))
+        campaign = {r.fault: r for r in analysis.campaign_verdicts.itertuples(index=False)}
         for fault, rows in case_rates.groupby("fault", sort=False):
             k, n = int(rows["k"].sum()), int(rows["n"].sum())
             per = ", ".join(f"{suite_label(r.suite)} {int(r.k)}/{int(r.n)}" for r in rows.itertuples())
+            whole = f"; {campaign_verdict_line(campaign[fault])}" if fault in campaign else ""
             lines.append(f"- {variant_label(fault)}: detected on {k} of {n} judged cases by the "
-                         f"{rows['rule'].iloc[0]} rule ({per}; {conf} % Clopper-Pearson per suite in the tables).")
+                         f"{rows['rule'].iloc[0]} rule ({per}; {conf} % Clopper-Pearson per suite in the tables)"
+                         f"{whole}.")
         return lines
     rates = analysis.detection_rates
     for fault in dict.fromkeys(rates["variant"]):
@@ -493,7 +500,7 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
         "median diff mm [CI]": [_effect(m, lo, hi, "{:.0f}") for m, lo, hi in
                                 zip(v["median_diff_mm"], v["median_low_mm"], v["median_high_mm"])],
         "ratio [CI]": [_effect(m, lo, hi, "{:.2f}") for m, lo, hi in zip(v["ratio"], v["ratio_low"], v["ratio_high"])],
-        "MDE mm (80 %)": [_g3(x) for x in v["mde_mm"]],
+        f"MDE mm ({POWER_TEXT})": [_g3(x) for x in v["mde_mm"]],
     })
     cannot = int((v["verdict"] == "cannot_judge").sum())
     show, empty = _without_empty_columns(_frame_text(show))
@@ -506,7 +513,7 @@ def _case_verdict_pages(analysis: Analysis) -> list[Figure]:
                             f"mean paired difference; effect: median difference (mm) and median ratio faulty / "
                             f"baseline with order-statistic intervals (coverage >= 1 - alpha where K allows). MDE: "
                             f"smallest shift of the paired differences the decision's test (its sidedness, Holm's "
-                            f"first step alpha / m over the family) detects with 80 % power.{_left_out(empty)}")
+                            f"first step alpha / m over the family) detects with {POWER_TEXT} power.{_left_out(empty)}")
 
 
 def _effect(mid: float, lo: float, hi: float, fmt: str) -> str:
@@ -543,7 +550,10 @@ def _suite_verdict_pages(analysis: Analysis) -> list[Figure]:
         "suite": v["suite"].map(suite_label), "run": v["run"], "fault": v["fault"].map(variant_label),
         "tested/cases": [f"{t}/{n}" for t, n in zip(v["n_tested"], v["n_cases"])], "crashed": v["n_crashed"],
         "min p": [_g3(x) for x in v["min_p"]], "per-case min": v["detected_min"].map(yes),
-        "pooled p": [_g3(x) for x in v["pooled_p"]], "combined": v["detected_combined"].map(yes),
+        "pooled p": [_g3(x) for x in v["pooled_p"]],
+        "pooled": [verdict_text(x, m) for x, m in zip(v["pooled_verdict"], v["pooled_p_min"])],
+        "combined": [verdict_text(x, min(c, m) if math.isfinite(c) and math.isfinite(m) else m)
+                     for x, c, m in zip(v["verdict"], v["case_p_min"], v["pooled_p_min"])],
     })
     return table_pages("Suite-level decisions: per-case minimum and pooled", show, fontsize=8,
                        note=f"Per suite run: 'per-case min' detects when the fault crashes alone on a case or the "
@@ -551,7 +561,17 @@ def _suite_verdict_pages(analysis: Analysis) -> list[Figure]:
                             f"most {a:g} / n; 'combined' when it crashes, that p is at most {a:g} / (2 n), or the "
                             f"pooled sign-flip test over the cases' mean log ratios gives p at most {a:g} / 2 "
                             f"(family-wise {a:g}). The pooled test can reject at {a / 2:g} only from "
-                            f"{min_pairs(a / 2, alternative=alternative)} tested cases.")
+                            f"{min_pairs(a / 2, alternative=alternative)} tested cases: with fewer it says 'cannot "
+                            f"judge' with its smallest attainable p, never 'no change shown'; the campaign-level "
+                            f"verdict pools every suite's cases.")
+
+
+def _campaign_verdict_pages(analysis: Analysis) -> list[Figure]:
+    records = campaign_verdict_records(analysis)
+    if not len(records):
+        return []
+    return table_pages("Campaign-level verdict per fault (all its cases pooled)", records, fontsize=7.5,
+                       note=campaign_verdict_note(analysis))
 
 
 def _case_comparison_pages(analysis: Analysis) -> list[Figure]:
@@ -595,13 +615,13 @@ def _paper_comparison_pages(analysis: Analysis) -> list[Figure]:
         "paper k/n": [f"{k}/{n}" for k, n in zip(c["paper_k"], c["paper_n"])],
         "this run k/n (cases)": [f"{k}/{n}" for k, n in zip(c["k"], c["n"])],
         "difference": [f"{x:+.2f}" for x in c["difference"]], "p (Boschloo)": [_g3(x) for x in c["p"]],
-        "detectable difference (80 %)": [_g3(x) for x in c["detectable_difference"]], "verdict": c["verdict"],
+        f"detectable difference ({POWER_TEXT})": [_g3(x) for x in c["detectable_difference"]], "verdict": c["verdict"],
     })
     return table_pages("Detection counts compared with the paper (two-sample exact test)", show, fontsize=8,
                        note=f"Boschloo's exact unconditional test (two-sided) of the paper's printed count "
                             f"against this run's detected / judged cases, alpha = {analysis.alpha:g}, no "
                             f"multiplicity correction (each row is its own question). 'differs': p < alpha; "
-                            f"'agrees': not differing and the smallest difference detectable with 80 % power "
+                            f"'agrees': not differing and the smallest difference detectable with {POWER_TEXT} power "
                             f"is below {AGREEMENT_MARGIN:g}; otherwise 'inconclusive' (too few cases).")
 
 
@@ -726,7 +746,7 @@ _BEYOND_PAGES = {"false_alarms": _false_alarm_pages, "oracle": _oracle_pages,
                  "suite_comparisons": _suite_comparison_pages, "parameter_effects": _effect_pages,
                  "campaign_effects": lambda analysis: [],
                  "case_verdicts": _case_verdict_pages, "case_rates": _case_rate_pages,
-                 "suite_verdicts": _suite_verdict_pages,
+                 "suite_verdicts": _suite_verdict_pages, "campaign_verdicts": _campaign_verdict_pages,
                  "case_comparisons": _case_comparison_pages, "replica_false_alarms": _replica_false_alarm_pages,
                  "paper_comparisons": _paper_comparison_pages, "class_effects": _class_effect_pages}
 

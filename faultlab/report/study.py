@@ -21,7 +21,7 @@ from faultlab.report.figures import PAGE_SIZE, suite_palette
 from faultlab.report.mutation import markdown_table
 from faultlab.runner.progress import format_duration
 from faultlab.inference.exact import min_p_value
-from faultlab.vocabulary import SUITE_ORDER, ordered
+from faultlab.vocabulary import MDD_COLUMN, POWER_TEXT, SUITE_ORDER, ordered
 
 __all__ = ["FIGURE_FILE", "REPORT_FILE", "detection_figure", "study_markdown", "write_study_report"]
 
@@ -121,7 +121,8 @@ def _comparisons_md(analysis: StudyAnalysis) -> pd.DataFrame:
         "score a - b (95 % CI)": [f"{100 * d:+.0f} pp ({100 * lo:+.0f} to {100 * hi:+.0f})"
                                   for d, lo, hi in zip(c["diff"], c["ci_low"], c["ci_high"])],
         "p (bootstrap)": [_p(p) for p in c["p_boot"]], "p (Holm)": [_p(p) for p in c["p_holm"]],
-        "detectable at 80 %": [f"{100 * d:.0f} pp" if np.isfinite(d) else "n/a (no spread)" for d in c["mdd80"]],
+        f"detectable at {POWER_TEXT}": [f"{100 * d:.0f} pp" if np.isfinite(d) else "n/a (no spread)"
+                                       for d in c[MDD_COLUMN]],
         "only a / only b (mean)": [f"{a:.1f} / {b:.1f}" for a, b in zip(c["only_a"], c["only_b"])],
         "McNemar p (median)": [_p(p) for p in c["mcnemar_p_median"]],
         "drawn pairs with McNemar p <= 0.05": [_pct(x) for x in c["mcnemar_share_sig"]]})
@@ -140,7 +141,7 @@ def _detection_comparisons_md(c: pd.DataFrame) -> pd.DataFrame:
                 f"{r.strategy_a} - {r.strategy_b} {100 * r.diff:+.0f} pp ({100 * r.ci_low:+.0f} to "
                 f"{100 * r.ci_high:+.0f}), {_p(r.p_holm)}" for r in shown.itertuples()) or "none",
             "other pairs equivalent within": f"±{100 * rest['equivalence_margin'].max():.0f} pp" if len(rest) else "-",
-            "detectable at 80 %": f"{100 * g['mdd80'].min():.0f}-{100 * g['mdd80'].max():.0f} pp"})
+            f"detectable at {POWER_TEXT}": f"{100 * g[MDD_COLUMN].min():.0f}-{100 * g[MDD_COLUMN].max():.0f} pp"})
     return pd.DataFrame(rows)
 
 
@@ -150,19 +151,41 @@ def _detection_means_md(m: pd.DataFrame) -> pd.DataFrame:
             return f"{100 * r.diff:+.1f} pp (cannot be judged: no case's score varies)"
         return f"{100 * r.diff:+.1f} pp ({100 * r.ci_low:+.1f} to {100 * r.ci_high:+.1f})"
 
-    return pd.DataFrame({
+    def by_run(r) -> str:
+        if "run_diff_low" not in m.columns or not np.isfinite(r.run_diff_low):
+            return "n/a"
+        return f"{100 * r.run_diff:+.1f} pp ({100 * r.run_diff_low:+.1f} to {100 * r.run_diff_high:+.1f}), {int(r.runs)} runs"
+
+    out = pd.DataFrame({
         "a vs b": [f"{a} vs {b}" for a, b in zip(m["strategy_a"], m["strategy_b"])],
         "mean a": m["mean_a"].map(_pct), "mean b": m["mean_b"].map(_pct),
-        "a - b (95 % CI)": [interval(r) for r in m.itertuples()],
-        "p (Welch)": m["p"].map(_p), "p (Holm)": m["p_holm"].map(_p),
-        "|a - b| shown below": [f"{100 * d:.1f} pp" if np.isfinite(d) else "n/a" for d in m["equivalence_margin"]]})
+        "a - b, case as unit (95 % CI)": [interval(r) for r in m.itertuples()],
+        "p (Welch)": m["p"].map(_p), "p (Holm)": m["p_holm"].map(_p)})
+    if "run_p" in m.columns:
+        out["a - b, paired by run (95 % CI)"] = [by_run(r) for r in m.itertuples()]
+        out["p by run (t / exact sign-flip)"] = [f"{_p(a)} / {_p(b)}" for a, b in zip(m["run_p"], m["run_p_exact"])]
+        out["p by run (Holm)"] = m["run_p_holm"].map(_p)
+    out["|a - b| shown below (margin from the data: exploratory)"] = [
+        f"{100 * d:.1f} pp" if np.isfinite(d) else "n/a" for d in m["equivalence_margin"]]
+    if "analysis" in m.columns:
+        out["analysis"] = m["analysis"]
+    return out
 
 
 def _detection_means_text(m: pd.DataFrame, alpha: float) -> str:
-    return (f"Averaged over the {int(m['variants'].iloc[0])} faults: each pool case scores the share of the faults it "
-            f"alone detects, and two strategies' pools are compared by Welch's t test (the case is the unit, since the "
-            f"faults share a pool's cases), Holm over the {len(m)} pairs; two one-sided tests at {alpha} give the "
-            f"margin within which a difference is shown to lie (`detection_means.csv`).")
+    text = (f"Averaged over the {int(m['variants'].iloc[0])} faults: each pool case scores the share of the faults it "
+            f"alone detects, and two strategies' pools are compared by Welch's t test with the case as the unit, Holm "
+            f"over the {len(m)} pairs; two one-sided tests at {alpha} give the smallest margin within which a "
+            f"difference is shown to lie (derived from the data it describes: exploratory, never a declared margin).")
+    if "run_p" in m.columns:
+        text += (" A pool's cases are nested in evaluation runs (one generated suite per run, stratified for the "
+                 "covering strategies), so the same comparison is made with the run as the unit: paired by run, the "
+                 "t test and 95 % interval over the runs' differences of the two suites' mean scores, with the exact "
+                 "sign-flip p value over runs beside it, Holm over the pairs (`run_*` in `detection_means.csv`); the "
+                 "simulations in `tests/inference/test_clusters.py` show the run-level test holding its level at "
+                 "11 and 13 runs where the case-level test does not. Where the two answers differ, the run-level "
+                 "one is the one the design supports.")
+    return text + " (`detection_means.csv`)."
 
 
 def _detection_comparisons_text(c: pd.DataFrame, alpha: float) -> str:
@@ -175,7 +198,7 @@ def _detection_comparisons_text(c: pd.DataFrame, alpha: float) -> str:
             f"{len(c)} (`p_holm_study` in `detection_comparisons.csv`). For the other pairs, two one-sided tests at "
             f"{alpha} (per pair, not adjusted for the family) show the difference within the margin given (the "
             f"largest over the fault's pairs; each pair's own is `equivalence_margin`). Detectable: the difference a "
-            f"pair detects with 80 % power at Holm's first step ({alpha} / {pairs}).")
+            f"pair detects with {POWER_TEXT} power at Holm's first step ({alpha} / {pairs}).")
 
 
 def _whole_rate(rate: float, lo: float, hi: float, rmin: float, rmax: float, suites: int) -> str:
@@ -227,12 +250,12 @@ def _failures_text(meta: dict) -> str:
 
 
 def _mdd_text(comparisons: pd.DataFrame) -> str:
-    mdd = comparisons["mdd80"].dropna() if not comparisons.empty else pd.Series(dtype=float)
+    mdd = comparisons[MDD_COLUMN].dropna() if not comparisons.empty else pd.Series(dtype=float)
     if mdd.empty:
         return ""
-    return (f"For mutation scores the smallest difference detectable with 80 % power ranges from "
+    return (f"For mutation scores the smallest difference detectable with {POWER_TEXT} power ranges from "
             f"{100 * mdd.min():.0f} to {100 * mdd.max():.0f} pp over the comparisons with any bootstrap spread "
-            f"(`comparisons.csv`, `mdd80`).")
+            f"(`comparisons.csv`, `{MDD_COLUMN}`).")
 
 
 def _sidedness(meta: dict) -> str:
@@ -271,6 +294,67 @@ def _whole_not_evaluated_text(meta: dict) -> str:
             + f" -- with K = {meta['repetitions']} no case of such a suite could reject at alpha / n.")
 
 
+def _declaration_md(meta: dict) -> list[str]:
+    d = meta.get("declaration")
+    if not d:
+        return ["## Declared analyses", "",
+                "None: the study declared no analysis before it ran, so every figure below is exploratory.", ""]
+    confirmatory = d.get("recorded") == "before the run"
+    head = ("Recorded in the results store by `study run` before the first SLAM execution (its metadata checksum "
+            "covers it): the analyses below are **confirmatory**; every other figure of this report is exploratory."
+            if confirmatory else
+            "**Declared after the run**: added to the study's record afterwards, as the plan stood before it ran. "
+            "The analyses below are what the study was planned to test, and they too are exploratory; so is every "
+            "claim that rests on a margin, since no margin was declared before the run.")
+    lines = ["## Declared analyses", "", head, "",
+             f"Level alpha = {d['alpha']}, {d['sidedness']} difference tests, multiplicity over the declared "
+             f"analyses: {d['family']}, unit of analysis: the {'evaluation run (cases paired by run)' if d['unit'] == 'run' else 'case'}."
+             + (f" Note: {d['note']}" if d.get("note") else ""), ""]
+    return lines
+
+
+def _declared_md(declared: pd.DataFrame) -> pd.DataFrame:
+    def figure(r) -> str:
+        if not np.isfinite(r.estimate):
+            return "-"
+        if not np.isfinite(r.estimate_low):
+            return f"{100 * r.estimate:+.1f} pp (cannot be judged: no spread)"
+        return (f"{100 * r.estimate:+.1f} pp ({100 * r.level:.0f} % CI {100 * r.estimate_low:+.1f} to "
+                f"{100 * r.estimate_high:+.1f})")
+
+    return pd.DataFrame({
+        "declared analysis": declared["analysis"], "status": declared["status"],
+        "unit": [f"{u} ({int(n)})" if np.isfinite(n) else u for u, n in zip(declared["unit"], declared["runs"])],
+        "a - b": [figure(r) for r in declared.itertuples()],
+        "p": declared["p"].map(_p), "p (family)": declared["p_family"].map(_p), "decision": declared["decision"]})
+
+
+def _controls_md(summary: pd.DataFrame, alpha: float) -> list[str]:
+    if summary.empty:
+        return ["## Controls: each strategy against itself (A/A)", "",
+                "Not possible here: each strategy's pool comes from one evaluation run, so the study holds no two "
+                "independent samples of one strategy.", ""]
+    kind = "mutant" if summary["comparison"].str.contains("mutant").any() else "fault"
+    rows = pd.DataFrame({
+        "A/A comparison": [f"{c}, {u} as unit" for c, u in zip(summary["comparison"], summary["unit"])],
+        "per comparison (unadjusted, at alpha)": [
+            f"{k}/{n} = {_interval(r, lo, hi)}" for k, n, r, lo, hi in
+            zip(summary["false_alarms"], summary["comparisons"], summary["false_alarm_rate"],
+                summary["false_alarm_rate_low"], summary["false_alarm_rate_high"])],
+        "families with a false alarm": [f"{k} of {n} ({rule})" for k, n, rule in
+                                        zip(summary["families_with_false_alarm"], summary["families"],
+                                            summary["family_rule"])]})
+    return ["## Controls: each strategy against itself (A/A)", "",
+            "Each strategy's evaluation runs are split in two halves (alternate runs), two independent samples of "
+            f"the same strategy, compared with the tests that compare two strategies: per {kind} (Agresti-Caffo, the "
+            f"case as unit), and on the mean over the {kind}s with the case (Welch) and the run (paired t over "
+            "consecutive runs) as unit. Every rejection is a false alarm. The per-comparison rate (unadjusted, "
+            f"nominal {alpha}; 95 % Clopper-Pearson, nominal since one strategy's comparisons share its cases) and "
+            f"the family-wise outcome (a family per strategy; nominal at most {alpha} each) are different rates and "
+            "are given in separate columns (`controls.csv`, `controls_summary.csv`).", "",
+            markdown_table(rows)]
+
+
 def study_markdown(analysis: StudyAnalysis) -> str:
     """The study's Markdown report."""
     m = analysis.meta
@@ -290,6 +374,9 @@ def study_markdown(analysis: StudyAnalysis) -> str:
         f"mutants sampled from the screened catalogue of the reference FastSLAM 1.0." + _weights_text(m), "",
         _run_text(m), "",
         _failures_text(m), "",
+        *_declaration_md(m),
+        *([markdown_table(_declared_md(analysis.declared))] if not analysis.declared.empty else []),
+        *_controls_md(analysis.controls_summary, st["alpha"]),
         "## Method", "",
         f"Every pool case ran once per variant; per (case, variant) the kill matrix (`kill_matrix.csv`) keeps the exact "
         f"{_sidedness(m)} paired sign-flip p value over the K repetitions (with the observed direction, worse or "
@@ -323,7 +410,8 @@ def study_markdown(analysis: StudyAnalysis) -> str:
     ]
     if not analysis.detection_comparisons.empty:
         c = analysis.detection_comparisons
-        md += ["## Strategies compared on the single-case detection probability", ""]
+        md += ["## Strategies compared on the single-case detection probability", "",
+               "Exploratory, except the rows the `analysis` column of the CSV tables marks as declared.", ""]
         if not analysis.detection_means.empty:
             md += [_detection_means_text(analysis.detection_means, st["alpha"]), "",
                    markdown_table(_detection_means_md(analysis.detection_means))]
@@ -334,7 +422,7 @@ def study_markdown(analysis: StudyAnalysis) -> str:
                markdown_table(_scores_md(analysis)),
                "## Strategies compared at equal size on the same mutants", "",
                "Score difference with its bootstrap interval and two-sided bootstrap p (Holm over the strategy "
-               "pairs of a size); the smallest difference detectable with 80 % power from the bootstrap standard "
+               f"pairs of a size); the smallest difference detectable with {POWER_TEXT} power from the bootstrap standard "
                "error; and exact McNemar tests over the mutants for the suites drawn with the same index (statsmodels), "
                "summarised over the drawn pairs (they concern a typical pair of suites, not the strategies).", "",
                markdown_table(_comparisons_md(analysis))]
@@ -353,8 +441,9 @@ def study_markdown(analysis: StudyAnalysis) -> str:
            f"Suites drawn per strategy and size: {st['draws']}; bootstrap replicates: {st['bootstrap']}; pool sizes: "
            + ", ".join(f"{s} {n}" for s, n in pool_sizes.items()) + ". "
            f"A size-1 detection probability is the share of a pool's cases that detect; with these pools a two-sample "
-           f"test at 0.05 detects with 80 % power a difference between two strategies of about "
-           f"{100 * p['mdd80_at_0.5'].max():.0f} pp around 50 % and {100 * p['mdd80_at_0.1'].max():.0f} pp around 10 %. "
+           f"test at 0.05 detects with {POWER_TEXT} power a difference between two strategies of about "
+           f"{100 * p[f'{MDD_COLUMN}_at_0.5'].max():.0f} pp around 50 % and "
+           f"{100 * p[f'{MDD_COLUMN}_at_0.1'].max():.0f} pp around 10 %. "
            + _mdd_text(analysis.comparisons), "",
            markdown_table(p.round(3)),
            "Files: `kill_matrix.csv` (per pool case and variant), `detection.csv` (every variant, strategy and size; "

@@ -2,7 +2,7 @@
 
 Modules: :mod:`~faultlab.runner.experiment` (experiment files), :mod:`~faultlab.runner.jobs`
 (jobs and batches), :mod:`~faultlab.runner.execution` (executing a job or a batch in a worker),
-:mod:`~faultlab.runner.backends` (joblib/dask/ray workers streaming results back),
+:mod:`~faultlab.runner.backends` (loky workers streaming results back, under the parent's deadlines),
 :mod:`~faultlab.runner.orchestration` (:func:`run_experiment`: cases, jobs, store) and
 :mod:`~faultlab.runner.store` (the results store).
 
@@ -11,8 +11,8 @@ Modules: :mod:`~faultlab.runner.experiment` (experiment files), :mod:`~faultlab.
 >>> df = load_results("results/paper")                                         # doctest: +SKIP
 """
 
-from faultlab.runner.backends import stream_batches, stream_results
-from faultlab.runner.execution import JobResult, execute_batch, execute_job
+from faultlab.runner.backends import check_backend, stream_batches, stream_results
+from faultlab.runner.execution import JobResult, TimeLimitExceeded, execute_batch, execute_job, time_limit
 from faultlab.runner.orchestration import CaseInfo, RunSummary, prepare_cases, result_row, run_experiment, store_session
 from faultlab.runner.experiment import (
     Experiment,
@@ -32,6 +32,8 @@ from faultlab.runner.store import (
 )
 
 __all__ = [
+    "TimeLimitExceeded", "time_limit",
+    "check_backend",
     "Experiment",
     "SuiteSpec",
     "SlamSpec",

@@ -1,7 +1,7 @@
 """Backends: running batches of jobs on joblib workers and streaming their results back.
 
-:func:`stream_batches` dispatches :class:`~faultlab.runner.jobs.JobBatch` es to a joblib backend
-(loky processes, threads, a dask.distributed cluster or ray) and yields each batch's
+:func:`stream_batches` dispatches :class:`~faultlab.runner.jobs.JobBatch` es to loky worker
+processes (joblib) and yields each batch's
 :class:`~faultlab.runner.execution.JobResult` s together as soon as the batch finishes (joblib's
 ``return_as="generator_unordered"``), so a caller can commit them in one transaction;
 :func:`stream_results` yields the same results one job at a time.  A loky worker that dies
@@ -9,18 +9,27 @@
 a fresh worker, and a batch that kills its worker again is recorded as ``crash`` for each of its
 jobs.
 
-Deadlines (loky): each worker announces the deadline of the job or batch it runs
+Deadlines: each worker process announces the deadline of the job or batch it runs
 (:func:`faultlab.runner.execution.init_worker`); a thread of the parent kills (SIGKILL) a worker
 still busy :data:`DEADLINE_GRACE_S` seconds past it -- a SLAM spinning in compiled code with the
 GIL held, which no signal handler in the worker can stop -- records the jobs of that call as
 ``timeout``, and the pool goes on.  A job thus ends within ``timeout_s`` (times the repetitions of
-its batch) plus the grace plus one poll (:data:`DEADLINE_POLL_S`).  The threading, dask and ray
-backends have only the workers' own limits.
+its batch) plus the grace plus one poll (:data:`DEADLINE_POLL_S`).  This holds for every
+combination :func:`check_backend` accepts: loky with any ``jobs``, and ``jobs = 1`` with loky or
+threading -- joblib would run those in the campaign process itself, so they run one after another
+in one reusable loky worker process instead (same results: every job draws from its own seed).
+Threads (threading with ``jobs >= 2``), dask and ray workers cannot be killed from the campaign
+process, so those combinations are refused.
+
+The deadline API, for drivers that run jobs: :func:`check_backend` (before anything is written)
+and :func:`stream_batches` / :func:`stream_results`; nothing else is needed to have every job's
+``timeout_s`` enforced.
 """
 
 from __future__ import annotations
 
 import atexit
+import collections
 import contextlib
 import json
 import os
@@ -50,10 +59,20 @@ DEADLINE_POLL_S = 0.5
 _DEADLINE_PREFIX = "faultlab-deadlines-"
 
 
-def check_backend(name: str) -> None:
-    """ConfigError unless ``name`` is one of :data:`faultlab.vocabulary.BACKENDS`."""
+def check_backend(name: str, *, jobs: int = 1) -> None:
+    """ConfigError unless backend ``name`` with ``jobs`` workers can enforce every job's ``timeout_s``.
+
+    ``name`` must be one of :data:`faultlab.vocabulary.BACKENDS`; threads (threading with
+    ``jobs >= 2``) and dask or ray workers are refused: nothing outside them can stop a SLAM stuck
+    in compiled code, which would hang the campaign (see the module's docstring).
+    """
     if name not in BACKENDS:
         raise ConfigError(f"unknown backend {name!r}; use one of {', '.join(BACKENDS)}")
+    if name == "threading" and jobs >= 2 or name in ("dask", "ray"):
+        where = "threads" if name == "threading" else f"{name} workers"
+        raise ConfigError(f"backend {name!r} cannot enforce timeout_s: {where} cannot be killed by the campaign "
+                          f"when a SLAM is stuck past its limit (e.g. in compiled code); use the loky backend "
+                          f"(--backend loky, any --jobs)")
 
 
 class _DeadlineWatch:
@@ -190,44 +209,63 @@ def _find_killer(suspects: list[JobBatch], watch: _DeadlineWatch) -> tuple[list[
     return results, []
 
 
-@contextlib.contextmanager
-def _backend(name: str, jobs: int) -> Iterator[tuple[str, int]]:
-    """Set up a joblib backend; yields (joblib backend name, n_jobs)."""
-    if name in ("loky", "threading"):
-        yield name, jobs
-    elif name == "dask":
-        try:
-            import dask
-            from distributed import Client, LocalCluster, get_client
-        except ImportError as exc:
-            raise ConfigError("backend 'dask' needs dask.distributed: pip install 'faultlab[dask]'") from exc
-        try:
-            get_client()
-            owned = None
-        except ValueError:  # no client yet: connect to a configured scheduler, or start a local one
-            address = dask.config.get("scheduler-address", None)
-            if address:
-                owned = (Client(address), None)
-            else:
-                cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
-                                       dashboard_address=None)
-                owned = (Client(cluster), cluster)
-        try:
-            yield "dask", -1
-        finally:
-            if owned is not None:
-                owned[0].close()
-                if owned[1] is not None:
-                    owned[1].close()
-    elif name == "ray":
-        try:
-            from ray.util.joblib import register_ray
-        except ImportError as exc:
-            raise ConfigError("backend 'ray' needs ray: pip install 'faultlab[ray]'") from exc
-        register_ray()
-        yield "ray", jobs
-    else:
-        check_backend(name)
+#: Seconds an idle worker of :func:`_one_worker` waits for more work before it exits (joblib's default).
+IDLE_WORKER_TIMEOUT_S = 300
+_single: tuple[tuple, ProcessPoolExecutor] | None = None  # (initargs, executor) of _one_worker
+
+
+def _single_worker(initargs: tuple) -> ProcessPoolExecutor:
+    """This process's one-worker executor, kept between calls (as joblib keeps its pool); a new one if it broke.
+
+    Private: joblib's own reusable executor (``jobs >= 2``) is never touched.
+    """
+    global _single
+    if _single is None or _single[0] != initargs:
+        if _single is not None:
+            _single[1].shutdown(wait=False, kill_workers=True)
+        else:
+            atexit.register(_drop_single_worker)  # the command's end ends its worker, not its idle timeout
+        _single = (initargs, ProcessPoolExecutor(max_workers=1, timeout=IDLE_WORKER_TIMEOUT_S,
+                                                 initializer=init_worker, initargs=initargs))
+    return _single[1]
+
+
+def _drop_single_worker() -> None:
+    """Kill the one-worker executor's process (broken, or busy with a batch nobody waits for)."""
+    global _single
+    if _single is not None:
+        _single[1].shutdown(wait=False, kill_workers=True)
+        _single = None
+
+
+def _one_worker(pending: list[JobBatch], watch: _DeadlineWatch) -> Iterator[list[JobResult]]:
+    """Run ``pending`` one batch after another in one loky worker process; yield each batch's results.
+
+    The parent's deadline thus holds for ``jobs = 1`` too.  A batch whose worker the deadline watch
+    killed is ``timeout`` for the jobs of the killed call (the others run again); a batch whose
+    worker died otherwise is rerun alone once and is a ``crash`` of each job if it kills its worker
+    again (:func:`_find_killer`), as with more workers.  If the caller stops early (an exception,
+    Ctrl-C, SIGTERM), the worker is killed at once instead of finishing a batch nobody waits for.
+    """
+    queue = collections.deque(pending)
+    busy = False
+    try:
+        while queue:
+            batch = queue.popleft()
+            busy = True
+            try:
+                results = _single_worker((os.getpid(), str(watch.dir))).submit(execute_batch, batch).result()
+            except BrokenProcessPool:
+                _drop_single_worker()
+                results, again, _ = watch.take([batch])
+                if not results:  # died of something else: a suspect, rerun alone
+                    results, again = _find_killer([batch], watch)
+                queue.extendleft(reversed(again))
+            busy = False
+            yield results
+    finally:
+        if busy:
+            _drop_single_worker()
 
 
 def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator[JobResult]:
@@ -240,14 +278,19 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
     todo : list of JobBatch
         The batches, dispatched in this order.
     jobs : int
-        Worker processes (joblib ``n_jobs``); ignored by ``dask`` (the cluster decides).
-    backend : {"loky", "threading", "dask", "ray"}
-        joblib backend (see :func:`faultlab.runner.run_experiment`).
+        Worker processes (joblib ``n_jobs``); with 1 the batches run one after another in one.
+    backend : {"loky", "threading"}
+        joblib backend; see :func:`check_backend` for the combinations refused.
 
     Yields
     ------
     JobResult
         One per job of ``todo``, in the order they finish.
+
+    Raises
+    ------
+    ConfigError
+        A backend and ``jobs`` that cannot enforce the jobs' deadlines (:func:`check_backend`).
     """
     for results in stream_batches(todo, jobs=jobs, backend=backend):
         yield from results
@@ -256,9 +299,10 @@ def stream_results(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
 def stream_batches(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator[list[JobResult]]:
     """Execute the batches of ``todo`` and yield each batch's results together as soon as it finishes.
 
-    Parameters are those of :func:`stream_results`.  A loky worker that dies is handled as there:
-    the batches it may have been running are rerun one at a time, and the jobs of one that kills
-    its worker again are yielded as ``crash`` results.
+    Parameters are those of :func:`stream_results`.  A worker that dies is handled as there: the
+    batches it may have been running are rerun one at a time, and the jobs of one that kills its
+    worker again are yielded as ``crash`` results; a worker the deadline watch killed gives
+    ``timeout`` results for the jobs of the call it was running.
 
     Yields
     ------
@@ -266,7 +310,12 @@ def stream_batches(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
         The results of one batch (in the batch's order), or of the batches a dead worker left, in
         the order they finish; every job of ``todo`` appears exactly once.
     """
+    check_backend(backend, jobs=jobs)
     pending = list(todo)
+    deadlines = _deadline_watch()
+    if jobs == 1:  # joblib would run them in this process, out of the deadline watch's reach
+        yield from _one_worker(pending, deadlines)
+        return
     while pending:
         dispatched: set[tuple[JobKey, ...]] = set()
         returned: set[tuple[JobKey, ...]] = set()
@@ -276,19 +325,15 @@ def stream_batches(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
                 dispatched.add(b.keys)
                 yield delayed(execute_batch)(b)
 
-        deadlines = _deadline_watch() if backend == "loky" else None
         try:
-            watch = ({"initializer": init_worker, "initargs": (os.getpid(), str(deadlines.dir))}
-                     if deadlines is not None else {})
-            with _backend(backend, jobs) as (name, n_jobs), parallel_config(backend=name, n_jobs=n_jobs, **watch):
+            with parallel_config(backend=backend, n_jobs=jobs, initializer=init_worker,
+                                 initargs=(os.getpid(), str(deadlines.dir))):
                 parallel = Parallel(return_as="generator_unordered", batch_size=1)
                 for results in parallel(tasks(pending)):
                     returned.add(tuple(r.key for r in results))
                     yield results
             return
         except BrokenProcessPool:
-            if backend != "loky":
-                raise
             in_flight = [b for b in pending if b.keys in dispatched and b.keys not in returned]
             timed, again, untouched = deadlines.take(in_flight)
             if timed:  # the deadline watch killed a worker: the others' batches go back to the pool
@@ -300,4 +345,3 @@ def stream_batches(todo: list[JobBatch], *, jobs: int, backend: str) -> Iterator
             if results:
                 yield results
             pending = innocent + [b for b in pending if b.keys not in dispatched]
-

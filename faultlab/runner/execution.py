@@ -5,7 +5,7 @@ Faults in the SLAM under test never stop the campaign: an exception or a non-fin
 recorded as ``crash`` (with ``"Type: message"``), a SLAM past ``timeout_s`` is stopped and recorded
 as ``timeout``.  The limit is enforced with ``SIGALRM`` (``signal.setitimer``) when the job runs in
 a process's main thread (loky workers, ``jobs=1``), which also stops a SLAM stuck in a Python loop
-or a sleep; elsewhere (threads, dask workers) a cooperative deadline check between SLAM steps is
+or a sleep; elsewhere (a thread) a cooperative deadline check between SLAM steps is
 the fallback.  Neither stops a SLAM that spins in compiled code holding the GIL (the SIGALRM handler
 runs only between bytecodes): for that the worker announces each call's deadline in a file the
 parent watches (:func:`init_worker`), and the parent kills a worker still busy past the deadline
@@ -67,7 +67,7 @@ from faultlab.slam.protocol import Estimate, SlamAdapter, association_of, run_sl
 from faultlab.slam.twins import warm_up
 from faultlab.vocabulary import JobStatus
 
-__all__ = ["JobResult", "execute_job", "execute_batch", "load_case", "tune_allocator", "worker_died",
+__all__ = ["JobResult", "TimeLimitExceeded", "time_limit", "execute_job", "execute_batch", "load_case", "tune_allocator", "worker_died",
            "worker_killed", "watch_parent", "init_worker"]
 
 
@@ -93,6 +93,10 @@ class JobResult:
 
 class _JobTimeout(BaseException):
     """Raised inside a job past its wall-clock limit (BaseException: a SUT's ``except Exception`` can't eat it)."""
+
+
+#: The exception :func:`time_limit` raises inside its block past the limit (a BaseException).
+TimeLimitExceeded = _JobTimeout
 
 
 class _Guarded(SlamAdapter):
@@ -202,6 +206,15 @@ def _alarm(seconds: float) -> Iterator[bool]:
         finally:  # restored even if the alarm fires right here
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous)
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float) -> Iterator[bool]:
+    """The jobs' wall-clock limit for other callers: raise :data:`TimeLimitExceeded` inside the block
+    after ``seconds`` (SIGALRM; a SLAM stuck in a Python loop or a sleep is stopped).  Armed only in a
+    process's main thread (loky workers, the main process); yields whether it is armed."""
+    with _alarm(seconds) as armed:
+        yield armed
 
 
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)

@@ -42,7 +42,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from faultlab.config import Table, read_toml
+from faultlab.config import ExperimentOverrides, Table, merge_tables, read_toml
 from faultlab.data import resolve_experiment
 from faultlab.errors import ConfigError, FaultlabError
 from faultlab.metrics.detection import FAMILIES, RULES, DetectionRule
@@ -253,22 +253,30 @@ class Experiment:
             return table1_space()
         return space_from_mapping(self.space, source=f"{self.source} [space]")
 
-    def replace(self, **overrides) -> "Experiment":
-        """A new validated experiment with top-level keys replaced.
+    def replace(self, **keys) -> "Experiment":
+        """A new validated experiment with top-level keys replaced, tables whole.
 
-        Keys are those of the file (``runs=30``, ``n_steps=200``, ...).  A table
-        key (``suites``, ``slam``, ``detection``, ``space``) given as a mapping is
-        merged into the existing table key by key (``slam={"particles": 30}``).
+        Keys are those of the file (``runs=30``, ``n_steps=200``, ``slam={"name": "ekf"}``, ...); a
+        table (``suites``, ``slam``, ``detection``, ``space``, ``adaptive``) replaces the experiment's
+        table, whose keys not given take their defaults.  :meth:`merge` changes a table key by key.
         """
-        data = self.to_dict()
-        for key, value in overrides.items():
-            if isinstance(value, Mapping) and isinstance(data.get(key), dict):
-                merged = dict(data[key])
-                merged.update(copy.deepcopy(dict(value)))
-                data[key] = merged
-            else:
-                data[key] = copy.deepcopy(value)
-        names = ", ".join(f"{k}={v!r}" for k, v in overrides.items())
+        return self._changed(keys, {})
+
+    def merge(self, **tables) -> "Experiment":
+        """A new validated experiment with tables merged key by key (``slam={"particles": 30}`` keeps the
+        other SLAM settings); a key that is not a table replaces, as in :meth:`replace`."""
+        return self._changed({}, tables)
+
+    def apply(self, overrides: ExperimentOverrides) -> "Experiment":
+        """A new validated experiment with a campaign's typed :class:`~faultlab.config.ExperimentOverrides`."""
+        replaced, merged = overrides.tables()
+        return self._changed(replaced, merged)
+
+    def _changed(self, replaced: Mapping, merged: Mapping) -> "Experiment":
+        data = merge_tables(self.to_dict() | dict(replaced), merged)
+        names = ", ".join([f"{k}={v!r}" for k, v in replaced.items()]
+                          + [f"{k}={v!r} (merged)" if isinstance(v, Mapping) else f"{k}={v!r}"
+                             for k, v in merged.items()])
         return parse_experiment(data, source=f"{self.source} (with {names})" if names else self.source,
                                 text=self.text)
 

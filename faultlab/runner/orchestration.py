@@ -32,6 +32,7 @@ from faultlab.runner.progress import format_duration
 from faultlab.runner.progress import progress as show_progress
 from faultlab.runner.staging import STOPS_KEY, look_before_stage, record_stops, stage_jobs
 from faultlab.runner.store import (ID_COLUMNS, SKIPPED_VARIANTS_KEY, ResultStore, case_path, check_store,
+                                   check_store_meta,
                                    job_metrics, load_results, store_lock)
 from faultlab.scenario.model import Scenario, load_scenario, save_scenario
 from faultlab.scenario.suite import SuiteCase, draw_suite, generate_case
@@ -274,7 +275,8 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
                    backend: str = "loky", force_new: bool = False, progress: bool = True,
                    batch_size: int | None = None,
                    on_start: Callable[[], None] | None = None,
-                   cases: Sequence[SuiteCase] | None = None) -> RunSummary:
+                   cases: Sequence[SuiteCase] | None = None,
+                   meta: Mapping[str, object] | None = None) -> RunSummary:
     """Run (or resume) a campaign and store one row per job in ``out/results.sqlite``.
 
     Parameters
@@ -285,12 +287,12 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         Output directory (created).  Rerunning the same call resumes: only jobs
         missing from the store are executed.
     jobs : int
-        Worker processes (joblib ``n_jobs``); ignored by ``dask`` (the cluster decides).
-    backend : {"loky", "threading", "dask", "ray"}
-        joblib backend.  ``dask`` uses the current dask.distributed client, else
-        the scheduler in dask's ``scheduler-address`` config, else a local
-        cluster of ``jobs`` processes; workers need the output directory on a
-        shared file system.  ``ray`` uses ``ray.util.joblib``.
+        Worker processes (joblib ``n_jobs``); with 1, the jobs run one after another in one
+        worker process, so that the parent can enforce their ``timeout_s``.
+    backend : {"loky", "threading"}
+        joblib backend.  Only those whose workers the campaign can kill past a job's deadline are
+        accepted (:func:`faultlab.runner.backends.check_backend`): loky with any ``jobs``,
+        threading with ``jobs = 1``; threads, dask and ray workers are refused.
     force_new : bool
         Start afresh: move existing results and cases to ``out/previous-<time>/``
         (never deleted).  Without it, ``out`` holding another experiment's
@@ -311,6 +313,11 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     cases : sequence of SuiteCase, optional
         Run these cases instead of drawing the experiment's suites (a designed experiment); their
         scenarios are generated from their own seeds and checked on a resume like drawn ones.
+    meta : mapping, optional
+        Entries recorded in the store's metadata (covered by its checksum) when the store is
+        created, before the first job (e.g. a study's declared analyses).  A store that holds a
+        different value under one of these keys is refused, writing nothing; a store without the
+        key (created before) is refused too, since the entry would be recorded after its rows.
 
     Returns
     -------
@@ -319,7 +326,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     Raises
     ------
     ConfigError
-        Bad experiment, backend or ``jobs``.
+        Bad experiment, backend or ``jobs`` (or a backend that cannot enforce ``timeout_s``).
     ResultsError
         ``out`` belongs to another experiment (without ``force_new``) or is in use.
     """
@@ -327,7 +334,7 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
         experiment = load_experiment(experiment)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ConfigError(f"jobs must be an integer >= 1, got {jobs!r}")
-    check_backend(backend)
+    check_backend(backend, jobs=jobs)
     if batch_size is not None and (isinstance(batch_size, bool) or not isinstance(batch_size, int)
                                    or batch_size < 1):
         raise ConfigError(f"batch_size must be an integer >= 1 or None, got {batch_size!r}")
@@ -335,9 +342,14 @@ def run_experiment(experiment: Experiment | str | Path, out: str | Path, *, jobs
     out = Path(out)
     sut, skipped = _preflight(experiment)
     check_store(out, experiment, force_new=force_new)  # a refusal writes nothing, not even the lock file
+    if meta:
+        check_store_meta(out, meta, force_new=force_new)
     with store_lock(out), ResultStore.open(out, experiment, force_new=force_new) as store:
         if on_start is not None:
             on_start()
+        for key, value in (meta or {}).items():
+            if key not in store.meta:
+                store.set_meta(key, value)
         store.set_meta(SKIPPED_VARIANTS_KEY, [dataclasses.asdict(r) | {"reason": str(r)} for r in skipped])
         prepared = prepare_cases(experiment, out, drawn=cases)
         info = {(c.run, c.suite, c.case): c for c in prepared}

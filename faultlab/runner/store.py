@@ -20,8 +20,10 @@ BLAKE2b digest of a type-tagged encoding of the :data:`RESULT_COLUMNS` values, f
 that feeds an analysis (:func:`load_results`), so a byte changed on disk (a bad sector, a stray
 write) is one :class:`~faultlab.errors.ResultsError` naming the store, the row and the column
 instead of a silently wrong number.  SQLite's own ``PRAGMA integrity_check`` only checks the
-b-tree structure, not the values.  Stores written before checksums existed still read, with an
-:class:`UnverifiedStoreWarning`.
+b-tree structure, not the values.  A store without row checksums (written before they existed, or
+with its integrity entries removed: the two look the same) is refused by every reader and by a
+resuming writer unless :func:`accept_unverified` (``faultlab --accept-unverified``); then it reads
+with an :class:`UnverifiedStoreWarning`.
 
 Reading never writes: :func:`load_results` and :func:`load_metadata` open the file read-only
 (``immutable=1`` when no writer holds the store and no write-ahead log is pending), so reading
@@ -50,8 +52,9 @@ import numpy as np
 import pandas as pd
 
 from faultlab import __version__
-from faultlab.errors import ResultsError
-from faultlab.vocabulary import MAP_METRICS, METRICS, JobStatus
+from faultlab.errors import InvalidCaseError, ResultsError, ScenarioError
+from faultlab.scenario.model import load_scenario
+from faultlab.vocabulary import BASELINE, MAP_METRICS, METRICS, JobStatus
 from faultlab.space.case import PARAMETER_NAMES, VALUE_KEYS
 
 __all__ = [
@@ -70,8 +73,10 @@ __all__ = [
     "store_lock",
     "ensure_out_dir",
     "check_store",
+    "check_store_meta",
     "row_checksum",
     "UnverifiedStoreWarning",
+    "accept_unverified",
     "SKIPPED_VARIANTS_KEY",
     "METRICS_KEY",
     "recorded_metrics",
@@ -127,6 +132,35 @@ _ROW_DIGEST, _COLUMN_DIGEST = 16, 2
 
 class UnverifiedStoreWarning(UserWarning):
     """A store (or some of its rows) was written before row checksums existed: read without verification."""
+
+
+_accepting_unverified = False
+
+
+@contextlib.contextmanager
+def accept_unverified(accept: bool = True) -> Iterator[None]:
+    """Within the block, read and resume stores whose rows carry no checksum (``--accept-unverified``).
+
+    A store without integrity entries (no ``row_checksum`` entry, rows without checksums) is either
+    one written before faultlab checked its stores or one whose entries were removed; the two
+    cannot be told apart, so every reader and a resuming writer refuse it
+    (:class:`~faultlab.errors.ResultsError` naming the store and this option) unless accepted
+    here.  Accepted, its unchecked rows are read with an :class:`UnverifiedStoreWarning`.  The
+    setting holds for the whole process (every thread) until the block ends.
+    """
+    global _accepting_unverified
+    before, _accepting_unverified = _accepting_unverified, bool(accept)
+    try:
+        yield
+    finally:
+        _accepting_unverified = before
+
+
+def _unverified_refusal(path: Path, n_unverified: int, n_rows: int) -> ResultsError:
+    return ResultsError(f"{path} has no integrity entries for {n_unverified} of its {n_rows} rows (no row "
+                        f"checksums): it was written before faultlab checked its stores, or they were removed, "
+                        f"and its values cannot be verified. To read it anyway: faultlab --accept-unverified "
+                        f"COMMAND ... (in Python: faultlab.runner.store.accept_unverified())")
 
 
 def _encode(value) -> bytes:
@@ -505,7 +539,8 @@ def check_store(out: str | Path, experiment, *, force_new: bool = False) -> None
     ------
     ResultsError
         ``out`` is a file, or holds a damaged store (an empty store file next to saved cases
-        included), or the results of a different experiment (without ``force_new``).
+        included), the results of a different experiment (without ``force_new``), or a store
+        whose rows carry no checksums (unless :func:`accept_unverified`).
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -522,10 +557,55 @@ def check_store(out: str | Path, experiment, *, force_new: bool = False) -> None
     conn = _connect_ro(path)
     try:
         meta = _read_meta(conn, path)
+        unverified = n_rows = 0
+        if not _is_checked(meta) and not _accepting_unverified:
+            n_rows = conn.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+            unverified = (conn.execute("SELECT COUNT(*) FROM results WHERE checksum IS NULL").fetchone()[0]
+                          if _has_checksum_column(conn) else n_rows)
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "reading its rows") from exc
     finally:
         conn.close()
     if meta.get("experiment_hash") != experiment.hash:
         raise _refusal(out, meta, experiment)
+    if unverified:
+        raise _unverified_refusal(path, unverified, n_rows)
+
+
+def check_store_meta(out: str | Path, entries: Mapping, *, force_new: bool = False) -> None:
+    """Refuse, writing nothing, a store whose metadata would not hold ``entries`` as recorded before its rows.
+
+    A store that holds one of the keys with another value, or that lacks one while already holding
+    rows (the entry would be recorded after the run began), is refused; a new or empty store, or
+    ``force_new``, passes.
+
+    Raises
+    ------
+    ResultsError
+        Naming the store, the key and what to do (a new ``--out`` or ``--force-new``).
+    """
+    out = Path(out)
+    path = results_path(out)
+    if force_new or not path.exists() or _is_blank(path):
+        return
+    conn = _connect_ro(path)
+    try:
+        meta = _read_meta(conn, path)
+        n_rows = conn.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+    except sqlite3.Error as exc:
+        raise _database_error(path, exc, "reading its metadata") from exc
+    finally:
+        conn.close()
+    for key, value in entries.items():
+        value = json.loads(json.dumps(value))
+        if key not in meta and n_rows:
+            raise ResultsError(f"{path}: the store holds {n_rows:,} rows and no {key!r}, which must be recorded "
+                               f"before the first row; run into a new --out (or --force-new: the old store is "
+                               f"moved aside, not deleted)")
+        if key in meta and meta[key] != value:
+            raise ResultsError(f"{path}: the store was started with another {key!r} than the one given now; it "
+                               f"cannot change once recorded. Restore the file's {key} as it was, or run into a "
+                               f"new --out (or --force-new: the old store is moved aside, not deleted)")
 
 
 class ResultStore:
@@ -888,7 +968,7 @@ def _verify(path: Path, rows: list, checked: bool) -> None:
 
     ``rows``: (values..., rowid, checksum) tuples.  ``checked``: whether the store was created
     with checksums (then a row without one is damaged too).  Rows without a checksum in a store
-    from before checksums are only counted, for the warning.
+    from before checksums are refused unless :func:`accept_unverified`, then counted for the warning.
     """
     n = len(RESULT_COLUMNS)
     unverified = 0
@@ -905,6 +985,8 @@ def _verify(path: Path, rows: list, checked: bool) -> None:
                 f"not match its checksum"
             raise ResultsError(f"{path} is damaged: row {rowid} ({key}): {what}. The store's values cannot be "
                                f"trusted; restore it from a copy or rerun the campaign into a new directory")
+    if unverified and not _accepting_unverified:
+        raise _unverified_refusal(path, unverified, len(rows))
     if unverified and (path.resolve(), unverified, len(rows)) not in _noted:
         _noted.add((path.resolve(), unverified, len(rows)))
         warnings.warn(f"{path}: {unverified} of {len(rows)} rows were written before row checksums existed "
@@ -920,6 +1002,30 @@ def usable_rows(frame: pd.DataFrame, column: str) -> np.ndarray:
         frame[column].to_numpy(dtype=float))
 
 
+def _check_failed_cases(path: Path, df: pd.DataFrame) -> None:
+    """ResultsError ``case invalid: <file>`` if a saved case on which the baseline failed is not a valid case.
+
+    A case with a NaN or an infinity saved with valid checksums is refused on load before any job
+    runs (:func:`faultlab.scenario.model.load_scenario`); a store written before that check holds
+    its jobs as crashes, which an analysis would read as "baseline failed".  Only the cases with a
+    failed baseline row are read (a store of healthy cases reads none); a case file that is absent
+    or damaged is left to the readers that picture cases.
+    """
+    failed = df.loc[(df["variant"] == BASELINE) & (df["status"] != JobStatus.OK.value), ["run", "suite", "case"]]
+    for run, suite, case in failed.drop_duplicates().itertuples(index=False):
+        npz = case_path(path, run, suite, case)
+        if not npz.is_file():
+            continue
+        try:
+            load_scenario(npz)
+        except InvalidCaseError as exc:
+            n = int(((df["run"] == run) & (df["suite"] == suite) & (df["case"] == case)).sum())
+            raise ResultsError(f"case invalid: {npz}: the {n} rows of {path} on it are failures of the case, not "
+                               f"results of the SLAM ({str(exc).removeprefix(f'test case {npz}: ')})") from None
+        except ScenarioError:
+            continue
+
+
 def load_results(out: str | Path) -> pd.DataFrame:
     """All rows of a store as a DataFrame (columns :data:`RESULT_COLUMNS`), each verified against its checksum.
 
@@ -931,7 +1037,8 @@ def load_results(out: str | Path) -> pd.DataFrame:
     ------
     ResultsError
         No store, a damaged store (SQLite cannot read it, or a row's values do not match its
-        checksum: the message names the store, the row and the column), or not a store.
+        checksum: the message names the store, the row and the column), or not a store; a saved
+        case on which the baseline failed that is not a valid case (``case invalid: <file>``).
     """
     path, conn = _open_existing(out)
     try:
@@ -953,6 +1060,7 @@ def load_results(out: str | Path) -> pd.DataFrame:
     except (TypeError, ValueError) as exc:  # only an unverified row can get here
         raise ResultsError(f"{path} is damaged: a column has values of the wrong type ({exc})") from exc
     df["error"] = df["error"].fillna("")
+    _check_failed_cases(path, df)
     order_s = {s: i for i, s in enumerate(meta.get("suites", []))}
     order_v = {v: i for i, v in enumerate(meta.get("variants", []))}
     df = df.sort_values(["run", "suite", "case", "variant", "rep"], kind="mergesort", key=lambda s: (

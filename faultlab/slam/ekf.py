@@ -176,10 +176,11 @@ class EkfSlam(UnitSlam):
         self._t += 1
 
     def estimate(self) -> Estimate:
-        """The state mean: pose, landmarks and, as the trajectory, the pose mean after every step."""
+        """The state mean: pose, landmarks and, as the trajectory, the pose mean after every step; its
+        covariance (pose, then landmarks in the order of the ids)."""
         mu = self._require_state()
         return Estimate(mu[:3].copy(), self._index.ids.copy(), mu[3:].reshape(-1, 2).copy(),
-                        trajectory=self._trajectory.poses())
+                        trajectory=self._trajectory.poses(), covariance=self._Sigma.copy())
 
     # -- diagnostics -----------------------------------------------------------------------------
 

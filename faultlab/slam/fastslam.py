@@ -395,6 +395,8 @@ class FastSlam(UnitSlam):
         self._ref_combine = self._steps.combine_weights is ref.combine_weights
         self._ref_apply = self._jit and self._steps.apply_resample is ref.apply_resample
         self._q_entries = _twins.noise_entries(self._Q) if self._jit else None
+        # one correction unit replaced: the others compiled around it (:meth:`_correct_staged`)
+        self._stage = _twins.staged(self._steps) if self._jit and self._ref_classify and not self._fused else None
 
     # -- SlamAdapter -----------------------------------------------------------------------------
 
@@ -461,9 +463,15 @@ class FastSlam(UnitSlam):
         if k:
             cols, seen = self._columns(observations.ids)
             logw = None
-            if (self._ref_correct and _is_f64(poses, (slots * n, 3)) and _is_f64(self._logw, (slots * n,))
+            if ((self._ref_correct or self._stage is not None) and _is_f64(poses, (slots * n, 3))
+                    and _is_f64(self._logw, (slots * n,))
                     and all(o is self._ident or np.array_equal(o, self._ident) for o in self._owner)):
-                logw = self._correct_reference(steps, poses, cols, seen, observations)
+                if self._ref_correct:
+                    logw = self._correct_reference(steps, poses, cols, seen, observations)
+                elif slots * n * k <= self.block_pairs:  # the unit-by-unit path's single block
+                    logw = self._correct_staged(steps, poses, cols, seen, observations)
+                    if logw is None:  # a unit's output the stages do not take: unit by unit from now on
+                        self._stage = None
             if logw is None:
                 logw = self._correct(steps, poses, cols, seen, observations)
         else:
@@ -809,12 +817,73 @@ class FastSlam(UnitSlam):
             return logw
         logw, tops = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, self._logw, n,
                                              self._mu, self._P, self._anc)
+        return self._normalise_shifted(logw, tops)
+
+    def _normalise_shifted(self, logw: np.ndarray, tops: np.ndarray) -> np.ndarray:
+        """The second half of every filter's normalisation of ``logw`` (B N,), shifted by each
+        filter's maximum ``tops`` (B,) where that is finite (:func:`~faultlab.slam.twins.combine_pairs`),
+        in place; a filter whose maximum is not finite fails as :meth:`_normalise` fails and keeps
+        its old weights.  Returns ``logw``."""
+        slots, n = len(self._reps), self._n
         for j in range(slots):
             lw = logw[j * n:(j + 1) * n]
             if math.isfinite(tops[j]):
                 lw -= math.log(np.add.reduce(np.exp(lw)))  # ``np.exp(lw).sum()``
             elif self._call(j, self._normalise, lw.copy()) is _FAILED:  # raises for one filter
                 lw[...] = self._logw[j * n:(j + 1) * n]
+        return logw
+
+    def _correct_staged(self, steps: FastSlamSteps, poses: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                        observations: Observations) -> np.ndarray | None:
+        """The correction when one stage of the correction units is replaced (:func:`~faultlab.slam.twins.staged`)
+        and ``classify_new`` is the reference, every particle owns its storage row and the pairs fit in
+        one block: :func:`~faultlab.slam.twins.correct_staged` around the replaced unit of ``steps``
+        (called once on all pairs, as by :meth:`_correct_rows`), ``init_landmarks`` as by
+        :meth:`_correct_reference`, then ``combine_weights`` and the normalisation as by
+        :meth:`_correct_reference` (the replaced ``log_likelihood``'s result: as by :meth:`_combine`).
+        Returns the normalised log weights, or None (nothing written) when a unit returned arrays of
+        other types or shapes, which :meth:`_correct` then hands to the units as the unit-by-unit
+        path does."""
+        slots, n = len(self._reps), self._n
+        k = cols.size
+        self._materialise()
+        z = np.empty((k, 2))
+        z[:, 0] = observations.ranges
+        z[:, 1] = observations.bearings
+        init = None
+        if not np.logical_and.reduce(seen):
+            init = steps.init_landmarks(poses, z[np.flatnonzero(~seen)], self._Q, wrap=steps.wrap_bearing)
+            k_new = int(np.count_nonzero(~seen))
+            if not (np.shape(init[0]) == (slots * n, k_new, 2) and np.shape(init[1]) == (slots * n, k_new, 2, 2)):
+                return None
+        stage, Q = self._stage, self._Q
+        if stage == 0:
+            unit = steps.predict_measurement
+        elif stage == 1:
+            def unit(z, zhat):
+                return steps.innovation(z, zhat, wrap=steps.wrap_bearing)
+        elif stage == 2:
+            def unit(H, P):
+                return steps.innovation_covariance(H, P, Q)
+        elif stage == 3:
+            unit = steps.log_likelihood
+        else:
+            unit = steps.ekf_update
+        out = _twins.correct_staged(stage, unit, poses, z, cols, seen, init, self._q_entries, n, self._mu, self._P,
+                                    self._anc)
+        if out is None:
+            return None
+        t, det = out
+        if det is not None:
+            np.log(det, out=det)
+            if self._ref_combine:
+                return self._normalise_shifted(*_twins.combine_pairs(t, det, seen, self._logw, n))
+            _twins.finish_log_likelihood(t, det)
+            t = t.T
+        known = np.empty(t.shape, dtype=bool)
+        known[...] = seen
+        logw = np.array(self._logw)
+        self._combine(0, slots, 0, t, known, logw)
         return logw
 
     def _end_step(self, resample: Callable[[int, bool], None], empty: bool) -> None:

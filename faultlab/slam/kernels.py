@@ -774,3 +774,161 @@ def sharer_rank(t, ints, consts, g, work, out):
             for j in range(k):
                 work[0, p, j] = g[_G_MU0, j, c] - x[3 * i]
                 work[1, p, j] = g[_G_MU1, j, c] - x[3 * i + 1]
+
+
+# ---------------------------------------------------------------------------------------------
+# the staged correction: one correction unit replaced, every other one compiled around it
+# ---------------------------------------------------------------------------------------------
+
+#: The stages of the correction, in order; :func:`finish_staged`'s ``stage`` is the replaced one.
+STAGE_MEASUREMENT, STAGE_INNOVATION, STAGE_COVARIANCE, STAGE_LIKELIHOOD, STAGE_EKF = range(5)
+
+
+@_jit
+def gather_landmarks(mu_store, P_store, anc, cols, seen, mu_init, P_init, x, n, mb, pb, dx, dy):
+    """:func:`gather_observed` with the covariances too: ``mb`` (2, k, M) and ``pb`` (2, 2, k, M)
+    receive every pair's stored landmark (storage row ``anc[i, cols[j]]`` within particle ``i``'s
+    filter of ``n``), or for the observations that start a landmark (``not seen[j]``, the ``s``-th
+    such) the initial values ``mu_init[:, s]`` (2, k_new, M) and ``P_init[:, :, s]``
+    (2, 2, k_new, M); ``dx``, ``dy`` (k, M) the offsets of ``predict_measurement``.  A copy:
+    no arithmetic beyond the offsets' subtraction."""
+    k = cols.shape[0]
+    m = x.shape[0]
+    rows = np.empty((k, m), dtype=np.intp)
+    for i in range(m):  # particle-major: one row of anc at a time
+        off = (i // n) * n
+        for j in range(k):
+            rows[j, i] = anc[i, cols[j]] + off
+    s = -1
+    for j in range(k):
+        c = cols[j]
+        if seen[j]:
+            for i in range(m):
+                r = rows[j, i]
+                _put_mean(mb, dx, dy, x, j, i, mu_store[0, c, r], mu_store[1, c, r])
+                pb[0, 0, j, i] = P_store[0, 0, c, r]
+                pb[0, 1, j, i] = P_store[0, 1, c, r]
+                pb[1, 0, j, i] = P_store[1, 0, c, r]
+                pb[1, 1, j, i] = P_store[1, 1, c, r]
+        else:
+            s += 1
+            for i in range(m):
+                _put_mean(mb, dx, dy, x, j, i, mu_init[0, s, i], mu_init[1, s, i])
+                pb[0, 0, j, i] = P_init[0, 0, s, i]
+                pb[0, 1, j, i] = P_init[0, 1, s, i]
+                pb[1, 0, j, i] = P_init[1, 0, s, i]
+                pb[1, 1, j, i] = P_init[1, 1, s, i]
+
+
+@_jit
+def _covariance(h00, h01, h10, h11, p00, p01, p11, q00, q01, q11, add_q01):
+    """``innovation_covariance`` of one pair, by :func:`sandwich`'s operations: (s00, s01, s11)."""
+    t00 = h00 * p00 + h01 * p01
+    t01 = h00 * p01 + h01 * p11
+    t10 = h10 * p00 + h11 * p01
+    t11 = h10 * p01 + h11 * p11
+    s00 = (t00 * h00 + t01 * h01) + q00
+    s01 = t00 * h10 + t01 * h11
+    if add_q01:
+        s01 = s01 + q01
+    s11 = (t10 * h10 + t11 * h11) + q11
+    return s00, s01, s11
+
+
+@_jit
+def _quadratic(n0, n1, s00, s01, s11):
+    """The quadratic form and determinant of ``log_likelihood`` of one pair (:func:`quadratic_form`)."""
+    dd = s00 * s11 - s01 * s01
+    q = n0 * s11
+    q = q - 2.0 * (n1 * s01)
+    q = q * n0
+    q = q + n1 * n1 * s00
+    return q / dd, dd
+
+
+@_jit
+def finish_staged(stage, z, seen, mb, pb, h00, h01, h10, h11, a0, a1, b0, b1, s00, s01, s11, e00, e01, e10, e11,
+                  q00, q01, q11, add_q01, cols, n, mu_store, P_store, anc, t, det):
+    """The correction's stages after the replaced one (``stage``, a ``STAGE_*``), then the write-back
+    of :func:`correct_observed`, for the M particles x k observations of a step.
+
+    Inputs, all (k, M) component arrays (any strides) unless said otherwise; those a stage does not
+    read may be any 2-D float arrays:
+
+    * ``mb`` (2, k, M), ``pb`` (2, 2, k, M): the means and covariances the units saw (initial
+      values where new);
+    * ``h00 .. h11``: ``H`` (the replaced ``predict_measurement``'s, or the compiled one's);
+    * ``a0, a1``: ``z_hat`` of the replaced ``predict_measurement`` (read at ``STAGE_MEASUREMENT``);
+    * ``b0, b1``: ``nu`` (read from ``STAGE_INNOVATION`` on);
+    * ``s00, s01, s11``: ``S`` (read from ``STAGE_COVARIANCE`` on; ``S[1, 0]`` is not read, as by
+      the reference units);
+    * at ``STAGE_EKF``: ``a0, a1`` the new means and ``e00, e01, e10, e11`` the new covariances of the
+      replaced ``ekf_update``.
+
+    The stages after the replaced one are computed by the unit-by-unit kernels' operations
+    (``innovation``, ``innovation_covariance``, the quadratic form of ``log_likelihood``,
+    ``ekf_update``); before ``STAGE_LIKELIHOOD`` the form and ``det S`` of every pair go to ``t``
+    and ``det`` (k, M).  Particle ``i`` writes storage row ``i``: the updated landmarks of the
+    known observations (``seen[j]``), the initial ones (``mb``, ``pb``) of the others, and points
+    ``anc[i, cols[j]]`` at its row within its filter of ``n``.
+    """
+    k = cols.shape[0]
+    m = mb.shape[2]
+    for j in range(k):
+        c = cols[j]
+        known = seen[j]
+        r = z[j, 0]
+        b = z[j, 1]
+        for i in range(m):
+            p00 = pb[0, 0, j, i]
+            p01 = pb[0, 1, j, i]
+            p11 = pb[1, 1, j, i]
+            if stage == STAGE_EKF:
+                nm0 = a0[j, i]
+                nm1 = a1[j, i]
+                np00 = e00[j, i]
+                np01 = e01[j, i]
+                np10 = e10[j, i]
+                np11 = e11[j, i]
+            else:
+                g00 = h00[j, i]
+                g01 = h01[j, i]
+                g10 = h10[j, i]
+                g11 = h11[j, i]
+                if stage == STAGE_MEASUREMENT:
+                    n0 = r - a0[j, i]
+                    n1 = _wrap(b - a1[j, i])
+                else:
+                    n0 = b0[j, i]
+                    n1 = b1[j, i]
+                if stage <= STAGE_INNOVATION:
+                    c00, c01, c11 = _covariance(g00, g01, g10, g11, p00, p01, p11, q00, q01, q11, add_q01)
+                else:
+                    c00 = s00[j, i]
+                    c01 = s01[j, i]
+                    c11 = s11[j, i]
+                if stage < STAGE_LIKELIHOOD:
+                    tq, dd = _quadratic(n0, n1, c00, c01, c11)
+                    t[j, i] = tq
+                    det[j, i] = dd
+                nm0, nm1, np00, np01, np11 = _ekf_pair(mb[0, j, i], mb[1, j, i], p00, p01, p11, g00, g01, g10, g11,
+                                                       c00, c01, c11, n0, n1)
+                np10 = np01
+            if known:
+                mu_store[0, c, i] = nm0
+                mu_store[1, c, i] = nm1
+                P_store[0, 0, c, i] = np00
+                P_store[0, 1, c, i] = np01
+                P_store[1, 0, c, i] = np10
+                P_store[1, 1, c, i] = np11
+            else:
+                mu_store[0, c, i] = mb[0, j, i]
+                mu_store[1, c, i] = mb[1, j, i]
+                P_store[0, 0, c, i] = p00
+                P_store[0, 1, c, i] = p01
+                P_store[1, 0, c, i] = pb[1, 0, j, i]
+                P_store[1, 1, c, i] = p11
+    for i in range(m):
+        o = i - (i // n) * n
+        for j in range(k):
+            anc[i, cols[j]] = o

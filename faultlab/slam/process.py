@@ -11,13 +11,19 @@ request                                                        reply
 ``"bearings":[...],"ids":[...]}``
 ``{"type":"estimate"}``                                        ``{"type":"estimate","pose":[x,y,th],``
                                                                ``"landmarks":[[id,x,y],...]}``, optionally
-                                                               with ``"trajectory":[[x,y,th],...]``
+                                                               with ``"trajectory":[[x,y,th],...]`` and
+                                                               ``"covariance":[[...],...]``
 ``{"type":"bye"}``                                             none; the program exits with status 0
 =============================================================  ==================================================
 
 The optional ``trajectory`` of an estimate holds one pose per step sent since the reset, in step
 order: row ``t`` is the pose after step ``t`` (it becomes :attr:`Estimate.trajectory
 <faultlab.slam.protocol.Estimate>`; without it the job's absolute trajectory error is NaN).
+The optional ``covariance`` is the covariance of the final state, a list of ``3 + 2M`` rows of
+``3 + 2M`` numbers: the pose (x, y, theta) first, then each landmark's (x, y) in the order of
+``landmarks``; finite, symmetric and positive semi-definite to rounding (it becomes
+:attr:`Estimate.covariance <faultlab.slam.protocol.Estimate>`, judged by the consistency oracle of
+``faultlab check``).
 
 Any request may instead be answered by ``{"type":"error","message":"..."}``.  Units are SI (m, rad);
 ``seed`` is an integer in [0, 2**53) drawn from the execution's generator, so it is exact in any
@@ -61,7 +67,8 @@ import numpy as np
 
 from faultlab.config import check_number
 from faultlab.errors import ConfigError, SlamProcessError
-from faultlab.slam.protocol import Estimate, Observations, SlamAdapter, as_start_pose, check_generator
+from faultlab.slam.protocol import (Estimate, Observations, SlamAdapter, as_start_pose, check_generator,
+                                      covariance_problem)
 
 __all__ = ["PROTOCOL_VERSION", "RULES", "ProcessSlamConfig", "ProcessSlam", "Program", "ReplyRule", "transcript",
            "draw_seed", "reset_message", "step_message", "estimate_from_reply", "encode", "parse_reply",
@@ -99,6 +106,9 @@ RULES: dict[str, ReplyRule] = {r.name: r for r in (
                                     "(unique) and finite x, y"),
     ReplyRule("estimate-trajectory", "an estimate's \"trajectory\", if present, is a list of [x, y, theta] (three "
                                      "finite numbers), one per step since the reset: the pose after each step"),
+    ReplyRule("estimate-covariance", "an estimate's \"covariance\", if present, is 3 + 2M rows of 3 + 2M finite "
+                                     "numbers (pose, then each landmark in the order of \"landmarks\"), symmetric "
+                                     "and positive semi-definite"),
     ReplyRule("reply-timeout", "every request is answered within reply_timeout_s"),
     ReplyRule("execution-timeout", "an execution (reset to estimate) ends within execution_timeout_s"),
     ReplyRule("stays-alive", "the program keeps running until it is sent bye (or its stdin closes)"),
@@ -237,7 +247,27 @@ def estimate_from_reply(line: str, *, where: str = "process SLAM", n_steps: int 
     if np.unique(ids).size != ids.size:
         raise _broken("estimate-landmarks", "estimate has duplicate landmark ids", where=where)
     xy = np.array([r[1:] for r in rows], dtype=float).reshape(len(rows), 2)
-    return Estimate(np.array(pose, dtype=float), ids, xy, trajectory=_trajectory(reply, n_steps, where=where))
+    return Estimate(np.array(pose, dtype=float), ids, xy, trajectory=_trajectory(reply, n_steps, where=where),
+                    covariance=_covariance(reply, ids.size, where=where))
+
+
+def _covariance(reply: dict, n_landmarks: int, *, where: str) -> np.ndarray | None:
+    """The covariance of an estimate reply (None if it has none), checked against its rule."""
+    if "covariance" not in reply:
+        return None
+    rows = reply["covariance"]
+    if (not isinstance(rows, list) or not all(isinstance(r, list) for r in rows)
+            or not all(_is_number(x) for r in rows for x in r)):
+        raise _broken("estimate-covariance", f"estimate covariance is {_short(rows)}", where=where)
+    dim = 3 + 2 * n_landmarks
+    if len(rows) != dim or any(len(r) != dim for r in rows):
+        raise _broken("estimate-covariance", f"estimate covariance is not {dim} rows of {dim} numbers "
+                                             f"({n_landmarks} landmarks)", where=where)
+    cov = np.array(rows, dtype=float).reshape(dim, dim)
+    problem = covariance_problem(cov, dim)
+    if problem:
+        raise _broken("estimate-covariance", f"estimate covariance {problem}", where=where)
+    return cov
 
 
 def _trajectory(reply: dict, n_steps: int | None, *, where: str) -> np.ndarray | None:

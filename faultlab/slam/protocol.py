@@ -40,7 +40,8 @@ import numpy as np
 from faultlab.errors import SlamInputError, SlamOutputError
 from faultlab.vocabulary import ASSOCIATIONS, KNOWN_ASSOCIATION, UNKNOWN_ASSOCIATION
 
-__all__ = ["HIDDEN_ID", "Observations", "Estimate", "SlamAdapter", "run_slam", "run_slam_batch", "as_control",
+__all__ = ["HIDDEN_ID", "Observations", "Estimate", "COVARIANCE_RTOL", "covariance_problem", "SlamAdapter", "run_slam",
+           "run_slam_batch", "as_control",
            "as_start_pose", "check_generator", "association_of"]
 
 #: The id every observation carries when the driver hides the ids (unknown data association).
@@ -147,12 +148,19 @@ class Estimate:
         does not make the map unscorable).  Which pose a SLAM reports
         per step (a particle filter's highest-weight particle, a smoother's smoothed pose) is
         its own choice, documented by the SLAM.
+    covariance : ndarray, shape (3 + 2M, 3 + 2M), optional
+        The SLAM's covariance of its final state, in m and rad: the pose (x, y, theta) first, then
+        landmark ``i``'s (x, y) at rows ``3 + 2i`` and ``4 + 2i`` (the order of ``landmark_ids``).
+        Finite, symmetric and positive semi-definite (:meth:`validate`, to rounding:
+        :func:`covariance_problem`).  None when the SLAM does not report one; the consistency oracle
+        of ``faultlab check`` (NEES) then cannot judge it.
     """
 
     pose: np.ndarray
     landmark_ids: np.ndarray
     landmarks: np.ndarray
     trajectory: np.ndarray | None = None
+    covariance: np.ndarray | None = None
 
     def validate(self, *, where: str = "estimate") -> "Estimate":
         """Raise :class:`SlamOutputError` unless shapes are right and values finite."""
@@ -179,11 +187,44 @@ class Estimate:
             if traj.ndim != 2 or traj.shape[1] != 3 or not np.issubdtype(traj.dtype, np.number):
                 raise SlamOutputError(f"{where}: trajectory must be numbers of shape (T, 3) = one pose "
                                       f"(x, y, theta) per step, got shape {traj.shape} of dtype {traj.dtype}")
+        if self.covariance is not None:
+            problem = covariance_problem(self.covariance, 3 + 2 * ids.size)
+            if problem:
+                raise SlamOutputError(f"{where}: covariance {problem}")
         return self
 
     def as_dict(self) -> dict[int, tuple[float, float]]:
         """The map as ``{id: (x, y)}``."""
         return {int(i): (float(p[0]), float(p[1])) for i, p in zip(self.landmark_ids, self.landmarks)}
+
+
+#: Relative rounding allowed in a covariance's symmetry and its smallest eigenvalue
+#: (times the largest absolute entry): what an EKF's float updates leave, far below any real asymmetry.
+COVARIANCE_RTOL = 1e-9
+
+
+def covariance_problem(covariance, dim: int) -> str:
+    """What is wrong with ``covariance`` as the covariance of a state of ``dim`` numbers ("" when nothing).
+
+    It must be a finite (dim, dim) matrix, symmetric and positive semi-definite to within
+    :data:`COVARIANCE_RTOL` times its largest absolute entry.
+    """
+    try:
+        c = np.asarray(covariance, dtype=float)
+    except (TypeError, ValueError):
+        return "is not a matrix of numbers"
+    if c.shape != (dim, dim):
+        return f"must have shape ({dim}, {dim}) (the pose, then 2 per landmark), got {c.shape}"
+    if not np.all(np.isfinite(c)):
+        return "is not finite"
+    tol = COVARIANCE_RTOL * max(float(np.max(np.abs(c))), np.finfo(float).tiny)
+    asym = float(np.max(np.abs(c - c.T)))
+    if asym > tol:
+        return f"is not symmetric (largest |C - C^T| = {asym:.3g})"
+    low = float(np.linalg.eigvalsh(0.5 * (c + c.T))[0])
+    if low < -tol:
+        return f"is not positive semi-definite (smallest eigenvalue {low:.3g})"
+    return ""
 
 
 def as_control(control) -> np.ndarray:

@@ -28,7 +28,7 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 from faultlab.config import import_object
-from faultlab.errors import ConfigError
+from faultlab.errors import ConfigError, UnknownPluginError
 from faultlab.plugins import PluginCatalogue
 from faultlab.slam.association import FastSlam2Unknown, FastSlamUnknown
 from faultlab.slam.deadreckoning import DeadReckoning
@@ -186,7 +186,7 @@ class _SlamCatalogue(PluginCatalogue):
 
 
 _CATALOGUE = _SlamCatalogue(kind="SLAM", group=SLAM_ENTRY_POINT_GROUP, base=SlamKind,
-                            builtins=tuple(BUILTIN_SLAMS.values()), error=ConfigError, warning=SlamPluginWarning)
+                            builtins=tuple(BUILTIN_SLAMS.values()), warning=SlamPluginWarning)
 
 #: ``load_slam_plugins(*, group=None, warn=True)``: discover the third-party SLAMs (in entry-point name
 #: order); a :class:`~faultlab.plugins.PluginLoad`.
@@ -196,7 +196,8 @@ all_slams = _CATALOGUE.all
 
 
 def get_slam_kind(name: str, *, where: str = "slam.name") -> SlamKind | None:
-    """The SLAM ``name`` (built-in or plugin); None for an import path; ConfigError for anything else.
+    """The SLAM ``name`` (built-in or plugin); None for an import path; :class:`~faultlab.errors.UnknownPluginError`
+    for anything else.
 
     Every process reads the plugins from the installed distributions' metadata, so a worker process
     of a parallel campaign knows the same SLAMs as the process that started it.
@@ -208,8 +209,8 @@ def get_slam_kind(name: str, *, where: str = "slam.name") -> SlamKind | None:
     plugins = {k.name: k for k in load_slam_plugins(warn=False).items}
     if isinstance(name, str) and name in plugins:
         return plugins[name]
-    raise ConfigError(f"{where} must be one of {', '.join(map(repr, [*BUILTIN_SLAMS, *plugins]))} or "
-                      f"'package.module:factory', got {name!r}")
+    raise UnknownPluginError("SLAM", name, [*BUILTIN_SLAMS, *plugins], where=where,
+                             note=" (or an import path 'package.module:factory')")
 
 
 def normalise_options(name: str, options: Mapping[str, Any], *, where: str) -> dict[str, Any]:

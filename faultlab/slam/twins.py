@@ -45,7 +45,7 @@ from faultlab.slam import units as _units
 from faultlab.slam.units import _mat22, _vec2
 
 __all__ = ["JIT_VARIABLE", "JIT_ENABLED", "TWINS", "twinned", "fused", "correct_pairs", "predict_poses",
-           "correct_observed", "noise_entries", "gather_rows",
+           "correct_observed", "finish_log_likelihood", "combine_pairs", "correct_staged", "staged", "STAGES", "noise_entries", "gather_rows",
            "scatter_rows", "take_rows", "correct_in_sharer_order", "warm_up",
            "sample_controls", "motion_model", "predict_measurement", "innovation", "innovation_covariance",
            "log_likelihood", "ekf_update",
@@ -422,10 +422,150 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
     if logw is None:  # the log likelihoods themselves, for a replaced combine_weights
         kn.finish_log_likelihood(t, det)
         return t.T, None
+    return combine_pairs(t, det, seen, logw, n)
+
+
+def finish_log_likelihood(t: np.ndarray, log_det: np.ndarray) -> None:
+    """``log_likelihood``'s last operations, in place: ``t = (t + log_det) * -0.5 - log(2 pi)`` (k, M)."""
+    _k().finish_log_likelihood(t, log_det)
+
+
+def combine_pairs(t: np.ndarray, log_det: np.ndarray, seen: np.ndarray, logw: np.ndarray,
+                  n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``log_likelihood``'s last operations on the quadratic forms ``t`` and numpy's ``log`` of the
+    determinants ``log_det`` (k, M), then ``combine_weights`` (``known[i, j] = seen[j]``) and the
+    first half of the normalisation of each filter of ``n``: the ``(shifted, tops)`` of
+    :func:`correct_observed` (see :func:`faultlab.slam.kernels.combine_observed`)."""
+    m = t.shape[1]
     shifted = np.empty(m)
     tops = np.empty(m // n)
-    kn.combine_observed(t, det, seen, logw, n, shifted, tops)
+    _k().combine_observed(t, log_det, np.asarray(seen, dtype=np.bool_), logw, n, shifted, tops)
     return shifted, tops
+
+
+#: The correction units a staged correction (:func:`correct_staged`) can run a replacement of, in
+#: the order the correction calls them: the stage of each (``wrap_bearing`` is called by ``innovation``).
+STAGES: dict[str, int] = {"predict_measurement": 0, "innovation": 1, "wrap_bearing": 1, "innovation_covariance": 2,
+                          "log_likelihood": 3, "ekf_update": 4}
+
+
+def staged(table) -> int | None:
+    """The stage (:data:`STAGES`) whose unit :func:`correct_staged` calls for ``table``: the one stage
+    whose units are not all the references (or their twins) when every other correction unit is;
+    None when every one is (the fused correction) or several stages are replaced."""
+    replaced = {STAGES[name] for name in FUSED_UNITS
+                if getattr(table, name, None) is not getattr(_units, name)
+                and getattr(table, name, None) is not TWINS.get(getattr(_units, name))}
+    return replaced.pop() if len(replaced) == 1 else None
+
+
+def _float_pairs(a, shape: tuple[int, ...]) -> bool:
+    """Whether ``a`` is a float64 ndarray (not a subclass) of ``shape``: what the twins take."""
+    return type(a) is np.ndarray and a.shape == shape and (a.dtype is _F64 or a.dtype == _F64)
+
+
+_NO_PAIRS = np.empty((0, 0))
+
+
+def correct_staged(stage: int, unit: Callable, poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: np.ndarray,
+                   init: tuple[np.ndarray, np.ndarray] | None, q: tuple[float, float, float, bool], n: int,
+                   mu_store: np.ndarray, P_store: np.ndarray, anc: np.ndarray):
+    """The correction of every particle with one correction unit replaced, writing the storage in place.
+
+    Equals, bit for bit, the filter's unit-by-unit correction (gather, ``init_landmarks``' values
+    where new, ``predict_measurement``, ``innovation``, ``innovation_covariance``,
+    ``log_likelihood``, ``ekf_update``, write-back into every particle's own row) when the units of
+    ``stage`` (:data:`STAGES`) are replaced by ``unit`` and every other one is the reference: the
+    stages before the replaced one run as their twins' kernels (into arrays of the layout the twins
+    return, which ``unit`` receives), ``unit`` is called once on all pairs, and the stages after it
+    run in one pass with the write-back (:func:`faultlab.slam.kernels.finish_staged`).
+
+    ``unit`` is called with the arguments of the replaced unit that vary per step: ``(poses, mu)``,
+    ``(z, z_hat)`` (``innovation`` with its ``wrap`` bound), ``(H, P)`` (``Q`` bound), ``(nu, S)``
+    or ``(mu, P, H, S, nu)``.  The other arguments are those of :func:`correct_observed`.
+
+    Returns ``(t, det)`` (k, M), the quadratic form and ``det S`` of every pair as written by
+    :func:`correct_observed` (before numpy's ``log`` of ``det``), or at the ``log_likelihood``
+    stage ``(loglik, None)``, the unit's (M, k) result; None, with nothing written, when the unit
+    returned anything but float64 arrays of the documented shapes (the filter then runs its
+    unit-by-unit path, which hands such values to the numpy units).
+    """
+    kn = _k()
+    k, m = z.shape[0], poses.shape[0]
+    cols = np.asarray(cols, dtype=np.intp)
+    seen = np.asarray(seen, dtype=np.bool_)
+    if init is None:
+        mi, pi = _NO_INIT_MU, _NO_INIT_P
+    else:
+        mi = np.ascontiguousarray(np.asarray(init[0], dtype=float).transpose(2, 1, 0))
+        pi = np.ascontiguousarray(np.asarray(init[1], dtype=float).transpose(2, 3, 1, 0))
+    mb = np.empty((2, k, m))
+    pb = np.empty((2, 2, k, m))
+    dx = np.empty((k, m))
+    dy = np.empty((k, m))
+    kn.gather_landmarks(mu_store, P_store, anc, cols, seen, mi, pi, poses, n, mb, pb, dx, dy)
+    mu = mb.transpose(2, 1, 0)  # the (M, k, 2) and (M, k, 2, 2) views the units see
+    P = pb.transpose(3, 2, 0, 1)
+    vec, mat = (m, k, 2), (m, k, 2, 2)
+    none = _NO_PAIRS
+    a = b = s = e = (none,) * 4
+    t = det = none
+    if stage == 0:
+        out = unit(poses, mu)
+        if not (type(out) is tuple and len(out) == 2 and _float_pairs(out[0], vec) and _float_pairs(out[1], mat)):
+            return None
+        zhat, H = out
+        a = (_kt(zhat[..., 0]), _kt(zhat[..., 1]))
+    else:
+        hbuf = np.empty((2, 2, k, m))
+        zbuf = np.empty((2, k, m))
+        kn.measurement(poses, dx, dy, np.arctan2(dy, dx), zbuf[0], zbuf[1], hbuf[0, 0], hbuf[0, 1], hbuf[1, 0],
+                       hbuf[1, 1])
+        H = hbuf.transpose(3, 2, 0, 1)
+        if stage == 1:
+            nu = unit(z, zbuf.transpose(2, 1, 0))
+            if not _float_pairs(nu, vec):
+                return None
+        else:
+            nbuf = np.empty((2, k, m))
+            kn.innovation_pairs(z, zbuf[0], zbuf[1], nbuf[0], nbuf[1])
+            nu = nbuf.transpose(2, 1, 0)
+            if stage == 2:
+                S = unit(H, P)
+                if not _float_pairs(S, mat):
+                    return None
+            else:
+                sbuf = np.empty((2, 2, k, m))
+                q00, q01, q11, add = q
+                kn.sandwich(hbuf[0, 0], hbuf[0, 1], hbuf[1, 0], hbuf[1, 1], pb[0, 0], pb[0, 1], pb[1, 1],
+                            q00, q01, q11, add, sbuf[0, 0], sbuf[0, 1], sbuf[1, 1])
+                sbuf[1, 0] = sbuf[0, 1]
+                S = sbuf.transpose(3, 2, 0, 1)
+                if stage == 3:
+                    loglik = unit(nu, S)
+                    if not _float_pairs(loglik, (m, k)):
+                        return None
+                else:
+                    t = np.empty((k, m))
+                    det = np.empty((k, m))
+                    kn.quadratic_form(nbuf[0], nbuf[1], sbuf[0, 0], sbuf[0, 1], sbuf[1, 1], t, det)
+                    out = unit(mu, P, H, S, nu)
+                    if not (type(out) is tuple and len(out) == 2 and _float_pairs(out[0], vec)
+                            and _float_pairs(out[1], mat)):
+                        return None
+                    mu_new, P_new = out
+                    a = (_kt(mu_new[..., 0]), _kt(mu_new[..., 1]))
+                    e = (_kt(P_new[..., 0, 0]), _kt(P_new[..., 0, 1]), _kt(P_new[..., 1, 0]), _kt(P_new[..., 1, 1]))
+            s = (_kt(S[..., 0, 0]), _kt(S[..., 0, 1]), _kt(S[..., 1, 1]))
+        b = (_kt(nu[..., 0]), _kt(nu[..., 1]))
+    if stage < 3:
+        t = np.empty((k, m))
+        det = np.empty((k, m))
+    q00, q01, q11, add = q
+    kn.finish_staged(stage, z, seen, mb, pb, _kt(H[..., 0, 0]), _kt(H[..., 0, 1]), _kt(H[..., 1, 0]),
+                     _kt(H[..., 1, 1]), a[0], a[1], b[0], b[1], s[0], s[1], s[2], e[0], e[1], e[2], e[3],
+                     q00, q01, q11, add, cols, n, mu_store, P_store, anc, t, det)
+    return (loglik, None) if stage == 3 else (t, det)
 
 
 def correct_in_sharer_order(steps, logw: np.ndarray, owner: np.ndarray, poses: np.ndarray, z: np.ndarray,

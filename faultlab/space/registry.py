@@ -26,7 +26,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from faultlab.errors import ConfigError
+from faultlab.errors import UnknownPluginError
 from faultlab.plugins import PluginCatalogue
 from faultlab.space.case import CaseSpec
 from faultlab.space.choice import check_rng
@@ -143,7 +143,7 @@ class _StrategyCatalogue(PluginCatalogue):
 
 
 _CATALOGUE = _StrategyCatalogue(kind="suite strategy", group=STRATEGY_ENTRY_POINT_GROUP, base=SuiteStrategy,
-                                builtins=tuple(STRATEGIES.values()), error=ConfigError,
+                                builtins=tuple(STRATEGIES.values()),
                                 warning=StrategyPluginWarning)
 
 #: ``load_strategy_plugins(*, group=None, warn=True)``: discover the third-party suite strategies (in
@@ -161,13 +161,14 @@ def suite_kinds() -> tuple[str, ...]:
 
 
 def get_strategy(kind: str) -> SuiteStrategy:
-    """The strategy called ``kind`` (built-in or plugin); ConfigError naming the known ones otherwise."""
+    """The strategy called ``kind`` (built-in or plugin); :class:`~faultlab.errors.UnknownPluginError` naming the
+    known ones otherwise."""
     if isinstance(kind, str) and kind in STRATEGIES:
         return STRATEGIES[kind]
     plugins = _plugin_strategies()
     if isinstance(kind, str) and kind in plugins:
         return plugins[kind]
-    raise ConfigError(f"unknown suite kind {kind!r} (expected one of {', '.join([*STRATEGIES, *plugins])})")
+    raise UnknownPluginError("suite strategy", kind, [*STRATEGIES, *plugins])
 
 
 def build_suite(kind: str, space: ParameterSpace | None = None, *, rng: np.random.Generator,

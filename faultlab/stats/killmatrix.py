@@ -65,7 +65,8 @@ the difference (independent pools, paired mutants; two-sided bootstrap p value, 
 strategy pairs of a size) and (b) by exact McNemar tests over the mutants for the suites drawn
 with the same index (statsmodels), summarised over the draws (median p, share of draws with
 p <= 0.05) -- (b) is about a typical pair of suites, (a) about the strategies.  The smallest
-difference detectable with 80 % power is ``(z_0.975 + z_0.8) * SE`` with SE the bootstrap
+difference detectable with power ``1 - beta`` (default :data:`~faultlab.vocabulary.DEFAULT_POWER`) is
+``(z_(1 - alpha/2) + z_(1 - beta)) * SE`` with SE the bootstrap
 standard error of the difference (:func:`detectable_score_difference`).
 
 The ``[study]`` table of a study file (suite sizes, draws, bootstrap, seed, level, multiplicity)
@@ -86,7 +87,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm, ttest_ind
 from statsmodels.stats.contingency_tables import mcnemar
-from statsmodels.stats.proportion import confint_proportions_2indep, proportion_confint, test_proportions_2indep
+from statsmodels.stats.proportion import confint_proportions_2indep, test_proportions_2indep
 
 from faultlab.config import Table
 from faultlab.errors import ConfigError, ResultsError
@@ -98,16 +99,19 @@ from faultlab.stats.cases import detectable_difference, holm_within, rule_verdic
 from faultlab.stats.detection import outcomes
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.inference.sequential import Look
+from faultlab.inference.clusters import compare_by_cluster
 from faultlab.inference.exact import MAX_EXACT_PAIRS
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, case_verdicts
-from faultlab.vocabulary import (BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, SUITE_ORDER, JobStatus,
-                                 ordered)
+from faultlab.vocabulary import (BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, MDD_COLUMN, SUITE_ORDER,
+                                 JobStatus, ordered)
 
 __all__ = ["StudySpec", "study_spec", "suite_kills", "MULTIPLICITY", "KILL_MATRIX_COLUMNS", "KillMatrix", "kill_matrix", "suite_rejections", "suite_detects", "combined_detects",
            "judge_suite",
            "strong_cases", "draw_suites", "detection_probability", "bootstrap_probabilities", "SuiteDraws",
            "evaluate_suites", "detection_table", "exact_detection_interval", "score_table", "compare_scores", "detectable_score_difference", "smallest_showable_difference",
            "DETECTION_COMPARISON_COLUMNS", "compare_detection", "MEAN_DETECTION_COLUMNS", "compare_mean_detection",
+           "case_scores",
            "WHOLE_COLUMNS", "whole_suites", "whole_suite_table"]
 
 #: Multiplicity rules within a suite's cases.
@@ -534,8 +538,7 @@ def exact_detection_interval(h, n_pool: int, n: int, *, alpha: float = DEFAULT_A
     valid (conservative) bound, and the interval keeps its width in every table.
     """
     h = np.atleast_1d(np.asarray(h, dtype=np.int64))
-    lo = np.array([proportion_confint(int(k), n_pool, alpha=alpha, method="beta")[0] for k in h], dtype=float)
-    hi = np.array([proportion_confint(int(k), n_pool, alpha=alpha, method="beta")[1] for k in h], dtype=float)
+    lo, hi = clopper_pearson(h, n_pool, alpha=alpha)
     low = -np.expm1(n * np.log1p(-lo))
     return np.minimum(low, 1.0 - 10.0 ** -SIGNIFICANT_DIGITS), 1.0 - (1.0 - hi) ** n
 
@@ -614,7 +617,7 @@ def score_table(ev: SuiteDraws) -> pd.DataFrame:
         score, _, boot = _scores(ev, strategy, n)
         lo, hi = _ci(boot)
         if not hi > lo:  # every replicate agrees: floor by the exact interval over the sampled mutants
-            lo, hi = proportion_confint(int(round(score * len(ev.mutants))), len(ev.mutants), method="beta")
+            lo, hi = clopper_pearson(int(round(score * len(ev.mutants))), len(ev.mutants))
         rows.append({"strategy": strategy, "size": n, "pool": ev.pool_sizes[strategy], "mutants": len(ev.mutants),
                      "score": score, "ci_low": float(lo), "ci_high": float(hi),
                      "se_boot": float(boot.std(ddof=1)) if boot.size > 1 else math.nan,
@@ -639,7 +642,7 @@ def smallest_showable_difference(n_mutants: int, *, alpha: float = DEFAULT_ALPHA
     A difference of ``d / M`` needs at least ``d`` discordant mutants; the exact McNemar test
     (two-sided binomial on the discordant pairs) reaches ``alpha`` only when all of them favour
     one side and ``2 * 2^-d <= alpha``, so no difference below ``ceil(log2(2 / alpha)) / M`` can be
-    shown, whatever the bootstrap's spread (a floor for :func:`compare_scores`' ``mdd80``).
+    shown, whatever the bootstrap's spread (a floor for :func:`compare_scores`' :data:`~faultlab.vocabulary.MDD_COLUMN`).
     """
     if n_mutants < 1:
         return math.nan
@@ -653,7 +656,7 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFr
     and two-sided bootstrap p value ``p_boot`` = 2 min(share of replicates <= 0, share >= 0), where
     replicates with no difference count on both sides (conservative: strategies that kill the same
     mutants in most replicates get p near 1) (Holm over the pairs of a size: ``p_holm``),
-    ``mdd80`` (smallest difference detectable with 80 % power from the bootstrap SE, never below
+    :data:`~faultlab.vocabulary.MDD_COLUMN` (smallest difference detectable with the default power from the bootstrap SE, never below
     :func:`smallest_showable_difference` of the mutant sample), and the
     exact McNemar test over mutants for the suites drawn with the same index: mean discordant
     counts ``only_a``, ``only_b``, ``mcnemar_p_median`` and ``mcnemar_share_sig`` (share of
@@ -681,8 +684,8 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFr
             rows.append({"size": n, "strategy_a": a, "strategy_b": b, "score_a": sa, "score_b": sb,
                          "diff": sa - sb, "ci_low": float(lo), "ci_high": float(hi), "se_boot": se,
                          "p_boot": float(p_boot),
-                         "mdd80": max(detectable_score_difference(se, alpha=alpha),
-                                      smallest_showable_difference(len(ev.mutants), alpha=alpha)),
+                         MDD_COLUMN: max(detectable_score_difference(se, alpha=alpha),
+                                         smallest_showable_difference(len(ev.mutants), alpha=alpha)),
                          "only_a": float(only_a.mean()), "only_b": float(only_b.mean()),
                          "mcnemar_p_median": float(np.median(pm)), "mcnemar_share_sig": float((pm <= alpha).mean())})
     out = pd.DataFrame(rows)
@@ -694,7 +697,7 @@ def compare_scores(ev: SuiteDraws, *, alpha: float = DEFAULT_ALPHA) -> pd.DataFr
 #: Columns of :func:`compare_detection`.
 DETECTION_COMPARISON_COLUMNS = ("variant", "strategy_a", "strategy_b", "pool_a", "detect_a", "pool_b", "detect_b",
                                 "rate_a", "rate_b", "diff", "ci_low", "ci_high", "p", "p_holm", "p_holm_study",
-                                "shown", "equivalence_margin", "mdd80")
+                                "shown", "equivalence_margin", MDD_COLUMN)
 
 
 def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
@@ -714,7 +717,7 @@ def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
     * ``equivalence_margin``: the smallest margin d for which two one-sided tests at ``alpha``
       show ``|difference| < d`` (by their duality, the largest end of the ``1 - 2 alpha``
       interval; statsmodels ``tost_proportions_2indep`` gives p = ``alpha`` there);
-    * ``mdd80``: the smallest difference, around the two rates' mean, that a two-sided test at
+    * :data:`~faultlab.vocabulary.MDD_COLUMN`: the smallest difference, around the two rates' mean, that a two-sided test at
       Holm's first step (``alpha`` / pairs, the strictest level a pair is judged at) detects with
       ``power`` for these pool sizes (:func:`faultlab.stats.cases.detectable_difference`).
 
@@ -740,7 +743,7 @@ def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
                          "detect_b": kb, "rate_a": ka / na, "rate_b": kb / nb, "diff": ka / na - kb / nb,
                          "ci_low": float(lo), "ci_high": float(hi), "p": float(p),
                          "equivalence_margin": float(max(abs(lo2), abs(hi2))),
-                         "mdd80": detectable_difference(mid, na, nb, alpha=alpha / max(1, len(pairs)), power=power)})
+                         MDD_COLUMN: detectable_difference(mid, na, nb, alpha=alpha / max(1, len(pairs)), power=power)})
     out = pd.DataFrame(rows, columns=[c for c in DETECTION_COMPARISON_COLUMNS
                                       if c not in ("p_holm", "p_holm_study", "shown")])
     p = out["p"].to_numpy(float)
@@ -752,7 +755,8 @@ def compare_detection(ev: SuiteDraws, variants, *, alpha: float = DEFAULT_ALPHA,
 
 #: Columns of :func:`compare_mean_detection`.
 MEAN_DETECTION_COLUMNS = ("strategy_a", "strategy_b", "variants", "pool_a", "pool_b", "mean_a", "mean_b", "diff",
-                          "ci_low", "ci_high", "p", "p_holm", "shown", "equivalence_margin")
+                          "ci_low", "ci_high", "p", "p_holm", "shown", "equivalence_margin", "runs", "run_diff",
+                          "run_diff_low", "run_diff_high", "run_p", "run_p_exact", "run_p_holm", "run_shown")
 
 
 def compare_mean_detection(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA,
@@ -767,16 +771,24 @@ def compare_mean_detection(km: KillMatrix, variants, *, alpha: float = DEFAULT_A
     independent samples of case scores, compared by Welch's t test with its 95 % interval (scipy
     ``ttest_ind(equal_var=False)``), Holm over the strategy pairs (``p_holm``, ``shown``), and
     ``equivalence_margin``, the smallest margin two one-sided Welch tests at ``alpha`` show (the
-    largest end of the ``1 - 2 alpha`` interval; statsmodels ``ttost_ind`` is the reference).
+    largest end of the ``1 - 2 alpha`` interval; statsmodels ``ttost_ind`` is the reference; it is
+    derived from the data it describes, so it is exploratory, never a declared margin).
     Where neither pool's scores vary, nothing can be judged: ``p``, the interval and the margin
     are NaN rather than an interval of zero width.
+
+    The cases of a pool are nested in evaluation runs (one generated suite per run), so the same
+    comparison is also made with the run as the unit: paired by run, the t test and interval over
+    the ``runs`` differences of the two suites' mean scores and the exact sign-flip p value over
+    runs (:func:`faultlab.inference.clusters.compare_by_cluster`; ``run_diff`` with its interval
+    ``run_diff_low``, ``run_diff_high``, ``run_p``, ``run_p_exact``), Holm over the pairs (``run_p_holm``, ``run_shown``).
     """
     cols = [km.variants.index(v) for v in variants]
-    columns = [c for c in MEAN_DETECTION_COLUMNS if c not in ("p_holm", "shown")]
+    columns = [c for c in MEAN_DETECTION_COLUMNS if c not in ("p_holm", "shown", "run_p_holm", "run_shown")]
     if not cols:
         return pd.DataFrame(columns=list(MEAN_DETECTION_COLUMNS))
-    score = strong_cases(km, 1, alpha=alpha, timeouts_detect=timeouts_detect)[:, cols].mean(axis=1)
+    score = case_scores(km, variants, alpha=alpha, timeouts_detect=timeouts_detect)
     strategy = km.cases["strategy"].to_numpy()
+    run = km.cases["run"].to_numpy()
     rows = []
     for a, b in itertools.combinations(km.strategies, 2):
         xa, xb = score[strategy == a], score[strategy == b]
@@ -789,11 +801,24 @@ def compare_mean_detection(km: KillMatrix, variants, *, alpha: float = DEFAULT_A
             ci2 = res.confidence_interval(1 - 2 * alpha)
             row |= {"ci_low": float(ci.low), "ci_high": float(ci.high), "p": float(res.pvalue),
                     "equivalence_margin": float(max(abs(ci2.low), abs(ci2.high)))}
+        both = (strategy == a) | (strategy == b)
+        by_run = compare_by_cluster(score[both], arm=strategy[both] == a, cluster=run[both], alpha=alpha)
+        row |= {"runs": by_run.clusters, "run_diff": by_run.estimate, "run_diff_low": by_run.ci_low,
+                "run_diff_high": by_run.ci_high, "run_p": by_run.p, "run_p_exact": by_run.p_exact}
         rows.append(row)
     out = pd.DataFrame(rows, columns=columns)
     out.insert(out.columns.get_loc("p") + 1, "p_holm", holm_within(out["p"].to_numpy(float), np.zeros(len(out))))
     out.insert(out.columns.get_loc("p_holm") + 1, "shown", out["p_holm"].to_numpy(float) <= alpha)
-    return out
+    out["run_p_holm"] = holm_within(out["run_p"].to_numpy(float), np.zeros(len(out)))
+    out["run_shown"] = out["run_p_holm"].to_numpy(float) <= alpha
+    return out[list(MEAN_DETECTION_COLUMNS)]
+
+
+def case_scores(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA, timeouts_detect: bool = False) -> np.ndarray:
+    """Per pool case: the share of ``variants`` it alone detects (a suite of one case: a crash, or exact
+    p <= ``alpha``; :func:`strong_cases` at n = 1), shape (N,)."""
+    cols = [km.variants.index(v) for v in variants]
+    return strong_cases(km, 1, alpha=alpha, timeouts_detect=timeouts_detect)[:, cols].mean(axis=1)
 
 
 def _mcnemar_exact(only_a: np.ndarray, only_b: np.ndarray) -> np.ndarray:
@@ -958,19 +983,17 @@ def whole_suite_table(whole: pd.DataFrame, *, mutants=(), alpha: float = DEFAULT
     """Per (strategy, variant): share of the whole suites that detect, with its exact interval.
 
     The unit is the independently generated suite (one per evaluation run), so the interval is
-    Clopper-Pearson over suites (statsmodels ``proportion_confint(method="beta")``, level
+    Clopper-Pearson over suites (:func:`~faultlab.inference.intervals.clopper_pearson`, level
     ``1 - alpha``).  With ``mutants``, a row ``variant = "mutation score"`` per strategy gives the
     mean over suites of the share of ``mutants`` each kills (``detected`` = mutants killed over
     all suites, ``range_min``/``range_max`` = the lowest and highest score of one suite: a range, not
     an interval, so ``ci_low``/``ci_high`` are blank there; the range columns are blank on detection
     rows).  ``size`` is the suites' mean number of cases.
     """
-    from statsmodels.stats.proportion import proportion_confint
-
     rows = []
     for (strategy, variant), g in whole.groupby(["strategy", "variant"], sort=False):
         k, n = int(g["detected"].sum()), len(g)
-        lo, hi = proportion_confint(k, n, alpha=alpha, method="beta")
+        lo, hi = clopper_pearson(k, n, alpha=alpha)
         rows.append({"strategy": strategy, "variant": variant, "size": float(g["size"].mean()), "suites": n,
                      "detected": k, "rate": k / n, "ci_low": float(lo), "ci_high": float(hi),
                      "range_min": math.nan, "range_max": math.nan, "rate_paper": float(g["paper"].mean())})

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from faultlab.analysis import analyse
+from faultlab.config import ExperimentOverrides
 from faultlab.runner import load_experiment, run_experiment
 from faultlab.inference.exact import alternative_of, min_pairs
 from faultlab.vocabulary import REPLICA
@@ -22,8 +23,8 @@ def test_paper_k10_repetitions_are_the_fewest_the_two_sided_holm_family_needs():
 def test_paper_k10_in_tiny_form_judges_cases_by_the_statistical_rule(tmp_path):
     exp = load_experiment("paper-k10")
     assert exp.detection.rule == "statistical" and REPLICA in exp.variants
-    tiny = exp.replace(runs=1, repetitions=7, n_steps=25, suites={"random": 1, "fixed": 1},
-                       slam={"particles": 8}, variants=["baseline", REPLICA, "motion_sign_error"])
+    tiny = exp.apply(ExperimentOverrides(runs=1, repetitions=7, n_steps=25, suites={"random": 1, "fixed": 1},
+                                         particles=8, variants=("baseline", REPLICA, "motion_sign_error")))
     run_experiment(tiny, tmp_path, jobs=1, progress=False)
     a = analyse(tmp_path, paper=False)
     assert a.rule.rule == "statistical" and a.rule.family == "fault"

@@ -19,6 +19,7 @@ from faultlab.analysis.schema import TABLES
 from faultlab.precision import FLOAT_FORMAT
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner import load_metadata, load_results
+from faultlab.runner.store import META_CHECKSUM_KEY, meta_checksum
 from faultlab.stats.paper import data_label
 from faultlab.stats import (
     DetectionRule,
@@ -266,6 +267,9 @@ def test_analyse_reads_the_store_and_its_rule(tmp_path):
     assert json.loads((tmp_path / "saved" / "analysis.json").read_text())["metadata"]["path"] == "store/results.sqlite"
     with sqlite3.connect(store / "results.sqlite") as conn:
         conn.execute("UPDATE meta SET value = ? WHERE key = 'detection'", (json.dumps(STRICT["detection"]),))
+        # a store written with another rule carries the checksum of its own metadata
+        meta = {k: json.loads(v) for k, v in conn.execute("SELECT key, value FROM meta")}
+        conn.execute("UPDATE meta SET value = ? WHERE key = ?", (json.dumps(meta_checksum(meta)), META_CHECKSUM_KEY))
     conn.close()
     b = analyse(store, paper=False, parameters=["map_size"])
     assert b.rule == DetectionRule(400.0, 1.0) and b.parameters == ("map_size",)

@@ -7,13 +7,14 @@ import pandas as pd
 import pytest
 
 from faultlab.cli import build_parser
+from faultlab.config import ExperimentOverrides
 from faultlab.analysis.calibration import assess_calibration, check_saved
 from faultlab.campaigns.calibrate import calibrate
 from faultlab.stats.calibration import check_calibration
 from faultlab.inference.intervals import clustered_rate
 from faultlab.vocabulary import BASELINE, REPLICA
 
-TINY = {"n_steps": 25, "suites": {"systematic": "auto", "random": 1, "fixed": 1}, "slam": {"particles": 8}}
+TINY = ExperimentOverrides(n_steps=25, suites={"systematic": "auto", "random": 1, "fixed": 1}, particles=8)
 
 
 @pytest.mark.slow

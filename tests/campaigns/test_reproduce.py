@@ -34,7 +34,7 @@ def captured(monkeypatch):
 
 def test_quick_overrides_shrink_the_paper_protocol():
     paper = load_experiment(PAPER_TOML)
-    quick = paper.replace(**quick_overrides(paper))
+    quick = paper.apply(quick_overrides(paper))
     assert quick.runs == 1
     assert {s.kind: s.n_cases for s in quick.suites} == {"systematic": None, "random": 2, "fixed": 2}
     assert quick.variants == ("baseline", "naive_resampling", "missing_angle_wrap", "motion_sign_error")
@@ -125,10 +125,10 @@ def test_profile_paper_runs_the_papers_filter_with_fov_bug_beside_the_default(ca
 
 def test_profile_overrides_replace_the_files_slam_settings():
     paper = load_experiment(PAPER_TOML)
-    custom = paper.replace(slam={"particles": 7, "std_v": 0.5})
-    run = custom.replace(**profile_overrides(custom, "paper"))
+    custom = paper.merge(slam={"particles": 7, "std_v": 0.5})
+    run = custom.apply(profile_overrides(custom, "paper"))
     assert run.slam.config == get_profile("paper").config
-    ref = custom.replace(**profile_overrides(custom, "reference"))
+    ref = custom.apply(profile_overrides(custom, "reference"))
     assert not ref.fov_bug and ref.slam.profile == "reference" and ref.hash == paper.hash
     with pytest.raises(ConfigError, match="unknown FastSLAM profile"):
         profile_overrides(paper, "nope")
@@ -174,7 +174,7 @@ def test_run_ablation_reuses_the_main_run_and_runs_every_other_arm(monkeypatch, 
     runs = []
     monkeypatch.setattr(rp, "run_experiment", lambda exp, out, **kw: runs.append((exp, Path(out), kw)))
     paper = load_experiment(PAPER_TOML)
-    main = paper.replace(**profile_overrides(paper, "paper"))
+    main = paper.apply(profile_overrides(paper, "paper"))
     computed = rp.run_ablation(main, tmp_path / "main", runs=2, jobs=1, progress=False)
     arms = ablation_arms()
     assert list(computed) == [a.name for a in arms] and computed["paper"] == tmp_path / "main"

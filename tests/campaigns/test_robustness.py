@@ -4,13 +4,16 @@ import pytest
 
 from faultlab.analysis.robustness import robustness
 from faultlab.campaigns.robustness import LABELS, robustness_stores, run_robustness, scale_overrides
+from faultlab.config import ExperimentOverrides
 from faultlab.errors import ConfigError
 
 
 def test_scale_overrides():
-    assert scale_overrides() == {}
-    assert scale_overrides(cases=3, steps=20, repetitions=5) == {"suites": {"random": 3}, "n_steps": 20,
-                                                                  "repetitions": 5}
+    assert scale_overrides() == ExperimentOverrides()
+    assert scale_overrides(cases=3, steps=20, repetitions=5) == ExperimentOverrides(
+        suites=(("random", 3),), n_steps=20, repetitions=5)
+    with pytest.raises(ConfigError, match="repetitions"):
+        scale_overrides(repetitions=0)
 
 
 def test_unknown_label_is_refused_before_anything_runs(tmp_path):
@@ -21,8 +24,8 @@ def test_unknown_label_is_refused_before_anything_runs(tmp_path):
 
 @pytest.mark.slow
 def test_tiny_campaign_on_fastslam_and_ekf(tmp_path):
-    overrides = scale_overrides(cases=3, steps=15, repetitions=5) | {"variants": ["baseline", "obs_delay",
-                                                                                  "particle_budget"]}
+    overrides = scale_overrides(cases=3, steps=15, repetitions=5).then(
+        ExperimentOverrides(variants=("baseline", "obs_delay", "particle_budget")))
     with pytest.warns(UserWarning, match="particle_budget"):
         ran = run_robustness(tmp_path, overrides=overrides, particles=5, only=["fastslam1", "ekf"], jobs=1,
                              progress=False)

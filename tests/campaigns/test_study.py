@@ -235,3 +235,29 @@ def test_weights_and_effect_guided_suites_come_together(tmp_path, monkeypatch):
     with pytest.raises(ConfigError, match=r"study\.weights: \[space\.weights\] gives class weights as well"):
         load_study_experiment(_file(tmp_path, WEIGHTED + "[space.weights]\nmap_size = { small = 1, medium = 1, "
                                                          "large = 1 }\n"))
+
+
+def test_the_confirmatory_study_declares_its_analyses_before_it_runs():
+    sexp = load_study_experiment("study-confirm")
+    d = sexp.declaration
+    assert d.confirmatory and d.unit == "run" and d.family == "holm"
+    assert [(a.table, a.strategy_a, a.strategy_b, a.test, a.margin) for a in d.analyses] == [
+        ("detection_means", "systematic", "random", "difference", None),
+        ("detection_means", "systematic", "random", "equivalence", 0.05)]
+    assert sexp.to_json()["declaration"] == d.to_dict()
+    assert [s.kind for s in sexp.experiment.suites] == ["systematic", "random"]
+    pilot = load_study_experiment("study-large-faults").experiment
+    assert sexp.experiment.seed != pilot.seed  # new evaluation runs; the protocol is the pilot's
+    assert (sexp.experiment.variants, sexp.experiment.repetitions, sexp.experiment.n_steps) == (
+        pilot.variants, pilot.repetitions, pilot.n_steps)
+
+
+@pytest.mark.parametrize("extra, match", [
+    ('[declaration]\n[[declaration.analyses]]\ntable = "detection_means"\nstrategy_a = "systematic"\n'
+     'strategy_b = "pairwise"\n', "'pairwise' is not one of the study's suites"),
+    ('[declaration]\n[[declaration.analyses]]\ntable = "detection_comparisons"\nvariant = "no_such_fault"\n',
+     "'no_such_fault' is not one of the study's variants"),
+])
+def test_a_declaration_naming_what_the_study_does_not_run_is_refused(tmp_path, extra, match):
+    with pytest.raises(ConfigError, match=match):
+        load_study_experiment(_file(tmp_path, BASE + extra))

@@ -43,9 +43,10 @@ def test_faults_check_exit_status(capsys):
 
 
 def test_unknown_fault_is_a_clear_error(capsys):
-    assert main(["faults", "--check", "motion_sign_eror"]) == 1
+    assert main(["faults", "--check", "motion_sign_eror"]) == 2  # a usage error
     err = capsys.readouterr().err
     assert "unknown fault 'motion_sign_eror'" in err and "did you mean 'motion_sign_error'" in err
+    assert err.count("\n") == 1 and err.startswith("faultlab: error: ")
 
 
 def test_module_entry_point_runs():
@@ -81,8 +82,8 @@ def test_faults_slam_lists_only_the_applicable_faults_and_says_why_others_are_le
     assert main(["faults", "--no-plugins", "--slam", "dead_reckoning"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("0 faults") and "do not apply to 'dead_reckoning': it has no replaceable units" in out
-    assert main(["faults", "--slam", "nope"]) == 1
-    assert "slam must be one of" in capsys.readouterr().err
+    assert main(["faults", "--slam", "nope"]) == 2
+    assert "slam: unknown SLAM 'nope'. Known SLAMs: fastslam, " in capsys.readouterr().err
 
 
 def test_faults_lists_the_sensor_faults_in_their_own_section(capsys):

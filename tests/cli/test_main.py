@@ -81,6 +81,37 @@ def test_run_and_report_refuse_a_damaged_store_without_writing(finished, tmp_pat
     assert not (tmp_path / "rep").exists() or not any((tmp_path / "rep").iterdir())
 
 
+def test_a_store_stripped_of_its_integrity_entries_is_refused_unless_the_option_accepts_it(finished, tmp_path,
+                                                                                           capsys):
+    import sqlite3
+
+    exp, src = finished
+    out = tmp_path / "out"
+    shutil.copytree(src, out)
+    db = out / "results.sqlite"
+    conn = sqlite3.connect(db)  # every integrity entry deleted: as a store from before checksums
+    conn.execute("UPDATE results SET checksum = NULL")
+    conn.execute("DELETE FROM meta WHERE key IN ('row_checksum', 'meta_checksum')")
+    conn.commit()
+    conn.close()
+    before = _files(out)
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 1
+    _one_error(capsys.readouterr().err, str(db), "no row checksums", "--accept-unverified")
+    assert main(["report", str(out), "--reports", str(tmp_path / "rep")]) == 1
+    _one_error(capsys.readouterr().err, str(db), "no row checksums", "--accept-unverified")
+    assert _files(out) == before
+    assert not (tmp_path / "rep").exists() or not any((tmp_path / "rep").iterdir())
+    with pytest.warns(UserWarning, match="12 of 12 rows .* without verification"):  # accepted, and said so
+        assert main(["--accept-unverified", "run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    from faultlab.errors import ResultsError
+    from faultlab.runner.store import accept_unverified
+
+    with pytest.raises(ResultsError, match="--accept-unverified"):  # accepting once does not seal it
+        load_results(out)
+    with accept_unverified():  # (the note was given once in this process, by the run above)
+        assert len(load_results(out)) == 12
+
+
 def test_report_refuses_a_store_with_an_overwritten_value(finished, tmp_path, capsys):
     _, src = finished
     out = tmp_path / "out"

@@ -44,7 +44,7 @@ def test_run_prints_location_and_summary(tmp_path, capsys):
 
 def test_run_refuses_malformed_and_changed_files(tmp_path, capsys):
     bad = write_experiment(tmp_path / "bad.toml", variants=["baseline", "no_such_fault"])
-    assert main(["run", str(bad), "--out", str(tmp_path / "bad_out"), "--no-progress"]) == 1
+    assert main(["run", str(bad), "--out", str(tmp_path / "bad_out"), "--no-progress"]) == 2  # an unknown name
     err = capsys.readouterr().err
     assert "faultlab: error:" in err and "variants[1] = 'no_such_fault'" in err
     assert not (tmp_path / "bad_out").exists()
@@ -213,6 +213,43 @@ def test_a_saved_case_with_a_nan_landmark_stops_run_and_export_with_one_line_nam
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(case) in err[0] and "non-finite" in err[0], err
     assert not (tmp_path / "exported").exists()
+
+
+def test_an_old_store_holding_crash_rows_of_a_non_finite_case_reports_the_case_invalid_naming_it(tmp_path, capsys):
+    """A store written before cases were checked on load: the case's jobs were stored as crashes."""
+    import dataclasses
+    import sqlite3
+
+    import numpy as np
+
+    from faultlab.errors import ResultsError
+    from faultlab.runner.store import RESULT_COLUMNS, row_checksum
+    from faultlab.scenario import load_scenario, save_scenario
+
+    exp = write_experiment(tmp_path / "e.toml", runs=1, suites={"random": 2}, repetitions=1)
+    out = tmp_path / "out"
+    assert main(["run", str(exp), "--out", str(out), "--jobs", "1", "--no-progress"]) == 0
+    case = out / "cases" / "run1" / "random" / "case2.npz"
+    sc = load_scenario(case)
+    landmarks = sc.landmarks.copy()
+    landmarks[1, 0] = np.inf
+    save_scenario(dataclasses.replace(sc, landmarks=landmarks), case)  # checksums valid, content not
+    with sqlite3.connect(out / "results.sqlite") as conn:  # what the SLAM made of it then, sealed by the writer
+        conn.execute("UPDATE results SET status = 'crash', error = 'SlamOutputError: estimate is not finite', "
+                     "rms_mm = NULL, emd_mm = NULL, ate_mm = NULL, n_mapped = 0, n_unmapped = 0 WHERE \"case\" = 2")
+        cols = ", ".join(f'"{c}"' for c in RESULT_COLUMNS)
+        for rowid, *values in conn.execute(f"SELECT rowid, {cols} FROM results").fetchall():
+            conn.execute("UPDATE results SET checksum = ? WHERE rowid = ?", (row_checksum(values), rowid))
+    capsys.readouterr()
+    assert main(["report", str(out), "--reports", str(tmp_path / "rep")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"faultlab: error: case invalid: {case}:"), err
+    assert "landmarks holds 1 non-finite value(s)" in err[0] and "baseline failed" not in err[0], err
+    assert not (tmp_path / "rep").exists() or not any((tmp_path / "rep").iterdir())
+    with pytest.raises(ResultsError, match=f"case invalid: {case}: the 2 rows"):  # baseline and BIAS
+        load_results(out)
+    save_scenario(sc, case)  # the case valid again: the crash rows are the SLAM's, read as they are
+    assert (load_results(out).query("case == 2").status == "crash").all()
 
 
 def _one_error_line(capsys) -> str:

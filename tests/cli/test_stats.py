@@ -13,6 +13,7 @@ from faultlab.analysis import analyse
 from faultlab.cli import main
 from faultlab.runner import load_results
 from faultlab.stats import DetectionRule, format_effects, outcomes, parameter_effects
+from faultlab.runner.store import META_CHECKSUM_KEY, meta_checksum
 from tests.stats.synthetic import frame, job
 
 STORE = Path(__file__).resolve().parents[2] / "reports" / "store"
@@ -42,6 +43,8 @@ def _store_with_rule(tmp_path, rule: dict) -> Path:
     shutil.copytree(STORE, store)
     with sqlite3.connect(store / "results.sqlite") as conn:
         conn.execute("UPDATE meta SET value = ? WHERE key = 'detection'", (json.dumps(rule),))
+        meta = {k: json.loads(v) for k, v in conn.execute("SELECT key, value FROM meta")}
+        conn.execute("UPDATE meta SET value = ? WHERE key = ?", (json.dumps(meta_checksum(meta)), META_CHECKSUM_KEY))
     conn.close()
     return store
 

@@ -358,3 +358,22 @@ def test_killed_then_resumed_study_reports_as_the_uninterrupted_one(tmp_path, ca
         assert (tmp_path / "rep-out" / t).read_bytes() == (tmp_path / "rep-ref" / t).read_bytes(), t
     md = (tmp_path / "rep-out" / "study.md").read_text()
     assert "2 session(s)" in md and "nan" not in md.lower()
+
+
+def test_the_committed_confirmatory_plan_is_what_the_verb_renders_from_the_pilot(tmp_path, capsys):
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    assert main(["study", "plan", "study-confirm", "--pilot", str(repo / "reports" / "study-large-faults"),
+                 "--seconds-per-execution", "0.016", "--reports", str(tmp_path)]) == 0
+    rendered = (tmp_path / "plan.md").read_text().replace(str(repo) + "/", "")
+    assert rendered == (repo / "reports" / "study-confirm" / "plan.md").read_text()
+    assert "Runs needed for 80 % power at the pilot's effect: **13**" in rendered
+
+
+def test_a_pilot_plan_needs_a_declared_run_level_difference(tmp_path, capsys):
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    assert main(["study", "plan", "study-large-faults", "--pilot", str(repo / "reports" / "study-large-faults")]) == 1
+    assert "declares no run-level detection_means difference test" in capsys.readouterr().err

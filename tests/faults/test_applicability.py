@@ -4,7 +4,7 @@ import dataclasses
 
 import pytest
 
-from faultlab.errors import ConfigError, FaultError
+from faultlab.errors import ConfigError, FaultError, UnknownPluginError
 from faultlab.faults import (
     applicable_faults,
     fault_applies,
@@ -40,7 +40,7 @@ def test_each_builtin_slam_kind_names_its_steps_class():
     assert BUILTIN_SLAMS["dead_reckoning"].units == () == slam_units(DeadReckoning())
     assert slam_units(ToySlam()) == ("double", "other")
     assert slam_units(object()) == ()
-    with pytest.raises(ConfigError, match="slam must be one of"):
+    with pytest.raises(UnknownPluginError, match="slam: unknown SLAM .no_such_slam.. Known SLAMs: fastslam, "):
         slam_units("no_such_slam")
 
 

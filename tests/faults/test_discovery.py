@@ -55,7 +55,7 @@ def test_broken_plugin_is_reported_clearly_and_the_others_still_load(site):
     assert [e.plugin for e in report.errors] == ["broken"]
     assert "RuntimeError: boom while importing" in report.errors[0].error
     assert "broken_faults_mod:FAULTS" in report.errors[0].source
-    names = [f.name for f in report.faults]
+    names = [f.name for f in report.items]
     assert "acme/fine" in names
     assert "acme-faults 2.0" in report.sources["acme/fine"]
     # the example plugin (installed in the test environment) still loads too
@@ -101,7 +101,7 @@ def test_invalid_plugin_objects_and_duplicates_are_rejected_one_by_one(site):
     assert "unknown step 'no_such_unit'" in errors["badstep"]
     dup = errors["acme2"]
     assert "duplicate fault name 'acme/dup'" in dup and "acme-one 1.0" in dup and "acme-two 1.0" in dup
-    loaded = [f.name for f in report.faults]
+    loaded = [f.name for f in report.items]
     assert loaded.count("acme/dup") == 1 and "odd/single" in loaded  # a single Fault is fine too
     assert report.sources["acme/dup"].startswith("entry point acme = acme_one_mod:FAULTS")
 
@@ -125,7 +125,7 @@ def test_example_plugin_is_installed_and_discovered_through_entry_points():
     eps = [ep for ep in dist.entry_points if ep.group == ENTRY_POINT_GROUP]
     assert [ep.name for ep in eps] == ["example"]
     report = load_plugins()
-    example = [f for f in report.faults if f.provider == "example"]
+    example = [f for f in report.items if f.provider == "example"]
     assert example, f"no example/* fault discovered; plugin errors: {report.errors}"
     for f in example:
         assert report.sources[f.name].startswith("entry point example = faultlab_example_plugin:")

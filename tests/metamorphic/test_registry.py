@@ -53,7 +53,7 @@ def test_plugin_relations_load_and_bad_ones_are_reported(site):
                                                 "broken": "no_such_module_xyz:R"}, {"acme_rel": PLUGIN})
     with pytest.warns(RelationPluginWarning) as caught:
         report = load_relation_plugins()
-    assert [r.name for r in report.relations] == ["acme_range_offset"]
+    assert [r.name for r in report.items] == ["acme_range_offset"]
     messages = [str(w.message) for w in caught]
     assert any("'Bad Name' is not lower-case snake_case" in m for m in messages)
     assert any("yielded int 42, not a MetamorphicRelation" in m for m in messages)

@@ -66,11 +66,11 @@ def plugin_dist(tmp_path, monkeypatch):
 
 def test_plugins_load_and_failures_are_reported_by_name(plugin_dist):
     report = load_operator_plugins(warn=False)
-    assert [o.name for o in report.operators] == ["hypot_add"]
+    assert [o.name for o in report.items] == ["hypot_add"]
     assert len(report.errors) == 2
-    broken = next(e for e in report.errors if "'broken'" in e)
+    broken = next(str(e) for e in report.errors if "'broken'" in str(e))
     assert "ImportError: no such thing: broken on purpose" in broken
-    clash = next(e for e in report.errors if "'clash'" in e)
+    clash = next(str(e) for e in report.errors if "'clash'" in str(e))
     assert "duplicate operator name 'arithmetic'" in clash
     with pytest.warns(OperatorPluginWarning) as warned:
         load_operator_plugins()

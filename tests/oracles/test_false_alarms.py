@@ -5,7 +5,8 @@ import functools
 import pytest
 
 from faultlab.config import read_toml
-from faultlab.oracles import BUILTIN_ORACLES, judge_case, repetition_seeds
+from faultlab.campaigns.checkspec import DEFAULT_ORACLES
+from faultlab.oracles import get_oracle, judge_case, repetition_seeds
 from faultlab.scenario.suite import draw_suite, generate_case
 from faultlab.slam.registry import build_slam
 from faultlab.space.parameters import space_from_mapping
@@ -27,7 +28,7 @@ def test_correct_slams_fail_at_most_alpha_of_100_cases():
     for k, case in enumerate(cases):
         name = "ekf" if k % 2 == 0 else "fastslam"  # 50 cases each: deterministic and stochastic
         case_id = f"random-{case.case:03d}"
-        j = judge_case(case_id, generate_case(case, n_steps=60), slams[name], oracles=BUILTIN_ORACLES,
+        j = judge_case(case_id, generate_case(case, n_steps=60), slams[name], oracles=[get_oracle(o) for o in DEFAULT_ORACLES],
                        seeds=repetition_seeds(11, case_id, 8), alpha=ALPHA, reference=reference)
         judged += 1
         if j.failed:

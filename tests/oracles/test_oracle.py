@@ -9,6 +9,7 @@ from scipy.stats import binom
 
 from faultlab.errors import ConfigError
 from faultlab.metamorphic.check import metamorphic_scenario
+from faultlab.campaigns.checkspec import DEFAULT_ORACLES
 from faultlab.oracles import BUILTIN_ORACLES, all_oracles, get_oracle, judge_case, repetition_seeds, sign_test
 from faultlab.slam import Estimate, SlamAdapter
 from faultlab.slam.deadreckoning import DeadReckoning
@@ -56,9 +57,13 @@ class _Noisy(SlamAdapter):
         return Estimate(est.pose, est.landmark_ids, est.landmarks + self.rng.normal(0, 2.0, est.landmarks.shape))
 
 
+#: The oracles faultlab check applies by default.
+CHECK_DEFAULT = [get_oracle(name) for name in DEFAULT_ORACLES]
+
+
 def _judge(factory, **kw):
     s = metamorphic_scenario(seed=0, n_steps=60)
-    return {r.oracle: r for r in judge_case("c", s, factory, oracles=BUILTIN_ORACLES, seeds=repetition_seeds(0, "c", 8),
+    return {r.oracle: r for r in judge_case("c", s, factory, oracles=CHECK_DEFAULT, seeds=repetition_seeds(0, "c", 8),
                                             alpha=0.05, reference=functools.partial(build_slam, "ekf", {}), **kw).results}
 
 
@@ -87,7 +92,8 @@ def test_floor_oracle_flags_a_map_worse_than_dead_reckoning_by_a_sign_test():
 
 
 def test_the_catalogue_serves_the_builtins_by_name():
-    assert [o.name for o in all_oracles(plugins=False)] == ["execution", "metamorphic", "floor", "differential"]
+    assert [o.name for o in all_oracles(plugins=False)] == ["execution", "metamorphic", "floor", "differential",
+                                                         "consistency", "budget"]
     assert get_oracle("floor") is BUILTIN_ORACLES[2]
     with pytest.raises(ConfigError, match="did you mean 'floor'"):
         get_oracle("flor")

@@ -14,6 +14,7 @@ from faultlab.runner.experiment import (
     parse_experiment,
 )
 from faultlab.metrics import DetectionRule
+from faultlab.slam.fastslam import FastSlamConfig
 from tests.runner.suts import TinySlam, to_toml, write_experiment
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -73,18 +74,55 @@ def test_hash_ignores_comments_and_formatting_but_not_values(tmp_path):
     assert load_experiment(d).hash != load_experiment(a).hash
 
 
-def test_replace_overrides_and_merges_tables(tmp_path):
+def test_merge_changes_tables_key_by_key(tmp_path):
     exp = load_experiment(ROOT / "experiments" / "paper.toml")
-    quick = exp.replace(runs=1, n_steps=100, slam={"particles": 10}, suites={"random": 2})
+    quick = exp.merge(runs=1, n_steps=100, slam={"particles": 10}, suites={"random": 2})
     assert quick.runs == 1 and quick.n_steps == 100
     assert quick.slam.config.particles == 10 and quick.slam.config.std_v == exp.slam.config.std_v  # merged
     assert dict((s.kind, s.n_cases) for s in quick.suites) == {"systematic": 5, "random": 2, "fixed": 5}
     assert quick.hash != exp.hash
     assert exp.runs == 3  # frozen original unchanged
     with pytest.raises(ConfigError, match="runs"):
-        exp.replace(runs=0)
+        exp.merge(runs=0)
+    with pytest.raises(ConfigError, match="bogus"):
+        exp.merge(bogus=1)
+
+
+def test_replace_replaces_a_whole_table(tmp_path):
+    exp = load_experiment(ROOT / "experiments" / "paper.toml").merge(slam={"particles": 20})
+    assert exp.slam.config.particles == 20
+    # the example plugin's SLAM has no particles: a merge would keep particles = 20 and be refused
+    other = exp.replace(slam={"name": "first_sighting"})
+    assert other.slam.name == "first_sighting" and dict(other.slam.options) == {}
+    with pytest.raises(ConfigError, match="particles"):
+        exp.merge(slam={"name": "first_sighting"})
+    # the keys a replaced table does not give take their defaults, not the experiment's
+    fresh = exp.replace(slam={"name": "fastslam"}, suites={"random": 2})
+    assert fresh.slam.config == FastSlamConfig() and [(s.kind, s.n_cases) for s in fresh.suites] == [("random", 2)]
+    assert exp.replace(runs=1).runs == 1 and exp.runs == 3
     with pytest.raises(ConfigError, match="bogus"):
         exp.replace(bogus=1)
+
+
+def test_apply_typed_overrides_replaces_keys_and_merges_particles_and_rule():
+    from faultlab.config import ExperimentOverrides
+
+    exp = load_experiment(ROOT / "experiments" / "paper.toml")
+    changed = exp.apply(ExperimentOverrides(runs=2, repetitions=6, particles=9, rule="statistical",
+                                            suites={"random": 3}, variants=("baseline", "naive_resampling")))
+    assert (changed.runs, changed.repetitions, changed.slam.config.particles) == (2, 6, 9)
+    assert changed.slam.config.std_v == exp.slam.config.std_v  # particles merged into [slam]
+    assert changed.detection.rule == "statistical" and changed.detection.alpha == exp.detection.alpha
+    assert [(s.kind, s.n_cases) for s in changed.suites] == [("random", 3)]
+    assert changed.variants == ("baseline", "naive_resampling")
+    assert exp.apply(ExperimentOverrides()) == exp
+    # a whole [slam] table, then particles into it
+    ekf = exp.apply(ExperimentOverrides(slam={"name": "ekf"}))
+    assert ekf.slam.name == "ekf"
+    with pytest.raises(ConfigError, match="particles"):  # EKF-SLAM has no particles
+        exp.apply(ExperimentOverrides(slam={"name": "ekf"}, particles=5))
+    with pytest.raises(ConfigError, match="suites.nope"):  # the kinds are the experiment's to check
+        exp.apply(ExperimentOverrides(suites={"nope": 1}))
 
 
 @pytest.mark.parametrize(
@@ -114,7 +152,7 @@ def test_replace_overrides_and_merges_tables(tmp_path):
         ({"variants": ["baseline", "no_such_fault"]}, r"variants\[1\] = 'no_such_fault'.*unknown fault"),
         ({"variants": ["baseline", "tests.runner.suts:nothing"]}, r"variants\[1\].*no attribute"),
         ({"variants": ["baseline", 3]}, r"variants\[1\] must be a variant name"),
-        ({"slam": {"name": "orbslam"}}, r"slam.name must be one of"),
+        ({"slam": {"name": "orbslam"}}, r"slam.name: unknown SLAM 'orbslam'. Known SLAMs: fastslam, "),
         ({"slam": {"name": "no_such_module_xyz:Slam"}}, r"slam.name = .*cannot import module"),
         ({"slam": {"name": "fastslam", "particles": 0}}, r"slam.particles must be >= 1"),
         ({"slam": {"name": "fastslam", "particles": 10.5}}, r"slam.particles must be an integer"),
@@ -174,16 +212,16 @@ def test_fov_bug_is_validated_and_hashed_only_when_on(tmp_path):
 
 def test_slam_profile_is_validated_and_hashed(tmp_path):
     exp = load_experiment(ROOT / "experiments" / "paper.toml")
-    paper = exp.replace(slam={"profile": "paper"})
+    paper = exp.merge(slam={"profile": "paper"})
     assert paper.slam.profile == "paper" and exp.slam.profile == "reference"
     assert paper.hash != exp.hash
-    assert exp.replace(slam={"profile": "reference"}).hash == exp.hash  # naming the default changes nothing
-    assert paper.replace(slam={"particles": 30}).slam.config.particles == 30  # the table overrides the profile
-    assert paper.replace(slam={"particles": 30}).hash != paper.hash
+    assert exp.merge(slam={"profile": "reference"}).hash == exp.hash  # naming the default changes nothing
+    assert paper.merge(slam={"particles": 30}).slam.config.particles == 30  # the table overrides the profile
+    assert paper.merge(slam={"particles": 30}).hash != paper.hash
     assert parse_experiment(paper.to_dict(), source="again").hash == paper.hash  # round trip keeps the profile
     assert paper.slam.build().steps.replaced()  # the paper's units, not the reference's
     with pytest.raises(ConfigError, match=r"paper.toml \(with slam=.*slam.profile: unknown FastSLAM profile"):
-        exp.replace(slam={"profile": "nope"})
+        exp.merge(slam={"profile": "nope"})
 
 
 def test_unknown_association_selects_the_emd_and_refuses_the_rms():

@@ -447,3 +447,33 @@ def _rechecksum_without_ate(path):
         conn.execute("UPDATE results SET checksum = ? WHERE rowid = ?", (checksum, rowid))
     conn.commit()
     conn.close()
+
+
+def _files_of(out) -> dict:
+    return {p: p.stat().st_mtime_ns for p in out.rglob("*")}
+
+
+def test_meta_entries_are_recorded_before_the_rows_and_cannot_change_on_a_resume(tmp_path):
+    path = write_experiment(tmp_path / "e.toml", **one_case())
+    out = tmp_path / "out"
+    declared = {"alpha": 0.05, "analyses": [{"table": "detection_means", "margin": 0.05}]}
+    run_experiment(path, out, jobs=1, progress=False, meta={"declaration": declared})
+    assert load_metadata(out)["declaration"] == declared
+    # the same entry resumes (nothing left to run); another one is refused and writes nothing
+    assert run_experiment(path, out, jobs=1, progress=False, meta={"declaration": declared}).n_new == 0
+    first, files = load_results(out), _files_of(out)
+    with pytest.raises(ResultsError, match="another 'declaration'.*cannot change once recorded"):
+        run_experiment(path, out, jobs=1, progress=False, meta={"declaration": declared | {"alpha": 0.01}})
+    assert _files_of(out) == files
+    pd.testing.assert_frame_equal(load_results(out), first)
+    # a store holding rows without the entry cannot get it afterwards
+    other = tmp_path / "other"
+    run_experiment(path, other, jobs=1, progress=False)
+    with pytest.raises(ResultsError, match="holds 2 rows and no 'declaration'.*before the first row"):
+        run_experiment(path, other, jobs=1, progress=False, meta={"declaration": declared})
+    assert "declaration" not in load_metadata(other)
+    # the entry is covered by the metadata checksum: editing it in the file is detected
+    with sqlite3.connect(out / "results.sqlite") as conn:
+        conn.execute("UPDATE meta SET value = ? WHERE key = 'declaration'", (json.dumps(declared | {"alpha": 0.5}),))
+    with pytest.raises(ResultsError, match="does not match its checksum"):
+        load_metadata(out)

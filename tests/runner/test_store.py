@@ -18,6 +18,8 @@ from faultlab.runner.store import (
     load_metadata,
     load_results,
     UnverifiedStoreWarning,
+    accept_unverified,
+    check_store,
     results_path,
     row_checksum,
     store_lock,
@@ -124,7 +126,7 @@ def test_changed_experiment_is_refused_unless_force_new(tmp_path, exp):
         store.write(_row(1, "random", 1, "baseline", 0))
     (tmp_path / "cases").mkdir()
     (tmp_path / "cases" / "marker").write_text("old case")
-    changed = exp.replace(repetitions=3, slam={"options": {"noise": 0.5}})
+    changed = exp.merge(repetitions=3, slam={"options": {"noise": 0.5}})
     with pytest.raises(ResultsError, match=r"different experiment.*changed: repetitions, slam.options.noise"):
         ResultStore.open(tmp_path, changed)
     assert load_metadata(tmp_path)["experiment_hash"] == exp.hash  # untouched
@@ -323,19 +325,42 @@ def test_store_from_before_checksums_reads_with_a_warning_and_resumes_checked(tm
     conn.execute("DELETE FROM meta WHERE key IN ('row_checksum', 'meta_checksum')")
     conn.commit()
     conn.close()
-    with pytest.warns(UnverifiedStoreWarning, match="3 of 3 rows"):
+    with accept_unverified(), pytest.warns(UnverifiedStoreWarning, match="3 of 3 rows"):
         df = load_results(tmp_path)
     assert df["emd_mm"].tolist() == [200.0, 1565.9, 200.0]
-    with ResultStore.open(tmp_path, exp) as store:  # resuming adds the column: new rows are checked
-        store.write(_row(1, "random", 4, "baseline", 0, rms=7.0))
-    with pytest.warns(UnverifiedStoreWarning, match="3 of 4 rows"):
+    with accept_unverified(), ResultStore.open(tmp_path, exp) as store:  # resuming adds the column: new rows
+        store.write(_row(1, "random", 4, "baseline", 0, rms=7.0))                    # are checked
+    with accept_unverified(), pytest.warns(UnverifiedStoreWarning, match="3 of 4 rows"):
         assert len(load_results(tmp_path)) == 4
     conn = sqlite3.connect(path)
     conn.execute("UPDATE results SET rms_mm = 8.0 WHERE \"case\" = 4")
     conn.commit()
     conn.close()
-    with pytest.raises(ResultsError, match="column rms_mm does not match"), warnings.catch_warnings():
+    with pytest.raises(ResultsError, match="column rms_mm does not match"), warnings.catch_warnings(), \
+            accept_unverified():
         warnings.simplefilter("ignore", UnverifiedStoreWarning)
+        load_results(tmp_path)
+
+
+@pytest.mark.parametrize("checksum_column", ["dropped", "nulled"])
+def test_a_store_without_integrity_entries_is_refused_naming_it_and_the_option_and_nothing_is_written(
+        tmp_path, exp, checksum_column):
+    """Every integrity entry deleted (or never written) -- the store is refused, not read as "unverified"."""
+    path = _finished_store(tmp_path, exp)
+    _sql(path, "ALTER TABLE results DROP COLUMN checksum" if checksum_column == "dropped"
+         else "UPDATE results SET checksum = NULL", "DELETE FROM meta WHERE key IN ('row_checksum', 'meta_checksum')")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    opened = []
+    for read in (load_results, lambda d: check_store(d, exp), lambda d: opened.append(ResultStore.open(d, exp))):
+        with pytest.raises(ResultsError) as refused, warnings.catch_warnings():
+            warnings.simplefilter("error", UnverifiedStoreWarning)  # no silent (or warned) downgrade either
+            read(tmp_path)
+        assert str(path) in str(refused.value) and "--accept-unverified" in str(refused.value)
+        assert "3 of its 3 rows" in str(refused.value)
+    assert not opened and {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    with accept_unverified(), pytest.warns(UnverifiedStoreWarning):
+        assert load_results(tmp_path)["emd_mm"].tolist() == [200.0, 1565.9, 200.0]
+    with pytest.raises(ResultsError, match="--accept-unverified"):  # the acceptance ends with its block
         load_results(tmp_path)
 
 

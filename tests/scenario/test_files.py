@@ -47,7 +47,7 @@ def test_custom_space_and_errors(tmp_path):
     space = space_from_mapping({"map_size": {"classes": {"tiny": [4, 9]}}}, source="m")
     res = write_suite("random", seed=0, out=tmp_path / "x", n_steps=10, n_cases=3, space=space)
     assert all(s.case.values["map_size"] <= 9 for s in res.scenarios)
-    with pytest.raises(ConfigError, match="unknown suite kind"):
+    with pytest.raises(ConfigError, match="unknown suite strategy .nope."):
         write_suite("nope", seed=0, out=tmp_path / "y")
     with pytest.raises(ConfigError, match="at least 5 cases"):
         write_suite("systematic", seed=0, out=tmp_path / "z", n_cases=2)

@@ -238,6 +238,21 @@ def test_a_trajectory_is_optional_and_must_have_one_pose_per_step():
     assert info.value.rule == "estimate-trajectory"
 
 
+def test_a_covariance_is_optional_and_must_be_a_symmetric_psd_matrix_of_the_state():
+    base = {"type": "estimate", "pose": [0, 0, 0], "landmarks": [[7, 1.0, 2.0]]}
+    assert estimate_from_reply(json.dumps(base)).covariance is None
+    good = (np.diag([1.0, 2, 3, 4, 5]) + 0.1).tolist()
+    assert np.array_equal(estimate_from_reply(json.dumps(base | {"covariance": good})).covariance, good)
+    asym = [row[:] for row in good]
+    asym[0][1] += 0.5
+    negative = np.diag([1.0, 1, 1, 1, -1]).tolist()
+    for bad, match in [(good[:3], "not 5 rows of 5"), ("x", "covariance is"), (asym, "not symmetric"),
+                       (negative, "not positive semi-definite")]:
+        with pytest.raises(SlamProcessError, match=match) as info:
+            estimate_from_reply(json.dumps(base | {"covariance": bad}))
+        assert info.value.rule == "estimate-covariance"
+
+
 
 def test_options_are_validated_and_round_trip():
     opts = normalise_options("process", {"command": "prog --fast 'a b'", "env": {"X": "1"}}, where="slam")

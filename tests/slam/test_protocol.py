@@ -262,3 +262,28 @@ def test_a_batch_reports_each_repetitions_own_trajectory(exact):
     for s, est in zip(seeds, batch.estimates()):
         alone = run_slam(FastSlam(FastSlamConfig(particles=20, **LOW)), exact, rng=np.random.default_rng(s))
         np.testing.assert_array_equal(est.trajectory, alone.trajectory)
+
+
+def test_a_covariance_is_validated_with_the_estimate():
+    ids, lm = np.array([3, 9]), np.zeros((2, 2))
+    ok = np.eye(7) * 0.01
+    Estimate(np.zeros(3), ids, lm, covariance=ok).validate()
+    rounding = ok.copy()
+    rounding[0, 1] = 1e-14  # far below the rounding tolerance
+    Estimate(np.zeros(3), ids, lm, covariance=rounding).validate()
+    broken = ok.copy()
+    broken[4, 6] = 0.005  # one triangle only
+    nan = ok.copy()
+    nan[2, 2] = np.nan
+    for cov, match in [(broken, "not symmetric"), (nan, "not finite"), (np.eye(5), r"shape \(7, 7\)"),
+                       (-ok, "not positive semi-definite")]:
+        with pytest.raises(SlamOutputError, match=match):
+            Estimate(np.zeros(3), ids, lm, covariance=cov).validate()
+
+
+def test_ekf_slam_reports_its_state_covariance(exact):
+    slam = EkfSlam()
+    est = run_slam(slam, exact, rng=np.random.default_rng(0))
+    assert est.covariance.shape == (3 + 2 * est.landmark_ids.size,) * 2
+    np.testing.assert_array_equal(est.covariance, slam.covariance)
+    assert np.min(np.linalg.eigvalsh(est.covariance)) > -1e-12

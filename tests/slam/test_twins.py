@@ -577,3 +577,138 @@ def test_sampled_mutants_outside_the_correction_equal_numpy(monkeypatch, scenari
         assert compiled._ref_predict or compiled._ref_correct
         assert_same_run(final(compiled, scenario, 2),
                         final(numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG))), scenario, 2), mutant_id)
+
+
+# --------------------------------------------------------------------------- the staged correction
+
+
+def _c_order(unit):
+    """The unit with its outputs copied to ordinary C-ordered arrays (a replacement's usual layout)."""
+
+    def replaced(*args, **kwargs):
+        out = unit(*args, **kwargs)
+        return tuple(np.array(o, order="C") for o in out) if isinstance(out, tuple) else np.array(out, order="C")
+
+    return replaced
+
+
+def _lopsided_ekf(mu, P, H, S, nu):
+    """An ekf_update whose covariance is not symmetric (its P[1, 0] is stored as returned)."""
+    mu_new, P_new = U.ekf_update(mu, P, H, S, nu)
+    P_new = np.array(P_new)
+    P_new[..., 1, 0] += 1e-3
+    return mu_new, P_new
+
+
+def _scaling_covariance(H, P, Q):
+    """An innovation_covariance that scales its input P in place (the later units see the change)."""
+    P *= 1.5
+    return U.innovation_covariance(H, P, Q)
+
+
+def _float32_likelihood(nu, S):
+    """log_likelihood in float32: not what the compiled stages take (the unit-by-unit path runs)."""
+    return U.log_likelihood(nu, S).astype(np.float32)
+
+
+def _broadcast_innovation(z, zhat, *, wrap):
+    """An innovation of one row for all particles: numpy broadcasts it in the later units."""
+    return U.innovation(z, zhat, wrap=wrap)[:1]
+
+
+def _nan_jacobian(poses, mu):
+    zhat, H = U.predict_measurement(poses, mu)
+    H = np.array(H)
+    H[::3, :, 1, 1] = np.nan
+    return zhat, H
+
+
+_STAGED = [("predict_measurement", twins.predict_measurement, 0), ("innovation", twins.innovation, 1),
+           ("innovation_covariance", twins.innovation_covariance, 2), ("log_likelihood", twins.log_likelihood, 3),
+           ("ekf_update", twins.ekf_update, 4),
+           ("predict_measurement", _c_order(U.predict_measurement), 0), ("innovation", _c_order(U.innovation), 1),
+           ("innovation_covariance", _c_order(U.innovation_covariance), 2),
+           ("log_likelihood", _c_order(U.log_likelihood), 3), ("ekf_update", _c_order(U.ekf_update), 4),
+           ("predict_measurement", _nan_jacobian, 0), ("ekf_update", _lopsided_ekf, 4),
+           ("innovation_covariance", _scaling_covariance, 2)]
+
+
+def _wrapped(unit):
+    """A new function calling ``unit`` (a replacement the filter does not recognise as a reference)."""
+
+    def replaced(*args, **kwargs):
+        return unit(*args, **kwargs)
+
+    return replaced
+
+
+@pytest.mark.parametrize("name, unit, stage", _STAGED,
+                         ids=[f"{n}-{getattr(u, '__name__', '')}-{i}" for i, (n, u, _) in enumerate(_STAGED)])
+def test_a_replaced_correction_unit_runs_staged_and_equals_numpy(monkeypatch, scenario, name, unit, stage):
+    """One correction unit replaced: the other stages run compiled around it (never the unit-by-unit
+    path), with the run, the particles and batched repetitions bit-identical to the numpy filter."""
+    steps = dataclasses.replace(REFERENCE_STEPS, **{name: _wrapped(unit)})
+    compiled = FastSlam(CFG, steps=steps)
+    assert compiled._stage == stage and not compiled._fused
+
+    def unit_by_unit(*args, **kwargs):
+        raise AssertionError("the unit-by-unit correction ran")
+
+    monkeypatch.setattr(compiled, "_correct", unit_by_unit)
+    plain = numpy_filter(monkeypatch, lambda: FastSlam(CFG, steps=steps))
+    assert_same_run(final(compiled, scenario, 6), final(plain, scenario, 6), name)
+    seeds = (3, 8)
+    with quiet():
+        batch = run_slam_batch(FastSlam(CFG, steps=steps), scenario, rngs=[np.random.default_rng(s) for s in seeds])
+    for seed, est in zip(seeds, batch):
+        want = final(numpy_filter(monkeypatch, lambda: FastSlam(CFG, steps=steps)), scenario, seed)[0]
+        assert (repr(est) == want if isinstance(want, str) else estimates_identical(est, want)), (name, seed)
+
+
+@pytest.mark.parametrize("name, unit", [("log_likelihood", _float32_likelihood),
+                                        ("innovation", _broadcast_innovation)], ids=["float32", "broadcast"])
+def test_the_staged_correction_hands_other_outputs_to_the_unit_by_unit_path(monkeypatch, scenario, name, unit):
+    """A replaced unit whose output the compiled stages do not take: the step runs unit by unit,
+    as the numpy filter does, and the storage is untouched before it."""
+    steps = dataclasses.replace(REFERENCE_STEPS, **{name: unit})
+    compiled = FastSlam(CFG, steps=steps)
+    assert compiled._stage is not None
+    plain = numpy_filter(monkeypatch, lambda: FastSlam(CFG, steps=steps))
+    assert_same_run(final(compiled, scenario, 2), final(plain, scenario, 2), name)
+
+
+def test_the_staged_correction_with_a_replaced_combine_weights_equals_numpy(monkeypatch, scenario):
+    steps = dataclasses.replace(REFERENCE_STEPS, ekf_update=_wrapped(U.ekf_update), combine_weights=_flat_weights)
+    compiled = FastSlam(CFG, steps=steps)
+    assert compiled._stage == 4 and not compiled._ref_combine
+    assert_same_run(final(compiled, scenario, 4),
+                    final(numpy_filter(monkeypatch, lambda: FastSlam(CFG, steps=steps)), scenario, 4), "combine")
+
+
+def test_sampled_mutants_inside_the_correction_equal_numpy(monkeypatch, scenario):
+    """A live mutant of each correction unit (the staged correction), against the numpy filter."""
+    units = ["predict_measurement", "innovation", "wrap_bearing", "innovation_covariance", "log_likelihood",
+             "ekf_update"]
+    mutants = generate_mutants(REFERENCE_STEPS, units=units, plugins=False)
+    report = screen_mutants(mutants, unit_examples())
+    for unit in units:
+        live = [i for i, r in report.results.items() if r.live and i.startswith(f"{unit}:")]
+        for mutant_id in live[len(live) // 2:len(live) // 2 + 1]:
+            fault = mutant_fault(mutants.get(mutant_id), FastSlamSteps)
+            compiled = fault.apply(FastSlam(CFG))
+            assert compiled._stage == twins.STAGES[unit]
+            assert_same_run(final(compiled, scenario, 2),
+                            final(numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG))), scenario, 2),
+                            mutant_id)
+
+
+@pytest.mark.parametrize("mutant_id", ["ekf_update:index:51", "predict_measurement:statement_deletion:5"])
+def test_mutants_that_leave_an_output_entry_unwritten_are_deterministic_on_both_paths(monkeypatch, scenario,
+                                                                                      mutant_id):
+    """The units return zero-filled arrays: a mutant that skips writing an entry gives the same run
+    twice, and the compiled path (the staged correction) the numpy filter's."""
+    mutants = generate_mutants(REFERENCE_STEPS, units=[mutant_id.split(":")[0]], plugins=False)
+    fault = mutant_fault(mutants.get(mutant_id), FastSlamSteps)
+    first, again = final(fault.apply(FastSlam(CFG)), scenario, 2), final(fault.apply(FastSlam(CFG)), scenario, 2)
+    assert_same_run(first, again, mutant_id)
+    assert_same_run(first, final(numpy_filter(monkeypatch, lambda: fault.apply(FastSlam(CFG))), scenario, 2), mutant_id)

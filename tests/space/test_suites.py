@@ -103,7 +103,7 @@ def test_same_seed_same_suite_and_rng_required():
 
 
 def test_unknown_kind():
-    with pytest.raises(ConfigError, match="unknown suite kind 'exhaustive'"):
+    with pytest.raises(ConfigError, match="unknown suite strategy 'exhaustive'"):
         build_suite("exhaustive", SPACE, rng=np.random.default_rng(0))
 
 

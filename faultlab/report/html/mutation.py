@@ -20,7 +20,7 @@ from faultlab.errors import FaultlabError
 from faultlab.mutation.outcome import SCREENED_OUT
 from faultlab.report.html.site import Code, Links, Page, Site, Table, Text, page_slug, write_site
 from faultlab.runner.store import load_metadata, load_results
-from faultlab.vocabulary import BASELINE
+from faultlab.vocabulary import BASELINE, POWER_TEXT
 
 __all__ = ["mutation_pages", "write_mutation_html", "mutant_page_path", "NAV"]
 
@@ -99,7 +99,7 @@ def mutation_pages(analysis: MutationAnalysis, results: Path) -> list[Page]:
                          ran.assign(page=[mutant_page_path(m) for m in ran["mutant"]]), key="outcomes",
                          links={"mutant": "page"},
                          caption=f"min_p: the smallest per-case p value; min_mde_mm: the smallest shift of the mean "
-                                 f"error the most sensitive case could detect with 80 % power. The "
+                                 f"error the most sensitive case could detect with {POWER_TEXT} power. The "
                                  f"{len(oc) - len(ran)} rows of mutants screened out before the campaign "
                                  f"({', '.join(SCREENED)}) are on the mutants page."),))]
     rows = _paired_rows(results)
