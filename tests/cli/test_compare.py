@@ -76,3 +76,12 @@ def test_a_recorded_baseline_is_reused_from_another_directory(tmp_path):
     case = next((store / "cases").glob("*.json"))
     case.write_text(case.read_text().replace('"errors_mm": [', '"errors_mm": [1.0, '))
     assert _compare(tmp_path / "c", str(store), "ekf") == 2
+
+
+def test_two_process_slams_a_fix_and_its_bug(tmp_path):
+    program = TESTS / "oracles" / "blackbox_process.py"
+    fixed = f"{sys.executable} {program}"
+    buggy = f"{fixed} --bug turn_first"
+    assert _compare(tmp_path, "--baseline-command", fixed, "--candidate-command", buggy, "--cases", "8") == 1
+    rep = _report(tmp_path)
+    assert rep["baseline"].endswith("blackbox_process.py") and rep["pooled"]["verdict"] == "regression"
