@@ -338,10 +338,11 @@ def _controls_md(summary: pd.DataFrame, alpha: float) -> list[str]:
     rows = pd.DataFrame({
         "A/A comparison": [f"{c}, {u} as unit" for c, u in zip(summary["comparison"], summary["unit"])],
         "per comparison (unadjusted, at alpha)": [
-            f"{k}/{n} = {_interval(r, lo, hi)}" for k, n, r, lo, hi in
+            f"{k}/{n} = {_interval(r, lo, hi)}" if n else "none testable (too few runs, or no spread)"
+            for k, n, r, lo, hi in
             zip(summary["false_alarms"], summary["comparisons"], summary["false_alarm_rate"],
                 summary["false_alarm_rate_low"], summary["false_alarm_rate_high"])],
-        "families with a false alarm": [f"{k} of {n} ({rule})" for k, n, rule in
+        "families with a false alarm": [f"{k} of {n} ({rule})" if n else "-" for k, n, rule in
                                         zip(summary["families_with_false_alarm"], summary["families"],
                                             summary["family_rule"])]})
     return ["## Controls: each strategy against itself (A/A)", "",
