@@ -223,8 +223,6 @@ def _single_worker(initargs: tuple) -> ProcessPoolExecutor:
     if _single is None or _single[0] != initargs:
         if _single is not None:
             _single[1].shutdown(wait=False, kill_workers=True)
-        else:
-            atexit.register(_drop_single_worker)  # the command's end ends its worker, not its idle timeout
         _single = (initargs, ProcessPoolExecutor(max_workers=1, timeout=IDLE_WORKER_TIMEOUT_S,
                                                  initializer=init_worker, initargs=initargs))
     return _single[1]
@@ -236,6 +234,9 @@ def _drop_single_worker() -> None:
     if _single is not None:
         _single[1].shutdown(wait=False, kill_workers=True)
         _single = None
+
+
+atexit.register(_drop_single_worker)  # the command's end ends its worker, not the worker's idle timeout
 
 
 def _one_worker(pending: list[JobBatch], watch: _DeadlineWatch) -> Iterator[list[JobResult]]:
