@@ -51,7 +51,6 @@ from typing import Any
 
 from faultlab.errors import FaultError
 from faultlab.slam.fastslam import FastSlamSteps
-from faultlab.slam import twins as _twins
 from faultlab.slam.registry import BUILTIN_SLAMS
 from faultlab.vocabulary import UNMODIFIED
 
@@ -132,9 +131,8 @@ class Fault:
         ``"public bug report: ..."``, ``"textbook pitfall: ..."``.
     replacement : callable
         ``replacement(original_unit) -> new_unit``.  It receives the unit it
-        replaces (so a fault can wrap the original; a reference unit that has a
-        compiled twin comes as that twin, bit for bit the same function, see
-        :mod:`faultlab.slam.twins`) and must return a callable with the same signature.  Use a module-level function (not a lambda) so
+        replaces (so a fault can wrap the original) and must return a callable
+        with the same signature.  Use a module-level function (not a lambda) so
         that the fault can be pickled to worker processes.
     examples : tuple of UnitExample
         Optional unit-level inputs on which the new unit differs from the
@@ -202,7 +200,7 @@ class Fault:
         if self.step not in names:
             raise FaultError(f"fault {self.name!r} patches unknown step {self.step!r}; "
                              f"{type(steps).__name__} has: {', '.join(names)}")
-        original = _compiled(getattr(steps, self.step))
+        original = getattr(steps, self.step)
         try:
             unit = self.replacement(original)
         except Exception as exc:
@@ -238,18 +236,6 @@ class Fault:
     def summary(self) -> str:
         """``name  step  origin  description`` on one line."""
         return f"{self.name}  [{self.step}]  {self.origin}: {self.description}"
-
-
-def _compiled(unit: Callable) -> Callable:
-    """The unit a replacement wraps as its ``original``: a reference unit's compiled twin (bit for bit
-    the unit, :mod:`faultlab.slam.twins`) when the twins are on, so that only the fault's own code
-    runs as numpy; any other unit as it is."""
-    if not _twins.JIT_ENABLED:
-        return unit
-    try:
-        return _twins.TWINS.get(unit, unit)
-    except TypeError:  # an unhashable callable is no reference unit
-        return unit
 
 
 def apply_faults(slam, faults: Iterable[Fault]):

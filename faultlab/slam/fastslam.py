@@ -470,6 +470,8 @@ class FastSlam(UnitSlam):
                     logw = self._correct_reference(steps, poses, cols, seen, observations)
                 elif slots * n * k <= self.block_pairs:  # the unit-by-unit path's single block
                     logw = self._correct_staged(steps, poses, cols, seen, observations)
+                    if logw is None:  # a unit's output the stages do not take: unit by unit from now on
+                        self._stage = None
             if logw is None:
                 logw = self._correct(steps, poses, cols, seen, observations)
         else:

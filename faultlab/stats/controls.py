@@ -32,9 +32,10 @@ import warnings
 import numpy as np
 import pandas as pd
 from scipy.stats import ttest_ind
-from statsmodels.stats.proportion import proportion_confint, test_proportions_2indep
+from statsmodels.stats.proportion import test_proportions_2indep
 
 from faultlab.inference.clusters import compare_by_cluster
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.inference.multiplicity import holm
 from faultlab.stats.killmatrix import KillMatrix, case_scores, strong_cases
 from faultlab.vocabulary import DEFAULT_ALPHA
@@ -121,7 +122,7 @@ def aa_summary(controls: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.Da
     for (comparison, unit), g in controls.groupby(["comparison", "unit"], sort=False):
         tested = g[np.isfinite(g["p"].to_numpy(float))]
         n, k = len(tested), int(tested["false_alarm"].sum())
-        lo, hi = proportion_confint(k, n, alpha=alpha, method="beta") if n else (math.nan, math.nan)
+        lo, hi = clopper_pearson(k, n, alpha=alpha)
         families = tested.groupby("strategy")["family_false_alarm"].any()
         rows.append({"comparison": comparison, "unit": unit, "comparisons": n, "false_alarms": k,
                      "false_alarm_rate": k / n if n else math.nan, "false_alarm_rate_low": float(lo),
