@@ -27,6 +27,7 @@ import pandas as pd
 from scipy.stats import wilcoxon
 
 from faultlab.analysis.bundle import TableBundle
+from faultlab.analysis.fidelity import DEFAULT_N_BOOT
 from faultlab.analysis.schema import TableSchema
 from faultlab.errors import ConfigError, ResultsError
 from faultlab.runner.store import load_metadata, load_results
@@ -94,7 +95,7 @@ class AblationResult(TableBundle):
     META_FIELDS = {"alpha": float, "n_boot": int, "seed": int, "campaign": dict}
 
 
-def paired_effect(paper, alternative, *, n_boot: int = 4000, alpha: float = DEFAULT_ALPHA,
+def paired_effect(paper, alternative, *, n_boot: int = DEFAULT_N_BOOT, alpha: float = DEFAULT_ALPHA,
                   rng: np.random.Generator) -> dict:
     """The paired effect of one ablation on one variant (without the multiplicity step).
 
@@ -138,7 +139,7 @@ def _ok(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def compare_arms(arms: Mapping[str, pd.DataFrame], *, ablations: Sequence[Ablation] = ABLATIONS,
-                 variants: Sequence[str] = (BASELINE, *PAPER_FAULTS), alpha: float = DEFAULT_ALPHA, n_boot: int = 4000,
+                 variants: Sequence[str] = (BASELINE, *PAPER_FAULTS), alpha: float = DEFAULT_ALPHA, n_boot: int = DEFAULT_N_BOOT,
                  seed: int = 0, campaign: Mapping | None = None) -> AblationResult:
     """Pair every ablation's two arms and measure the effect per variant.
 
@@ -191,7 +192,7 @@ def compare_arms(arms: Mapping[str, pd.DataFrame], *, ablations: Sequence[Ablati
 
 
 def ablation(arm_dirs: Mapping[str, str | Path], *, ablations: Sequence[Ablation] = ABLATIONS, alpha: float = DEFAULT_ALPHA,
-             n_boot: int = 4000, seed: int = 0) -> AblationResult:
+             n_boot: int = DEFAULT_N_BOOT, seed: int = 0) -> AblationResult:
     """:func:`compare_arms` of the results stores of the arms (arm name -> results directory)."""
     arms = {name: load_results(d) for name, d in arm_dirs.items()}
     campaign: dict = {}

@@ -37,7 +37,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.stats.metadata import read_rule
 from faultlab.errors import ConfigError, ResultsError
@@ -48,6 +47,7 @@ from faultlab.stats.killmatrix import (detection_probability, draw_suites, exact
 from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.metrics.detection import DetectionRule
 from faultlab.inference.exact import MAX_EXACT_PAIRS, alternative_of, min_p_value
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["ALLOCATION_COLUMNS", "allocations", "suite_pooled_pvalues", "allocation_study", "allocation_summary",
@@ -160,7 +160,7 @@ def allocation_study(results: pd.DataFrame, *, budget: int, ks, rule: DetectionR
         lo, hi = exact_detection_interval(h, n_pool, n)
         reachable = bool(min_p_value(k, alternative=alternative_of(rule.direction)) <= alpha / n)
         for j, variant in enumerate(km.variants):
-            c_lo, c_hi = proportion_confint(int(h[j]), n_pool, alpha=DEFAULT_ALPHA, method="beta")
+            c_lo, c_hi = clopper_pearson(int(h[j]), n_pool)
             rates = [by_case[:, j].mean(), by_pool[:, j].mean(), combined[:, j].mean()]
             rows.append({"variant": variant, "k": k, "n_cases": n, "budget": budget, "pool": n_pool, "draws": draws,
                          "reachable": reachable, "strong_cases": int(h[j]), "case_rate": h[j] / n_pool, "case_low": c_lo, "case_high": c_hi,

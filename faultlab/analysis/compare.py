@@ -22,10 +22,11 @@ Default margin
 --------------
 ``DEFAULT_DELTA`` = 10 %: a change of the map error within +-10 % of its level is "equivalent".
 It is the equivalence margin of faultlab's per-case verdicts
-(:data:`faultlab.stats.verdict.EQUIVALENCE_MARGIN_REL`, the same number), and it is about the
-run-to-run spread of a particle filter's mean error over a suite: a smaller margin could not be
-shown for a stochastic SLAM against itself with a suite of ~20 cases (measured in
-``benchmarks/compare-calibration.md``).  Declare another with ``--delta`` before the run.
+(:data:`faultlab.stats.verdict.EQUIVALENCE_MARGIN_REL`, the same number): a change a user would not
+act on, and about what a stochastic SLAM's mean error over a suite of ~20 cases can resolve
+against itself at compare's default ``K`` = 8 (measured in ``benchmarks/compare-calibration.md``;
+with fewer repetitions equivalence is shown less often).  Declare another with ``--delta`` before
+the run.
 """
 
 from __future__ import annotations
@@ -47,13 +48,14 @@ from faultlab.inference.equivalence import (
     compare_samples,
     relative_margin,
 )
+from faultlab.stats.verdict import EQUIVALENCE_MARGIN_REL
 from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["DEFAULT_DELTA", "EXIT_OK", "EXIT_REGRESSION", "EXIT_USAGE", "EXIT_NOT_EQUIVALENT", "CaseComparison",
            "CompareResult", "compare_records"]
 
 #: Default equivalence margin: a relative change of the map error (module docstring: why 10 %).
-DEFAULT_DELTA = 0.10
+DEFAULT_DELTA = EQUIVALENCE_MARGIN_REL
 #: Exit statuses of ``faultlab compare``.
 EXIT_OK, EXIT_REGRESSION, EXIT_USAGE, EXIT_NOT_EQUIVALENT = 0, 1, 2, 3
 

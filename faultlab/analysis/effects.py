@@ -135,11 +135,12 @@ def analyse_effects(out: str | Path) -> EffectsAnalysis:
                 if stage == "morris":
                     t = morris_indices(design.unit, y, factors=design.factors, levels=design.levels,
                                        seed=response_seed(spec, stage, r), resamples=int(spec["resamples"]))
-                    morris_rows.append(t.assign(response=r))
+                    morris_rows.append(pd.DataFrame(t.as_dict()).assign(response=r))
                 else:
                     nv = float(np.nanmean(wide[f"se:{r}"].to_numpy(dtype=float) ** 2))
                     t = sobol_indices(y, factors=design.factors, seed=response_seed(spec, stage, r),
                                       resamples=int(spec["resamples"]), noise_var=nv if np.isfinite(nv) else None)
+                    t = pd.DataFrame(t.as_dict())
                     sobol_rows.append(t.assign(response=r, noise_floor=noise_floor(y, wide[f"se:{r}"]),
                                                noise=incoherent_indices(t)))
             except FaultlabError as exc:

@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from statsmodels.stats.contingency_tables import mcnemar
-from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.analysis.bundle import TableBundle
 from faultlab.stats.metadata import judged_metric
@@ -33,25 +32,18 @@ from faultlab.runner.staging import STOPS_KEY
 from faultlab.runner.store import MUTATION_FILE, load_metadata, load_results
 from faultlab.stats.exactkill import exact_kills
 from faultlab.stats.killmatrix import suite_kills
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.inference.multiplicity import holm
 from faultlab.vocabulary import DEFAULT_ALPHA, PAPER_DIRECTION, POWER_TEXT
 
 __all__ = ["MUTATION_TABLES", "MutationAnalysis", "analyse_mutation", "mutation_scores", "compare_suites",
-           "clopper_pearson", "mutant_outcomes", "stored_direction", "adaptive_savings", "OBSERVED_EQUIVALENT"]
+           "mutant_outcomes", "stored_direction", "adaptive_savings", "OBSERVED_EQUIVALENT"]
 
 #: Tables of a :class:`MutationAnalysis`, saved as ``<name>.csv``.
 MUTATION_TABLES = ("outcomes", "scores", "mcnemar")
 OUTCOME_COLUMNS = ["mutant", "unit", "operator", "run", "suite", "outcome", "survival", "represented_by",
                    "killing_case", "direction", "median_diff_mm", "ratio", "n_cases_run", "n_cases", "min_p",
                    "max_p_equivalence", "min_mde_mm", "reps_used", "n_stopped", "note"]
-
-
-def clopper_pearson(k: int, n: int, alpha: float = DEFAULT_ALPHA) -> tuple[float, float]:
-    """Exact two-sided (1 - alpha) interval of a binomial proportion (NaN, NaN for n = 0)."""
-    if n == 0:
-        return math.nan, math.nan
-    lo, hi = proportion_confint(k, n, alpha=alpha, method="beta")
-    return float(lo), float(hi)
 
 
 @dataclass(frozen=True, eq=False)
@@ -234,7 +226,7 @@ def mutation_scores(outcomes: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, tri
             key = key if isinstance(key, tuple) else (key,)
             k = int(g["outcome"].isin(KILL_CLASSES).sum())
             n = len(g)
-            lo, hi = clopper_pearson(k, n, alpha)
+            lo, hi = clopper_pearson(k, n, alpha=alpha)
             rows.append(dict(suite=key[0], by=by or "all", group=key[1] if by and not informative else "all",
                              killed=k, judged=n,
                              crash=int((g["outcome"] == "crash").sum()), timeout=int((g["outcome"] == "timeout").sum()),

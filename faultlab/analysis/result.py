@@ -35,6 +35,7 @@ from faultlab.stats.metadata import (adaptive_summary, count_expected_jobs, judg
 from faultlab.analysis.schema import (
     BY_SUITE,
     CAMPAIGN_EFFECTS,
+    CAMPAIGN_VERDICTS,
     CASE_COMPARISONS,
     CASE_RATES,
     CLASS_EFFECTS,
@@ -77,7 +78,7 @@ from faultlab.stats.detection import DetectionRule, outcomes
 from faultlab.stats.effects import fit_effects, validate_parameters
 from faultlab.stats.oracle import oracle_detections
 from faultlab.stats.paper import RAW_CSV, REPORTED_CSV, PaperTable, data_label, paper_table, resolve_data_path
-from faultlab.stats.pooling import suite_verdicts
+from faultlab.stats.pooling import campaign_verdicts, suite_verdicts
 from faultlab.stats.rates import false_alarm_rate, find_identical_faults, tabulate_by_suite, tabulate_rates
 from faultlab.space.case import PARAMETER_NAMES
 from faultlab.vocabulary import DEFAULT_ALPHA, REPLICA, SUITE_ORDER, JobStatus, ordered
@@ -92,7 +93,8 @@ JSON_FILE = "analysis.json"
 #: the table holds nothing to show.
 BEYOND_THE_PAPER: tuple[str, ...] = ("false_alarms", "oracle", "suite_comparisons", "parameter_effects",
                                       "campaign_effects", "case_verdicts", "case_rates", "suite_verdicts", "case_comparisons",
-                                      "replica_false_alarms", "paper_comparisons", "class_effects")
+                                      "replica_false_alarms", "paper_comparisons", "class_effects",
+                                      "campaign_verdicts")
 
 
 @dataclass(frozen=True)
@@ -144,7 +146,7 @@ class Analysis:
     jobs, cases, outcomes, detection_rates, by_suite, false_alarms, oracle, oracle_summary,
     suite_comparisons, parameter_effects, table2_cells, paper_rates, paper_by_suite, coverage,
     runtimes, case_verdicts, case_rates, suite_verdicts, case_comparisons, replica_false_alarms, paper_comparisons,
-    class_effects, campaign_effects : DataFrame
+    class_effects, campaign_effects, campaign_verdicts : DataFrame
         Treat them as read-only.
     """
 
@@ -180,6 +182,7 @@ class Analysis:
     paper_comparisons: pd.DataFrame
     class_effects: pd.DataFrame
     campaign_effects: pd.DataFrame
+    campaign_verdicts: pd.DataFrame
 
     # ------------------------------------------------------------------ construction
 
@@ -404,7 +407,9 @@ _TABLE_NAMES = tuple(s.name for s in TABLES)
 #: with that table empty and this note under its name.
 _LATER_TABLES: dict[str, str] = {
     "campaign_effects": "Continuous effects: not available (this analysis was saved before they were part of it; "
-                        "analyse the results store again to compute them)."}
+                        "analyse the results store again to compute them).",
+    "campaign_verdicts": "Campaign-level verdicts: not available (this analysis was saved before they were part "
+                         "of it; analyse the results store again to compute them)."}
 assert set(_TABLE_NAMES) <= {f.name for f in fields(Analysis)}, "every table of the schema is an Analysis field"
 
 
@@ -533,6 +538,9 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
     sv, s_note = _guarded(SUITE_VERDICTS, lambda: suite_verdicts(results[results["variant"] != REPLICA], alpha=rule.alpha,
                                                                  metric=metric, direction=rule.direction),
                           "Suite-level verdicts")
+    cv, cv_note = _guarded(CAMPAIGN_VERDICTS, lambda: campaign_verdicts(results, alpha=rule.alpha, metric=metric,
+                                                                        direction=rule.direction),
+                           "Campaign-level verdicts")
     cmp, c_note = _guarded(CASE_COMPARISONS, lambda: compare_suites_by_case(faults), "Case-level suite comparisons")
     if c_note is None and (cmp["method"] == "degenerate").any():
         c_note = Note("case_comparisons", f"{int((cmp['method'] == 'degenerate').sum())} degenerate comparison(s) "
@@ -559,8 +567,9 @@ def _case_tables(results: pd.DataFrame, rms_pairs: pd.DataFrame, metadata: Mappi
     names = [p for p in PARAMETER_NAMES if f"class_{p}" in cases.columns]  # every Table I parameter, by class
     eff, e_note = _guarded(CLASS_EFFECTS, lambda: fit_class_effects(faults, cases, names), "Class effects",
                            (FaultlabError, ValueError, np.linalg.LinAlgError))
-    notes += [n for n in (r_note, s_note, c_note, f_note, p_note, e_note) if n is not None]
-    tables = {"case_verdicts": verdicts, "case_rates": rates, "suite_verdicts": sv, "case_comparisons": cmp,
+    notes += [n for n in (r_note, s_note, cv_note, c_note, f_note, p_note, e_note) if n is not None]
+    tables = {"case_verdicts": verdicts, "case_rates": rates, "suite_verdicts": sv, "campaign_verdicts": cv,
+              "case_comparisons": cmp,
               "replica_false_alarms": fa, "paper_comparisons": pc, "class_effects": eff}
     return tables, notes
 

@@ -46,7 +46,7 @@ from faultlab.faults.sensorfaults import BUILTIN_SENSOR_FAULTS
 from faultlab.runner.store import SKIPPED_VARIANTS_KEY, load_metadata, load_results
 from faultlab.seeds import study_seed_sequence
 from faultlab.space.case import VALUE_KEYS
-from faultlab.stats.verdict import Verdict, case_verdicts
+from faultlab.stats.verdict import EXACT, Verdict, case_verdicts
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, JobStatus
 
 __all__ = ["Robustness", "robustness", "case_log_ratios", "rep_log_ratios", "degradation", "parameter_effects",
@@ -57,7 +57,7 @@ NUMERIC_PARAMETERS: tuple[str, ...] = tuple(k for k in VALUE_KEYS if k != "direc
 #: Columns of :attr:`Robustness.degradation`.
 DEGRADATION: tuple[str, ...] = ("slam", "fault", "metric", "n_cases", "ratio", "ratio_low", "ratio_high",
                                 "n_detected", "n_not_detected", "n_crash_detected", "n_cannot_judge",
-                                "n_failed", "n_jobs")
+                                "n_exact", "n_failed", "n_jobs")
 #: Columns of :attr:`Robustness.parameters`.
 PARAMETERS: tuple[str, ...] = ("slam", "fault", "parameter", "n_cases", "slope", "low", "high", "p", "p_min")
 #: Monte Carlo permutations of the per-parameter test where the cases have more orderings than this.
@@ -221,6 +221,7 @@ def robustness(stores: Mapping[str, str | Path], *, alpha: float = DEFAULT_ALPHA
             if fault not in sensor and "/" not in fault:
                 continue
             v = verdicts.loc[verdicts["fault"] == fault, "verdict"]
+            n_exact = int((verdicts.loc[verdicts["fault"] == fault, "test"] == EXACT).sum())
             jobs = results.loc[results["variant"] == fault]
             ratio, low, high = degradation(cases.loc[cases["fault"] == fault, "log_ratio"], alpha=alpha)
             deg.append(dict(slam=label, fault=fault, metric=metric,
@@ -228,7 +229,7 @@ def robustness(stores: Mapping[str, str | Path], *, alpha: float = DEFAULT_ALPHA
                             ratio_high=high, n_detected=int((v == Verdict.DETECTED).sum()),
                             n_not_detected=int((v == Verdict.NOT_DETECTED).sum()),
                             n_crash_detected=int((v == Verdict.CRASH_DETECTED).sum()),
-                            n_cannot_judge=int((v == Verdict.CANNOT_JUDGE).sum()),
+                            n_cannot_judge=int((v == Verdict.CANNOT_JUDGE).sum()), n_exact=n_exact,
                             n_failed=int((jobs["status"] != JobStatus.OK.value).sum()), n_jobs=int(len(jobs))))
             effects = parameter_effects(reps.loc[reps["fault"] == fault], alpha=alpha, rng=np.random.default_rng(
                 study_seed_sequence(0, "robustness", label, fault)))

@@ -38,7 +38,7 @@ from faultlab.stats.comparison import COMPARISON_COLUMNS
 from faultlab.stats.detection import OUTCOME_COLUMNS
 from faultlab.stats.effects import EFFECT_COLUMNS
 from faultlab.stats.paper import PAPER_BY_SUITE_COLUMNS, PAPER_RATE_COLUMNS
-from faultlab.stats.pooling import SUITE_VERDICT_COLUMNS
+from faultlab.stats.pooling import CAMPAIGN_VERDICT_COLUMNS, SUITE_VERDICT_COLUMNS
 from faultlab.stats.rates import BY_SUITE_COLUMNS, FALSE_ALARM_COLUMNS, RATE_COLUMNS
 from faultlab.vocabulary import POWER_TEXT
 
@@ -46,7 +46,7 @@ __all__ = ["TableSchema", "KINDS", "THIS_RUN", "PAPER", "ALL_VARIANTS", "TABLES"
     "JOBS", "CASES", "OUTCOMES", "DETECTION_RATES", "BY_SUITE", "FALSE_ALARMS", "ORACLE", "ORACLE_SUMMARY",
     "SUITE_COMPARISONS", "PARAMETER_EFFECTS", "TABLE2_CELLS", "PAPER_RATES", "PAPER_BY_SUITE", "COVERAGE",
     "RUNTIMES", "CASE_VERDICTS", "CASE_RATES", "SUITE_VERDICTS", "CASE_COMPARISONS", "REPLICA_FALSE_ALARMS", "PAPER_COMPARISONS",
-    "CLASS_EFFECTS", "CAMPAIGN_EFFECTS"]
+    "CLASS_EFFECTS", "CAMPAIGN_EFFECTS", "CAMPAIGN_VERDICTS"]
 
 #: ``source`` of rows from the analysed campaign.
 THIS_RUN = "this run"
@@ -270,7 +270,7 @@ CASE_VERDICTS = TableSchema.define(
     "case_verdicts", "Per suite, run, case and fault (the baseline_replica A/A control included): the verdict "
     "of the campaign's rule over the case's K repetitions, the exact paired test's p, Holm within the family, "
     "the smallest detectable shift (faultlab.stats.cases.rule_verdicts).", CASE_VERDICT_COLUMNS,
-    p_holm="float", p="float", paper_k="Int")
+    p_holm="float", p="float", paper_k="Int", test="str")
 CASE_RATES = TableSchema.define(
     "case_rates", "Per suite and fault: detected / judged cases (cases are the unit; cannot-judge cases "
     "counted apart) with Clopper-Pearson and Wilson intervals (faultlab.stats.cases.case_rates).",
@@ -279,9 +279,10 @@ SUITE_VERDICTS = TableSchema.define(
     "suite_verdicts", "Per suite, run and fault: the suite-level decision over the suite run's cases by the "
     "exact sign-flip tests whatever the campaign's rule -- the per-case minimum at alpha / n (detected_min) and, "
     "beside it, combined with the pooled test over the cases' mean log ratios, each at alpha / 2 "
-    "(detected_combined; faultlab.stats.pooling.suite_verdicts).", SUITE_VERDICT_COLUMNS,
-    run="int", n_cases="int", n_tested="int", n_crashed="int", min_p="float", pooled_p="float",
-    detected_min="bool", by_case="bool",
+    "(detected_combined), each with its smallest attainable p and a verdict that says cannot_judge where no "
+    "outcome could reach the level (faultlab.stats.pooling.suite_verdicts).", SUITE_VERDICT_COLUMNS,
+    run="int", n_cases="int", n_tested="int", n_crashed="int", n_exact="int", min_p="float", case_p_min="float",
+    pooled_p="float", pooled_p_min="float", pooled_verdict="str", detected_min="bool", by_case="bool",
     by_pool="bool", detected_combined="bool")
 CASE_COMPARISONS = TableSchema.define(
     "case_comparisons", "Per fault and pair of suites: cases as units, runs as clusters (binomial GEE, "
@@ -307,10 +308,17 @@ CAMPAIGN_EFFECTS = TableSchema.define(
     "over the cases with a t interval, and the cluster-robust regression per parameter where the campaign has "
     "enough cases per coefficient, else a (size) row saying what it would need "
     "(faultlab.analysis.effects.campaign_effects).", CAMPAIGN_EFFECT_COLUMNS, response="str", estimate="float")
+CAMPAIGN_VERDICTS = TableSchema.define(
+    "campaign_verdicts", "Per fault: the campaign-level verdict over all its cases -- the exact sign-flip test "
+    "over the cases' mean log ratios (the case is the unit), Holm over the faults, the geometric-mean factor "
+    "with the interval that inverts the test; cannot_judge where the smallest attainable p exceeds alpha "
+    "(faultlab.stats.pooling.campaign_verdicts).", CAMPAIGN_VERDICT_COLUMNS, test="str", alpha="float",
+    n_cases="int", n_tested="int", n_crashed="int", n_exact="int", n_draws="int", mean_log_ratio="float",
+    mean_log_ratio_low="float", mean_log_ratio_high="float", mc_se="float")
 
 #: Every table of an Analysis, in the order they are saved.
 TABLES: tuple[TableSchema, ...] = (JOBS, CASES, OUTCOMES, DETECTION_RATES, BY_SUITE, FALSE_ALARMS, ORACLE,
                                    ORACLE_SUMMARY, SUITE_COMPARISONS, PARAMETER_EFFECTS, TABLE2_CELLS,
                                    PAPER_RATES, PAPER_BY_SUITE, COVERAGE, RUNTIMES, CASE_VERDICTS, CASE_RATES,
                                    SUITE_VERDICTS, CASE_COMPARISONS, REPLICA_FALSE_ALARMS, PAPER_COMPARISONS, CLASS_EFFECTS,
-                                   CAMPAIGN_EFFECTS)
+                                   CAMPAIGN_EFFECTS, CAMPAIGN_VERDICTS)

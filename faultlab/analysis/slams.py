@@ -9,7 +9,11 @@ collects, per SLAM, what a cross-SLAM report shows:
   mover's distance for one that associates landmarks itself (no ids, no correspondences);
 * ``sensitivity``: per fault, the cases the campaign's rule detects among the judged ones, pooled
   over the suites (:func:`faultlab.stats.cases.case_rates`), beside the per-repetition rate of the
-  paper's rule (the Analysis's ``detection_rates``);
+  paper's rule (the Analysis's ``detection_rates``); ``n_exact`` of the cases were judged by their
+  exact difference (a deterministic SLAM: bit-identical repetitions, :mod:`faultlab.stats.verdict`),
+  never by a test over copies of one execution; ``effect_*`` the campaign-level verdict over the
+  fault's cases (:func:`faultlab.stats.pooling.campaign_verdicts`: the geometric-mean error factor,
+  the interval of the sign-flip test over the cases, its p, smallest attainable p and verdict);
 * ``not_judged``: per fault, why it could not be judged: the fault does not apply to the SLAM (it
   replaces a unit the SLAM does not have), cases without a verdict, failed jobs; and SLAMs that
   were not run (optional dependency missing).
@@ -37,7 +41,7 @@ from faultlab.stats.accuracy import ACCURACY_COLUMNS, case_mean_accuracy
 from faultlab.stats.cases import case_rates
 from faultlab.stats.detection import outcomes
 from faultlab.stats.rates import tabulate_rates
-from faultlab.stats.verdict import Verdict
+from faultlab.stats.verdict import EXACT, Verdict
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, JobStatus
 
 __all__ = ["SlamComparison", "compare_slams", "ACCURACY", "SENSITIVITY", "NOT_JUDGED"]
@@ -47,8 +51,9 @@ ACCURACY: tuple[str, ...] = ("slam", "name", "association", "metric") + ACCURACY
     "n_failed", "runtime_median_s")
 #: Columns of :attr:`SlamComparison.sensitivity`.
 SENSITIVITY: tuple[str, ...] = ("slam", "fault", "metric", "rule", "n_cases", "n_cannot_judge", "n", "k", "rate",
-                                "cp_low", "cp_high", "mde_median_mm", "mde_min_mm", "mde_max_mm", "rep_k", "rep_n",
-                                "rep_rate", "rep_low", "rep_high")
+                                "cp_low", "cp_high", "n_exact", "mde_median_mm", "mde_min_mm", "mde_max_mm", "rep_k",
+                                "rep_n", "rep_rate", "rep_low", "rep_high", "effect_ratio", "effect_low",
+                                "effect_high", "effect_p", "effect_p_min", "effect_verdict")
 #: Columns of :attr:`SlamComparison.not_judged`.
 NOT_JUDGED: tuple[str, ...] = ("slam", "fault", "what", "count", "reason")
 
@@ -147,21 +152,29 @@ def _sensitivity(label: str, a, metric: str, alpha: float, store) -> list[dict]:
     results = load_results(store)
     reps = tabulate_rates(outcomes(results.assign(rms_mm=results[f"{metric}_mm"]), rule=a.rule),
                           alpha=alpha).rename(columns={"fault": "variant"})
+    campaign = a.campaign_verdicts.set_index("fault")
+    exact = a.case_verdicts.loc[a.case_verdicts["test"] == EXACT, "fault"].value_counts()
     rows = []
     for r in pooled.itertuples(index=False):
+        cv = campaign.loc[r.fault] if r.fault in campaign.index else None
         rep = reps[reps["variant"] == r.fault]
         k, n = (int(rep["k"].sum()), int(rep["n"].sum())) if len(rep) else (0, 0)
         rep_row = rep.iloc[0] if len(rep) == 1 else None
         mde = verdicts.loc[(verdicts["fault"] == r.fault) & verdicts["mde_mm"].notna(), "mde_mm"].to_numpy(float)
         rows.append({"slam": label, "fault": r.fault, "metric": metric, "rule": r.rule, "n_cases": r.n_cases,
                      "n_cannot_judge": r.n_cannot_judge, "n": r.n, "k": r.k, "rate": r.rate,
-                     "cp_low": r.cp_low, "cp_high": r.cp_high,
+                     "cp_low": r.cp_low, "cp_high": r.cp_high, "n_exact": int(exact.get(r.fault, 0)),
                      "mde_median_mm": float(np.median(mde)) if mde.size else math.nan,
                      "mde_min_mm": float(mde.min()) if mde.size else math.nan,
                      "mde_max_mm": float(mde.max()) if mde.size else math.nan, "rep_k": k, "rep_n": n,
                      "rep_rate": k / n if n else math.nan,
                      "rep_low": float(rep_row["wilson_low"]) if rep_row is not None else math.nan,
-                     "rep_high": float(rep_row["wilson_high"]) if rep_row is not None else math.nan})
+                     "rep_high": float(rep_row["wilson_high"]) if rep_row is not None else math.nan,
+                     **({f"effect_{k}": cv[k] for k in ("ratio", "p", "p_min", "verdict")}
+                        | {"effect_low": cv["ratio_low"], "effect_high": cv["ratio_high"]}
+                        if cv is not None else {"effect_ratio": math.nan, "effect_low": math.nan,
+                                                "effect_high": math.nan, "effect_p": math.nan,
+                                                "effect_p_min": math.nan, "effect_verdict": ""})})
     return rows
 
 

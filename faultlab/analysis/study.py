@@ -178,8 +178,9 @@ def _analysis(km: KillMatrix, spec: StudySpec, ev, mutants, detection, whole, pe
         np.zeros(len(km.cases))
     declared = declared_table(declaration, score=score, strategy=km.cases["strategy"].to_numpy(),
                               run=km.cases["run"].to_numpy())
-    controls = aa_controls(km, faults, alpha=spec.alpha, timeouts_detect=spec.timeouts_detect) if faults else \
-        pd.DataFrame(columns=list(CONTROL_COLUMNS))
+    controlled, kind = (faults, "fault") if faults else (list(mutants), "mutant")
+    controls = aa_controls(km, controlled, alpha=spec.alpha, timeouts_detect=spec.timeouts_detect, kind=kind) \
+        if controlled else pd.DataFrame(columns=list(CONTROL_COLUMNS))
     meta = meta | {DECLARATION_KEY: None if declaration is None else declaration.to_dict()}
     return StudyAnalysis(kill_matrix=km.to_frame(), detection=detection, scores=score_table(ev),
                          comparisons=label_rows(compare_scores(ev, alpha=spec.alpha), declaration, "comparisons"),

@@ -67,6 +67,9 @@ def register(subparsers) -> None:
                                          f"(default {_default_delta():g}: see docs/how-to/compare-in-ci.md)"))
     p.add_argument("--require-equivalence", action="store_true",
                    help="exit 3 unless equivalence within delta is shown")
+    p.add_argument("--html", action="store_true",
+                   help="also write the HTML report (REPORTS/html: the verdict, every case in a sortable, filterable "
+                        "table)")
     p.add_argument("--baseline-store", default=None, metavar="DIR",
                    help="where the baseline is recorded (default OUT/baseline; resumable, reusable)")
     p.add_argument("--out", default="results/compare", help="results directory (default results/compare; resumable)")
@@ -131,6 +134,10 @@ def _handler(args: argparse.Namespace) -> int:
         return _error(str(exc))
     paths = write_compare_reports(result, args.reports or out / "report",
                                   require_equivalence=args.require_equivalence)
+    if args.html:
+        from faultlab.report.html.compare import write_compare_html
+
+        paths.append(write_compare_html(result, paths[0].parent / "html").index)
     print(paths[0].read_text(), end="")
     print("reports: " + ", ".join(map(str, paths)))
     return result.exit_code(require_equivalence=args.require_equivalence)

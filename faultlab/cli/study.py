@@ -179,7 +179,8 @@ def _plan(args: argparse.Namespace) -> int:
         plan = plan_study("mutation", strategies=len(exp.suites), suite_cases=max(s.n_cases or 0 for s in exp.suites),
                           runs=exp.runs, alpha=mexp.alpha, sides=_sides(exp), exact=mexp.kill == KILL_EXACT,
                           **common)
-        budget = (data.get("mutation") or {}).get("sample")
+        table = data.get("mutation") or {}
+        budget = table.get("sample") if "target" in table else None  # a campaign on user code
         if isinstance(budget, int) and not isinstance(budget, bool) and budget >= 1:
             scale = mutation_file_scale(plan, mutants=budget)
             pools = f"a sample budget of {budget} live mutants"

@@ -1,5 +1,7 @@
-"""Confidence intervals from samples: the median's order-statistic interval, bootstrap medians, clustered rates.
+"""Confidence intervals: of a binomial proportion, the median's order-statistic interval, bootstrap medians,
+clustered rates.
 
+:func:`clopper_pearson` is the exact interval of a binomial proportion, the one every table uses;
 :func:`median_interval` is the sign test's distribution-free interval of a median;
 :func:`bootstrap_medians` the medians of resamples a percentile bootstrap interval is read from;
 :func:`clustered_rate` is the Korn & Graubard interval of a proportion whose trials come in
@@ -21,7 +23,24 @@ from faultlab.errors import ConfigError
 from faultlab.inference.exact import check_alpha
 from faultlab.vocabulary import DEFAULT_ALPHA
 
-__all__ = ["median_interval", "bootstrap_medians", "ClusteredRate", "clustered_rate"]
+__all__ = ["clopper_pearson", "median_interval", "bootstrap_medians", "ClusteredRate", "clustered_rate"]
+
+
+def clopper_pearson(k, n, *, alpha: float = DEFAULT_ALPHA):
+    """Exact two-sided ``1 - alpha`` (Clopper-Pearson) interval of ``k`` successes in ``n`` trials.
+
+    The beta quantiles of statsmodels ``proportion_confint(method="beta")``, vectorised: ``k`` and ``n``
+    broadcast; NaN where ``n == 0``.  Scalars in, floats out.
+    """
+    check_alpha(alpha, where="clopper_pearson")
+    k_arr, n_arr = np.broadcast_arrays(np.asarray(k, dtype=float), np.asarray(n, dtype=float))
+    low, high = np.full(k_arr.shape, np.nan), np.full(k_arr.shape, np.nan)
+    ok = n_arr > 0
+    if ok.any():
+        low[ok], high[ok] = proportion_confint(k_arr[ok], n_arr[ok], alpha=alpha, method="beta")
+    if low.ndim == 0:
+        return float(low), float(high)
+    return low, high
 
 
 def median_interval(values, *, level: float = 1 - DEFAULT_ALPHA) -> tuple[np.ndarray, np.ndarray, float]:

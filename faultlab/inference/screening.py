@@ -21,18 +21,40 @@ standard errors, so a reader can tell a small index from noise.
 from __future__ import annotations
 
 import warnings
-from typing import Sequence
+from dataclasses import dataclass
+from typing import Mapping, Sequence
 
 import numpy as np
-import pandas as pd
 
 from faultlab.errors import ResultsError
 
-__all__ = ["MORRIS_COLUMNS", "SOBOL_COLUMNS", "morris_indices", "sobol_indices", "screen", "noise_floor"]
+__all__ = ["MORRIS_COLUMNS", "SOBOL_COLUMNS", "Indices", "morris_indices", "sobol_indices", "screen", "noise_floor"]
 
 MORRIS_COLUMNS: tuple[str, ...] = ("parameter", "mu_star", "mu_star_low", "mu_star_high", "sigma", "mu", "rank")
 SOBOL_COLUMNS: tuple[str, ...] = ("parameter", "S1", "S1_low", "S1_high", "ST", "ST_low", "ST_high", "noise_share",
                                    "rank")
+
+
+@dataclass(frozen=True, eq=False)
+class Indices:
+    """Sensitivity indices of every factor, one array per column (:data:`MORRIS_COLUMNS` or
+    :data:`SOBOL_COLUMNS`), rows ranked (rank 1 = the largest index).
+
+    Arrays, not a table: ``pandas.DataFrame(indices.as_dict())`` is the table a caller above builds.
+    """
+
+    data: Mapping[str, np.ndarray]
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        return self.data[column]
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return tuple(self.data)
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        """Column -> its array (copies), in column order."""
+        return {c: np.array(v, copy=True) for c, v in self.data.items()}
 
 
 def _salib_seed(seed: int) -> int:
@@ -56,7 +78,7 @@ def _problem(factors: Sequence[str]) -> dict:
 
 
 def morris_indices(unit: np.ndarray, y, *, factors: Sequence[str], levels: int, seed: int,
-                   resamples: int = 1000, conf: float = 0.95) -> pd.DataFrame:
+                   resamples: int = 1000, conf: float = 0.95) -> Indices:
     """Morris' ``mu*`` (with bootstrap interval), ``sigma`` and ``mu`` of every factor.
 
     Parameters
@@ -75,7 +97,7 @@ def morris_indices(unit: np.ndarray, y, *, factors: Sequence[str], levels: int, 
 
     Returns
     -------
-    DataFrame
+    Indices
         :data:`MORRIS_COLUMNS`, sorted by ``mu*`` (rank 1 = largest); the interval is
         ``mu* -/+`` SALib's half-width, clipped at 0; NaN where every elementary effect is 0.
     """
@@ -89,15 +111,15 @@ def morris_indices(unit: np.ndarray, y, *, factors: Sequence[str], levels: int, 
     half = np.asarray(res["mu_star_conf"], dtype=float)
     # every elementary effect exactly 0: the bootstrap has nothing to resample, so no interval (NaN)
     none = (mu_star == 0) & (half == 0)
-    out = pd.DataFrame({"parameter": list(factors), "mu_star": mu_star,
-                        "mu_star_low": np.where(none, np.nan, np.maximum(mu_star - half, 0.0)),
-                        "mu_star_high": np.where(none, np.nan, mu_star + half), "sigma": np.asarray(res["sigma"], dtype=float),
-                        "mu": np.asarray(res["mu"], dtype=float)})
-    return _ranked(out, "mu_star")
+    return _ranked({"parameter": np.asarray(list(factors), dtype=object), "mu_star": mu_star,
+                    "mu_star_low": np.where(none, np.nan, np.maximum(mu_star - half, 0.0)),
+                    "mu_star_high": np.where(none, np.nan, mu_star + half),
+                    "sigma": np.asarray(res["sigma"], dtype=float), "mu": np.asarray(res["mu"], dtype=float)},
+                   "mu_star")
 
 
 def sobol_indices(y, *, factors: Sequence[str], seed: int, resamples: int = 1000,
-                  conf: float = 0.95, noise_var: float | None = None) -> pd.DataFrame:
+                  conf: float = 0.95, noise_var: float | None = None) -> Indices:
     """First-order and total Sobol indices of every factor, with bootstrap intervals.
 
     Parameters
@@ -118,7 +140,7 @@ def sobol_indices(y, *, factors: Sequence[str], seed: int, resamples: int = 1000
 
     Returns
     -------
-    DataFrame
+    Indices
         :data:`SOBOL_COLUMNS`, sorted by ``ST`` (rank 1 = largest); intervals are the index
         ``-/+`` SALib's half-width (not clipped: an interval reaching below 0 says the index is
         indistinguishable from 0).  ``noise_share`` is ``noise_var / V`` (0 when not given).
@@ -157,18 +179,24 @@ def sobol_indices(y, *, factors: Sequence[str], seed: int, resamples: int = 1000
         st, stc, s1, s1c = (st - share) * scale, stc * scale, s1 * scale, s1c * scale
     s1c = np.where(s1c > 0, s1c, np.nan)  # a zero-width interval from a finite sample is no interval
     stc = np.where(stc > 0, stc, np.nan)
-    out = pd.DataFrame({"parameter": list(factors), "S1": s1, "S1_low": s1 - s1c, "S1_high": s1 + s1c,
-                        "ST": st, "ST_low": st - stc, "ST_high": st + stc, "noise_share": share})
-    return _ranked(out, "ST")
+    return _ranked({"parameter": np.asarray(list(factors), dtype=object), "S1": s1, "S1_low": s1 - s1c,
+                    "S1_high": s1 + s1c, "ST": st, "ST_low": st - stc, "ST_high": st + stc,
+                    "noise_share": np.full(d, share)}, "ST")
 
 
-def _ranked(frame: pd.DataFrame, by: str) -> pd.DataFrame:
-    frame = frame.sort_values(by, ascending=False, kind="mergesort").reset_index(drop=True)
-    frame["rank"] = np.arange(1, len(frame) + 1)
-    return frame
+def _descending(x: np.ndarray) -> np.ndarray:
+    """Indices sorting ``x`` from largest to smallest, ties in their order, NaN last."""
+    return np.argsort(-np.asarray(x, dtype=float), kind="stable")
 
 
-def screen(morris: Sequence[pd.DataFrame], *, keep: int) -> tuple[str, ...]:
+def _ranked(columns: dict[str, np.ndarray], by: str) -> Indices:
+    order = _descending(columns[by])
+    ranked = {c: np.asarray(v)[order] for c, v in columns.items()}
+    ranked["rank"] = np.arange(1, order.size + 1)
+    return Indices(ranked)
+
+
+def screen(morris: Sequence[Indices], *, keep: int) -> tuple[str, ...]:
     """The parameters screening keeps: the union over responses of the ``keep`` largest ``mu*``.
 
     Each response is screened on its own (a parameter that matters for one fault's effect only is
@@ -183,7 +211,7 @@ def screen(morris: Sequence[pd.DataFrame], *, keep: int) -> tuple[str, ...]:
         raise ResultsError(f"screen: keep must be >= 1, got {keep}")
     kept: set[str] = set()
     for t in morris:
-        kept.update(t.sort_values("mu_star", ascending=False, kind="mergesort")["parameter"].head(keep))
+        kept.update(t["parameter"][_descending(t["mu_star"])][:keep])
     order = list(morris[0]["parameter"]) if morris else []
     return tuple(sorted(kept, key=lambda p: order.index(p) if p in order else len(order)))
 

@@ -83,7 +83,7 @@ from typing import Mapping
 import numpy as np
 
 from faultlab.errors import ConfigError
-from faultlab.inference.exact import ALTERNATIVES, MAX_EXACT_PAIRS, check_alternative, min_p_value, sign_flip_pvalues
+from faultlab.inference.exact import MAX_EXACT_PAIRS, check_alternative, min_p_value, sign_flip_pvalues
 from faultlab.vocabulary import DEFAULT_ALPHA
 
 __all__ = ["StagedDesign", "Look", "interim_p", "smallest_final_p", "interim_look"]
@@ -190,14 +190,13 @@ def interim_p(differences, *, alternative: str = "greater") -> float:
     -------
     float
     """
+    check_alternative(alternative, "interim_p")
     ge, le = _one_sided(differences)
     if alternative == "greater":
         return ge
     if alternative == "less":
         return le
-    if alternative == "two-sided":
-        return min(1.0, 2.0 * min(ge, le))
-    raise ConfigError(f"alternative must be one of {', '.join(map(repr, ALTERNATIVES))}, got {alternative!r}")
+    return min(1.0, 2.0 * min(ge, le))
 
 
 def smallest_final_p(differences, *, total: int, alternative: str = "greater") -> float:

@@ -26,6 +26,9 @@ from faultlab.report.comparison import Comparison, Verdict
 from faultlab.report.figures import PAGE_SIZE, detection_rate_figure, draw_detection_rates, rms_distribution_figure
 from faultlab.report.pdf import PAGE_TITLE_ATTR, new_page, table_pages, text_pages
 from faultlab.report.tables import (
+    campaign_verdict_line,
+    campaign_verdict_note,
+    campaign_verdict_records,
     detection_records,
     format_pct,
     format_pct_interval,
@@ -37,6 +40,7 @@ from faultlab.report.tables import (
     table2_rows,
     table2_runs,
     variant_label,
+    verdict_text,
 )
 from faultlab.runner.store import case_path
 from faultlab.scenario.model import Scenario, load_scenario
@@ -122,11 +126,14 @@ def _detected_lines(analysis: Analysis) -> list[str]:
     case_rates = analysis.case_rates
     if len(case_rates):  # K >= 2 repetitions: one verdict per case from all its repetitions
         conf = round_mm(100 * (1 - analysis.alpha))
+        campaign = {r.fault: r for r in analysis.campaign_verdicts.itertuples(index=False)}
         for fault, rows in case_rates.groupby("fault", sort=False):
             k, n = int(rows["k"].sum()), int(rows["n"].sum())
             per = ", ".join(f"{suite_label(r.suite)} {int(r.k)}/{int(r.n)}" for r in rows.itertuples())
+            whole = f"; {campaign_verdict_line(campaign[fault])}" if fault in campaign else ""
             lines.append(f"- {variant_label(fault)}: detected on {k} of {n} judged cases by the "
-                         f"{rows['rule'].iloc[0]} rule ({per}; {conf} % Clopper-Pearson per suite in the tables).")
+                         f"{rows['rule'].iloc[0]} rule ({per}; {conf} % Clopper-Pearson per suite in the tables)"
+                         f"{whole}.")
         return lines
     rates = analysis.detection_rates
     for fault in dict.fromkeys(rates["variant"]):
@@ -543,7 +550,10 @@ def _suite_verdict_pages(analysis: Analysis) -> list[Figure]:
         "suite": v["suite"].map(suite_label), "run": v["run"], "fault": v["fault"].map(variant_label),
         "tested/cases": [f"{t}/{n}" for t, n in zip(v["n_tested"], v["n_cases"])], "crashed": v["n_crashed"],
         "min p": [_g3(x) for x in v["min_p"]], "per-case min": v["detected_min"].map(yes),
-        "pooled p": [_g3(x) for x in v["pooled_p"]], "combined": v["detected_combined"].map(yes),
+        "pooled p": [_g3(x) for x in v["pooled_p"]],
+        "pooled": [verdict_text(x, m) for x, m in zip(v["pooled_verdict"], v["pooled_p_min"])],
+        "combined": [verdict_text(x, min(c, m) if math.isfinite(c) and math.isfinite(m) else m)
+                     for x, c, m in zip(v["verdict"], v["case_p_min"], v["pooled_p_min"])],
     })
     return table_pages("Suite-level decisions: per-case minimum and pooled", show, fontsize=8,
                        note=f"Per suite run: 'per-case min' detects when the fault crashes alone on a case or the "
@@ -551,7 +561,17 @@ def _suite_verdict_pages(analysis: Analysis) -> list[Figure]:
                             f"most {a:g} / n; 'combined' when it crashes, that p is at most {a:g} / (2 n), or the "
                             f"pooled sign-flip test over the cases' mean log ratios gives p at most {a:g} / 2 "
                             f"(family-wise {a:g}). The pooled test can reject at {a / 2:g} only from "
-                            f"{min_pairs(a / 2, alternative=alternative)} tested cases.")
+                            f"{min_pairs(a / 2, alternative=alternative)} tested cases: with fewer it says 'cannot "
+                            f"judge' with its smallest attainable p, never 'no change shown'; the campaign-level "
+                            f"verdict pools every suite's cases.")
+
+
+def _campaign_verdict_pages(analysis: Analysis) -> list[Figure]:
+    records = campaign_verdict_records(analysis)
+    if not len(records):
+        return []
+    return table_pages("Campaign-level verdict per fault (all its cases pooled)", records, fontsize=7.5,
+                       note=campaign_verdict_note(analysis))
 
 
 def _case_comparison_pages(analysis: Analysis) -> list[Figure]:
@@ -726,7 +746,7 @@ _BEYOND_PAGES = {"false_alarms": _false_alarm_pages, "oracle": _oracle_pages,
                  "suite_comparisons": _suite_comparison_pages, "parameter_effects": _effect_pages,
                  "campaign_effects": lambda analysis: [],
                  "case_verdicts": _case_verdict_pages, "case_rates": _case_rate_pages,
-                 "suite_verdicts": _suite_verdict_pages,
+                 "suite_verdicts": _suite_verdict_pages, "campaign_verdicts": _campaign_verdict_pages,
                  "case_comparisons": _case_comparison_pages, "replica_false_alarms": _replica_false_alarm_pages,
                  "paper_comparisons": _paper_comparison_pages, "class_effects": _class_effect_pages}
 

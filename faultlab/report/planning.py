@@ -67,7 +67,8 @@ def plan_markdown(plan: StudyPlan, *, study: str, cost: ExecutionCost | None, co
                f"{plan.case_family}; the {side} exact sign-flip test reaches it from K = {plan.needed.repetitions}."),
               "", "## Cost", "",
               (f"- {cost.seconds:.2f} s per execution: mean of {cost.jobs} executions in `{cost_source}` "
-               f"({cost.slam}, {cost.particles} particles, {cost.n_steps} active steps; the machine's load when "
+               f"({cost.slam}, " + (f"{cost.particles} particles, " if cost.particles is not None else "") +
+               f"{cost.n_steps} active steps; the machine's load when "
                f"they ran is not recorded, so this is a noisy figure)." if cost is not None else
                f"- {plan.seconds_per_execution:.2f} s per execution: a stated assumption, not measured here."),
               f"- The study's settings: {settings}."

@@ -76,6 +76,17 @@ def parameter_figure(r: Robustness, *, figsize=(12.0, 5.0)) -> Figure:
     return fig
 
 
+def _floor(r) -> str:
+    """The smallest attainable permutation p of the per-parameter slopes, and the cases it comes from."""
+    p = r.parameters.dropna(subset=["p_min"])
+    if p.empty:
+        return ""
+    lo, hi = float(p["p_min"].min()), float(p["p_min"].max())
+    cases = sorted(set(int(n) for n in p["n_cases"]))
+    text = f"{lo:.2g}" if lo == hi else f"{lo:.2g}-{hi:.2g}"
+    return f": {text} with {'/'.join(map(str, cases))} cases"
+
+
 def robustness_markdown(r: Robustness) -> str:
     """The report page (Markdown)."""
     conf = f"{100 * (1 - r.alpha):.0f} %"
@@ -96,22 +107,25 @@ def robustness_markdown(r: Robustness) -> str:
               f"Student t interval (a ratio of 1 is no degradation).  Verdicts per case: the exact two-sided "
               f"paired sign-flip test (a change either way) of the K differences faulty - baseline at alpha = {r.alpha:g}, family "
               f"\"case\" (`faultlab.stats.verdict`; a case with fewer than the pairs the test needs cannot be "
-              f"judged).", "", "![degradation](degradation.png)", "",
+              f"judged); a case whose repetitions are bit-identical for the baseline and the faulty SLAM alike (a "
+              f"deterministic SLAM fed the same perturbation every time) is judged by its exact difference instead "
+              f"(\"judged exactly\"), never by a test over copies of one execution.", "",
+              "![degradation](degradation.png)", "",
               "| SLAM | fault | metric | cases | ratio | interval | detected | not detected | crash | cannot judge "
-              "| failed jobs |",
-              "|---|---|---|--:|--:|---|--:|--:|--:|--:|--:|"]
+              "| judged exactly | failed jobs |",
+              "|---|---|---|--:|--:|---|--:|--:|--:|--:|--:|--:|"]
     for d in r.degradation.itertuples(index=False):
         lines.append(f"| {d.slam} | {d.fault} | {d.metric.upper()} | {d.n_cases} | {_num(d.ratio)} | "
                      f"[{_num(d.ratio_low)}, {_num(d.ratio_high)}] | {d.n_detected} | {d.n_not_detected} | "
-                     f"{d.n_crash_detected} | {d.n_cannot_judge} | {d.n_failed}/{d.n_jobs} |")
+                     f"{d.n_crash_detected} | {d.n_cannot_judge} | {d.n_exact} | {d.n_failed}/{d.n_jobs} |")
     lines += ["", "## Which Table I parameters make it worse", "",
               "For each numeric Table I parameter alone: the least-squares slope of the per-repetition log ratio "
               "on the parameter standardised over the cases; its interval from standard errors clustered by "
               "case (statsmodels, small-cluster correction, Student t on cases - 1 degrees of freedom), its p "
               "value from a permutation test over the cases (the parameter's values permuted across the cases' "
               "mean log ratios: the case is the unit, not the repetition), which cannot go below its smallest "
-              "attainable p (`p_min` in `parameters.csv`; 2/24 = 0.083 with 4 cases).  Positive: the fault hurts more where the parameter is larger.  {conf} "
-              "intervals, no correction across parameters: a ranking, not a test.  With few cases (few clusters) "
+              f"attainable p (`p_min` in `parameters.csv`{_floor(r)}).  Positive: the fault hurts more where the "
+              f"parameter is larger.  {conf} intervals, no correction across parameters: a ranking, not a test.  With few cases (few clusters) "
               "the cluster-robust errors are unreliable; read only the larger campaign.", "",
               "![parameters](parameters.png)", "",
               "Strongest parameter per SLAM and fault (largest |slope|):", "",

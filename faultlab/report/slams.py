@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from faultlab.analysis.slams import SlamComparison
-from faultlab.report.tables import format_pct
+from faultlab.report.tables import format_pct, verdict_text
 from faultlab.vocabulary import DEFAULT_ALPHA, POWER_TEXT
 
 __all__ = ["slam_figure", "slam_markdown", "write_slam_report"]
@@ -28,6 +28,15 @@ def _shift(x: float) -> str:
     """A detectable shift in mm: "none" when the decision could detect no shift at all, "any" when the
     baseline's repetitions do not vary (a deterministic SLAM: every change of the error is detected)."""
     return "none" if x == math.inf else "any" if x == 0 else _mm(x)
+
+
+def _factor(ratio: float, low: float, high: float) -> str:
+    """A geometric-mean error factor with its interval (none where the test could not give one)."""
+    if not math.isfinite(ratio):
+        return "–"
+    if math.isfinite(low) and math.isfinite(high):
+        return f"{ratio:.3g} [{low:.3g}, {high:.3g}]"
+    return f"{ratio:.3g} (no interval)"
 
 
 def _minutes(seconds) -> str:
@@ -120,15 +129,31 @@ def slam_markdown(c: SlamComparison, *, figure: str = "slams.png") -> str:
               f"in the SLAM's metric.  Detectable shift: per judged case, the smallest shift of the error its "
               f"decision detects with {POWER_TEXT} power at the level it was judged at (median over the cases, and their "
               f"range; \"any\" where the baseline's repetitions do not vary, as for a deterministic SLAM): a fault "
-              f"not detected on a case may still shift it by less.", "",
-              "| SLAM | fault | metric | cases detected | rate, % | interval, % | not judged | detectable shift, mm "
-              "(median [range]) | repetitions flagged | rate, % | interval, % |",
-              "|---|---|---|--:|--:|---|--:|---|--:|--:|---|"]
+              f"not detected on a case may still shift it by less.  A deterministic SLAM (every repetition of a "
+              f"case bit-identical, for the baseline and the faulty variant alike: EKF-SLAM and iSAM2) is judged "
+              f"exactly: its K repetitions are copies of one execution, so each case is judged by its difference "
+              f"(detected when the faulty error differs at all; no test over the copies, no multiplicity), and "
+              f"the cases are the unit (\"judged\": sign-flip over the repetitions, or exact).  Campaign level: the "
+              f"fault's effect over all its cases, the geometric-mean error factor faulty / baseline with the "
+              f"interval of the exact sign-flip test over the cases' mean log ratios (the case is the unit), "
+              f"alpha = {rule.get('alpha', DEFAULT_ALPHA):g}, Holm over the SLAM's faults; where too few cases "
+              f"let no outcome of that test reach alpha, the verdict says \"cannot judge\" with the smallest "
+              f"attainable p, never \"no change\".", "",
+              "| SLAM | fault | metric | judged | cases detected | rate, % | interval, % | not judged | detectable "
+              "shift, mm (median [range]) | repetitions flagged | rate, % | interval, % | campaign level: error "
+              "factor | verdict |",
+              "|---|---|---|---|--:|--:|---|--:|---|--:|--:|---|---|---|"]
     for r in c.sensitivity.itertuples(index=False):
-        lines.append(f"| {r.slam} | {r.fault} | {r.metric.upper()} | {r.k}/{r.n} | {format_pct(r.rate)} | "
+        other = "paper's thresholds" if r.rule == "paper" else "sign-flip"
+        judged = ("exact" if r.n_exact == r.n and r.n else other if r.n_exact == 0
+                  else f"exact {r.n_exact}, {other} {r.n - r.n_exact}")
+        lines.append(f"| {r.slam} | {r.fault} | {r.metric.upper()} | {judged} | {r.k}/{r.n} | "
+                     f"{format_pct(r.rate)} | "
                      f"{_interval_pct(r.cp_low, r.cp_high)} | {r.n_cannot_judge} | "
                      f"{_shift(r.mde_median_mm)} [{_shift(r.mde_min_mm)}, {_shift(r.mde_max_mm)}] | {r.rep_k}/{r.rep_n} | "
-                     f"{format_pct(r.rep_rate)} | {_interval_pct(r.rep_low, r.rep_high)} |")
+                     f"{format_pct(r.rep_rate)} | {_interval_pct(r.rep_low, r.rep_high)} | "
+                     f"{_factor(r.effect_ratio, r.effect_low, r.effect_high)} | "
+                     f"{verdict_text(r.effect_verdict, r.effect_p_min) if r.effect_verdict else '–'} |")
     lines += ["", "## What could not be judged", ""]
     if c.not_judged.empty:
         lines.append("Every fault applied to every SLAM and every case got a verdict.")

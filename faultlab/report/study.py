@@ -334,19 +334,21 @@ def _controls_md(summary: pd.DataFrame, alpha: float) -> list[str]:
         return ["## Controls: each strategy against itself (A/A)", "",
                 "Not possible here: each strategy's pool comes from one evaluation run, so the study holds no two "
                 "independent samples of one strategy.", ""]
+    kind = "mutant" if summary["comparison"].str.contains("mutant").any() else "fault"
     rows = pd.DataFrame({
         "A/A comparison": [f"{c}, {u} as unit" for c, u in zip(summary["comparison"], summary["unit"])],
         "per comparison (unadjusted, at alpha)": [
-            f"{k}/{n} = {_interval(r, lo, hi)}" for k, n, r, lo, hi in
+            f"{k}/{n} = {_interval(r, lo, hi)}" if n else "none testable (too few runs, or no spread)"
+            for k, n, r, lo, hi in
             zip(summary["false_alarms"], summary["comparisons"], summary["false_alarm_rate"],
                 summary["false_alarm_rate_low"], summary["false_alarm_rate_high"])],
-        "families with a false alarm": [f"{k} of {n} ({rule})" for k, n, rule in
+        "families with a false alarm": [f"{k} of {n} ({rule})" if n else "-" for k, n, rule in
                                         zip(summary["families_with_false_alarm"], summary["families"],
                                             summary["family_rule"])]})
     return ["## Controls: each strategy against itself (A/A)", "",
             "Each strategy's evaluation runs are split in two halves (alternate runs), two independent samples of "
-            "the same strategy, compared with the tests that compare two strategies: per fault (Agresti-Caffo, the "
-            "case as unit), and on the mean over the faults with the case (Welch) and the run (paired t over "
+            f"the same strategy, compared with the tests that compare two strategies: per {kind} (Agresti-Caffo, the "
+            f"case as unit), and on the mean over the {kind}s with the case (Welch) and the run (paired t over "
             "consecutive runs) as unit. Every rejection is a false alarm. The per-comparison rate (unadjusted, "
             f"nominal {alpha}; 95 % Clopper-Pearson, nominal since one strategy's comparisons share its cases) and "
             f"the family-wise outcome (a family per strategy; nominal at most {alpha} each) are different rates and "

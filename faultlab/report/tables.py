@@ -50,6 +50,10 @@ __all__ = [
     "table2_latex",
     "detection_markdown",
     "detection_records",
+    "verdict_text",
+    "campaign_verdict_records",
+    "campaign_verdict_note",
+    "campaign_verdict_line",
     "write_tables",
     "TableFiles",
 ]
@@ -377,17 +381,91 @@ def detection_records(analysis: Analysis, *, compact: bool = False) -> pd.DataFr
     return pd.DataFrame.from_records(records)
 
 
+def _p_text(p: float) -> str:
+    return "" if not math.isfinite(p) else f"{p:.2g}"
+
+
+def verdict_text(verdict: str, p_min: float) -> str:
+    """A verdict in words: "changed", "no change shown", or "cannot judge (smallest attainable p = ...)"."""
+    if verdict == "detected":
+        return "changed"
+    if verdict == "not_detected":
+        return "no change shown"
+    return f"cannot judge (smallest attainable p = {p_min:.3g})" if math.isfinite(p_min) else "cannot judge"
+
+
+def _factor(x: float) -> str:
+    return "" if not math.isfinite(x) else f"{x:.3g}"
+
+
+def campaign_verdict_records(analysis: Analysis) -> pd.DataFrame:
+    """Display rows of the campaign-level verdicts (:func:`faultlab.stats.pooling.campaign_verdicts`)."""
+    conf = round_mm(100 * (1 - analysis.alpha))
+    records = []
+    for r in analysis.campaign_verdicts.itertuples(index=False):
+        records.append({
+            "Fault": variant_label(r.fault) + (" (A/A control)" if r.family == "control" else ""),
+            "Verdict": verdict_text(r.verdict, r.p_min),
+            "Direction": r.direction if r.n_tested else "",
+            "Error factor": _factor(r.ratio),
+            f"{conf} % interval": (f"[{_factor(r.ratio_low)}, {_factor(r.ratio_high)}]"
+                                   if math.isfinite(r.ratio_low) and math.isfinite(r.ratio_high) else "none possible"),
+            "Cases tested/all": f"{r.n_tested}/{r.n_cases}",
+            "Crashed": str(r.n_crashed),
+            "Judged exactly": str(r.n_exact),
+            "Suite draws": str(r.n_draws),
+            "p": _p_text(r.p) + (" (Monte Carlo)" if r.mc_se > 0 else ""),
+            "p (Holm)": _p_text(r.p_holm),
+            "Smallest attainable p": _p_text(r.p_min),
+        })
+    return pd.DataFrame.from_records(records)
+
+
+def campaign_verdict_note(analysis: Analysis) -> str:
+    """What the campaign-level verdicts are (test, unit, sidedness, level, family)."""
+    v = analysis.campaign_verdicts
+    alternative = v["alternative"].iloc[0] if len(v) else "two-sided"
+    n_faults = int((v["family"] == "faults").sum()) if len(v) else 0
+    return (f"Per fault, over all its cases (every suite and run): the exact {alternative} sign-flip test over the "
+            f"cases' mean log ratios faulty / baseline (the case is the unit: its K repetitions are averaged first; "
+            f"Monte Carlo over 99,999 sign patterns beyond 20 cases), alpha = {analysis.rule.alpha:g}, Holm over "
+            f"the campaign's {n_faults} fault(s); the A/A replica is a control judged alone. Error factor: the "
+            f"geometric mean of faulty / baseline error over the cases (below 1: better), with the interval that "
+            f"inverts the same test (unadjusted). A case whose repetitions are bit-identical (a deterministic SLAM) "
+            f"enters with its exact ratio; crashed cases and those whose baseline failed are left out. 'cannot "
+            f"judge': no outcome of the test could reach alpha with this many cases. The test is exact given the drawn cases; "
+            f"'suite draws' is the number of independent (run, suite) draws they come from.")
+
+
+def campaign_verdict_line(row) -> str:
+    """One sentence of the summary: a fault's campaign-level verdict with its effect and test."""
+    head = verdict_text(row.verdict, row.p_min)
+    if not row.n_tested:
+        return f"campaign level: {head} (no case with a paired error)"
+    interval = (f" [{_factor(row.ratio_low)}, {_factor(row.ratio_high)}]"
+                if math.isfinite(row.ratio_low) and math.isfinite(row.ratio_high) else "")
+    return (f"campaign level: {head}, {row.direction} (error x {_factor(row.ratio)}{interval} over "
+            f"{row.n_tested} cases; exact {row.alternative} sign-flip test over the case means, alpha = "
+            f"{row.alpha:g}, family {row.family}, p = {_p_text(row.p)}, Holm p = {_p_text(row.p_holm)})")
+
+
 def detection_markdown(analysis: Analysis) -> str:
-    """Markdown of the detection rates: k/n, rate, Wilson and Clopper-Pearson intervals."""
+    """Markdown of the detection rates (k/n, rate, Wilson and Clopper-Pearson intervals) and of the
+    campaign-level verdict of every fault."""
     conf = round_mm(100 * (1 - analysis.alpha))
     records = detection_records(analysis)
     body = md_table(records) if len(records) else "(no faulty variants)"
-    return "\n".join(["# Detection rates per suite and fault", "",
-                      f"Confidence level {conf} %. k/n counts the faulty jobs detected among those "
-                      "where both the faulty and the baseline SLAM produced a map; crashes and "
-                      "timeouts of the faulty SLAM are their own outcome classes (counted in their "
-                      "columns, and as detections in the last rate); 'baseline failed' jobs judge "
-                      "nothing.", "", body, ""])
+    lines = ["# Detection rates per suite and fault", "",
+             f"Confidence level {conf} %. k/n counts the faulty jobs detected among those "
+             "where both the faulty and the baseline SLAM produced a map; crashes and "
+             "timeouts of the faulty SLAM are their own outcome classes (counted in their "
+             "columns, and as detections in the last rate); 'baseline failed' jobs judge "
+             "nothing.", "", body, ""]
+    verdicts = campaign_verdict_records(analysis)
+    if len(verdicts):
+        lines += ["## Campaign-level verdict per fault", "", campaign_verdict_note(analysis), "",
+                  md_table(verdicts), ""]
+    return "\n".join(lines)
 
 
 # --------------------------------------------------------------------------- writing

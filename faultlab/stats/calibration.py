@@ -3,7 +3,7 @@
 The A/A control ``baseline_replica`` is the unmodified SLAM with SLAM seeds independent of the
 baseline's, so every case on which the statistical rule flags it is a false alarm.  The case is
 the unit (one verdict per case from its K repetitions; cases are drawn independently), so a rate
-over cases has an exact Clopper-Pearson interval (:func:`scipy.stats.binomtest`, ``proportion_ci``).
+over cases has an exact Clopper-Pearson interval (:func:`faultlab.inference.intervals.clopper_pearson`).
 
 Two rates (:func:`false_alarm_rates`):
 
@@ -37,12 +37,12 @@ from enum import StrEnum
 
 import numpy as np
 import pandas as pd
-from scipy.stats import binomtest
 
 from faultlab.errors import ConfigError
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.vocabulary import DEFAULT_ALPHA, SUITE_ORDER, ordered
 
-__all__ = ["CalibrationStatus", "CalibrationCheck", "CALIBRATION_COLUMNS", "exact_interval", "false_alarm_rates",
+__all__ = ["CalibrationStatus", "CalibrationCheck", "CALIBRATION_COLUMNS", "false_alarm_rates",
            "check_calibration"]
 
 #: Columns of :func:`false_alarm_rates`.
@@ -75,14 +75,6 @@ class CalibrationCheck:
         return self.status in (CalibrationStatus.MISCALIBRATED, CalibrationStatus.NOTHING_JUDGED)
 
 
-def exact_interval(k: int, n: int, *, alpha: float = DEFAULT_ALPHA) -> tuple[float, float]:
-    """Clopper-Pearson ``1 - alpha`` interval of ``k`` successes in ``n`` trials (NaN, NaN for n = 0)."""
-    if n == 0:
-        return math.nan, math.nan
-    ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=1 - alpha, method="exact")
-    return float(ci.low), float(ci.high)
-
-
 def false_alarm_rates(verdicts: pd.DataFrame, *, alpha: float, ci_alpha: float = DEFAULT_ALPHA) -> pd.DataFrame:
     """Per-case and family-wise A/A false-alarm rates of the statistical rule, per suite and ``"all"``.
 
@@ -110,7 +102,7 @@ def false_alarm_rates(verdicts: pd.DataFrame, *, alpha: float, ci_alpha: float =
         for suite in ordered(v["suite"].unique(), SUITE_ORDER) + ["all"]:
             sel = np.ones(len(v), bool) if suite == "all" else (v["suite"] == suite).to_numpy()
             k, n = int(flagged[sel].sum()), int(sel.sum())
-            lo, hi = exact_interval(k, n, alpha=ci_alpha)
+            lo, hi = clopper_pearson(k, n, alpha=ci_alpha)
             rows.append({"scope": scope, "suite": suite, "k": k, "n": n, "rate": k / n if n else math.nan,
                          "cp_low": lo, "cp_high": hi})
     return pd.DataFrame(rows, columns=list(CALIBRATION_COLUMNS))

@@ -9,7 +9,9 @@ Per-case verdict (:func:`rule_verdicts`)
     ``rule = "statistical"``: :func:`faultlab.stats.case_verdicts` (exact paired sign-flip
     test over the K repetitions, two-sided unless the rule's ``direction`` is the paper's
     ``"worse"``), Holm-adjusted within the rule's multiplicity family (:func:`holm_within`);
-    ``detected`` when the adjusted p is at most alpha.  Every row carries the observed
+    ``detected`` when the adjusted p is at most alpha.  A deterministic case (bit-identical
+    repetitions, ``test = "exact"``) is judged by its exact difference and stays out of the
+    Holm family: a difference is a difference.  Every row carries the observed
     ``direction`` (worse / better) and the paired effect with its interval.
     ``rule = "paper"``: the paper's thresholds on each repetition (:func:`faultlab.stats.outcomes`);
     a repetition whose baseline failed is not judged, a crash or timeout of the faulty variant
@@ -48,6 +50,7 @@ from faultlab.errors import ConfigError
 from faultlab.metrics.detection import DetectionRule
 from faultlab.inference.multiplicity import holm
 from faultlab.inference.exact import MAX_EXACT_PAIRS, alternative_of, detectable_shift_factor
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.stats.verdict import Verdict, case_verdicts
 from faultlab.vocabulary import DEFAULT_ALPHA, DEFAULT_POWER, SUITE_ORDER, Outcome, ordered
 
@@ -55,12 +58,14 @@ __all__ = ["CASE_VERDICT_COLUMNS", "CASE_RATE_COLUMNS", "CASE_COMPARISON_COLUMNS
            "PAPER_COMPARISON_COLUMNS", "AGREEMENT_MARGIN", "REPLICA_FALSE_ALARM_COLUMNS", "replica_false_alarms", "detectable_difference", "compare_with_paper",
            "holm_within", "family_key", "gee_suite_test", "rule_verdicts", "case_rates", "compare_suites_by_case"]
 
+#: ``test`` of a case judged by the paper's thresholds on its repetitions (the paper rule).
+THRESHOLDS = "thresholds"
 #: Entropy of the cluster bootstrap's generator.
 BOOTSTRAP_SEED = 20240502
 _BOOTSTRAP_DRAWS = 2000
 
 CASE_VERDICT_COLUMNS: tuple[str, ...] = (
-    "suite", "run", "case", "fault", "rule", "verdict", "reason", "n_reps", "n_judged", "n_detecting", "share",
+    "suite", "run", "case", "fault", "rule", "verdict", "reason", "test", "n_reps", "n_judged", "n_detecting", "share",
     "p", "p_holm", "family", "alternative", "direction", "median_diff_mm", "median_low_mm", "median_high_mm",
     "ratio", "ratio_low", "ratio_high", "mde_mm")
 CASE_RATE_COLUMNS: tuple[str, ...] = (
@@ -126,6 +131,8 @@ def rule_verdicts(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: Detection
     -------
     DataFrame
         :data:`CASE_VERDICT_COLUMNS`: ``verdict`` a :class:`~faultlab.stats.Verdict` value,
+        ``test`` what judged the case (statistical rule: ``"sign-flip"``, ``"exact"`` for a
+        deterministic case, ``""`` where nothing could be tested; paper rule: :data:`THRESHOLDS`),
         ``n_reps`` the faulty repetitions, ``n_judged`` the usable pairs (statistical) or the
         repetitions with a usable baseline (paper), ``n_detecting`` the repetitions that detect
         (paper) or the positive differences (statistical), ``share`` = n_detecting / n_judged,
@@ -158,6 +165,7 @@ def rule_verdicts(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: Detection
                                    Verdict.NOT_DETECTED.value)
         out["verdict"] = verdict
         out["reason"] = stat["reason"].to_numpy(object)
+        out["test"] = stat["test"].to_numpy(object)
         out["n_judged"] = stat["n_pairs"].to_numpy(np.int64)
         out["n_detecting"] = _positive_differences(results, stat, metric)
         out["p"] = p
@@ -180,6 +188,7 @@ def rule_verdicts(results: pd.DataFrame, pairs: pd.DataFrame, *, rule: Detection
         verdict[n_judged == 0] = Verdict.CANNOT_JUDGE.value
         out["verdict"] = verdict
         out["reason"] = np.where(n_judged == 0, "baseline_failed", "").astype(object)
+        out["test"] = THRESHOLDS
         out["n_judged"] = n_judged
         out["n_detecting"] = n_hit
         out["p"] = np.nan
@@ -245,7 +254,7 @@ def case_rates(verdicts: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.Da
         j = _judged(g)
         n, k = len(j), int(j["y"].sum())
         wl, wh = proportion_confint(k, n, alpha=alpha, method="wilson") if n else (math.nan, math.nan)
-        cl, ch = proportion_confint(k, n, alpha=alpha, method="beta") if n else (math.nan, math.nan)
+        cl, ch = clopper_pearson(k, n, alpha=alpha)
         rows.append({"suite": suite, "fault": fault, "rule": g["rule"].iloc[0], "n_cases": len(g),
                      "n_cannot_judge": len(g) - n, "n": n, "k": k, "rate": k / n if n else math.nan,
                      "wilson_low": wl, "wilson_high": wh, "cp_low": cl, "cp_high": ch})

@@ -32,9 +32,10 @@ import warnings
 import numpy as np
 import pandas as pd
 from scipy.stats import ttest_ind
-from statsmodels.stats.proportion import proportion_confint, test_proportions_2indep
+from statsmodels.stats.proportion import test_proportions_2indep
 
 from faultlab.inference.clusters import compare_by_cluster
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.inference.multiplicity import holm
 from faultlab.stats.killmatrix import KillMatrix, case_scores, strong_cases
 from faultlab.vocabulary import DEFAULT_ALPHA
@@ -56,12 +57,13 @@ def aa_halves(runs) -> tuple[np.ndarray, np.ndarray]:
     return runs[0::2], runs[1::2]
 
 
-def aa_controls(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA,
-                timeouts_detect: bool = False) -> pd.DataFrame:
+def aa_controls(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA, timeouts_detect: bool = False,
+                kind: str = "fault") -> pd.DataFrame:
     """Every strategy with at least two runs against itself (see the module docstring): one row per
     comparison with its p value, whether it is a false alarm at ``alpha`` (unadjusted), its Holm
-    p value within the strategy's family of per-fault comparisons (NaN for the means, each a family of
-    one) and whether that family holds a false alarm under Holm."""
+    p value within the strategy's family of per-variant comparisons (NaN for the means, each a family
+    of one) and whether that family holds a false alarm under Holm.  ``kind`` names the variants in
+    the ``comparison`` column (``per fault``, ``mean over the faults``; ``mutant`` for a study of mutants)."""
     variants = list(variants)
     cols = [km.variants.index(v) for v in variants]
     strong = strong_cases(km, 1, alpha=alpha, timeouts_detect=timeouts_detect)[:, cols]
@@ -84,7 +86,7 @@ def aa_controls(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA,
                 warnings.simplefilter("ignore")
                 p = float(test_proportions_2indep(ka, base["n_a"], kb, base["n_b"], method="agresti-caffo",
                                                   compare="diff").pvalue)
-            per_fault.append(base | {"comparison": "per fault", "unit": "case", "variant": v,
+            per_fault.append(base | {"comparison": f"per {kind}", "unit": "case", "variant": v,
                                      "diff": ka / base["n_a"] - kb / base["n_b"], "p": p})
         p_holm = holm(np.array([r["p"] for r in per_fault]), alpha=alpha)[1]
         family = bool((p_holm <= alpha).any())
@@ -94,7 +96,7 @@ def aa_controls(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA,
         p_case = math.nan
         if xa.size > 1 and xb.size > 1 and (np.ptp(xa) > 0 or np.ptp(xb) > 0):
             p_case = float(ttest_ind(xa, xb, equal_var=False).pvalue)
-        rows.append(base | {"comparison": "mean over the faults", "unit": "case", "variant": "",
+        rows.append(base | {"comparison": f"mean over the {kind}s", "unit": "case", "variant": "",
                             "diff": float(xa.mean() - xb.mean()), "p": p_case, "p_holm_family": math.nan,
                             "family_false_alarm": bool(p_case <= alpha)})
         # consecutive runs paired: run 1 - run 2, run 3 - run 4, ...; an odd last run has no partner
@@ -103,7 +105,7 @@ def aa_controls(km: KillMatrix, variants, *, alpha: float = DEFAULT_ALPHA,
         paired = mine & np.isin(run, list(pair))
         by_run = compare_by_cluster(score[paired], arm=np.isin(run[paired], first),
                                     cluster=np.array([pair[r] for r in run[paired]]), alpha=alpha)
-        rows.append(base | {"comparison": "mean over the faults", "unit": "run", "variant": "",
+        rows.append(base | {"comparison": f"mean over the {kind}s", "unit": "run", "variant": "",
                             "diff": by_run.estimate, "p": by_run.p, "p_holm_family": math.nan,
                             "family_false_alarm": bool(by_run.p <= alpha)})
     out = pd.DataFrame(rows, columns=[c for c in CONTROL_COLUMNS if c != "false_alarm"])
@@ -120,12 +122,12 @@ def aa_summary(controls: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA) -> pd.Da
     for (comparison, unit), g in controls.groupby(["comparison", "unit"], sort=False):
         tested = g[np.isfinite(g["p"].to_numpy(float))]
         n, k = len(tested), int(tested["false_alarm"].sum())
-        lo, hi = proportion_confint(k, n, alpha=alpha, method="beta") if n else (math.nan, math.nan)
+        lo, hi = clopper_pearson(k, n, alpha=alpha)
         families = tested.groupby("strategy")["family_false_alarm"].any()
         rows.append({"comparison": comparison, "unit": unit, "comparisons": n, "false_alarms": k,
                      "false_alarm_rate": k / n if n else math.nan, "false_alarm_rate_low": float(lo),
                      "false_alarm_rate_high": float(hi), "families": int(families.size),
                      "families_with_false_alarm": int(families.sum()),
-                     "family_rule": "Holm over the strategy's faults" if comparison == "per fault"
+                     "family_rule": f"Holm over the strategy's {comparison[4:]}s" if comparison.startswith("per ")
                      else "one comparison per strategy"})
     return pd.DataFrame(rows, columns=list(CONTROL_SUMMARY_COLUMNS))

@@ -87,7 +87,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm, ttest_ind
 from statsmodels.stats.contingency_tables import mcnemar
-from statsmodels.stats.proportion import confint_proportions_2indep, proportion_confint, test_proportions_2indep
+from statsmodels.stats.proportion import confint_proportions_2indep, test_proportions_2indep
 
 from faultlab.config import Table
 from faultlab.errors import ConfigError, ResultsError
@@ -101,6 +101,7 @@ from faultlab.stats.pooling import pooled_pvalues, suite_decisions
 from faultlab.inference.sequential import Look
 from faultlab.inference.clusters import compare_by_cluster
 from faultlab.inference.exact import MAX_EXACT_PAIRS
+from faultlab.inference.intervals import clopper_pearson
 from faultlab.stats.verdict import TOO_FEW_PAIRS, Verdict, case_verdicts
 from faultlab.vocabulary import (BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, MDD_COLUMN, SUITE_ORDER,
                                  JobStatus, ordered)
@@ -537,8 +538,7 @@ def exact_detection_interval(h, n_pool: int, n: int, *, alpha: float = DEFAULT_A
     valid (conservative) bound, and the interval keeps its width in every table.
     """
     h = np.atleast_1d(np.asarray(h, dtype=np.int64))
-    lo = np.array([proportion_confint(int(k), n_pool, alpha=alpha, method="beta")[0] for k in h], dtype=float)
-    hi = np.array([proportion_confint(int(k), n_pool, alpha=alpha, method="beta")[1] for k in h], dtype=float)
+    lo, hi = clopper_pearson(h, n_pool, alpha=alpha)
     low = -np.expm1(n * np.log1p(-lo))
     return np.minimum(low, 1.0 - 10.0 ** -SIGNIFICANT_DIGITS), 1.0 - (1.0 - hi) ** n
 
@@ -617,7 +617,7 @@ def score_table(ev: SuiteDraws) -> pd.DataFrame:
         score, _, boot = _scores(ev, strategy, n)
         lo, hi = _ci(boot)
         if not hi > lo:  # every replicate agrees: floor by the exact interval over the sampled mutants
-            lo, hi = proportion_confint(int(round(score * len(ev.mutants))), len(ev.mutants), method="beta")
+            lo, hi = clopper_pearson(int(round(score * len(ev.mutants))), len(ev.mutants))
         rows.append({"strategy": strategy, "size": n, "pool": ev.pool_sizes[strategy], "mutants": len(ev.mutants),
                      "score": score, "ci_low": float(lo), "ci_high": float(hi),
                      "se_boot": float(boot.std(ddof=1)) if boot.size > 1 else math.nan,
@@ -983,19 +983,17 @@ def whole_suite_table(whole: pd.DataFrame, *, mutants=(), alpha: float = DEFAULT
     """Per (strategy, variant): share of the whole suites that detect, with its exact interval.
 
     The unit is the independently generated suite (one per evaluation run), so the interval is
-    Clopper-Pearson over suites (statsmodels ``proportion_confint(method="beta")``, level
+    Clopper-Pearson over suites (:func:`~faultlab.inference.intervals.clopper_pearson`, level
     ``1 - alpha``).  With ``mutants``, a row ``variant = "mutation score"`` per strategy gives the
     mean over suites of the share of ``mutants`` each kills (``detected`` = mutants killed over
     all suites, ``range_min``/``range_max`` = the lowest and highest score of one suite: a range, not
     an interval, so ``ci_low``/``ci_high`` are blank there; the range columns are blank on detection
     rows).  ``size`` is the suites' mean number of cases.
     """
-    from statsmodels.stats.proportion import proportion_confint
-
     rows = []
     for (strategy, variant), g in whole.groupby(["strategy", "variant"], sort=False):
         k, n = int(g["detected"].sum()), len(g)
-        lo, hi = proportion_confint(k, n, alpha=alpha, method="beta")
+        lo, hi = clopper_pearson(k, n, alpha=alpha)
         rows.append({"strategy": strategy, "variant": variant, "size": float(g["size"].mean()), "suites": n,
                      "detected": k, "rate": k / n, "ci_low": float(lo), "ci_high": float(hi),
                      "range_min": math.nan, "range_max": math.nan, "rate_paper": float(g["paper"].mean())})

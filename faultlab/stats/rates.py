@@ -29,7 +29,7 @@ from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.errors import ConfigError
 from faultlab.stats.detection import DetectionRule, _check_columns, detects, outcomes, pair_with_baseline
-from faultlab.inference.intervals import clustered_rate
+from faultlab.inference.intervals import clopper_pearson, clustered_rate
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, PAPER_FAULTS, SUITE_ORDER, Outcome, ordered
 
 __all__ = ["proportion_ci", "detection_rates", "tabulate_rates", "by_suite", "tabulate_by_suite",
@@ -111,7 +111,10 @@ def proportion_ci(k, n, *, alpha: float = DEFAULT_ALPHA, method: str = "wilson")
     high = np.full(k.shape, np.nan)
     ok = n > 0
     if np.any(ok):
-        lo, hi = proportion_confint(k[ok], n[ok], alpha=alpha, method=_CI_METHODS[method])
+        if method == "cp":
+            lo, hi = clopper_pearson(k[ok], n[ok], alpha=alpha)
+        else:
+            lo, hi = proportion_confint(k[ok], n[ok], alpha=alpha, method=_CI_METHODS[method])
         low[ok], high[ok] = lo, hi
     return low, high
 

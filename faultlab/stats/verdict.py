@@ -77,7 +77,21 @@ A repetition of a variant is *usable* when its job finished ``ok`` with a finite
     no usable map) in at least one: a failure of the faulty variant alone is an observable
     failure, so it **counts as a detection**.
 ``detected`` / ``not_detected``
-    Otherwise the exact test above decides (p <= alpha).
+    Otherwise the exact test above decides (p <= alpha) -- or, on a deterministic case, the
+    exact difference (below).
+
+Deterministic cases: judged exactly
+-----------------------------------
+A deterministic SLAM (EKF-SLAM, iSAM2, dead reckoning) gives the same map whatever the seed, so
+its K repetitions of a case are copies of one execution: a test over them would count one
+observation K times (a sign-flip p of ``2^-(K-1)`` from ten copies of one difference).  A case
+whose baseline and variant each gave bit-identical errors in every one of at least two
+repetitions is judged by its difference instead (``test = "exact"``): ``detected`` when the
+variant's error differs from the baseline's at all, ``not_detected`` when it is the same; no p
+value, no interval (the difference is known, not estimated), and any shift would have been
+detected (``mde_mm = 0``).  The other cases are judged by the sign-flip test
+(``test = "sign-flip"``).  Evidence over a deterministic SLAM's cases takes the cases as the unit
+(:mod:`faultlab.stats.pooling`), never its repetitions.
 
 No multiplicity correction is applied: each (case, fault) is one test with false-positive rate
 at most ``alpha``, which is what a detection *rate* over cases needs.
@@ -125,12 +139,16 @@ from faultlab.inference.intervals import median_interval
 from faultlab.runner.store import usable_rows
 from faultlab.vocabulary import BASELINE, DEFAULT_ALPHA, DEFAULT_DIRECTION, DEFAULT_POWER, METRICS, Change, JobStatus
 
-__all__ = ["Verdict", "TOO_FEW_PAIRS", "EQUIVALENCE_MARGIN_REL", "EQUIVALENCE_MARGIN_MM", "case_verdicts"]
+__all__ = ["Verdict", "TOO_FEW_PAIRS", "SIGN_FLIP", "EXACT", "EQUIVALENCE_MARGIN_REL", "EQUIVALENCE_MARGIN_MM", "case_verdicts"]
 
 #: ``reason`` of a ``cannot_judge`` verdict whose usable pairs are fewer than :func:`min_pairs`.
 TOO_FEW_PAIRS = "too_few_pairs"
+#: ``test`` of a case judged by the exact sign-flip test over its K repetitions.
+SIGN_FLIP = "sign-flip"
+#: ``test`` of a deterministic case judged by its exact difference (no test over repetitions).
+EXACT = "exact"
 
-_COLUMNS = ["suite", "run", "case", "fault", "verdict", "reason", "detected", "alternative", "direction", "n_reps",
+_COLUMNS = ["suite", "run", "case", "fault", "verdict", "reason", "test", "detected", "alternative", "direction", "n_reps",
             "n_failed", "n_pairs", "mean_diff_mm", "mean_log_ratio", "median_diff_mm", "median_low_mm",
             "median_high_mm", "ratio",
             "ratio_low", "ratio_high", "ci_coverage", "p", "p_min", "baseline_sd_mm", "mde_mm", "identical",
@@ -192,8 +210,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     DataFrame
         One row per (suite, run, case, fault), sorted by those: ``verdict`` (:class:`Verdict`
         value), ``reason`` (``"baseline_failed"`` / ``"too_few_pairs"`` for ``cannot_judge``,
-        else ""), ``detected`` (nullable boolean: True for detected and crash_detected, False
-        for not_detected, NA for cannot_judge), ``alternative`` (the test's: ``two-sided`` or
+        else ""), ``test`` (:data:`SIGN_FLIP`, :data:`EXACT` for a deterministic case judged by its
+        difference, "" where nothing was tested), ``detected`` (nullable boolean: True for detected
+        and crash_detected, False for not_detected, NA for cannot_judge), ``alternative`` (the test's: ``two-sided`` or
         ``greater``), ``direction`` (:class:`~faultlab.vocabulary.Change` value: the sign of the
         mean difference over the usable pairs, ``none`` when it is 0 or there is none),
         ``n_reps`` (faulty jobs), ``n_failed`` (faulty jobs without a usable error),
@@ -257,7 +276,8 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     if faulty.empty:
         return pd.DataFrame(columns=_COLUMNS)
     base_stats = base.groupby(case_key).agg(base_all_ok=("usable", "all"), baseline_sd_mm=(col, "std"),
-                                            baseline_median_mm=(col, "median"), n_base=("usable", "size"))
+                                            baseline_median_mm=(col, "median"), n_base=("usable", "size"),
+                                            base_min=(col, "min"), base_max=(col, "max"))
     pairs = faulty.merge(base.rename(columns={col: "base_value", "usable": "base_usable"}),
                          on=case_key + ["rep"], how="left")
     pairs["base_usable"] = pairs["base_usable"].astype("boolean").fillna(False).astype(bool)
@@ -273,7 +293,8 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     table = g.agg(n_reps=("usable", "size"), n_usable=("usable", "sum"), all_base_paired=("base_usable", "all"),
                   n_pairs=("pair_ok", "sum"), mean_diff_mm=("diff", "mean"),
                   median_diff_mm=("diff", "median"), max_abs_diff=("abs_diff", "max"),
-                  mean_log_ratio=("log_ratio", "mean")).reset_index()
+                  mean_log_ratio=("log_ratio", "mean"), faulty_min=(col, "min"),
+                  faulty_max=(col, "max")).reset_index()
     table["n_failed"] = table["n_reps"] - table["n_usable"]
     table = table.merge(base_stats.reset_index(), on=case_key, how="left")
     base_ok = (table["base_all_ok"].astype("boolean").fillna(False).to_numpy(bool)
@@ -284,8 +305,13 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     verdict = np.full(len(table), Verdict.NOT_DETECTED.value, dtype=object)
     reason = np.full(len(table), "", dtype=object)
     crashed = base_ok & (n_failed > 0)
-    too_few = base_ok & ~crashed & (n_pairs < gate)
-    tested = base_ok & ~crashed & ~too_few
+    # a deterministic case: every repetition of the baseline and of the variant gave the same error, bit for
+    # bit (two or more of each), so its K repetitions are copies of one execution: judged by the difference
+    exact = (base_ok & ~crashed & (n_pairs >= 2) & (n_pairs == table["n_reps"].to_numpy(np.int64))
+             & (table["base_min"].to_numpy(float) == table["base_max"].to_numpy(float))
+             & (table["faulty_min"].to_numpy(float) == table["faulty_max"].to_numpy(float)))
+    too_few = base_ok & ~crashed & ~exact & (n_pairs < gate)
+    tested = base_ok & ~crashed & ~too_few & ~exact
     verdict[crashed] = Verdict.CRASH_DETECTED.value
     verdict[too_few] = Verdict.CANNOT_JUDGE.value
     reason[too_few] = TOO_FEW_PAIRS
@@ -334,6 +360,11 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
                                                       sign_flip_pvalues(mat - delta, alternative="less"))
         hit = tested & (p <= alpha)
         verdict[hit] = Verdict.DETECTED.value
+    mean_diff = table["mean_diff_mm"].to_numpy(float)
+    verdict[exact & (mean_diff != 0)] = Verdict.DETECTED.value
+    with np.errstate(divide="ignore", invalid="ignore"):
+        exact_ratio = table["faulty_min"].to_numpy(float) / table["base_min"].to_numpy(float)
+    eff["ratio"][exact] = exact_ratio[exact]
 
     detected = pd.array(np.isin(verdict, [Verdict.DETECTED.value, Verdict.CRASH_DETECTED.value]), dtype="boolean")
     detected[verdict == Verdict.CANNOT_JUDGE.value] = pd.NA
@@ -348,9 +379,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     out = table[key].copy()
     out["verdict"] = verdict
     out["reason"] = reason
+    out["test"] = np.where(exact, EXACT, np.where(tested, SIGN_FLIP, "")).astype(object)
     out["detected"] = detected
     out["alternative"] = alternative
-    mean_diff = table["mean_diff_mm"].to_numpy(float)
     out["direction"] = np.where(mean_diff > 0, Change.WORSE.value,
                                 np.where(mean_diff < 0, Change.BETTER.value, Change.NONE.value)).astype(object)
     out["n_reps"] = table["n_reps"].to_numpy(np.int64)
@@ -362,9 +393,9 @@ def case_verdicts(results: pd.DataFrame, *, alpha: float = DEFAULT_ALPHA, metric
     for name, values in eff.items():
         out[name] = values
     out["p"] = p
-    out["p_min"] = min_p_value(n_pairs, alternative=alternative)
+    out["p_min"] = np.where(exact, np.nan, min_p_value(n_pairs, alternative=alternative))
     out["baseline_sd_mm"] = np.where(base_ok, sd, np.nan)
-    out["mde_mm"] = mde
+    out["mde_mm"] = np.where(exact, 0.0, mde)  # a deterministic case: any change of the error shows
     out["identical"] = (base_ok & (n_failed == 0) & (n_pairs == table["n_reps"].to_numpy(np.int64)) & (n_pairs > 0)
                         & (table["max_abs_diff"].to_numpy(float) == 0))
     out["margin_mm"] = np.where(base_ok, margin, np.nan)

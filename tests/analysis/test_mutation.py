@@ -6,16 +6,9 @@ import pandas as pd
 import pytest
 from scipy.stats import beta, binomtest
 
-from faultlab.analysis.mutation import (OBSERVED_EQUIVALENT, clopper_pearson, compare_suites, mutant_outcomes,
-                                        mutation_scores)
+from faultlab.analysis.mutation import OBSERVED_EQUIVALENT, compare_suites, mutant_outcomes, mutation_scores
+from faultlab.inference.intervals import clopper_pearson
 from tests.stats.synthetic import paired_frame
-
-
-def test_clopper_pearson_matches_the_beta_quantiles():
-    for k, n in [(0, 10), (3, 10), (10, 10), (57, 150)]:
-        lo, hi = clopper_pearson(k, n)
-        assert lo == pytest.approx(0.0 if k == 0 else beta.ppf(0.025, k, n - k + 1), abs=1e-12)
-        assert hi == pytest.approx(1.0 if k == n else beta.ppf(0.975, k + 1, n - k), abs=1e-12)
 
 
 def _outcomes(table: dict) -> pd.DataFrame:

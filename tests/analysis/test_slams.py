@@ -69,3 +69,26 @@ def test_the_tables_hold_each_slams_figures(stores):
     flagged = int(((f > b + 250) & (f >= 1.25 * b)).sum())
     assert sens.loc[("fs1u", "motion_sign_error"), "rep_k"] == flagged
     assert sens.loc[("fs1u", "motion_sign_error"), "rep_n"] == 4
+
+
+def test_a_deterministic_slam_is_judged_exactly_and_its_cases_are_the_unit(stores, tmp_path):
+    """EKF-SLAM gives the same map for every seed: under the statistical rule its K = 2 repetitions (too few
+    for the sign-flip test) are copies of one execution, so each case is judged by its exact difference,
+    while FastSLAM's K = 2 cannot be judged."""
+    rule = {"rule": "statistical", "alpha": 0.05, "family": "fault"}
+    for label, slam in {"ekf": {"name": "ekf"}, "fs1": {"name": "fastslam", "particles": 8}}.items():
+        exp = parse_experiment({"seed": 3, "suites": {"fixed": 2}, "n_steps": 40, "repetitions": 2,
+                                "variants": ["baseline", "motion_sign_error"], "slam": slam, "detection": rule},
+                               source=label)
+        run_experiment(exp, tmp_path / label, jobs=1, progress=False)
+    c = compare_slams({"ekf": tmp_path / "ekf", "fs1": tmp_path / "fs1"})
+    sens = c.sensitivity.set_index(["slam", "fault"])
+    ekf = sens.loc[("ekf", "motion_sign_error")]
+    assert ekf["n_exact"] == ekf["n"] == 2 and ekf["n_cannot_judge"] == 0
+    res = load_results(tmp_path / "ekf")
+    faulty = res[res.variant == "motion_sign_error"].pivot(index="case", columns="rep", values="rms_mm")
+    b = res[res.variant == "baseline"].pivot(index="case", columns="rep", values="rms_mm")
+    assert (faulty[0] == faulty[1]).all() and (b[0] == b[1]).all()  # the determinism is real
+    assert ekf["k"] == int((faulty[0] != b[0]).sum()) == 2
+    fs1 = sens.loc[("fs1", "motion_sign_error")]
+    assert fs1["n_exact"] == 0 and fs1["n_cannot_judge"] == 2  # K = 2 cannot reach alpha by the test

@@ -46,7 +46,10 @@ def test_worse_maps_are_a_regression_better_ones_not_equivalent(tmp_path):
     assert _report(tmp_path / "a")["pooled"]["verdict"] == "regression"
     assert _compare(tmp_path / "b", "dead_reckoning", "ekf", "--cases", "10") == 0
     # resumed from the records: the same verdict, now gated on equivalence
-    assert _compare(tmp_path / "b", "dead_reckoning", "ekf", "--cases", "10", "--require-equivalence") == 3
+    assert _compare(tmp_path / "b", "dead_reckoning", "ekf", "--cases", "10", "--require-equivalence",
+                    "--html") == 3
+    html = (tmp_path / "b" / "out" / "report" / "html" / "index.html").read_text()
+    assert 'id="table-cases"' in html and "improvement" in html
     assert _report(tmp_path / "b")["pooled"]["verdict"] == "improvement"
     md = (tmp_path / "b" / "out" / "report" / "compare.md").read_text()
     assert "improvement" in md and "δ = ±10 %" in md and "alpha = 0.05" in md
@@ -73,3 +76,12 @@ def test_a_recorded_baseline_is_reused_from_another_directory(tmp_path):
     case = next((store / "cases").glob("*.json"))
     case.write_text(case.read_text().replace('"errors_mm": [', '"errors_mm": [1.0, '))
     assert _compare(tmp_path / "c", str(store), "ekf") == 2
+
+
+def test_two_process_slams_a_fix_and_its_bug(tmp_path):
+    program = TESTS / "oracles" / "blackbox_process.py"
+    fixed = f"{sys.executable} {program}"
+    buggy = f"{fixed} --bug turn_first"
+    assert _compare(tmp_path, "--baseline-command", fixed, "--candidate-command", buggy, "--cases", "8") == 1
+    rep = _report(tmp_path)
+    assert rep["baseline"].endswith("blackbox_process.py") and rep["pooled"]["verdict"] == "regression"

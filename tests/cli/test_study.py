@@ -248,7 +248,9 @@ def test_study_plan_refuses_a_missing_cost_store(tmp_path, capsys):
     ("study-large", "study-large", ["--seconds-per-execution", "0.016"]),
     ("study-large-faults", "study-large-faults", ["--seconds-per-execution", "0.016"]),
     # the mutant half's (its README): 1695 s wall x 2 workers for 471,540 executions
-    ("study-large-mutants", "study-large-mutants", ["--seconds-per-execution", "0.0072"])])
+    ("study-large-mutants", "study-large-mutants", ["--seconds-per-execution", "0.0072"]),
+    # a deterministic third-party SLAM judged exactly (K = 1), its cost from its own committed store
+    ("mutation-rtb", "mutation-rtb", ["--cost-store", "reports/mutation-rtb/store"])])
 def test_the_committed_plan_is_what_the_verb_renders(study, folder, cost, tmp_path, capsys):
     from pathlib import Path
 

@@ -21,7 +21,7 @@ REPO = Path(__file__).resolve().parents[2]
 PACKAGE_DATA = REPO / "faultlab" / "data"
 #: The repository's top-level folders and the package folders they link into.
 LINKED = {"experiments": PACKAGE_DATA / "experiments", "paper_repro": PACKAGE_DATA / "paper"}
-SHIPPED = ("effects", "mutation-paper", "mutation-user", "mutation", "paper-k10", "paper", "robustness", "slams", "smoke", "space_table1",
+SHIPPED = ("effects", "mutation-paper", "mutation-rtb", "mutation-user", "mutation", "paper-k10", "paper", "robustness", "slams", "smoke", "space_table1",
            "study-confirm", "study-k", "study-large-faults", "study-large-mutants", "study-large", "study-medium", "study")  # sorted by file name: "-" < "."
 _LISTED = re.escape(", ".join(SHIPPED))  # as an error message lists them
 

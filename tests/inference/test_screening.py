@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from faultlab.errors import ResultsError
@@ -11,6 +12,11 @@ from faultlab.space import table1_space
 from faultlab.space.design import morris_design, sobol_design
 
 PLANTED = ("map_size", "bias")
+
+
+def _table(indices) -> pd.DataFrame:
+    """The indices as the table a caller builds from them."""
+    return pd.DataFrame(indices.as_dict())
 
 
 def _planted(unit: np.ndarray, factors, rng: np.random.Generator, noise: float = 0.05) -> np.ndarray:
@@ -23,12 +29,14 @@ def _planted(unit: np.ndarray, factors, rng: np.random.Generator, noise: float =
 def test_morris_ranks_the_planted_parameters_first():
     d = morris_design(table1_space(), rng=np.random.default_rng(1), trajectories=20)
     y = _planted(d.unit, d.factors, np.random.default_rng(2))
-    t = morris_indices(d.unit, y, factors=d.factors, levels=d.levels, seed=3)
+    indices = morris_indices(d.unit, y, factors=d.factors, levels=d.levels, seed=3)
+    t = _table(indices)
     assert set(t["parameter"].head(2)) == set(PLANTED)
     # an inert parameter's mu* is the noise's: far below the planted ones
     assert t["mu_star"].iloc[2] < 0.2 * t["mu_star"].iloc[1]
     assert (t["mu_star_low"] <= t["mu_star"]).all() and (t["mu_star"] <= t["mu_star_high"]).all()
-    assert screen([t], keep=2) == ("map_size", "bias")
+    assert screen([indices], keep=2) == ("map_size", "bias")
+    assert list(t["rank"]) == list(range(1, len(d.factors) + 1)) and t["mu_star"].is_monotonic_decreasing
 
 
 def test_morris_mu_star_matches_the_textbook_elementary_effects():
@@ -36,7 +44,7 @@ def test_morris_mu_star_matches_the_textbook_elementary_effects():
     d = morris_design(table1_space(), rng=np.random.default_rng(4), trajectories=6)
     slopes = np.arange(len(d.factors), dtype=float) - 5.0
     y = d.unit @ slopes
-    t = morris_indices(d.unit, y, factors=d.factors, levels=d.levels, seed=1).set_index("parameter")
+    t = _table(morris_indices(d.unit, y, factors=d.factors, levels=d.levels, seed=1)).set_index("parameter")
     np.testing.assert_allclose(t.loc[list(d.factors), "mu_star"], np.abs(slopes), atol=1e-9)
     np.testing.assert_allclose(t.loc[list(d.factors), "sigma"], 0.0, atol=1e-9)
 
@@ -44,7 +52,7 @@ def test_morris_mu_star_matches_the_textbook_elementary_effects():
 def test_a_factor_whose_elementary_effects_are_all_zero_gets_no_interval():
     d = morris_design(table1_space(), rng=np.random.default_rng(4), trajectories=6)
     slopes = np.arange(len(d.factors), dtype=float) - 5.0  # factor 5 has no effect at all
-    t = morris_indices(d.unit, d.unit @ slopes, factors=d.factors, levels=d.levels, seed=1).set_index("parameter")
+    t = _table(morris_indices(d.unit, d.unit @ slopes, factors=d.factors, levels=d.levels, seed=1)).set_index("parameter")
     inert = d.factors[5]
     assert t.loc[inert, "mu_star"] == 0 and np.isnan(t.loc[inert, "mu_star_low"]) and np.isnan(t.loc[inert, "mu_star_high"])
     others = t.drop(index=inert)
@@ -54,7 +62,7 @@ def test_a_factor_whose_elementary_effects_are_all_zero_gets_no_interval():
 def test_sobol_ranks_the_planted_parameters_and_clears_the_others():
     d = sobol_design(table1_space(), rng=np.random.default_rng(5), base=512)
     y = _planted(d.unit, d.factors, np.random.default_rng(6))
-    t = sobol_indices(y, factors=d.factors, seed=7, noise_var=0.05 ** 2)
+    t = _table(sobol_indices(y, factors=d.factors, seed=7, noise_var=0.05 ** 2))
     assert set(t["parameter"].head(2)) == set(PLANTED)
     rest = t.iloc[2:]
     assert (rest["ST_low"] <= 0.0).all() and (rest["ST_high"] >= 0.0).all()
@@ -69,7 +77,7 @@ def test_sobol_ranks_the_planted_parameters_and_clears_the_others():
 def test_without_the_noise_correction_every_total_index_carries_the_noise_share():
     d = sobol_design(table1_space(), rng=np.random.default_rng(5), base=512)
     y = _planted(d.unit, d.factors, np.random.default_rng(6), noise=0.3)
-    raw = sobol_indices(y, factors=d.factors, seed=7).iloc[2:]
+    raw = _table(sobol_indices(y, factors=d.factors, seed=7)).iloc[2:]
     share = 0.3 ** 2 / np.var(y, ddof=1)
     assert ((raw["ST_low"] <= share + 0.005) & (share - 0.005 <= raw["ST_high"])).all()
     assert (raw["ST_low"] > 0).all()
@@ -99,3 +107,18 @@ def test_noise_floor_is_the_noise_share_of_the_variance():
     v = rng.normal(0, 2.0, 5000)
     assert noise_floor(v, np.full(v.size, 1.0)) == pytest.approx(0.25, rel=0.05)
     assert np.isnan(noise_floor(v, np.full(v.size, np.nan)))
+
+
+def test_indices_are_arrays_ranked_like_a_stable_descending_sort_with_nan_last():
+    from faultlab.inference.screening import MORRIS_COLUMNS, _ranked
+
+    got = _ranked({"parameter": np.array(list("abcde"), dtype=object),
+                   "mu_star": np.array([1.0, np.nan, 3.0, 1.0, 0.0])}, "mu_star")
+    # the reference: pandas' stable descending sort
+    ref = pd.DataFrame({"parameter": list("abcde"), "mu_star": [1.0, np.nan, 3.0, 1.0, 0.0]}).sort_values(
+        "mu_star", ascending=False, kind="mergesort")
+    assert list(got["parameter"]) == list(ref["parameter"]) == ["c", "a", "d", "e", "b"]
+    assert list(got["rank"]) == [1, 2, 3, 4, 5]
+    d = morris_design(table1_space(), rng=np.random.default_rng(1), trajectories=4)
+    idx = morris_indices(d.unit, d.unit[:, 0], factors=d.factors, levels=d.levels, seed=3)
+    assert idx.columns == MORRIS_COLUMNS and all(isinstance(v, np.ndarray) for v in idx.as_dict().values())

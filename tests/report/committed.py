@@ -87,6 +87,7 @@ STUDY_REPORTS = [
     ("mutation", "store", _render_mutation, False),
     ("mutation-paper", "store", _render_mutation, False),
     ("mutation-user", "store", _render_mutation, False),
+    ("mutation-rtb", "store", _render_mutation, False),
     ("slams", "store", _render_slams, True),
     ("robustness", "store", _render_robustness, True),
     ("study-k", "store", _render_allocation, False),

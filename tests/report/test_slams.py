@@ -16,5 +16,7 @@ def test_the_report_renders_every_number_of_the_comparison(stores, tmp_path):  #
     for r in c.accuracy.itertuples():
         assert f"| {r.slam} | {r.association} | {r.metric.upper()} | {r.n_cases} | {r.n_jobs} | " in page
     for r in c.sensitivity.itertuples():
-        assert f"| {r.slam} | {r.fault} | {r.metric.upper()} | {r.k}/{r.n} |" in page
+        assert f"| {r.slam} | {r.fault} | {r.metric.upper()} | paper's thresholds | {r.k}/{r.n} |" in page
+        # two cases: no outcome of the two-sided campaign-level test reaches alpha (2^-1), and the page says so
+        assert r.effect_verdict == "cannot_judge" and "| cannot judge (smallest attainable p = 0.5) |" in page
     assert np.isfinite(c.accuracy.mean_mm).all()

@@ -2,6 +2,8 @@
 
 import json
 import math
+import re
+import time
 from pathlib import Path
 
 import jsonschema
@@ -15,6 +17,7 @@ from faultlab.mutation.sourceselect import mutant_records
 from faultlab.mutation.target import generate_source_mutants, parse_target
 from faultlab.report.stryker import stryker_report
 from tests.mutation.usercode import MODULE, user_package  # noqa: F401  (fixture)
+from tests.report.html.test_browser import assert_clean, browser  # noqa: F401  (fixture)
 
 SCHEMA = json.loads((Path(__file__).parent / "data" / "mutation-testing-report-schema.json").read_text())
 
@@ -58,3 +61,44 @@ def test_the_report_validates_and_maps_every_class(user_package):
 def test_a_report_missing_a_required_field_is_rejected_by_the_schema():
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate({"schemaVersion": "2", "files": {}}, SCHEMA)  # no thresholds
+
+
+VIEWER = Path(__file__).parent / "data" / "mutation-testing-elements" / "mutation-test-elements.js"
+REPO = Path(__file__).resolve().parents[2]
+#: The viewer's metrics row of all files: two scores, then Killed, Survived, Timeout, No coverage, Ignored,
+#: Runtime errors, Compile errors, Detected, Undetected, Total.
+_ROW = re.compile(r"All files (?:[\d.]+|n/a) (?:[\d.]+|n/a)" + r" (\d+)" * 10)
+_COUNTED = ("Killed", "Survived", "Timeout", "NoCoverage", "Ignored", "RuntimeError", "CompileError")
+
+
+def _viewer_counts(browser, report: dict, tmp_path) -> list[int]:
+    """The counts the viewer's summary table shows for ``report`` (the app's shadow DOM, as text)."""
+    page = tmp_path / "viewer.html"
+    data = json.dumps(report).replace("</", "<\\/")
+    page.write_text(f'<!doctype html><html><head><meta charset="utf-8"><script src="{VIEWER.as_uri()}"></script>'
+                    f'</head><body><mutation-test-report-app titlePostfix="faultlab"></mutation-test-report-app>'
+                    f'<script>document.querySelector("mutation-test-report-app").report = {data};</script>'
+                    f'</body></html>')
+    browser.get(page.as_uri())
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        text = " ".join(browser.execute_script("""
+            const walk = n => (n.shadowRoot ? walk(n.shadowRoot) : '') + [...n.childNodes].map(
+                c => c.nodeType === 3 ? c.textContent + ' ' : walk(c)).join('');
+            return walk(document.body);""").split())
+        found = _ROW.search(text)
+        if found:
+            return [int(x) for x in found.groups()]
+        time.sleep(0.2)
+    raise AssertionError(f"the viewer showed no summary: {text[:500]}")
+
+
+@pytest.mark.parametrize("folder", ["mutation-user", "mutation-rtb"])
+def test_the_committed_report_opens_in_strykers_viewer_with_every_mutant(folder, browser, tmp_path):
+    report = json.loads((REPO / "reports" / folder / "mutation-report.json").read_text())
+    mutants = [m for f in report["files"].values() for m in f["mutants"]]
+    counts = _viewer_counts(browser, report, tmp_path)
+    status = [m["status"] for m in mutants]
+    assert counts[:7] == [status.count(s) for s in _COUNTED]
+    assert counts[9] == len(mutants)  # Total
+    assert_clean(browser)

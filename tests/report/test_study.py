@@ -102,3 +102,17 @@ def test_markdown_shows_the_fault_comparisons_the_analysis_holds(tmp_path):
     b = StudyAnalysis.load(replace(a, detection_comparisons=per_fault, detection_means=means).save(tmp_path))
     pd.testing.assert_frame_equal(b.detection_means, means, check_dtype=False)
     pd.testing.assert_frame_equal(b.detection_comparisons, per_fault, check_dtype=False)
+
+
+def test_the_controls_section_keeps_per_comparison_and_family_rates_apart_and_prints_no_nan():
+    from dataclasses import replace
+
+    from faultlab.stats.controls import CONTROL_SUMMARY_COLUMNS
+
+    summary = pd.DataFrame([["per fault", "case", 85, 2, 2 / 85, 0.0029, 0.0824, 5, 0, "Holm over the strategy's faults"],
+                            ["mean over the faults", "run", 0, 0, float("nan"), float("nan"), float("nan"), 0, 0,
+                             "one comparison per strategy"]], columns=list(CONTROL_SUMMARY_COLUMNS))
+    md = study_markdown(replace(_analysis(), controls_summary=summary))
+    assert "| per fault, case as unit | 2/85 = 2 % (0-8) | 0 of 5 (Holm over the strategy's faults) |" in md
+    assert "| mean over the faults, run as unit | none testable (too few runs, or no spread) | - |" in md
+    assert "nan" not in md.lower().replace("nanosecond", "")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from decimal import ROUND_HALF_UP, Decimal
 
@@ -14,6 +15,7 @@ from statsmodels.stats.proportion import proportion_confint
 
 from faultlab.analysis import Analysis, analyse
 from faultlab.errors import ResultsError
+from faultlab.runner.store import load_results
 from faultlab.report.comparison import compare_with_paper
 from faultlab.report.tables import (
     PAPER,
@@ -274,3 +276,81 @@ def test_the_committed_store_renders_the_committed_tables(tmp_path):
         assert path.read_bytes() == (REPO / "reports" / path.name).read_bytes(), path.name
     comparison = compare_with_paper(analysis).markdown()
     assert comparison == (REPO / "reports" / "comparison.md").read_text(encoding="utf-8")
+
+
+# --------------------------------------------------------------------------- the campaign-level verdict
+
+#: The paper's protocol at reduced scale (one run of three 5-case suites, K = 6, 40 steps, 10 particles) with a
+#: fault written as a user would write it (tests/stats/userfault.py: the particles get half the turn noise).
+USER_FAULT = "tests.stats.userfault:HALVED_TURN_NOISE"
+REDUCED_PAPER = f"""
+description = "paper protocol, reduced: three 5-case suites, K = 6, with a user's fault"
+seed = 20240501
+runs = 1
+n_steps = 40
+sensor_range = 2.0
+variants = ["baseline", "{USER_FAULT}"]
+repetitions = 6
+timeout_s = 120.0
+[suites]
+systematic = 5
+random = 5
+fixed = 5
+[slam]
+name = "fastslam"
+particles = 10
+[detection]
+rule = "statistical"
+alpha = 0.05
+family = "fault"
+[space]
+map_size = {{ classes = {{ small = [4, 9], medium = [9, 25], large = [25, 49] }} }}
+landmark_density = {{ classes = {{ low = [1, 2], medium = [2, 4], high = [4, 6] }} }}
+"""
+
+
+@pytest.mark.slow
+def test_a_users_fault_that_lowers_the_error_is_a_change_in_the_summary_though_no_suite_can_judge_it(tmp_path):
+    """The planted fault lowers the error by about 20 % on most cases: per case nothing reaches Holm's level,
+    every 5-case suite says it cannot judge (with its smallest attainable p), and the campaign-level verdict
+    over the 15 cases is a change, direction better, with its factor, interval, test and level -- in the
+    summary, the Markdown table and the Analysis' table."""
+    from faultlab.report.pages import _detected_lines
+    from faultlab.report.tables import detection_markdown
+    from faultlab.runner import run_experiment
+
+    (tmp_path / "exp.toml").write_text(REDUCED_PAPER)
+    run_experiment(tmp_path / "exp.toml", tmp_path / "out", jobs=1, progress=False)
+    a = analyse(tmp_path / "out", paper=False)
+    cases = a.case_verdicts
+    assert len(cases) == 15 and (cases["verdict"] == "not_detected").all()
+    assert (cases["direction"] == "better").sum() >= 12
+    suites = a.suite_verdicts
+    assert len(suites) == 3 and (suites["verdict"] == "cannot_judge").all()
+    assert (suites["pooled_p_min"] == 2.0 ** -4).all() and (suites["case_p_min"] == 2.0 ** -5).all()
+    row = a.campaign_verdicts.iloc[0]
+    assert row["verdict"] == "detected" and row["direction"] == "better" and row["n_tested"] == 15
+    assert row["ratio_low"] < row["ratio"] < row["ratio_high"] < 1.0 and row["p_holm"] <= 0.05
+    # the independent reference: the case means of log(faulty / baseline), two-sided sign flips enumerated
+    res = load_results(tmp_path / "out")
+    wide = res.pivot_table(index=["suite", "case", "rep"], columns="variant", values="rms_mm")
+    means = np.log(wide[USER_FAULT] / wide["baseline"]).groupby(level=["suite", "case"]).mean().to_numpy()
+    signs = np.array(list(itertools.product((1, -1), repeat=15)))
+    sums = signs @ means
+    p = min(1.0, 2 * min(np.mean(sums >= means.sum() - 1e-12), np.mean(sums <= means.sum() + 1e-12)))
+    assert row["p"] == pytest.approx(p) and row["ratio"] == pytest.approx(math.exp(means.mean()))
+    summary = " ".join(_detected_lines(a))
+    assert "detected on 0 of 15 judged cases" in summary
+    assert (f"campaign level: changed, better (error x {row['ratio']:.3g} [{row['ratio_low']:.3g}, "
+            f"{row['ratio_high']:.3g}] over 15 cases; exact two-sided sign-flip test over the case means, alpha = "
+            f"0.05, family faults") in summary
+    md = detection_markdown(a)
+    assert "## Campaign-level verdict per fault" in md and "| changed | better |" in md
+    suite_page = _suite_verdict_rows(a)
+    assert all(v.startswith("cannot judge (smallest attainable p = ") for v in suite_page)
+
+
+def _suite_verdict_rows(a) -> list[str]:
+    from faultlab.report.tables import verdict_text
+
+    return [verdict_text(v, p) for v, p in zip(a.suite_verdicts["pooled_verdict"], a.suite_verdicts["pooled_p_min"])]

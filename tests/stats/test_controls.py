@@ -73,3 +73,11 @@ def test_under_the_null_the_per_comparison_rate_is_near_alpha():
     c = aa_controls(km, FAULTS)
     assert len(c) == 2 * (3 + 2)
     assert c["false_alarm"].sum() <= 2
+
+
+def test_a_study_of_mutants_controls_its_mutants_under_their_name():
+    km = run_matrix({s: (lambda run, case, j: case % 2 == 0) for s in ("systematic", "random")})
+    c = aa_controls(km, FAULTS, kind="mutant")
+    assert set(c["comparison"]) == {"per mutant", "mean over the mutants"}
+    s = aa_summary(c)
+    assert s.loc[s["comparison"] == "per mutant", "family_rule"].item() == "Holm over the strategy's mutants"
