@@ -68,6 +68,12 @@ def _render_calibration(store: Path, out: Path) -> None:
     write_csv(result.rates, out / "calibration.csv")
 
 
+def _render_study(store: Path, out: Path) -> None:
+    from faultlab.report.study import write_study_report
+
+    write_study_report(store, out)
+
+
 def _render_allocation(store: Path, out: Path) -> None:
     from faultlab.report.allocation import write_allocation_report
 
@@ -91,6 +97,7 @@ STUDY_REPORTS = [
     ("slams", "store", _render_slams, True),
     ("robustness", "store", _render_robustness, True),
     ("study-k", "store", _render_allocation, False),
+    ("study-confirm", "store", _render_study, False),
 ]
 COMMITTED = PAPER_REPORTS + STUDY_REPORTS
 
