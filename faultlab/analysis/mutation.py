@@ -150,7 +150,7 @@ def mutant_outcomes(results: pd.DataFrame, sel: dict, metric: str = "rms", suite
                 margin = pd.to_numeric(mv["margin_mm"], errors="coerce")
                 note = (f"equivalent within +-{margin.min():.0f}-{margin.max():.0f} mm on every case (TOST, "
                         f"p <= {base['max_p_equivalence']:.2g})" if equivalent else
-                        f"no difference shown; " + (f"smallest detectable shift {base['min_mde_mm']:.0f} mm ({POWER_TEXT} power)"
+                        "no difference shown; " + (f"smallest detectable shift {base['min_mde_mm']:.0f} mm ({POWER_TEXT} power)"
                                                     if math.isfinite(base["min_mde_mm"]) else
                                                     "no case's pairs could detect any shift"))
                 rows.append(base | dict(outcome=MutantOutcome.SURVIVED.value, killing_case=0,

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from faultlab.campaigns.slams import SUTS, SlamsRun, slam_experiments
+from faultlab.campaigns.slams import SlamsRun, slam_experiments
 from faultlab.config import ExperimentOverrides
 from faultlab.errors import ConfigError
 from faultlab.runner import results_path, run_experiment

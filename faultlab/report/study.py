@@ -125,7 +125,7 @@ def _comparisons_md(analysis: StudyAnalysis) -> pd.DataFrame:
                                        for d in c[MDD_COLUMN]],
         "only a / only b (mean)": [f"{a:.1f} / {b:.1f}" for a, b in zip(c["only_a"], c["only_b"])],
         "McNemar p (median)": [_p(p) for p in c["mcnemar_p_median"]],
-        "drawn pairs with McNemar p <= 0.05": [_pct(x) for x in c["mcnemar_share_sig"]]})
+        f"drawn pairs with McNemar p <= {analysis.meta['study']['alpha']}": [_pct(x) for x in c["mcnemar_share_sig"]]})
 
 
 def _detection_comparisons_md(c: pd.DataFrame) -> pd.DataFrame:
@@ -442,7 +442,7 @@ def study_markdown(analysis: StudyAnalysis) -> str:
            f"Suites drawn per strategy and size: {st['draws']}; bootstrap replicates: {st['bootstrap']}; pool sizes: "
            + ", ".join(f"{s} {n}" for s, n in pool_sizes.items()) + ". "
            f"A size-1 detection probability is the share of a pool's cases that detect; with these pools a two-sample "
-           f"test at 0.05 detects with {POWER_TEXT} power a difference between two strategies of about "
+           f"test at {st['alpha']} detects with {POWER_TEXT} power a difference between two strategies of about "
            f"{100 * p[f'{MDD_COLUMN}_at_0.5'].max():.0f} pp around 50 % and "
            f"{100 * p[f'{MDD_COLUMN}_at_0.1'].max():.0f} pp around 10 %. "
            + _mdd_text(analysis.comparisons), "",
