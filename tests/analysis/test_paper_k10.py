@@ -30,7 +30,7 @@ def test_paper_k10_in_tiny_form_judges_cases_by_the_statistical_rule(tmp_path):
     assert a.rule.rule == "statistical" and a.rule.family == "fault"
     v = a.case_verdicts
     assert set(v["fault"]) == {REPLICA, "motion_sign_error"} and (v["rule"] == "statistical").all()
-    assert len(v) == 2 * 7 and (v["n_reps"] == 7).all()
+    assert len(v) == 2 * 2 and (v["n_reps"] == 7).all()  # two variants on the two cases of the replaced [suites]
     judged = v[v["verdict"] != "cannot_judge"]
     assert judged["p_holm"].notna().all() and (judged["p_holm"] >= judged["p"]).all()
     assert set(a.replica_false_alarms["rule"]) == {"paper", "statistical"}
