@@ -796,17 +796,10 @@ class FastSlam(UnitSlam):
         normalised log weights, or None (nothing written) when ``init_landmarks`` returned arrays
         of other shapes, which :meth:`_correct` then handles as the unit-by-unit path does."""
         slots, n = len(self._reps), self._n
-        k = cols.size
-        self._materialise()
-        z = np.empty((k, 2))
-        z[:, 0] = observations.ranges
-        z[:, 1] = observations.bearings
-        init = None
-        if not np.logical_and.reduce(seen):
-            init = steps.init_landmarks(poses, z[np.flatnonzero(~seen)], self._Q, wrap=steps.wrap_bearing)
-            k_new = int(np.count_nonzero(~seen))
-            if not (np.shape(init[0]) == (slots * n, k_new, 2) and np.shape(init[1]) == (slots * n, k_new, 2, 2)):
-                return None
+        prepared = self._observed_and_new(steps, poses, seen, observations)
+        if prepared is None:
+            return None
+        z, init = prepared
         if not self._ref_combine:  # the log likelihoods by the kernels, combine_weights by its unit
             loglik, _ = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, None, n,
                                                 self._mu, self._P, self._anc)
@@ -818,6 +811,25 @@ class FastSlam(UnitSlam):
         logw, tops = _twins.correct_observed(poses, z, cols, seen, init, self._q_entries, self._logw, n,
                                              self._mu, self._P, self._anc)
         return self._normalise_shifted(logw, tops)
+
+    def _observed_and_new(self, steps: FastSlamSteps, poses: np.ndarray, seen: np.ndarray,
+                          observations: Observations) -> tuple[np.ndarray, tuple | None] | None:
+        """The common start of the compiled corrections: the storage materialised, the observations
+        as ``z`` (k, 2) (range, bearing), and ``init_landmarks`` of ``steps`` on the unseen ones (None
+        when every landmark is seen).  None (nothing written) when ``init_landmarks`` returned arrays
+        of other shapes, which :meth:`_correct` then handles as the unit-by-unit path does."""
+        slots, n = len(self._reps), self._n
+        self._materialise()
+        z = np.empty((seen.size, 2))
+        z[:, 0] = observations.ranges
+        z[:, 1] = observations.bearings
+        init = None
+        if not np.logical_and.reduce(seen):
+            init = steps.init_landmarks(poses, z[np.flatnonzero(~seen)], self._Q, wrap=steps.wrap_bearing)
+            k_new = int(np.count_nonzero(~seen))
+            if not (np.shape(init[0]) == (slots * n, k_new, 2) and np.shape(init[1]) == (slots * n, k_new, 2, 2)):
+                return None
+        return z, init
 
     def _normalise_shifted(self, logw: np.ndarray, tops: np.ndarray) -> np.ndarray:
         """The second half of every filter's normalisation of ``logw`` (B N,), shifted by each
@@ -845,17 +857,10 @@ class FastSlam(UnitSlam):
         other types or shapes, which :meth:`_correct` then hands to the units as the unit-by-unit
         path does."""
         slots, n = len(self._reps), self._n
-        k = cols.size
-        self._materialise()
-        z = np.empty((k, 2))
-        z[:, 0] = observations.ranges
-        z[:, 1] = observations.bearings
-        init = None
-        if not np.logical_and.reduce(seen):
-            init = steps.init_landmarks(poses, z[np.flatnonzero(~seen)], self._Q, wrap=steps.wrap_bearing)
-            k_new = int(np.count_nonzero(~seen))
-            if not (np.shape(init[0]) == (slots * n, k_new, 2) and np.shape(init[1]) == (slots * n, k_new, 2, 2)):
-                return None
+        prepared = self._observed_and_new(steps, poses, seen, observations)
+        if prepared is None:
+            return None
+        z, init = prepared
         stage, Q = self._stage, self._Q
         if stage == 0:
             unit = steps.predict_measurement
