@@ -351,6 +351,18 @@ _NO_INIT_MU = np.empty((2, 0, 0))
 _NO_INIT_P = np.empty((2, 2, 0, 0))
 
 
+def _observed_inputs(cols, seen, init) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``cols`` and ``seen`` in the kernels' dtypes, and ``init_landmarks``' ``(mu, P)`` in the
+    kernels' pair-last layout ((2, k_new, M) and (2, 2, k_new, M)); placeholders when ``init`` is None."""
+    cols = np.asarray(cols, dtype=np.intp)
+    seen = np.asarray(seen, dtype=np.bool_)
+    if init is None:
+        return cols, seen, _NO_INIT_MU, _NO_INIT_P
+    mi = np.ascontiguousarray(np.asarray(init[0], dtype=float).transpose(2, 1, 0))
+    pi = np.ascontiguousarray(np.asarray(init[1], dtype=float).transpose(2, 3, 1, 0))
+    return cols, seen, mi, pi
+
+
 def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: np.ndarray,
                      init: tuple[np.ndarray, np.ndarray] | None, q: tuple[float, float, float, bool],
                      logw: np.ndarray, n: int, mu_store: np.ndarray, P_store: np.ndarray,
@@ -400,13 +412,7 @@ def correct_observed(poses: np.ndarray, z: np.ndarray, cols: np.ndarray, seen: n
     """
     kn = _k()
     k, m = z.shape[0], poses.shape[0]
-    cols = np.asarray(cols, dtype=np.intp)
-    seen = np.asarray(seen, dtype=np.bool_)
-    if init is None:
-        mi, pi = _NO_INIT_MU, _NO_INIT_P
-    else:
-        mi = np.ascontiguousarray(np.asarray(init[0], dtype=float).transpose(2, 1, 0))
-        pi = np.ascontiguousarray(np.asarray(init[1], dtype=float).transpose(2, 3, 1, 0))
+    cols, seen, mi, pi = _observed_inputs(cols, seen, init)
     rows = np.empty((k, m), dtype=np.intp)
     mb = np.empty((2, k, m))
     dx = np.empty((k, m))
@@ -492,13 +498,7 @@ def correct_staged(stage: int, unit: Callable, poses: np.ndarray, z: np.ndarray,
     """
     kn = _k()
     k, m = z.shape[0], poses.shape[0]
-    cols = np.asarray(cols, dtype=np.intp)
-    seen = np.asarray(seen, dtype=np.bool_)
-    if init is None:
-        mi, pi = _NO_INIT_MU, _NO_INIT_P
-    else:
-        mi = np.ascontiguousarray(np.asarray(init[0], dtype=float).transpose(2, 1, 0))
-        pi = np.ascontiguousarray(np.asarray(init[1], dtype=float).transpose(2, 3, 1, 0))
+    cols, seen, mi, pi = _observed_inputs(cols, seen, init)
     mb = np.empty((2, k, m))
     pb = np.empty((2, 2, k, m))
     dx = np.empty((k, m))
