@@ -136,7 +136,7 @@ def _plan(args: argparse.Namespace) -> int:
     from faultlab.config import read_toml
     from faultlab.data import resolve_experiment
     from faultlab.errors import ConfigError
-    from faultlab.report.planning import PLAN_FILE, plan_markdown
+    from faultlab.report.planning import plan_markdown
     from faultlab.mutation.variants import is_mutant_variant
     from faultlab.inference.planning import file_scale, plan_study
     from faultlab.vocabulary import BASELINE
@@ -190,27 +190,29 @@ def _plan(args: argparse.Namespace) -> int:
     text = plan_markdown(plan, study=Path(args.study).stem + (" --quick" if args.quick else ""), cost=cost, cost_source=str(args.cost_store),
                          settings=settings, same_settings=cost is None or (particles, exp.n_steps, exp.slam.name) ==
                          (cost.particles, cost.n_steps, cost.slam), file_scale=scale, pools=pools)
+    _print_plan(text, args.reports)
+    return 0
+
+
+def _print_plan(text: str, reports: str | None) -> None:
+    """Print a plan, and write it as ``reports``/PLAN_FILE when ``reports`` is given."""
+    from faultlab.report.planning import PLAN_FILE
+
     print(text)
-    if args.reports is not None:
-        out = Path(args.reports)
+    if reports is not None:
+        out = Path(reports)
         out.mkdir(parents=True, exist_ok=True)
         (out / PLAN_FILE).write_text(text)
         print(out / PLAN_FILE)
-    return 0
 
 
 def _confirmation_plan(args: argparse.Namespace) -> int:
     from faultlab.analysis.planning import confirmation_plan
     from faultlab.campaigns.study import load_study_experiment
-    from faultlab.report.planning import PLAN_FILE, confirmation_markdown
+    from faultlab.report.planning import confirmation_markdown
 
     plan = confirmation_plan(load_study_experiment(args.study, quick=args.quick), args.pilot, power=args.power)
     text = confirmation_markdown(plan, study=Path(args.study).stem + (" --quick" if args.quick else ""),
                                  seconds_per_execution=args.seconds_per_execution)
-    print(text)
-    if args.reports is not None:
-        out = Path(args.reports)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / PLAN_FILE).write_text(text)
-        print(out / PLAN_FILE)
+    _print_plan(text, args.reports)
     return 0
